@@ -1,0 +1,46 @@
+"""The FastAPI application: REST under ``/api``, the dashboard's static pages at ``/``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from fastapi import FastAPI, Request
+from fastapi.responses import JSONResponse
+from fastapi.staticfiles import StaticFiles
+
+from ldvsurvey import __version__
+from ldvsurvey.api.limits import BodySizeLimit
+from ldvsurvey.api.logs import router as logs_router
+from ldvsurvey.errors import InputError
+from ldvsurvey.settings import Settings, get_settings
+from ldvsurvey.store.db import get_engine, upgrade_head
+
+FRONTEND_DIR = Path(__file__).resolve().parents[3] / "frontend"
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    """Build the app; runs the database migrations (``upgrade head``) first."""
+    settings = settings or get_settings()
+    url = settings.resolved_database_url()
+    upgrade_head(url)
+    app = FastAPI(title="ldv-survey", version=__version__,
+                  description="Drive logs of SINS + LDV + GNSS: upload, validate, process, compare.")
+    app.state.settings = settings
+    app.state.database_url = url
+
+    @app.exception_handler(InputError)
+    async def _input_error(_request: Request, exc: InputError):
+        return JSONResponse(status_code=exc.status_code, content={"detail": str(exc), "error": exc.to_dict()})
+
+    @app.get("/api/health", tags=["meta"], summary="Liveness and database reachability")
+    def health() -> dict:
+        with get_engine(url).connect() as conn:
+            conn.exec_driver_sql("SELECT 1")
+            dialect = conn.dialect.name
+        return {"status": "ok", "version": __version__, "database": dialect}
+
+    app.include_router(logs_router)
+    if FRONTEND_DIR.is_dir():
+        app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")
+    app.add_middleware(BodySizeLimit, max_bytes=settings.max_upload_bytes)
+    return app

@@ -1,0 +1,112 @@
+"""The ``ldv-survey`` command line (see ``spec/results.md``).
+
+Exit codes: 0 success, 2 invalid input or parameters (message names file, line, field),
+1 internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import traceback
+
+from ldvsurvey import __version__
+from ldvsurvey.errors import InputError
+
+
+def _cmd_validate(args) -> int:
+    from ldvsurvey.io.drivelog import load_bundle
+    from ldvsurvey.io.quality import quality_report
+
+    log = load_bundle(args.bundle)
+    report = quality_report(log)
+    report.get("gnss", {}) and report["gnss"].pop("fix_timeline", None)
+    m = log.manifest
+    print(f"{args.bundle}: valid {m.format} bundle '{m.name}' ({m.platform}, LDV {m.ldv.kind}, "
+          f"IMU {'rotating' if m.imu.rotating else 'fixed'}), {report['duration_s']:.1f} s")
+    if args.json:
+        print(json.dumps(report, indent=2))
+    for w in log.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    return 0
+
+
+def _cmd_serve(args) -> int:
+    import uvicorn
+
+    from ldvsurvey.api.app import create_app
+
+    app = create_app()
+    if args.demo:
+        from ldvsurvey.demo import load_demo_survey
+
+        load_demo_survey(app.state.database_url, app.state.settings.data_dir)
+    uvicorn.run(app, host=args.host, port=args.port, log_level="info")
+    return 0
+
+
+def _cmd_demo(args) -> int:
+    from ldvsurvey.demo import write_demo
+
+    paths = write_demo(args.dir, scenario=args.scenario, seed=args.seed, duration_s=args.duration_s)
+    for p in paths:
+        print(p)
+    return 0
+
+
+def _cmd_run(args) -> int:
+    from ldvsurvey.pipelines.registry import run_pipeline_cli
+
+    return run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [])
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="ldv-survey", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"ldv-survey {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    v = sub.add_parser("validate", help="check a bundle (.zip or folder); exit 0 if valid, else 2")
+    v.add_argument("bundle")
+    v.add_argument("--json", action="store_true", help="print the quality report as JSON")
+    v.set_defaults(func=_cmd_validate)
+
+    r = sub.add_parser("run", help="run a pipeline on one or more bundles")
+    r.add_argument("pipeline")
+    r.add_argument("bundles", nargs="+", metavar="BUNDLE")
+    r.add_argument("--out", required=True, help="output folder for summary.json and the CSV tables")
+    r.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a pipeline parameter")
+    r.set_defaults(func=_cmd_run)
+
+    d = sub.add_parser("demo", help="write a simulated bundle (the product's own simulator)")
+    d.add_argument("dir")
+    d.add_argument("--scenario", default="height")
+    d.add_argument("--seed", type=int, default=1)
+    d.add_argument("--duration-s", type=float, default=None, help="override the scenario's length")
+    d.set_defaults(func=_cmd_demo)
+
+    s = sub.add_parser("serve", help="run the dashboard")
+    s.add_argument("--host", default="127.0.0.1")
+    s.add_argument("--port", type=int, default=8000)
+    s.add_argument("--demo", action="store_true", help="load (and process) the built-in demo survey first")
+    s.set_defaults(func=_cmd_serve)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except InputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+    except Exception:  # an internal error: say so, with the trace for a bug report
+        traceback.print_exc()
+        print("internal error (exit 1): please report it with the trace above", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,33 @@
+"""Application settings: one pydantic-settings class, environment prefix ``LDVSURVEY_``."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+class Settings(BaseSettings):
+    """All settings, read from ``LDVSURVEY_*`` environment variables."""
+
+    model_config = SettingsConfigDict(env_prefix="LDVSURVEY_", extra="ignore")
+
+    data_dir: Path = Path("data")
+    database_url: str | None = None  # default: sqlite file in data_dir
+    max_upload_bytes: int = 512 * 1024 * 1024
+    max_unzipped_bytes: int = 2 * 1024 * 1024 * 1024
+    max_zip_ratio: float = 200.0  # uncompressed/compressed per member (zip bomb guard)
+
+    def resolved_database_url(self) -> str:
+        """SQLAlchemy URL: ``LDVSURVEY_DATABASE_URL`` or ``sqlite:///<data_dir>/ldvsurvey.db``."""
+        if self.database_url:
+            return self.database_url
+        self.data_dir.mkdir(parents=True, exist_ok=True)
+        return f"sqlite:///{(self.data_dir / 'ldvsurvey.db').resolve()}"
+
+
+@lru_cache
+def get_settings() -> Settings:
+    """Process-wide settings (cached; tests clear the cache after changing the environment)."""
+    return Settings()

@@ -1,0 +1,135 @@
+"""Storing, listing, loading and deleting drive logs. One transaction per write."""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+from sqlalchemy import delete, func, select
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from ldvsurvey.io.drivelog import DriveLog, ImuData, LdvData
+from ldvsurvey.io.manifest import Manifest
+from ldvsurvey.io.nmea import GnssData
+from ldvsurvey.store.blobs import from_parquet, to_parquet
+from ldvsurvey.store.models import Log, LogArray, LogFile
+
+
+def _arrays(log: DriveLog) -> dict[str, dict[str, np.ndarray]]:
+    imu, ldv = log.imu, log.ldv
+    out = {
+        "imu": {"t_s": imu.t_s, "dtheta_x_rad": imu.dtheta_rad[:, 0], "dtheta_y_rad": imu.dtheta_rad[:, 1],
+                "dtheta_z_rad": imu.dtheta_rad[:, 2], "dvel_x_mps": imu.dvel_mps[:, 0],
+                "dvel_y_mps": imu.dvel_mps[:, 1], "dvel_z_mps": imu.dvel_mps[:, 2],
+                "turntable_deg": imu.turntable_deg},
+        "ldv": {"t_s": ldv.t_s, "v_fwd_mps": ldv.v_fwd_mps, "v_up_mps": ldv.v_up_mps,
+                "quality": ldv.quality, "fd_hz": ldv.fd_hz},
+    }
+    if log.gnss is not None:
+        g = log.gnss
+        out["gnss"] = {"t_s": g.t_s, "lat_deg": g.lat_deg, "lon_deg": g.lon_deg, "h_m": g.h_m,
+                       "fix": g.fix, "n_sat": g.n_sat, "hdop": g.hdop, "line": g.line_of_row}
+    return out
+
+
+def find_by_sha(session: Session, sha256: str) -> Log | None:
+    return session.scalar(select(Log).where(Log.sha256 == sha256))
+
+
+def store_log(session: Session, log: DriveLog, quality: dict) -> tuple[Log, bool]:
+    """Store a parsed bundle (originals, Parquet arrays, quality) unless already stored.
+
+    Returns
+    -------
+    (Log, created) : the row and whether it was created now (False: duplicate upload).
+    """
+    sha = log.sha256
+    existing = find_by_sha(session, sha)
+    if existing is not None:
+        return existing, False
+    m = log.manifest
+    row = Log(sha256=sha, name=m.name, platform=m.platform, ldv_kind=m.ldv.kind,
+              imu_rotating=m.imu.rotating, survey_date=m.date,
+              t_start_s=float(log.imu.t_s[0]), t_end_s=float(log.imu.t_s[-1]),
+              duration_s=float(log.imu.t_s[-1] - log.imu.t_s[0]), has_gnss=log.gnss is not None,
+              size_bytes=sum(len(b) for b in log.files.values()),
+              manifest=m.model_dump(mode="json"), quality=quality)
+    session.add(row)
+    session.flush()
+    for name, content in sorted(log.files.items()):
+        session.add(LogFile(log_id=row.id, name=name, sha256=hashlib.sha256(content).hexdigest(),
+                            size_bytes=len(content), content=content))
+    for name, cols in _arrays(log).items():
+        session.add(LogArray(log_id=row.id, name=name, n_rows=len(cols["t_s"]), parquet=to_parquet(cols)))
+    try:
+        session.flush()
+    except IntegrityError:  # a concurrent upload of the same bundle won the race
+        session.rollback()
+        existing = find_by_sha(session, sha)
+        if existing is None:
+            raise
+        return existing, False
+    return row, True
+
+
+def list_logs(session: Session) -> list[Log]:
+    return list(session.scalars(select(Log).order_by(Log.id.desc())))
+
+
+def get_log(session: Session, log_id: int) -> Log | None:
+    return session.get(Log, log_id)
+
+
+def list_files(session: Session, log_id: int) -> list[tuple[str, str, int]]:
+    """(name, sha256, size) of each original file."""
+    rows = session.execute(select(LogFile.name, LogFile.sha256, LogFile.size_bytes)
+                           .where(LogFile.log_id == log_id).order_by(LogFile.name))
+    return [tuple(r) for r in rows]
+
+
+def get_file(session: Session, log_id: int, name: str) -> LogFile | None:
+    return session.scalar(select(LogFile).where(LogFile.log_id == log_id, LogFile.name == name))
+
+
+def delete_log(session: Session, log_id: int) -> bool:
+    """Delete a log with every file and array row. Returns False when it did not exist."""
+    if session.get(Log, log_id) is None:
+        return False
+    session.execute(delete(LogArray).where(LogArray.log_id == log_id))
+    session.execute(delete(LogFile).where(LogFile.log_id == log_id))
+    session.execute(delete(Log).where(Log.id == log_id))
+    return True
+
+
+def count_rows(session: Session) -> dict[str, int]:
+    """Row counts of the log tables (used by tests to prove nothing was left behind)."""
+    return {t.__tablename__: session.scalar(select(func.count()).select_from(t))
+            for t in (Log, LogFile, LogArray)}
+
+
+def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
+    """Rebuild the parsed :class:`DriveLog` from the stored Parquet arrays (no re-parse)."""
+    row = session.get(Log, log_id)
+    if row is None:
+        return None
+    arrays = {a.name: from_parquet(a.parquet)
+              for a in session.scalars(select(LogArray).where(LogArray.log_id == log_id))}
+    files = {f.name: f.content for f in session.scalars(select(LogFile).where(LogFile.log_id == log_id))}
+    manifest = Manifest.model_validate(row.manifest, strict=False)
+    i = arrays["imu"]
+    imu = ImuData(t_s=i["t_s"],
+                  dtheta_rad=np.column_stack([i["dtheta_x_rad"], i["dtheta_y_rad"], i["dtheta_z_rad"]]),
+                  dvel_mps=np.column_stack([i["dvel_x_mps"], i["dvel_y_mps"], i["dvel_z_mps"]]),
+                  turntable_deg=i.get("turntable_deg"))
+    d = arrays["ldv"]
+    ldv = LdvData(t_s=d["t_s"], v_fwd_mps=d["v_fwd_mps"], v_up_mps=d.get("v_up_mps"),
+                  quality=d.get("quality"), fd_hz=d.get("fd_hz"),
+                  source="fd_hz" if "fd_hz" in d else "v_fwd")
+    gnss = None
+    if "gnss" in arrays:
+        g = arrays["gnss"]
+        gnss = GnssData(t_s=g["t_s"], lat_deg=g["lat_deg"], lon_deg=g["lon_deg"], h_m=g["h_m"],
+                        fix=g["fix"], n_sat=g["n_sat"], hdop=g["hdop"], line_of_row=g["line"])
+    return DriveLog(manifest=manifest, imu=imu, ldv=ldv, gnss=gnss, files=files,
+                    warnings=list(row.quality.get("warnings", [])))

@@ -1,0 +1,74 @@
+"""SQLAlchemy 2 models. The schema itself is created by the Alembic migrations."""
+
+from __future__ import annotations
+
+import datetime as dt
+
+from sqlalchemy import JSON, BigInteger, Boolean, Date, DateTime, Float, ForeignKey, Integer, LargeBinary, String, UniqueConstraint
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
+
+
+def utcnow() -> dt.datetime:
+    return dt.datetime.now(dt.timezone.utc)
+
+
+class Base(DeclarativeBase):
+    pass
+
+
+class Log(Base):
+    """One drive-log bundle."""
+
+    __tablename__ = "logs"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    sha256: Mapped[str] = mapped_column(String(64), unique=True, nullable=False)
+    name: Mapped[str] = mapped_column(String(400), nullable=False, default="")
+    platform: Mapped[str] = mapped_column(String(16), nullable=False)
+    ldv_kind: Mapped[str] = mapped_column(String(16), nullable=False)
+    imu_rotating: Mapped[bool] = mapped_column(Boolean, nullable=False, default=False)
+    survey_date: Mapped[dt.date] = mapped_column(Date, nullable=False)
+    t_start_s: Mapped[float] = mapped_column(Float, nullable=False)
+    t_end_s: Mapped[float] = mapped_column(Float, nullable=False)
+    duration_s: Mapped[float] = mapped_column(Float, nullable=False)
+    has_gnss: Mapped[bool] = mapped_column(Boolean, nullable=False, default=False)
+    size_bytes: Mapped[int] = mapped_column(BigInteger, nullable=False, default=0)
+    manifest: Mapped[dict] = mapped_column(JSON, nullable=False)
+    quality: Mapped[dict] = mapped_column(JSON, nullable=False)
+    created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), nullable=False, default=utcnow)
+
+    files: Mapped[list[LogFile]] = relationship(back_populates="log", cascade="all, delete-orphan",
+                                                passive_deletes=True, lazy="raise")
+    arrays: Mapped[list[LogArray]] = relationship(back_populates="log", cascade="all, delete-orphan",
+                                                  passive_deletes=True, lazy="raise")
+
+
+class LogFile(Base):
+    """An original file of a bundle, byte for byte."""
+
+    __tablename__ = "log_files"
+    __table_args__ = (UniqueConstraint("log_id", "name"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    log_id: Mapped[int] = mapped_column(ForeignKey("logs.id", ondelete="CASCADE"), nullable=False, index=True)
+    name: Mapped[str] = mapped_column(String(255), nullable=False)
+    sha256: Mapped[str] = mapped_column(String(64), nullable=False)
+    size_bytes: Mapped[int] = mapped_column(BigInteger, nullable=False)
+    content: Mapped[bytes] = mapped_column(LargeBinary, nullable=False)
+
+    log: Mapped[Log] = relationship(back_populates="files")
+
+
+class LogArray(Base):
+    """A parsed stream (``imu``, ``ldv``, ``gnss``) as a Parquet blob."""
+
+    __tablename__ = "log_arrays"
+    __table_args__ = (UniqueConstraint("log_id", "name"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    log_id: Mapped[int] = mapped_column(ForeignKey("logs.id", ondelete="CASCADE"), nullable=False, index=True)
+    name: Mapped[str] = mapped_column(String(64), nullable=False)
+    n_rows: Mapped[int] = mapped_column(Integer, nullable=False)
+    parquet: Mapped[bytes] = mapped_column(LargeBinary, nullable=False)
+
+    log: Mapped[Log] = relationship(back_populates="arrays")
