@@ -203,5 +203,5 @@ def check_time(t: np.ndarray, line_of_row: np.ndarray, file: str, column: str = 
     if len(bad):
         i = int(bad[0]) + 1
         what = "repeats" if d[i - 1] == 0 else "goes backwards"
-        raise BundleError(f"time {what}: {t[i]!r} s after {t[i - 1]!r} s on line {int(line_of_row[i - 1])}",
+        raise BundleError(f"time {what}: {float(t[i])!r} s after {float(t[i - 1])!r} s on line {int(line_of_row[i - 1])}",
                           file=file, line=int(line_of_row[i]), field=column)

@@ -115,7 +115,10 @@ def _describe(err: dict) -> str:
     got = err.get("input")
     if kind == "missing":
         return "required key is missing"
-    if kind in ("float_type", "int_type") or (kind.endswith("_type") and isinstance(got, str)):
+    if kind == "bool_type":
+        return f"expected true or false, got {type(got).__name__} {got!r}"
+    if kind in ("float_type", "int_type") or (kind.endswith("_type") and isinstance(got, str)
+                                              and kind not in ("string_type", "date_type")):
         return f"expected a number, got {type(got).__name__} {got!r} (give units by the key name, not in the value)"
     if kind == "literal_error":
         return f"{err.get('msg')} (got {got!r})"

@@ -20,7 +20,8 @@ def csv_bytes(columns: dict[str, np.ndarray], comment: str | None = None) -> byt
     buf = io.BytesIO()
     if comment:
         buf.write(f"# {comment}\n".encode())
-    pacsv.write_csv(table, buf, write_options=pacsv.WriteOptions(quoting_style="none"))
+    buf.write((",".join(table.column_names) + "\n").encode())
+    pacsv.write_csv(table, buf, write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"))
     return buf.getvalue()
 
 

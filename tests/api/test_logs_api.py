@@ -1,0 +1,127 @@
+"""The logs REST API over HTTP: upload, list, detail, originals, duplicates, delete, bad input."""
+
+import hashlib
+
+import pytest
+
+from tests import badinput
+from tests.bundles import make_bundle, zip_bytes
+
+EMPTY = {"logs": 0, "log_files": 0, "log_arrays": 0}
+
+
+def _post_zip(client, data: bytes, name="bundle.zip"):
+    return client.post("/api/logs", files=[("files", (name, data, "application/zip"))])
+
+
+def _post_files(client, files: dict[str, bytes]):
+    return client.post("/api/logs", files=[("files", (n, d, "application/octet-stream")) for n, d in files.items()])
+
+
+def test_health(client):
+    r = client.get("/api/health")
+    assert r.status_code == 200 and r.json()["status"] == "ok"
+
+
+def test_openapi_docs(client):
+    assert client.get("/docs").status_code == 200
+    paths = client.get("/openapi.json").json()["paths"]
+    assert "/api/logs" in paths and "/api/logs/{log_id}/files/{name}" in paths
+
+
+def test_upload_zip_then_files_is_duplicate(client, db_counts):
+    files = make_bundle(seed=21)
+    r = _post_zip(client, zip_bytes(files))
+    assert r.status_code == 201, r.text
+    body = r.json()
+    assert body["duplicate"] is False and body["ldv_kind"] == "2d"
+    log_id = body["id"]
+    # the same bundle again, as separate files this time: detected, not stored twice
+    r2 = _post_files(client, files)
+    assert r2.status_code == 200 and r2.json()["duplicate"] is True and r2.json()["id"] == log_id
+    assert db_counts() == {"logs": 1, "log_files": 4, "log_arrays": 3}
+    # originals byte for byte
+    for name, data in files.items():
+        f = client.get(f"/api/logs/{log_id}/files/{name}")
+        assert f.status_code == 200 and f.content == data
+        assert f.headers["x-content-sha256"] == hashlib.sha256(data).hexdigest()
+    detail = client.get(f"/api/logs/{log_id}").json()
+    assert detail["manifest"]["vendor_extra"] == {"kept": True}
+    assert detail["quality"]["imu"]["n"] == 2000
+    assert {f["name"] for f in detail["files"]} == set(files)
+    assert [lg["id"] for lg in client.get("/api/logs").json()] == [log_id]
+
+
+def test_stored_arrays_reload_identically(client):
+    import numpy as np
+
+    from ldvsurvey.io.drivelog import parse_files
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.logs import load_drivelog
+
+    files = make_bundle(seed=22, rotating=True)
+    log_id = _post_files(client, files).json()["id"]
+    with session_scope(client.app_state.database_url) as s:
+        back = load_drivelog(s, log_id)
+    orig = parse_files(files)
+    np.testing.assert_array_equal(back.imu.dtheta_rad, orig.imu.dtheta_rad)
+    np.testing.assert_array_equal(back.imu.turntable_deg, orig.imu.turntable_deg)
+    np.testing.assert_array_equal(back.ldv.v_up_mps, orig.ldv.v_up_mps)
+    np.testing.assert_array_equal(back.gnss.fix, orig.gnss.fix)
+    assert back.manifest == orig.manifest
+
+
+def test_delete_removes_every_row_and_blob(client, db_counts):
+    a = _post_files(client, make_bundle(seed=23)).json()["id"]
+    b = _post_files(client, make_bundle(seed=24)).json()["id"]
+    assert client.delete(f"/api/logs/{a}").status_code == 204
+    assert db_counts() == {"logs": 1, "log_files": 4, "log_arrays": 3}
+    assert client.get(f"/api/logs/{a}").status_code == 404
+    assert client.get(f"/api/logs/{a}/files/imu.csv").status_code == 404
+    assert client.delete(f"/api/logs/{a}").status_code == 404
+    assert client.delete(f"/api/logs/{b}").status_code == 204
+    assert db_counts() == EMPTY
+
+
+@pytest.mark.parametrize("name", badinput.CASES)
+def test_bad_bundle_422_and_nothing_stored(client, db_counts, name):
+    files, exp = badinput.case(name)
+    r = _post_files(client, files)
+    assert r.status_code == 422, r.text
+    err = r.json()["error"]
+    assert err["file"] == exp["file"]
+    if exp["line"] is not None:
+        assert err["line"] == exp["line"]
+    if exp["field"] is not None:
+        assert err["field"] == exp["field"]
+    assert db_counts() == EMPTY
+
+
+@pytest.mark.parametrize("make,status", [
+    (badinput.truncated_zip, 422),
+    (lambda: badinput.traversal_zip("../../etc/passwd"), 422),
+    (lambda: badinput.traversal_zip("/abs/path"), 422),
+    (lambda: badinput.bomb_zip(60 * 1024 * 1024), 413),
+])
+def test_bad_zip(client, db_counts, make, status):
+    r = _post_zip(client, make())
+    assert r.status_code == status, r.text
+    assert r.json()["detail"]
+    assert db_counts() == EMPTY
+
+
+def test_upload_over_limit_is_413(client, db_counts):
+    big = make_bundle(seed=25, n_imu=60000)  # ~7 MB of CSV, limit is 5 MB in the tests
+    r = _post_files(client, big)
+    assert r.status_code == 413
+    assert db_counts() == EMPTY
+
+
+def test_empty_upload_and_mixed_upload(client, db_counts):
+    r = client.post("/api/logs", files=[])
+    assert r.status_code == 422
+    files = make_bundle(seed=26)
+    r = client.post("/api/logs", files=[("files", ("b.zip", zip_bytes(files), "application/zip")),
+                                        ("files", ("imu.csv", files["imu.csv"], "text/csv"))])
+    assert r.status_code == 422 and "not both" in r.json()["detail"]
+    assert db_counts() == EMPTY

@@ -1,0 +1,47 @@
+import os
+from pathlib import Path
+
+import pytest
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared"
+SAMPLES = SHARED / "samples"
+
+
+@pytest.fixture
+def settings(tmp_path, monkeypatch):
+    """Settings pointing at a fresh data directory (and the CI-selected database, if any)."""
+    from ldvsurvey.settings import Settings
+
+    url = os.environ.get("LDVSURVEY_TEST_DATABASE_URL")
+    s = Settings(data_dir=tmp_path / "data", database_url=url or None,
+                 max_upload_bytes=5 * 1024 * 1024, max_unzipped_bytes=50 * 1024 * 1024)
+    if url:  # a shared server database: start from empty tables
+        from ldvsurvey.store.testing import reset_database
+
+        reset_database(url)
+    return s
+
+
+@pytest.fixture
+def client(settings):
+    from fastapi.testclient import TestClient
+
+    from ldvsurvey.api.app import create_app
+
+    app = create_app(settings)
+    with TestClient(app) as c:
+        c.app_state = app.state
+        yield c
+
+
+@pytest.fixture
+def db_counts(client):
+    """Callable returning the row counts of the log tables."""
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.logs import count_rows
+
+    def counts():
+        with session_scope(client.app_state.database_url) as s:
+            return count_rows(s)
+
+    return counts
