@@ -1,0 +1,264 @@
+"""Error-state Kalman filter (15 states, optionally + LDV calibration states) with an RTS smoother.
+
+Smoothing a closed-loop filter: let e_j be the error of the post-feedback nominal at epoch j
+and dx_j the correction fed back at j. The pre-update error at j is e_j + dx_j, and the
+forward prediction of it from e_{j−1} = 0 is 0, so the RTS recursion becomes
+x_s(j) = A_j (x_s(j+1) + dx_{j+1}), A_j = P⁺_j Φ_{j+1}ᵀ (P⁻_{j+1})⁻¹, P_s as usual.
+Between epochs the smoothed error is interpolated from x_s(j−1) to x_s(j) + dx_j.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ldvsurvey.nav import kfloop
+from ldvsurvey.nav.attitude import c_from_q, q_from_c, rotvec_to_c
+from ldvsurvey.nav.earth import ARCSEC, MGAL, radii
+
+DEG = np.pi / 180.0
+AUG_NAMES = ("scale", "pitch", "heading", "scale_up")
+
+
+@dataclass
+class ImuNoise:
+    """IMU error magnitudes.
+
+    gyro_bias_dph (deg/h), accel_bias_ug (µg), gyro_arw_dprh (deg/√h), accel_vrw_ug_rthz (µg/√Hz).
+    """
+
+    gyro_bias_dph: float = 0.01
+    accel_bias_ug: float = 50.0
+    gyro_arw_dprh: float = 0.001
+    accel_vrw_ug_rthz: float = 10.0
+
+    @classmethod
+    def from_manifest(cls, imu) -> "ImuNoise":
+        d = cls()
+        return cls(gyro_bias_dph=imu.gyro_bias_dph if imu.gyro_bias_dph is not None else d.gyro_bias_dph,
+                   accel_bias_ug=imu.accel_bias_ug if imu.accel_bias_ug is not None else d.accel_bias_ug,
+                   gyro_arw_dprh=imu.gyro_arw_deg_per_rth if imu.gyro_arw_deg_per_rth is not None else d.gyro_arw_dprh,
+                   accel_vrw_ug_rthz=(imu.accel_noise_ug_per_rthz if imu.accel_noise_ug_per_rthz is not None
+                                      else d.accel_vrw_ug_rthz))
+
+    @property
+    def gyro_bias_rps(self) -> float:
+        return self.gyro_bias_dph * DEG / 3600.0
+
+    @property
+    def accel_bias_mps2(self) -> float:
+        return self.accel_bias_ug * 9.80665e-6
+
+    @property
+    def arw_psd(self) -> float:
+        """Angle random walk PSD, rad²/s."""
+        return (self.gyro_arw_dprh * DEG / 60.0) ** 2
+
+    @property
+    def vrw_psd(self) -> float:
+        """Velocity random walk PSD, (m/s)²/s."""
+        return (self.accel_vrw_ug_rthz * 9.80665e-6) ** 2
+
+
+@dataclass
+class FilterConfig:
+    """Tuning. Angles in rad, velocities in m/s, positions in m."""
+
+    rate_hz: float = 10.0  #: filter epoch rate
+    att_sigma0_rad: tuple[float, float, float] = (20 * ARCSEC, 20 * ARCSEC, 0.5 * DEG)
+    vel_sigma0_mps: float = 0.05
+    pos_sigma0_m: float = 1.0
+    zupt_sigma_mps: float = 0.003
+    ldv_sigma_mps: tuple[float, float, float] = (0.02, 0.02, 0.02)  #: per LDV sample, E N U
+    gate_sigma: float = 6.0  #: innovation gate (0 = off)
+    gravity_noise_mgal: float = 0.0  #: unmodelled gravity (DOV, disturbance) as white accel noise σ
+    gravity_corr_s: float = 60.0  #: its correlation time, for the PSD 2σ²τ
+    bias_instability: float = 0.0  #: relative random walk of biases per √h (0 = constants)
+    ldv_aug: tuple[str, ...] = ()  #: subset of AUG_NAMES to estimate
+    #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad
+    ldv_aug_sigma0: dict = field(default_factory=lambda: {"scale": 0.01, "pitch": 1 * DEG,
+                                                          "heading": 1 * DEG, "scale_up": 0.01})
+
+
+@dataclass
+class LdvAid:
+    """LDV samples at the IMU times. nu_f/nu_u: measured speeds (m/s) along the head's forward/up axes."""
+
+    ok: np.ndarray  # (N,) bool
+    nu_f_mps: np.ndarray
+    nu_u_mps: np.ndarray | None = None
+    scale: float = 1.0
+    pitch_rad: float = 0.0
+    heading_rad: float = 0.0
+    scale_up: float = 1.0
+    lever_arm_m: tuple = (0.0, 0.0, 0.0)
+
+
+@dataclass
+class GnssAid:
+    """GNSS antenna fixes with their 1-σ (horizontal, vertical) in m."""
+
+    t_s: np.ndarray
+    lat_rad: np.ndarray
+    lon_rad: np.ndarray
+    h_m: np.ndarray
+    sigma_h_m: np.ndarray
+    sigma_v_m: np.ndarray
+    lever_arm_m: tuple = (0.0, 0.0, 0.0)
+
+
+@dataclass
+class NavSolution:
+    """Navigation result at the IMU sample times (forward, or smoothed when ``smoothed``)."""
+
+    t_s: np.ndarray
+    q_sn: np.ndarray  # (N, 4)
+    v_n: np.ndarray  # (N, 3)
+    pos: np.ndarray  # (N, 3) lat_rad, lon_rad, h_m
+    sigma: np.ndarray  # (N, 9): φ E/N/U (rad), δv (m/s), δp E/N/U (m)
+    c_sb: np.ndarray | None
+    smoothed: bool
+    ldv_params: dict  # name -> (value, sigma)
+    gyro_bias_rps: np.ndarray
+    accel_bias_mps2: np.ndarray
+    epoch_t_s: np.ndarray
+    epoch_sigma: np.ndarray  # (M+1, n) 1-σ of all states
+    normalized_innovations: np.ndarray  # (M+1, 9)
+    rejected: dict
+
+    def c_bn(self) -> np.ndarray:
+        """Body attitude C_b^n at every sample (C_s^n C_s^b for a rotating IMU)."""
+        c = c_from_q(self.q_sn)
+        return c if self.c_sb is None else c @ self.c_sb
+
+
+def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gnss, c_sb):
+    decim = max(1, int(round(1.0 / (cfg.rate_hz * np.median(np.diff(t))))))
+    m = n_s // decim
+    aug = [a for a in AUG_NAMES if a in cfg.ldv_aug]
+    n = 15 + len(aug)
+    aug_idx = np.full(4, -1, dtype=np.int64)
+    for i, a in enumerate(aug):
+        aug_idx[AUG_NAMES.index(a)] = 15 + i
+    s_att = np.asarray(cfg.att_sigma0_rad, float)
+    p0 = np.concatenate([s_att ** 2, np.full(3, cfg.vel_sigma0_mps ** 2), np.full(3, cfg.pos_sigma0_m ** 2),
+                         np.full(3, noise.gyro_bias_rps ** 2), np.full(3, noise.accel_bias_mps2 ** 2),
+                         [cfg.ldv_aug_sigma0[a] ** 2 for a in aug]])
+    q_grav = 2.0 * (cfg.gravity_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
+    rw = (cfg.bias_instability ** 2) / 3600.0
+    qd = np.concatenate([np.full(3, noise.arw_psd), np.full(3, noise.vrw_psd + q_grav), np.zeros(3),
+                         np.full(3, rw * noise.gyro_bias_rps ** 2), np.full(3, rw * noise.accel_bias_mps2 ** 2),
+                         np.full(len(aug), 1e-14)])
+    ep_t = np.concatenate([[t[0] - (t[1] - t[0])], t[decim - 1:m * decim:decim]])
+    zupt = np.zeros(m + 1, dtype=np.bool_)
+    for a, b in zupt_intervals:
+        zupt |= (ep_t >= a) & (ep_t <= b)
+    zupt[0] = False
+    if ldv is None:
+        ldv_ok = np.zeros(n_s, dtype=np.bool_)
+        nu_f = nu_u = np.zeros(n_s)
+        par0 = np.array([1.0, 0.0, 0.0, 1.0])
+        l_ldv = np.zeros(3)
+        up = False
+    else:
+        ldv_ok = np.ascontiguousarray(ldv.ok, dtype=np.bool_)
+        nu_f = np.ascontiguousarray(ldv.nu_f_mps, dtype=float)
+        up = ldv.nu_u_mps is not None
+        nu_u = np.ascontiguousarray(ldv.nu_u_mps if up else np.zeros(n_s), dtype=float)
+        par0 = np.array([1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up], float)
+        l_ldv = np.asarray(ldv.lever_arm_m, float)
+    if gnss is None:
+        g_t = np.zeros(0)
+        g_pos = np.zeros((0, 3))
+        g_sig = np.zeros((0, 2))
+        l_g = np.zeros(3)
+    else:
+        ok = np.isfinite(gnss.lat_rad) & np.isfinite(gnss.sigma_h_m)
+        g_t = np.ascontiguousarray(gnss.t_s[ok], dtype=float)
+        g_pos = np.ascontiguousarray(np.column_stack([gnss.lat_rad[ok], gnss.lon_rad[ok], gnss.h_m[ok]]))
+        g_sig = np.ascontiguousarray(np.column_stack([gnss.sigma_h_m[ok], gnss.sigma_v_m[ok]]))
+        l_g = np.asarray(gnss.lever_arm_m, float)
+    if c_sb is None:
+        c_sb_arr = np.broadcast_to(np.eye(3), (n_s, 3, 3))
+    else:
+        c_sb_arr = c_sb
+    return (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
+            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_sb_arr, dtype=float))
+
+
+def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cfg: FilterConfig | None = None,
+               c_sb=None, zupt_intervals=(), ldv: LdvAid | None = None, gnss: GnssAid | None = None,
+               gravity=None, smooth: bool = True, bias0=None) -> NavSolution:
+    """Forward closed-loop filter, then (optionally) the RTS smoother.
+
+    Parameters
+    ----------
+    t_s : (N,) end times of the increments (s). dtheta_rad, dvel_mps : (N, 3) in the sensor frame.
+    q0_sn : initial C_s^n quaternion at the start of the first interval. v0_n (m/s), pos0 [lat, lon rad, h m].
+    c_sb : (N, 3, 3) C_s^b per sample for a rotating IMU (None: s = b).
+    zupt_intervals : [(t_start, t_end)] in s where the vehicle stands still.
+    gravity : optional (xi_rad, eta_rad, dg_mps2) per sample for the gravity model.
+    """
+    cfg = cfg or FilterConfig()
+    t = np.ascontiguousarray(t_s, dtype=float)
+    n_s = len(t)
+    (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
+     g_t, g_pos, g_sig, l_g, c_sb_arr) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_sb)
+    e = np.zeros(0)
+    xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
+    b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
+    (q, v, p, phis, pplus, dts, dxs, par, bias, nis, rej) = kfloop.forward(
+        t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_sb_arr,
+        np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), xi, eta, dg,
+        decim, p0, qd, zupt, cfg.zupt_sigma_mps, ldv_ok, nu_f, nu_u, par0, l_ldv,
+        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0)
+    if smooth:
+        xs, ps = kfloop.rts(phis, pplus, dts, dxs, qd)
+        q, v, p = _apply(t, ep_t, decim, m, xs, dxs, q, v, p)
+        sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", ps), 0.0))
+    else:
+        xs = np.zeros_like(dxs)
+        sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", pplus), 0.0))
+    sigma = np.column_stack([np.interp(t, ep_t, sig_ep[:, i]) for i in range(9)])
+    ldv_params = {}
+    for a in AUG_NAMES:
+        i = AUG_NAMES.index(a)
+        if aug_idx[i] >= 0:
+            jj = 0 if smooth else -1
+            val = par[jj, i] - xs[jj, aug_idx[i]]
+            sig = float(sig_ep[jj, aug_idx[i]])
+            if a.startswith("scale"):  # estimated as s = 1/K
+                val, sig = 1.0 / val, sig / val ** 2
+            ldv_params[a] = (float(val), sig)
+        elif ldv is not None:
+            v0 = par0[i]
+            ldv_params[a] = (float(1.0 / v0 if a.startswith("scale") else v0), 0.0)
+    jb = 0 if smooth else -1
+    gyro_b = bias[jb, :3] + xs[jb, 9:12]
+    acc_b = bias[jb, 3:] + xs[jb, 12:15]
+    return NavSolution(t_s=t, q_sn=q, v_n=v, pos=p, sigma=sigma, c_sb=c_sb, smoothed=smooth,
+                       ldv_params=ldv_params, gyro_bias_rps=gyro_b, accel_bias_mps2=acc_b,
+                       epoch_t_s=ep_t, epoch_sigma=sig_ep, normalized_innovations=nis,
+                       rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])})
+
+
+def _apply(t, ep_t, decim, m, xs, dxs, q, v, p):
+    """Correct the forward nominal at every sample with the interpolated smoothed error."""
+    n_s = len(t)
+    k = np.arange(n_s)
+    j = np.minimum(k // decim + 1, m)
+    inside = k < m * decim
+    t_a, t_b = ep_t[j - 1], ep_t[j]
+    w = np.where(inside, (t - t_a) / np.where(t_b > t_a, t_b - t_a, 1.0), 1.0)
+    at_epoch = inside & ((k + 1) % decim == 0)
+    x_end = np.where(at_epoch[:, None], xs[j, :9], xs[j, :9] + dxs[j, :9])
+    x = (1 - w)[:, None] * xs[j - 1, :9] + w[:, None] * x_end
+    x[~inside] = xs[m, :9]
+    c = rotvec_to_c(x[:, 0:3]) @ c_from_q(q)
+    rm, rn = radii(p[:, 0])
+    p2 = p.copy()
+    p2[:, 0] -= x[:, 7] / (rm + p[:, 2])
+    p2[:, 1] -= x[:, 6] / ((rn + p[:, 2]) * np.cos(p[:, 0]))
+    p2[:, 2] -= x[:, 8]
+    return q_from_c(c), v - x[:, 3:6], p2

@@ -1,0 +1,254 @@
+"""Compiled loops: closed-loop forward filter (mechanization + error-state KF) and RTS smoother.
+
+Filter epochs fall every ``decim`` IMU samples. Between epochs the LDV residual
+v̂_head − Ĉ_b^n V̂^b is averaged; a GNSS fix is brought to the epoch (back-dated by v̂·Δt).
+Scalar sequential updates with an innovation gate; after each epoch the estimate is fed
+back and the error state reset. Stored per epoch for the smoother: Φ, P⁺, Δt and the
+feedback dx (see :mod:`ldvsurvey.nav.filter` for the smoothing algebra).
+
+Augmented LDV states (when enabled, in this order after the 15): δs_f, δη_L (rad), δφ_L (rad),
+δs_u, where s = 1/K is the factor applied to the measured speed (V_d = [0, s_f ν_f, s_u ν_u]).
+Inverse scales are estimated additively, so the feedback is linear like the smoother's algebra.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from ldvsurvey.nav.attitude import cross, q_rotvec, q_to_c, qmul
+from ldvsurvey.nav.earth import radii_nb
+from ldvsurvey.nav.errmodel import build_f, c_db, discretize, skew_nb
+from ldvsurvey.nav.mech import mech_step
+
+
+@nb.njit(cache=True)
+def _scalar_update(x, P, h, z, r, gate):
+    """One scalar measurement z = h·x + noise(r). Returns accepted (bool) and normalized innovation."""
+    ph = P @ h
+    s = h @ ph + r
+    nu = z - h @ x
+    if gate > 0 and nu * nu > gate * gate * s:
+        return False, nu / np.sqrt(s)
+    k = ph / s
+    x += k * nu
+    P -= np.outer(k, ph)
+    return True, nu / np.sqrt(s)
+
+
+@nb.njit(cache=True)
+def forward(t, dth, dvel, c_sb, q0, v0, pos0, xi, eta, dg,
+            decim, p0, qd, zupt_epoch, zupt_sigma,
+            ldv_ok, nu_f, nu_u, ldv_par0, l_ldv, ldv_sigma, ldv_up, aug_idx,
+            g_t, g_pos, g_sig, l_gnss, gate, bias0):
+    """Run the forward filter. See the Python wrapper :func:`ldvsurvey.nav.filter.run_filter`."""
+    n_s = len(t)
+    n = len(p0)
+    m = n_s // decim
+    q_out = np.empty((n_s, 4))
+    v_out = np.empty((n_s, 3))
+    p_out = np.empty((n_s, 3))
+    phis = np.empty((m + 1, n, n))
+    pplus = np.empty((m + 1, n, n))
+    dts = np.zeros(m + 1)
+    dxs = np.zeros((m + 1, n))
+    par_out = np.empty((m + 1, 4))
+    bias_out = np.empty((m + 1, 6))
+    nis = np.full((m + 1, 9), np.nan)  # normalized innovations: zupt(3), ldv(3), gnss(3)
+    rejected = np.zeros(3, dtype=np.int64)
+
+    q, v, pos = q0.copy(), v0.copy(), pos0.copy()
+    v_prev, pos_prev = v.copy(), pos.copy()
+    dth_prev, dv_prev = dth[0].copy(), dvel[0].copy()
+    b_g, b_a = bias0[:3].copy(), bias0[3:].copy()
+    par = ldv_par0.copy()  # K_f, eta_L, phi_L, K_u
+    P = np.diag(p0)
+    pplus[0] = P
+    phis[0] = np.eye(n)
+    par_out[0] = par
+    bias_out[0, :3], bias_out[0, 3:] = b_g, b_a
+    has_g = len(xi) > 0
+    t_prev = t[0] - (t[1] - t[0])
+    t_epoch = t_prev
+    # accumulators over the current epoch
+    fsum = np.zeros(3)
+    lz = np.zeros(3)
+    lvl = np.zeros(3)
+    lvd = np.zeros(3)
+    lnu = np.zeros(2)
+    lc = np.zeros((3, 3))
+    ln = 0
+    gi = 0
+    n_g = len(g_t)
+    while gi < n_g and g_t[gi] <= t_prev:
+        gi += 1
+    g_pending = False
+    gz = np.zeros(3)
+    gc = np.eye(3)
+    gsig = np.zeros(2)
+    c_bn_prev = q_to_c(q) @ c_sb[0]
+    j = 0
+    for k in range(n_s):
+        dt = t[k] - t_prev
+        t_prev = t[k]
+        gx = xi[k] if has_g else 0.0
+        ge = eta[k] if has_g else 0.0
+        gd = dg[k] if has_g else 0.0
+        a_th = dth[k] - b_g * dt
+        a_dv = dvel[k] - b_a * dt
+        q_new, v_new, p_new, f_n = mech_step(q, v, pos, v_prev, pos_prev, a_th, a_dv, dth_prev, dv_prev,
+                                             dt, gx, ge, gd)
+        v_prev, pos_prev = v, pos
+        q, v, pos = q_new, v_new, p_new
+        dth_prev, dv_prev = a_th, a_dv
+        fsum += f_n * dt
+        c_sn = q_to_c(q)
+        c_bn = c_sn @ c_sb[k]
+        if ldv_ok[k]:
+            vd = np.array([0.0, nu_f[k] * par[0], (nu_u[k] * par[3]) if ldv_up else 0.0])
+            cdb = c_db(par[1], par[2])
+            v_l = c_bn @ (cdb @ vd)
+            rel = c_bn_prev.T @ c_bn
+            w_nb = np.array([rel[2, 1] - rel[1, 2], rel[0, 2] - rel[2, 0], rel[1, 0] - rel[0, 1]]) / (2.0 * dt)
+            v_head = v + c_bn @ cross(w_nb, l_ldv)
+            lz += v_head - v_l
+            lvl += v_l
+            lvd += vd
+            lnu[0] += nu_f[k]
+            lnu[1] += nu_u[k] if ldv_up else 0.0
+            lc += c_bn
+            ln += 1
+        c_bn_prev = c_bn
+        while gi < n_g and g_t[gi] <= t[k]:
+            # GNSS fix at g_t[gi] in (t[k-1], t[k]]: residual INS − GNSS at the antenna, local metres
+            rm, rn = radii_nb(pos[0])
+            back = t[k] - g_t[gi]
+            lev = c_bn @ l_gnss
+            gz[0] = (pos[1] - g_pos[gi, 1]) * (rn + pos[2]) * np.cos(pos[0]) + lev[0] - v[0] * back
+            gz[1] = (pos[0] - g_pos[gi, 0]) * (rm + pos[2]) + lev[1] - v[1] * back
+            gz[2] = pos[2] - g_pos[gi, 2] + lev[2] - v[2] * back
+            gc = c_bn.copy()
+            gsig[0], gsig[1] = g_sig[gi, 0], g_sig[gi, 1]
+            g_pending = True
+            gi += 1
+        q_out[k] = q
+        v_out[k] = v
+        p_out[k] = pos
+        if (k + 1) % decim != 0:
+            continue
+        # ---- filter epoch ----
+        j += 1
+        T = t[k] - t_epoch
+        t_epoch = t[k]
+        F = np.zeros((n, n))
+        F[:15, :15] = build_f(15, c_sn, fsum / T, v, pos[0], pos[2])[:15, :15]
+        Phi = discretize(F, T)
+        P = Phi @ P @ Phi.T
+        for i in range(n):
+            P[i, i] += qd[i] * T
+        phis[j] = Phi
+        dts[j] = T
+        x = np.zeros(n)
+        if zupt_epoch[j]:
+            for i in range(3):
+                h = np.zeros(n)
+                h[3 + i] = 1.0
+                ok, nz = _scalar_update(x, P, h, v[i], zupt_sigma ** 2, gate)
+                nis[j, i] = nz
+                if not ok:
+                    rejected[0] += 1
+        if ln > 0:
+            z = lz / ln
+            v_l = lvl / ln
+            vd = lvd / ln
+            cb = lc / ln
+            cdb = c_db(par[1], par[2])
+            cols = np.zeros((3, 4))
+            cols[:, 0] = -cb @ (cdb @ np.array([0.0, lnu[0] / ln, 0.0]))
+            cols[:, 1] = -cb @ (cdb @ cross(np.array([1.0, 0.0, 0.0]), vd))
+            cols[:, 2] = -cb @ cross(np.array([0.0, 0.0, 1.0]), cdb @ vd)
+            cols[:, 3] = -cb @ (cdb @ np.array([0.0, 0.0, lnu[1] / ln]))
+            hphi = -skew_nb(v_l)
+            for i in range(3):
+                h = np.zeros(n)
+                h[0:3] = hphi[i]
+                h[3 + i] = 1.0
+                for a in range(4):
+                    if aug_idx[a] >= 0:
+                        h[aug_idx[a]] = cols[i, a]
+                ok, nz = _scalar_update(x, P, h, z[i], ldv_sigma[i] ** 2 / ln, gate)
+                nis[j, 3 + i] = nz
+                if not ok:
+                    rejected[1] += 1
+        if g_pending:
+            hphi = skew_nb(gc @ l_gnss)
+            for i in range(3):
+                h = np.zeros(n)
+                h[0:3] = hphi[i]
+                h[6 + i] = 1.0
+                sig = gsig[0] if i < 2 else gsig[1]
+                ok, nz = _scalar_update(x, P, h, gz[i], sig * sig, gate)
+                nis[j, 6 + i] = nz
+                if not ok:
+                    rejected[2] += 1
+            g_pending = False
+        P = 0.5 * (P + P.T)
+        # ---- feedback ----
+        q = qmul(q_rotvec(x[0:3]), q)
+        q = q / np.sqrt(np.sum(q * q))
+        rm, rn = radii_nb(pos[0])
+        dpos = np.array([x[7] / (rm + pos[2]), x[6] / ((rn + pos[2]) * np.cos(pos[0])), x[8]])
+        v = v - x[3:6]
+        pos = pos - dpos
+        v_prev = v_prev - x[3:6]
+        pos_prev = pos_prev - dpos
+        b_g = b_g + x[9:12]
+        b_a = b_a + x[12:15]
+        if aug_idx[0] >= 0:
+            par[0] -= x[aug_idx[0]]
+        if aug_idx[1] >= 0:
+            par[1] -= x[aug_idx[1]]
+        if aug_idx[2] >= 0:
+            par[2] -= x[aug_idx[2]]
+        if aug_idx[3] >= 0:
+            par[3] -= x[aug_idx[3]]
+        c_bn_prev = q_to_c(q) @ c_sb[k]
+        dxs[j] = x
+        pplus[j] = P
+        par_out[j] = par
+        bias_out[j, :3], bias_out[j, 3:] = b_g, b_a
+        fsum[:] = 0.0
+        lz[:] = 0.0
+        lvl[:] = 0.0
+        lvd[:] = 0.0
+        lnu[:] = 0.0
+        lc[:, :] = 0.0
+        ln = 0
+        q_out[k] = q
+        v_out[k] = v
+        p_out[k] = pos
+    return q_out, v_out, p_out, phis, pplus, dts, dxs, par_out, bias_out, nis, rejected
+
+
+@nb.njit(cache=True)
+def rts(phis, pplus, dts, dxs, qd):
+    """Rauch-Tung-Striebel smoother over the stored closed-loop forward pass.
+
+    Returns x_s (M+1, n): smoothed error of the post-feedback nominal at each epoch,
+    and P_s (M+1, n, n).
+    """
+    m1, n, _ = pplus.shape
+    xs = np.zeros((m1, n))
+    ps = np.empty((m1, n, n))
+    ps[m1 - 1] = pplus[m1 - 1]
+    for j in range(m1 - 2, -1, -1):
+        Phi = phis[j + 1]
+        pm = Phi @ pplus[j] @ Phi.T
+        for i in range(n):
+            pm[i, i] += qd[i] * dts[j + 1]
+        # A = P⁺_j Φᵀ (P⁻_{j+1})⁻¹  ⇒  Aᵀ = solve(P⁻, Φ P⁺_j)
+        at = np.linalg.solve(pm, Phi @ pplus[j])
+        a = at.T
+        xs[j] = a @ (xs[j + 1] + dxs[j + 1])
+        ps[j] = pplus[j] + a @ (ps[j + 1] - pm) @ at
+    return xs, ps

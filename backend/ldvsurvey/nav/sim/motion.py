@@ -1,0 +1,182 @@
+"""Vehicle motion on a road: a timeline of segments (static, drive, turn in place, turntable).
+
+Evaluates the truth at any times with analytic rates and accelerations: position,
+velocity v_n and its derivative, the travel-frame attitude C_t^n and rate ω_nt^t.
+The travel frame t is the frame the vehicle moves along (its forward axis is the
+velocity direction): the LDV frame in the simulator. Segment boundaries fall on the
+sampling grid so that quadrature within one sampling interval never straddles a kink.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ldvsurvey.nav.attitude import c_bn_from_euler
+from ldvsurvey.nav.sim.road import Road, smooth_step, smooth_step_integral
+
+
+@dataclass
+class Static:
+    duration_s: float
+
+
+@dataclass
+class Drive:
+    """Drive along the road to arc length ``s_to_m`` at ``speed_mps`` with smooth ramps."""
+
+    s_to_m: float
+    speed_mps: float
+    ramp_s: float = 20.0
+
+
+@dataclass
+class TurnInPlace:
+    """Rotate the heading by ``dpsi_rad`` while standing (a turnaround is π)."""
+
+    duration_s: float
+    dpsi_rad: float
+
+
+def _grid(x: float, dt: float) -> float:
+    return max(dt, round(x / dt) * dt)
+
+
+class Motion:
+    """A vehicle timeline on a road. Times are seconds of day (the bundle clock)."""
+
+    def __init__(self, road: Road, segments: list, t0_s: float, dt_s: float = 0.01, s0_m: float = 0.0):
+        self.road = road
+        self.t0_s = t0_s
+        self.pieces = []  # (t_start, t_end, kind, params)
+        t, s, off = t0_s, s0_m, 0.0
+        for seg in segments:
+            if isinstance(seg, Static):
+                d = _grid(seg.duration_s, dt_s)
+                self.pieces.append((t, t + d, "static", dict(s=s, off=off)))
+                t += d
+            elif isinstance(seg, TurnInPlace):
+                th, _, _ = road.grade.eval(np.array([s]))
+                if abs(th[0]) > 1e-9 or abs(road.bank.eval(np.array([s]))[0][0]) > 1e-9:
+                    raise ValueError(f"turn in place at s={s:.1f} m needs a flat road there")
+                d = _grid(seg.duration_s, dt_s)
+                self.pieces.append((t, t + d, "turn", dict(s=s, off=off, dpsi=seg.dpsi_rad, T=d)))
+                t += d
+                off += seg.dpsi_rad
+            elif isinstance(seg, Drive):
+                dist = seg.s_to_m - s
+                sign = 1.0 if dist > 0 else -1.0
+                facing = 1.0 if np.cos(off) > 0 else -1.0
+                if abs(abs(np.cos(off)) - 1) > 1e-9 or facing != sign:
+                    raise ValueError("the vehicle must face the direction it drives (turn around first)")
+                ta = _grid(seg.ramp_s, dt_s)
+                tc = _grid(abs(dist) / seg.speed_mps - ta, dt_s)
+                v = abs(dist) / (ta + tc)
+                self.pieces.append((t, t + 2 * ta + tc, "drive",
+                                    dict(s=s, off=off, sign=sign, V=v, Ta=ta, Tc=tc)))
+                t += 2 * ta + tc
+                s = seg.s_to_m
+            else:
+                raise TypeError(seg)
+        self.t_end_s = t
+
+    def _kinematics(self, t):
+        """s, ṡ, s̈, heading offset, its rate and acceleration at times t."""
+        n = len(t)
+        s, sd, sdd = np.zeros(n), np.zeros(n), np.zeros(n)
+        off, offd, offdd = np.zeros(n), np.zeros(n), np.zeros(n)
+        for i, (ta, tb, kind, p) in enumerate(self.pieces):
+            last = i == len(self.pieces) - 1
+            m = (t >= ta) & ((t < tb) | (last & (t <= tb + 1e-9)))
+            if not m.any():
+                continue
+            tau = t[m] - ta
+            s[m], off[m] = p["s"], p["off"]
+            if kind == "turn":
+                S, S1, S2 = smooth_step(tau / p["T"])
+                off[m] += p["dpsi"] * S
+                offd[m] = p["dpsi"] * S1 / p["T"]
+                offdd[m] = p["dpsi"] * S2 / p["T"] ** 2
+            elif kind == "drive":
+                V, Ta, Tc, sg = p["V"], p["Ta"], p["Tc"], p["sign"]
+                u1, u2 = tau / Ta, (tau - Ta - Tc) / Ta
+                a1, b1, c1 = smooth_step(u1)
+                a2, b2, c2 = smooth_step(u2)
+                s[m] += sg * V * Ta * (smooth_step_integral(u1) - smooth_step_integral(u2))
+                sd[m] = sg * V * (a1 - a2)
+                sdd[m] = sg * V / Ta * (b1 - b2)
+        if np.any(t < self.t0_s - 1e-9) or np.any(t > self.t_end_s + 1e-9):
+            raise ValueError("time outside the simulated timeline")
+        return s, sd, sdd, off, offd, offdd
+
+    def truth(self, t_s):
+        """Truth at times ``t_s`` (s).
+
+        Returns
+        -------
+        dict with lat_rad, lon_rad, h_m, v_n (N,3) m/s, a_n (N,3) = dv_n/dt m/s², c_tn (N,3,3),
+        w_nt_t (N,3) rad/s, s_m, speed_mps, pitch_t, roll_t, heading_t (rad, travel frame).
+        """
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        s, sd, sdd, off, offd, offdd = self._kinematics(t)
+        road = self.road
+        lat, lon, h = road.geodetic(s)
+        tan, dtan = road.tangent(s)
+        v_n = sd[:, None] * tan
+        a_n = sdd[:, None] * tan + (sd ** 2)[:, None] * dtan
+        psi, dpsi, _ = road.heading.eval(s)
+        th_r, dth_r, _ = road.grade.eval(s)
+        ga_r, dga_r, _ = road.bank.eval(s)
+        co, so = np.cos(off), np.sin(off)
+        heading = psi + off
+        pitch = co * th_r
+        roll = co * ga_r
+        heading_rate = dpsi * sd + offd
+        pitch_rate = co * dth_r * sd - so * offd * th_r
+        roll_rate = co * dga_r * sd - so * offd * ga_r
+        c_tn = c_bn_from_euler(pitch, roll, heading)
+        # ω_nt^t = (R_x(θ) R_y(γ))ᵀ [0,0,ẏ] + R_y(γ)ᵀ [θ̇,0,0] + [0,γ̇,0], with y = −ψ
+        yd = -heading_rate
+        cg, sg, ct, st = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch)
+        # R_x(θ)ᵀ e_z = [0, sθ, cθ]; R_y(γ)ᵀ [a, b, c] = [cγ a − sγ c, b, sγ a + cγ c]
+        wz = np.stack([-sg * ct * yd, st * yd, cg * ct * yd], axis=-1)
+        wx = np.stack([cg * pitch_rate, np.zeros_like(yd), sg * pitch_rate], axis=-1)
+        wy = np.stack([np.zeros_like(yd), roll_rate, np.zeros_like(yd)], axis=-1)
+        return dict(t_s=t, lat_rad=lat, lon_rad=lon, h_m=h, v_n=v_n, a_n=a_n, c_tn=c_tn,
+                    w_nt_t=wz + wx + wy, s_m=s, speed_mps=np.abs(sd),
+                    pitch_t=pitch, roll_t=roll, heading_t=np.mod(heading, 2 * np.pi))
+
+
+@dataclass
+class Turntable:
+    """4-position rotate-stop scheme 0°, 180°, 270°, 90° (back and forth, no net turn).
+
+    ``dwell_s`` at each stop, rotations at ``rate_dps`` mean rate with smooth ramps, from ``t0_s``.
+    """
+
+    t0_s: float
+    dwell_s: float = 30.0
+    rate_dps: float = 20.0
+    dt_s: float = 0.01
+
+    def angle(self, t_s):
+        """Encoder angle η (rad, unwrapped), its rate (rad/s) at times t."""
+        t = np.asarray(t_s, dtype=float)
+        deltas = np.radians([180.0, 90.0, -180.0, -90.0])
+        durs = [_grid(abs(np.degrees(d)) / self.rate_dps, self.dt_s) for d in deltas]
+        dwell = _grid(self.dwell_s, self.dt_s)
+        period = 4 * dwell + sum(durs)
+        tau = np.maximum(t - self.t0_s, 0.0)
+        k = np.floor(tau / period + 1e-12)
+        r = tau - k * period
+        eta = np.zeros_like(t)
+        rate = np.zeros_like(t)
+        start = 0.0
+        for d, T in zip(deltas, durs):
+            start += dwell
+            S, S1, _ = smooth_step((r - start) / T)
+            eta += d * S
+            rate += d * S1 / T
+            start += T
+        return eta, rate

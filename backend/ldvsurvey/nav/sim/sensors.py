@@ -1,0 +1,108 @@
+"""Sensor models of the simulator: IMU errors, LDV (1-D, 2-D, water) and GNSS fixes.
+
+The LDV head frame d is the travel frame: the vehicle moves along the head's forward axis
+(the LDV model's no-side-slip assumption); the IMU body is mounted on it with C_d^b(η_L, φ_L).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ldvsurvey.nav.earth import radii
+from ldvsurvey.nav.errmodel import c_db
+from ldvsurvey.nav.sim.imu import rates
+from ldvsurvey.nav.sim.motion import Motion
+
+G0 = 9.80665
+DEG = np.pi / 180.0
+
+#: fix quality -> (horizontal σ, vertical σ) in m of the simulated receiver
+FIX_SIGMA = {4: (0.02, 0.03), 5: (0.15, 0.25), 2: (0.5, 0.9), 1: (2.0, 3.5)}
+
+
+@dataclass
+class ImuErrors:
+    """Sensor-frame IMU errors: constant biases and white noise (ARW, VRW)."""
+
+    gyro_bias_rps: np.ndarray
+    accel_bias_mps2: np.ndarray
+    arw_psd: float = 0.0  # rad²/s
+    vrw_psd: float = 0.0  # (m/s)²/s
+
+    @classmethod
+    def draw(cls, rng, gyro_bias_dph, accel_bias_ug, arw_dprh=0.0, vrw_ug_rthz=0.0):
+        """Biases of the given magnitude in random directions (each axis ± the magnitude)."""
+        gb = rng.choice([-1.0, 1.0], 3) * gyro_bias_dph * DEG / 3600.0
+        ab = rng.choice([-1.0, 1.0], 3) * accel_bias_ug * 1e-6 * G0
+        return cls(gb, ab, (arw_dprh * DEG / 60.0) ** 2, (vrw_ug_rthz * 1e-6 * G0) ** 2)
+
+    def apply(self, dtheta, dvel, dt_s, rng):
+        """Increments with the errors added."""
+        n = len(dtheta)
+        dth = dtheta + self.gyro_bias_rps * dt_s
+        dv = dvel + self.accel_bias_mps2 * dt_s
+        if self.arw_psd > 0:
+            dth = dth + rng.normal(0.0, np.sqrt(self.arw_psd * dt_s), (n, 3))
+        if self.vrw_psd > 0:
+            dv = dv + rng.normal(0.0, np.sqrt(self.vrw_psd * dt_s), (n, 3))
+        return dth, dv
+
+
+@dataclass
+class LdvSpecSim:
+    """Simulated LDV: true mounting (rad), scale factors, lever arm (m, body), noise σ (m/s)."""
+
+    pitch_rad: float = 0.0
+    heading_rad: float = 0.0
+    scale: float = 1.0
+    scale_up: float = 1.0
+    lever_arm_m: tuple = (0.0, 0.0, -0.8)
+    noise_mps: float = 0.005
+    kind: str = "2d"
+
+    def c_bt(self) -> np.ndarray:
+        """C_b^t = (C_d^b)ᵀ: body to travel (= LDV head) frame."""
+        return c_db(self.pitch_rad, self.heading_rad).T
+
+
+def ldv_measure(motion: Motion, t_s, spec: LdvSpecSim, rng, current_n=None):
+    """Forward (and up) speeds along the head axes, (v_fwd, v_up) in m/s.
+
+    ``current_n`` (N, 3) m/s: water velocity to subtract (water-track LDV).
+    """
+    c_bt = spec.c_bt()
+    _, _, tr, c_bn, _, w_nb_b, _ = rates(motion, np.asarray(t_s, float), c_bt)
+    lever = np.asarray(spec.lever_arm_m, float)
+    v_head = tr["v_n"] + np.einsum("kij,kj->ki", c_bn, np.cross(w_nb_b, lever))
+    if current_n is not None:
+        v_head = v_head - current_n
+    v_d = np.einsum("kji,kj->ki", tr["c_tn"], v_head)
+    n = len(v_d)
+    v_fwd = spec.scale * v_d[:, 1] + rng.normal(0, spec.noise_mps, n)
+    v_up = spec.scale_up * v_d[:, 2] + rng.normal(0, spec.noise_mps, n)
+    return v_fwd, v_up
+
+
+def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng):
+    """Antenna fixes (lat_deg, lon_deg, h_m ellipsoidal, fix) with fix-dependent noise.
+
+    ``fix_of_t(t) -> int array`` gives the fix quality (0 = no fix) at each time.
+    """
+    t = np.asarray(t_s, float)
+    _, _, tr, c_bn, _, _, _ = rates(motion, t, c_bt)
+    lev = np.einsum("kij,j->ki", c_bn, np.asarray(lever_arm_m, float))
+    fix = np.asarray(fix_of_t(t), dtype=int)
+    sig_h = np.array([FIX_SIGMA.get(int(f), (np.nan, np.nan))[0] for f in fix])
+    sig_v = np.array([FIX_SIGMA.get(int(f), (np.nan, np.nan))[1] for f in fix])
+    noise = rng.normal(0, 1, (len(t), 3)) * np.column_stack([sig_h, sig_h, sig_v])
+    rm, rn = radii(tr["lat_rad"])
+    e = lev[:, 0] + noise[:, 0]
+    nn = lev[:, 1] + noise[:, 1]
+    lat = tr["lat_rad"] + nn / (rm + tr["h_m"])
+    lon = tr["lon_rad"] + e / ((rn + tr["h_m"]) * np.cos(tr["lat_rad"]))
+    h = tr["h_m"] + lev[:, 2] + noise[:, 2]
+    none = fix <= 0
+    lat, lon, h = (np.where(none, np.nan, a) for a in (lat, lon, h))
+    return np.degrees(lat), np.degrees(lon), h, fix
