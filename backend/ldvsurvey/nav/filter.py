@@ -126,6 +126,9 @@ class NavSolution:
     epoch_sigma: np.ndarray  # (M+1, n) 1-σ of all states
     normalized_innovations: np.ndarray  # (M+1, 9)
     rejected: dict
+    epoch_index: np.ndarray = None  # (M+1,) sample index of each epoch (−1: before the first sample)
+    epoch_bias: np.ndarray = None  # (M+1, 6) gyro (rad/s) and accel (m/s²) bias estimates
+    epoch_cov: np.ndarray | None = None  # (M+1, n, n) when keep_cov
 
     def c_bn(self) -> np.ndarray:
         """Body attitude C_b^n at every sample (C_s^n C_s^b for a rotating IMU)."""
@@ -189,7 +192,7 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
 
 def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cfg: FilterConfig | None = None,
                c_sb=None, zupt_intervals=(), ldv: LdvAid | None = None, gnss: GnssAid | None = None,
-               gravity=None, smooth: bool = True, bias0=None) -> NavSolution:
+               gravity=None, smooth: bool = True, bias0=None, keep_cov: bool = False) -> NavSolution:
     """Forward closed-loop filter, then (optionally) the RTS smoother.
 
     Parameters
@@ -216,10 +219,10 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     if smooth:
         xs, ps = kfloop.rts(phis, pplus, dts, dxs, qd)
         q, v, p = _apply(t, ep_t, decim, m, xs, dxs, q, v, p)
-        sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", ps), 0.0))
     else:
-        xs = np.zeros_like(dxs)
-        sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", pplus), 0.0))
+        xs, ps = np.zeros_like(dxs), pplus
+    sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", ps), 0.0))
+    ep_bias = bias + xs[:, 9:15]
     sigma = np.column_stack([np.interp(t, ep_t, sig_ep[:, i]) for i in range(9)])
     ldv_params = {}
     for a in AUG_NAMES:
@@ -240,7 +243,9 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     return NavSolution(t_s=t, q_sn=q, v_n=v, pos=p, sigma=sigma, c_sb=c_sb, smoothed=smooth,
                        ldv_params=ldv_params, gyro_bias_rps=gyro_b, accel_bias_mps2=acc_b,
                        epoch_t_s=ep_t, epoch_sigma=sig_ep, normalized_innovations=nis,
-                       rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])})
+                       rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},
+                       epoch_index=np.arange(m + 1) * decim - 1, epoch_bias=ep_bias,
+                       epoch_cov=ps if keep_cov else None)
 
 
 def _apply(t, ep_t, decim, m, xs, dxs, q, v, p):

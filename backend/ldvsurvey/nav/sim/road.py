@@ -42,17 +42,29 @@ class Ramps:
     steps: list[tuple[float, float, float]] = field(default_factory=list)  # (x_start, length, delta)
 
     def eval(self, x):
-        """f, f', f'' at x."""
+        """f, f', f'' at x (each ramp touches only the points inside it)."""
         x = np.asarray(x, dtype=float)
-        f = np.full(x.shape, self.f0)
-        d1 = np.zeros(x.shape)
-        d2 = np.zeros(x.shape)
+        flat = x.ravel()
+        order = np.argsort(flat, kind="stable")
+        xs = flat[order]
+        f = np.full(xs.shape, self.f0)
+        d1 = np.zeros(xs.shape)
+        d2 = np.zeros(xs.shape)
         for x0, length, delta in self.steps:
-            s, s1, s2 = smooth_step((x - x0) / length)
-            f += delta * s
-            d1 += delta * s1 / length
-            d2 += delta * s2 / length ** 2
-        return f, d1, d2
+            a = np.searchsorted(xs, x0, side="right")
+            b = np.searchsorted(xs, x0 + length, side="left")
+            f[b:] += delta
+            if b > a:
+                s, s1, s2 = smooth_step((xs[a:b] - x0) / length)
+                f[a:b] += delta * s
+                d1[a:b] += delta * s1 / length
+                d2[a:b] += delta * s2 / length ** 2
+        out = []
+        for arr in (f, d1, d2):
+            r = np.empty_like(arr)
+            r[order] = arr
+            out.append(r.reshape(x.shape))
+        return tuple(out)
 
 
 @dataclass

@@ -1,0 +1,45 @@
+"""The built-in demo: simulated bundles written to disk and loaded into the store."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ldvsurvey.errors import ParameterError
+
+
+def write_demo(directory: str | Path, scenario: str = "height", seed: int = 1,
+               duration_s: float | None = None) -> list[Path]:
+    """Write a simulated bundle to ``directory`` (the four files) and its truth to ``directory/truth``."""
+    from ldvsurvey.io.writers import write_bundle
+    from ldvsurvey.nav.sim.catalog import SCENARIOS, by_name
+    from ldvsurvey.nav.sim.scenario import bundle_files, simulate, truth_files
+
+    if scenario not in SCENARIOS:
+        raise ParameterError(f"unknown scenario '{scenario}' (known: {', '.join(sorted(SCENARIOS))})",
+                             field="--scenario")
+    kw = {"minutes": duration_s / 60.0} if duration_s else {}
+    sc = by_name(scenario, **kw)
+    sim = simulate(sc, seed=seed, with_nodov=sc.gravity_field is not None)
+    out = Path(directory)
+    write_bundle(bundle_files(sim), out)
+    write_bundle(truth_files(sim), out / "truth")
+    return [out, out / "truth"]
+
+
+def load_demo_survey(database_url: str, data_dir: Path) -> list[int]:
+    """Make sure the demo bundles are simulated (cached under data_dir/demo) and stored."""
+    from ldvsurvey.io.drivelog import load_bundle
+    from ldvsurvey.io.quality import quality_report
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.logs import store_log
+
+    ids = []
+    for name in ("height",):
+        folder = Path(data_dir) / "demo" / name
+        if not (folder / "manifest.json").exists():
+            write_demo(folder, scenario=name)
+        log = load_bundle(folder)
+        with session_scope(database_url) as s:
+            row, _ = store_log(s, log, quality_report(log))
+            ids.append(row.id)
+    return ids

@@ -1,0 +1,210 @@
+"""Simulated drive logs: a scenario description, its simulation, and its bundle files.
+
+A scenario is a road, a timeline, the instruments and their errors, the GNSS fix schedule
+and optionally a gravity field. ``simulate`` returns sensor data with the truth beside it;
+``bundle_files`` writes the ``ldv-drive-log/1`` files and ``truth_files`` what only a
+simulation knows (truth trajectory, tilt angles, LDV mounting, biases).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ldvsurvey.nav.attitude import euler_from_c_bn
+from ldvsurvey.nav.sim.imu import GravityField, ImuTruth, simulate_imu
+from ldvsurvey.nav.sim.motion import Motion, Turntable
+from ldvsurvey.nav.sim.road import Road
+from ldvsurvey.nav.sim.sensors import ImuErrors, LdvSpecSim, gnss_fixes, ldv_measure
+
+GEOID_SEPARATION_M = -16.0
+
+
+@dataclass
+class Scenario:
+    """Everything that defines one simulated drive (angles in rad unless named otherwise)."""
+
+    name: str
+    road: Road
+    segments: list
+    t0_s: float = 30000.0
+    date: str = "2023-03-20"
+    platform: str = "vehicle"
+    imu_rate_hz: float = 100.0
+    gyro_bias_dph: float = 0.003
+    accel_bias_ug: float = 20.0
+    gyro_arw_dprh: float = 0.0005
+    accel_vrw_ug_rthz: float = 5.0
+    rotating: bool = False
+    turntable_dwell_s: float = 30.0
+    alpha_rad: float = 0.0
+    beta_rad: float = 0.0
+    ldv: LdvSpecSim = field(default_factory=LdvSpecSim)
+    ldv_rate_hz: float = 100.0
+    ldv_dropout_share: float = 0.002  #: samples flagged below min_quality (and corrupted)
+    ldv_fd: bool = False  #: write fd_hz instead of v_fwd
+    gnss_lever_m: tuple = (0.0, 0.5, 1.6)
+    fix_schedule: list = field(default_factory=list)  #: [(t_from_start_s, t_to_start_s, fix)], default 4
+    gravity_field: GravityField | None = None
+    static_s: float = 300.0
+    lines: list = field(default_factory=list)  #: [(name, t_start_s, t_end_s)] absolute times
+    current_n_mps: tuple | None = None  #: water current (vessel), ENU
+
+    def fix_of_t(self, t):
+        fix = np.full(len(t), 4)
+        for a, b, q in self.fix_schedule:
+            fix[(t >= self.t0_s + a) & (t < self.t0_s + b)] = q
+        return fix
+
+
+@dataclass
+class SimResult:
+    scenario: Scenario
+    motion: Motion
+    imu: ImuTruth
+    errors: ImuErrors
+    dtheta_rad: np.ndarray
+    dvel_mps: np.ndarray
+    ldv_t_s: np.ndarray
+    ldv_v_fwd: np.ndarray
+    ldv_v_up: np.ndarray
+    ldv_quality: np.ndarray
+    gnss_t_s: np.ndarray
+    gnss_lat_deg: np.ndarray
+    gnss_lon_deg: np.ndarray
+    gnss_h_m: np.ndarray
+    gnss_fix: np.ndarray
+    imu_nodov: tuple | None = None  # (dtheta, dvel) of the same drive without the DOV
+
+
+OPTICS = {"wavelength_nm": 1064.0, "beam_angle_deg": 10.0, "surface_angle_deg": 30.0, "refractive_index": 1.00027}
+
+
+def simulate(sc: Scenario, seed: int = 1, with_nodov: bool = False) -> SimResult:
+    """Simulate all sensors of a scenario."""
+    rng = np.random.default_rng(seed)
+    motion = Motion(sc.road, sc.segments, sc.t0_s, dt_s=1.0 / sc.imu_rate_hz)
+    dt = 1.0 / sc.imu_rate_hz
+    n = int(round((motion.t_end_s - sc.t0_s) / dt))
+    t = sc.t0_s + np.arange(n + 1) * dt
+    c_bt = sc.ldv.c_bt()
+    table = Turntable(sc.t0_s, dwell_s=sc.turntable_dwell_s, dt_s=dt) if sc.rotating else None
+    imu = simulate_imu(motion, t, c_bt, sc.gravity_field, table, sc.alpha_rad, sc.beta_rad)
+    nodov = None
+    if with_nodov and sc.gravity_field is not None:
+        def dg_only(lat, lon, h):
+            _, _, dg = sc.gravity_field(lat, lon, h)
+            return 0.0 * lat, 0.0 * lat, dg
+        ref = simulate_imu(motion, t, c_bt, dg_only, table, sc.alpha_rad, sc.beta_rad)
+    err = ImuErrors.draw(rng, sc.gyro_bias_dph, sc.accel_bias_ug, sc.gyro_arw_dprh, sc.accel_vrw_ug_rthz)
+    state = rng.bit_generator.state
+    dth, dv = err.apply(imu.dtheta_rad, imu.dvel_mps, dt, rng)
+    if with_nodov and sc.gravity_field is not None:  # identical sensor noise in both files
+        rng.bit_generator.state = state
+        nodov = err.apply(ref.dtheta_rad, ref.dvel_mps, dt, rng)
+    # LDV
+    n_l = int(np.floor((motion.t_end_s - sc.t0_s) * sc.ldv_rate_hz + 1e-9))
+    t_l = sc.t0_s + np.arange(1, n_l + 1) / sc.ldv_rate_hz
+    current = None
+    if sc.current_n_mps is not None:
+        current = np.broadcast_to(np.asarray(sc.current_n_mps, float), (len(t_l), 3))
+    vf, vu = ldv_measure(motion, t_l, sc.ldv, rng, current_n=current)
+    quality = rng.integers(150, 400, len(t_l)).astype(float)
+    bad = rng.random(len(t_l)) < sc.ldv_dropout_share
+    quality[bad] = rng.integers(10, 90, bad.sum())
+    vf[bad] += rng.normal(0, 2.0, bad.sum())
+    vu[bad] += rng.normal(0, 2.0, bad.sum())
+    # GNSS at whole seconds
+    t_g = np.arange(np.ceil(sc.t0_s), np.floor(motion.t_end_s) + 1e-9, 1.0)
+    lat, lon, h, fix = gnss_fixes(motion, t_g, c_bt, sc.gnss_lever_m, sc.fix_of_t, rng)
+    return SimResult(sc, motion, imu, err, dth, dv, t_l, vf, vu, quality, t_g, lat, lon, h, fix, nodov)
+
+
+def manifest(sim: SimResult) -> dict:
+    sc = sim.scenario
+    m = {
+        "format": "ldv-drive-log/1",
+        "name": f"Simulated {sc.name} drive",
+        "date": sc.date,
+        "platform": sc.platform,
+        "imu": {"rate_hz": sc.imu_rate_hz, "rotating": sc.rotating, "gyro_bias_dph": sc.gyro_bias_dph,
+                "accel_bias_ug": sc.accel_bias_ug, "gyro_arw_deg_per_rth": sc.gyro_arw_dprh,
+                "accel_noise_ug_per_rthz": sc.accel_vrw_ug_rthz},
+        "ldv": {"kind": sc.ldv.kind, "rate_hz": sc.ldv_rate_hz, "min_quality": 100,
+                "nominal": {"pitch_deg": 0.0, "heading_deg": 0.0, "scale": 1.0},
+                "optics": OPTICS, "lever_arm_m": list(sc.ldv.lever_arm_m),
+                "noise_mps": sc.ldv.noise_mps},
+        "gnss": {"lever_arm_m": list(sc.gnss_lever_m)},
+        "initial": {"lat_deg": float(np.degrees(sc.road.lat0_rad)), "lon_deg": float(np.degrees(sc.road.lon0_rad)),
+                    "h_m": float(sc.road.h0_m), "static_s": sc.static_s},
+        "simulated": {"software": "ldv-survey", "scenario": sc.name},
+    }
+    if sc.lines:
+        m["lines"] = [{"name": n, "t_start": a, "t_end": b} for n, a, b in sc.lines]
+    return m
+
+
+def bundle_files(sim: SimResult) -> dict[str, bytes]:
+    """The four ``ldv-drive-log/1`` files of a simulation."""
+    from ldvsurvey.io.drivelog import fd_to_v_fwd
+    from ldvsurvey.io.manifest import LdvOptics
+    from ldvsurvey.io.writers import imu_csv, ldv_csv, manifest_json, nmea_text
+
+    sc = sim.scenario
+    turn = np.mod(np.degrees(sim.imu.eta_rad), 360.0) if sc.rotating else None
+    v_up = sim.ldv_v_up if sc.ldv.kind == "2d" else None
+    if sc.ldv_fd:
+        per_mps = 1.0 / fd_to_v_fwd(np.array([1.0]), LdvOptics(**OPTICS))[0]
+        ldv = ldv_csv(sim.ldv_t_s, fd_hz=sim.ldv_v_fwd * per_mps, v_up_mps=v_up, quality=sim.ldv_quality,
+                      comment="simulated LDV, Doppler frequency")
+    else:
+        ldv = ldv_csv(sim.ldv_t_s, v_fwd_mps=sim.ldv_v_fwd, v_up_mps=v_up, quality=sim.ldv_quality)
+    return {
+        "manifest.json": manifest_json(manifest(sim)),
+        "imu.csv": imu_csv(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, turn,
+                           comment="ldv-drive-log/1 IMU increments over (t_prev, t], sensor frame s"),
+        "ldv.csv": ldv,
+        "gnss.nmea": nmea_text(sim.gnss_t_s, sim.gnss_lat_deg, sim.gnss_lon_deg, sim.gnss_h_m, sim.gnss_fix,
+                               sep_m=GEOID_SEPARATION_M, talker="GN"),
+    }
+
+
+def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:
+    """Truth beside the bundle: ``truth.csv`` (every ``every``-th IMU sample) and ``truth.json``."""
+    from ldvsurvey.io.writers import csv_bytes, imu_csv
+
+    im = sim.imu
+    sl = slice(every - 1, None, every)
+    pitch, roll, heading = euler_from_c_bn(im.c_bn[sl])
+    cols = {"t": im.t_s[sl], "lat_deg": np.degrees(im.lat_rad[sl]), "lon_deg": np.degrees(im.lon_rad[sl]),
+            "h_m": im.h_m[sl], "v_e_mps": im.v_n[sl, 0], "v_n_mps": im.v_n[sl, 1], "v_u_mps": im.v_n[sl, 2],
+            "pitch_deg": np.degrees(pitch), "roll_deg": np.degrees(roll), "heading_deg": np.degrees(heading)}
+    if im.eta_rad is not None:
+        cols["turntable_deg"] = np.mod(np.degrees(im.eta_rad[sl]), 360.0)
+    sc = sim.scenario
+    meta = {
+        "scenario": sc.name, "alpha_rad": sc.alpha_rad, "beta_rad": sc.beta_rad,
+        "ldv": {"pitch_rad": sc.ldv.pitch_rad, "heading_rad": sc.ldv.heading_rad, "scale": sc.ldv.scale,
+                "scale_up": sc.ldv.scale_up},
+        "gyro_bias_rps": sim.errors.gyro_bias_rps.tolist(), "accel_bias_mps2": sim.errors.accel_bias_mps2.tolist(),
+        "created": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+    }
+    out = {"truth.csv": csv_bytes(cols, comment="simulation truth at the IMU centre"),
+           "truth.json": (json.dumps(meta, indent=2) + "\n").encode()}
+    if sim.imu_nodov is not None:
+        out["imu_nodov.csv"] = imu_csv(im.t_s, sim.imu_nodov[0], sim.imu_nodov[1],
+                                       np.mod(np.degrees(im.eta_rad), 360.0) if im.eta_rad is not None else None,
+                                       comment="the same drive without the deflection of the vertical")
+    return out
+
+
+def scenario_dict(sc: Scenario) -> dict:
+    """JSON-ready description (for logs)."""
+    d = asdict(sc)
+    d.pop("road")
+    d.pop("gravity_field")
+    d["segments"] = [type(s).__name__ + str(vars(s)) for s in sc.segments]
+    return d

@@ -1,0 +1,100 @@
+"""Earth model and attitude conventions against independent references and identities."""
+
+import boule
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from ldvsurvey.nav import attitude as att
+from ldvsurvey.nav import earth
+
+RAD = np.pi / 180
+
+
+@pytest.mark.parametrize("lat_deg", [-89.0, -45.0, 0.0, 28.4861, 34.3, 60.0, 90.0])
+@pytest.mark.parametrize("h_m", [0.0, 120.0, 2000.0, 5000.0])
+def test_normal_gravity_matches_boule(lat_deg, h_m):
+    # boule: closed form (Lakshmanan, Li & Götze), independent of the second-order expansion
+    ref_mgal = boule.WGS84.normal_gravity((113.0, lat_deg, h_m))
+    ours_mgal = earth.normal_gravity(lat_deg * RAD, h_m) / earth.MGAL
+    # exact on the ellipsoid; above it the second-order expansion of methods §0 drops
+    # O(f²) terms of the free-air gradient: < 1.5e-5 mGal per metre of height (measured 1.05e-5 at the equator)
+    assert ours_mgal == pytest.approx(ref_mgal, abs=1e-6 + 1.5e-5 * h_m)
+
+
+def test_radii_from_ecef_geometry():
+    lat, lon, h = 34.3 * RAD, 109.1 * RAD, 500.0
+    rm, rn = earth.radii(lat)
+    d = 1e-7
+    p0 = earth.lla_to_ecef(lat, lon, h)
+    dn = np.linalg.norm(earth.lla_to_ecef(lat + d, lon, h) - p0) / d
+    de = np.linalg.norm(earth.lla_to_ecef(lat, lon + d, h) - p0) / d
+    assert dn == pytest.approx(rm + h, rel=1e-7)
+    assert de == pytest.approx((rn + h) * np.cos(lat), rel=1e-7)
+
+
+def test_gravity_vector_components():
+    g = earth.gravity_n(0.5, 100.0, xi_rad=1e-5, eta_rad=-2e-5, dg_mps2=3e-4)
+    gam = earth.normal_gravity(0.5, 100.0)
+    np.testing.assert_allclose(g, [2e-5 * gam, -1e-5 * gam, -(gam + 3e-4)])
+
+
+def test_spec_checks_of_c_bn():
+    # heading 90° puts the forward axis on East; pitch > 0 lifts it; roll > 0 lowers the right axis
+    np.testing.assert_allclose(att.c_bn_from_euler(0, 0, np.pi / 2) @ [0, 1, 0], [1, 0, 0], atol=1e-15)
+    assert (att.c_bn_from_euler(0.1, 0, 0) @ [0, 1, 0])[2] > 0
+    assert (att.c_bn_from_euler(0, 0.1, 0) @ [1, 0, 0])[2] < 0
+    # heading is clockwise from north: 30° heading points forward between N and E
+    f = att.c_bn_from_euler(0, 0, 30 * RAD) @ [0, 1, 0]
+    np.testing.assert_allclose(f, [np.sin(30 * RAD), np.cos(30 * RAD), 0], atol=1e-15)
+
+
+def test_c_bn_is_zxy_sequence_and_round_trips():
+    rng = np.random.default_rng(0)
+    p, r, h = rng.uniform(-1.4, 1.4, 200), rng.uniform(-3, 3, 200), rng.uniform(0, 2 * np.pi, 200)
+    c = att.c_bn_from_euler(p, r, h)
+    # independent: intrinsic z (yaw = −heading), x (pitch), y (roll)
+    ref = Rotation.from_euler("ZXY", np.column_stack([-h, p, r])).as_matrix()
+    np.testing.assert_allclose(c, ref, atol=1e-14)
+    p2, r2, h2 = att.euler_from_c_bn(c)
+    np.testing.assert_allclose(p2, p, atol=1e-12)
+    np.testing.assert_allclose(r2, r, atol=1e-12)
+    np.testing.assert_allclose(h2, h, atol=1e-12)
+    q = att.q_from_c(c)
+    np.testing.assert_allclose(att.c_from_q(q), c, atol=1e-14)
+    sq = Rotation.from_matrix(c).as_quat()  # scipy: [x, y, z, w]
+    np.testing.assert_allclose(np.abs(np.sum(q * np.column_stack([sq[:, 3], sq[:, :3]]), axis=1)), 1.0, atol=1e-12)
+
+
+def test_c_bs_is_the_spec_matrix_and_small_angle_form():
+    eta, a, b = 0.7, 3e-3, -2e-3
+    # spec: R_y(β) R_x(α) R_z(η), passive elementary rotations
+    rx = Rotation.from_euler("x", -a).as_matrix()
+    ry = Rotation.from_euler("y", -b).as_matrix()
+    rz = Rotation.from_euler("z", -eta).as_matrix()
+    np.testing.assert_allclose(att.c_bs(eta, a, b), ry @ rx @ rz, atol=1e-15)
+    # small-angle form (paper eq. 13)
+    ce, se = np.cos(eta), np.sin(eta)
+    eq13 = np.array([[ce, se, -b], [-se, ce, a], [b * ce + a * se, b * se - a * ce, 1]])
+    np.testing.assert_allclose(att.c_bs(eta, a, b), eq13, atol=1e-5)
+
+
+def test_tilt_identity_delta_c():
+    """ΔC = C_s^n(η) + C_s^n(η+π) = C_b^n [[0,0,0],[0,0,0],[−2β, 2α, 2]] (small angles)."""
+    c_bn = att.c_bn_from_euler(0.01, -0.02, 1.0)
+    a, b = 4e-4, -6e-4
+    dc = c_bn @ att.c_bs(0.3, a, b).T + c_bn @ att.c_bs(0.3 + np.pi, a, b).T
+    m = np.zeros((3, 3))
+    m[2] = [-2 * b, 2 * a, 2]
+    np.testing.assert_allclose(dc, c_bn @ m, atol=1e-6)
+
+
+def test_rotvec_and_attitude_error():
+    rng = np.random.default_rng(1)
+    v = rng.normal(0, 0.5, (50, 3))
+    np.testing.assert_allclose(att.c_to_rotvec(att.rotvec_to_c(v)), v, atol=1e-12)
+    np.testing.assert_allclose(att.rotvec_to_c(v), Rotation.from_rotvec(v).as_matrix(), atol=1e-14)
+    c = att.c_bn_from_euler(0.1, 0.2, 0.3)
+    phi = np.array([1e-5, -2e-5, 3e-5])
+    c_est = (np.eye(3) - att.skew(phi)) @ c
+    np.testing.assert_allclose(att.attitude_error_rad(c_est, c), phi, atol=1e-12)
