@@ -18,25 +18,25 @@ def _triad(a, b):
     return np.column_stack([e1, e2, np.cross(e1, e2)])
 
 
-def coarse_align(dtheta_rad, dvel_mps, lat_rad: float, c_sb=None, turntable_rad=None):
+def coarse_align(dtheta_rad, dvel_mps, lat_rad: float, c_bs=None, turntable_rad=None):
     """C_b^n from the mean specific force and angular rate of a static stretch.
 
     Parameters
     ----------
     dtheta_rad, dvel_mps : (K, 3) increments of the static stretch in the sensor frame.
     lat_rad : latitude.
-    c_sb : optional (K, 3, 3) C_s^b per sample (rotating IMU): increments are taken to b first.
+    c_bs : optional (K, 3, 3) C_b^s per sample (rotating IMU): increments are taken to b first.
     turntable_rad : optional (K,) encoder angle; its change is removed from the b-frame rate.
 
     Returns
     -------
-    c_bn : (3, 3) body attitude. With s = b this is C_s^n.
+    c_bn : (3, 3) body attitude C_b^n. With s = b this is C_s^n.
     """
     dth = np.asarray(dtheta_rad, float)
     dv = np.asarray(dvel_mps, float)
-    if c_sb is not None:
-        dth = np.einsum("kij,kj->ki", c_sb, dth)
-        dv = np.einsum("kij,kj->ki", c_sb, dv)
+    if c_bs is not None:  # C_s^b = (C_b^s)ᵀ
+        dth = np.einsum("kji,kj->ki", c_bs, dth)
+        dv = np.einsum("kji,kj->ki", c_bs, dv)
         if turntable_rad is not None:
             deta = np.diff(np.unwrap(turntable_rad), prepend=turntable_rad[0])
             dth[:, 2] -= deta

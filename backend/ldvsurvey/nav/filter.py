@@ -117,7 +117,7 @@ class NavSolution:
     v_n: np.ndarray  # (N, 3)
     pos: np.ndarray  # (N, 3) lat_rad, lon_rad, h_m
     sigma: np.ndarray  # (N, 9): φ E/N/U (rad), δv (m/s), δp E/N/U (m)
-    c_sb: np.ndarray | None
+    c_bs: np.ndarray | None
     smoothed: bool
     ldv_params: dict  # name -> (value, sigma)
     gyro_bias_rps: np.ndarray
@@ -131,12 +131,12 @@ class NavSolution:
     epoch_cov: np.ndarray | None = None  # (M+1, n, n) when keep_cov
 
     def c_bn(self) -> np.ndarray:
-        """Body attitude C_b^n at every sample (C_s^n C_s^b for a rotating IMU)."""
+        """Body attitude C_b^n at every sample (C_s^n C_b^s for a rotating IMU)."""
         c = c_from_q(self.q_sn)
-        return c if self.c_sb is None else c @ self.c_sb
+        return c if self.c_bs is None else c @ self.c_bs
 
 
-def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gnss, c_sb):
+def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gnss, c_bs):
     decim = max(1, int(round(1.0 / (cfg.rate_hz * np.median(np.diff(t))))))
     m = n_s // decim
     aug = [a for a in AUG_NAMES if a in cfg.ldv_aug]
@@ -182,16 +182,16 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
         g_pos = np.ascontiguousarray(np.column_stack([gnss.lat_rad[ok], gnss.lon_rad[ok], gnss.h_m[ok]]))
         g_sig = np.ascontiguousarray(np.column_stack([gnss.sigma_h_m[ok], gnss.sigma_v_m[ok]]))
         l_g = np.asarray(gnss.lever_arm_m, float)
-    if c_sb is None:
-        c_sb_arr = np.broadcast_to(np.eye(3), (n_s, 3, 3))
+    if c_bs is None:
+        c_bs_arr = np.broadcast_to(np.eye(3), (n_s, 3, 3))
     else:
-        c_sb_arr = c_sb
+        c_bs_arr = c_bs
     return (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_sb_arr, dtype=float))
+            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float))
 
 
 def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cfg: FilterConfig | None = None,
-               c_sb=None, zupt_intervals=(), ldv: LdvAid | None = None, gnss: GnssAid | None = None,
+               c_bs=None, zupt_intervals=(), ldv: LdvAid | None = None, gnss: GnssAid | None = None,
                gravity=None, smooth: bool = True, bias0=None, keep_cov: bool = False) -> NavSolution:
     """Forward closed-loop filter, then (optionally) the RTS smoother.
 
@@ -199,7 +199,7 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     ----------
     t_s : (N,) end times of the increments (s). dtheta_rad, dvel_mps : (N, 3) in the sensor frame.
     q0_sn : initial C_s^n quaternion at the start of the first interval. v0_n (m/s), pos0 [lat, lon rad, h m].
-    c_sb : (N, 3, 3) C_s^b per sample for a rotating IMU (None: s = b).
+    c_bs : (N, 3, 3) C_b^s per sample for a rotating IMU (None: s = b); C_b^n = C_s^n C_b^s.
     zupt_intervals : [(t_start, t_end)] in s where the vehicle stands still.
     gravity : optional (xi_rad, eta_rad, dg_mps2) per sample for the gravity model.
     """
@@ -207,12 +207,12 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     t = np.ascontiguousarray(t_s, dtype=float)
     n_s = len(t)
     (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-     g_t, g_pos, g_sig, l_g, c_sb_arr) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_sb)
+     g_t, g_pos, g_sig, l_g, c_bs_arr) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
     (q, v, p, phis, pplus, dts, dxs, par, bias, nis, rej) = kfloop.forward(
-        t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_sb_arr,
+        t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr,
         np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), xi, eta, dg,
         decim, p0, qd, zupt, cfg.zupt_sigma_mps, ldv_ok, nu_f, nu_u, par0, l_ldv,
         np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0)
@@ -240,7 +240,7 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     jb = 0 if smooth else -1
     gyro_b = bias[jb, :3] + xs[jb, 9:12]
     acc_b = bias[jb, 3:] + xs[jb, 12:15]
-    return NavSolution(t_s=t, q_sn=q, v_n=v, pos=p, sigma=sigma, c_sb=c_sb, smoothed=smooth,
+    return NavSolution(t_s=t, q_sn=q, v_n=v, pos=p, sigma=sigma, c_bs=c_bs, smoothed=smooth,
                        ldv_params=ldv_params, gyro_bias_rps=gyro_b, accel_bias_mps2=acc_b,
                        epoch_t_s=ep_t, epoch_sigma=sig_ep, normalized_innovations=nis,
                        rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},

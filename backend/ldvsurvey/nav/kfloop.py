@@ -22,9 +22,14 @@ from ldvsurvey.nav.errmodel import build_f, c_db, discretize, skew_nb
 from ldvsurvey.nav.mech import mech_step
 
 
+MAX_REJECT_RUN = 5  #: epochs of consecutive rejections after which a measurement is taken anyway
+
+
 @nb.njit(cache=True)
 def _scalar_update(x, P, h, z, r, gate):
-    """One scalar measurement z = h·x + noise(r). Returns accepted (bool) and normalized innovation."""
+    """One scalar measurement z = h·x + noise(r). Returns accepted (bool) and normalized innovation.
+
+    ``gate`` ≤ 0 accepts every measurement."""
     ph = P @ h
     s = h @ ph + r
     nu = z - h @ x
@@ -37,7 +42,7 @@ def _scalar_update(x, P, h, z, r, gate):
 
 
 @nb.njit(cache=True)
-def forward(t, dth, dvel, c_sb, q0, v0, pos0, xi, eta, dg,
+def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             decim, p0, qd, zupt_epoch, zupt_sigma,
             ldv_ok, nu_f, nu_u, ldv_par0, l_ldv, ldv_sigma, ldv_up, aug_idx,
             g_t, g_pos, g_sig, l_gnss, gate, bias0):
@@ -56,6 +61,7 @@ def forward(t, dth, dvel, c_sb, q0, v0, pos0, xi, eta, dg,
     bias_out = np.empty((m + 1, 6))
     nis = np.full((m + 1, 9), np.nan)  # normalized innovations: zupt(3), ldv(3), gnss(3)
     rejected = np.zeros(3, dtype=np.int64)
+    run = np.zeros(3, dtype=np.int64)  # consecutive epochs with a rejection, per measurement type
 
     q, v, pos = q0.copy(), v0.copy(), pos0.copy()
     v_prev, pos_prev = v.copy(), pos.copy()
@@ -86,7 +92,7 @@ def forward(t, dth, dvel, c_sb, q0, v0, pos0, xi, eta, dg,
     gz = np.zeros(3)
     gc = np.eye(3)
     gsig = np.zeros(2)
-    c_bn_prev = q_to_c(q) @ c_sb[0]
+    c_bn_prev = q_to_c(q) @ c_bs[0]
     j = 0
     for k in range(n_s):
         dt = t[k] - t_prev
@@ -103,7 +109,7 @@ def forward(t, dth, dvel, c_sb, q0, v0, pos0, xi, eta, dg,
         dth_prev, dv_prev = a_th, a_dv
         fsum += f_n * dt
         c_sn = q_to_c(q)
-        c_bn = c_sn @ c_sb[k]
+        c_bn = c_sn @ c_bs[k]
         if ldv_ok[k]:
             vd = np.array([0.0, nu_f[k] * par[0], (nu_u[k] * par[3]) if ldv_up else 0.0])
             cdb = c_db(par[1], par[2])
@@ -150,13 +156,17 @@ def forward(t, dth, dvel, c_sb, q0, v0, pos0, xi, eta, dg,
         dts[j] = T
         x = np.zeros(n)
         if zupt_epoch[j]:
+            g_eff = gate if run[0] < MAX_REJECT_RUN else 0.0
+            any_rej = False
             for i in range(3):
                 h = np.zeros(n)
                 h[3 + i] = 1.0
-                ok, nz = _scalar_update(x, P, h, v[i], zupt_sigma ** 2, gate)
+                ok, nz = _scalar_update(x, P, h, v[i], zupt_sigma ** 2, g_eff)
                 nis[j, i] = nz
                 if not ok:
                     rejected[0] += 1
+                    any_rej = True
+            run[0] = run[0] + 1 if any_rej else 0
         if ln > 0:
             z = lz / ln
             v_l = lvl / ln
@@ -169,6 +179,8 @@ def forward(t, dth, dvel, c_sb, q0, v0, pos0, xi, eta, dg,
             cols[:, 2] = -cb @ cross(np.array([0.0, 0.0, 1.0]), cdb @ vd)
             cols[:, 3] = -cb @ (cdb @ np.array([0.0, 0.0, lnu[1] / ln]))
             hphi = -skew_nb(v_l)
+            g_eff = gate if run[1] < MAX_REJECT_RUN else 0.0
+            any_rej = False
             for i in range(3):
                 h = np.zeros(n)
                 h[0:3] = hphi[i]
@@ -176,21 +188,27 @@ def forward(t, dth, dvel, c_sb, q0, v0, pos0, xi, eta, dg,
                 for a in range(4):
                     if aug_idx[a] >= 0:
                         h[aug_idx[a]] = cols[i, a]
-                ok, nz = _scalar_update(x, P, h, z[i], ldv_sigma[i] ** 2 / ln, gate)
+                ok, nz = _scalar_update(x, P, h, z[i], ldv_sigma[i] ** 2 / ln, g_eff)
                 nis[j, 3 + i] = nz
                 if not ok:
                     rejected[1] += 1
+                    any_rej = True
+            run[1] = run[1] + 1 if any_rej else 0
         if g_pending:
             hphi = skew_nb(gc @ l_gnss)
+            g_eff = gate if run[2] < MAX_REJECT_RUN else 0.0
+            any_rej = False
             for i in range(3):
                 h = np.zeros(n)
                 h[0:3] = hphi[i]
                 h[6 + i] = 1.0
                 sig = gsig[0] if i < 2 else gsig[1]
-                ok, nz = _scalar_update(x, P, h, gz[i], sig * sig, gate)
+                ok, nz = _scalar_update(x, P, h, gz[i], sig * sig, g_eff)
                 nis[j, 6 + i] = nz
                 if not ok:
                     rejected[2] += 1
+                    any_rej = True
+            run[2] = run[2] + 1 if any_rej else 0
             g_pending = False
         P = 0.5 * (P + P.T)
         # ---- feedback ----
@@ -212,7 +230,7 @@ def forward(t, dth, dvel, c_sb, q0, v0, pos0, xi, eta, dg,
             par[2] -= x[aug_idx[2]]
         if aug_idx[3] >= 0:
             par[3] -= x[aug_idx[3]]
-        c_bn_prev = q_to_c(q) @ c_sb[k]
+        c_bn_prev = q_to_c(q) @ c_bs[k]
         dxs[j] = x
         pplus[j] = P
         par_out[j] = par

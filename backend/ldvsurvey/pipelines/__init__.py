@@ -1,0 +1,1 @@
+"""Pipelines: one plain function per pipeline (inputs + parameters + progress → result)."""

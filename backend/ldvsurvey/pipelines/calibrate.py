@@ -1,0 +1,45 @@
+"""``calibrate``: LDV mounting pitch η_L, heading φ_L and scale K against the GNSS track (methods §1)."""
+
+from __future__ import annotations
+
+from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.prep import c_bs_of, nav_inputs
+from ldvsurvey.pipelines.stages import RAD, calibration_stage, tilt_stage
+
+PARAMS = [
+    Param("calibration_window", "floats", None, "t0,t1 in s of the stretch to use (default: the longest "
+          "good-GNSS moving stretch)"),
+]
+
+
+def run(logs, params, progress) -> PipelineResult:
+    log = logs[0]
+    progress("preparing", 0.02)
+    inp = nav_inputs(log)
+    window = params["calibration_window"]
+    if window is not None and len(window) != 2:
+        from ldvsurvey.errors import ParameterError
+
+        raise ParameterError("give two times: calibration_window=t0,t1", field="calibration_window")
+    cbs = None
+    extra = {}
+    if inp.eta_rad is not None:
+        progress("base tilt of the rotating IMU", 0.05)
+        est, _ = tilt_stage(inp)
+        cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
+        extra = {"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad}
+    cal = calibration_stage(inp, cbs, window, progress)
+    s = {
+        "ldv_pitch_deg": cal.pitch_rad / RAD, "ldv_pitch_deg_sigma": cal.sigma["pitch"] / RAD,
+        "ldv_heading_deg": cal.heading_rad / RAD, "ldv_heading_deg_sigma": cal.sigma["heading"] / RAD,
+        "ldv_scale": cal.scale, "ldv_scale_sigma": cal.sigma["scale"],
+        "segment_t_s": list(cal.window_s), "method": "kalman filter with LDV states (closed form beside)",
+        "closed_form": cal.closed_form, **extra,
+    }
+    if inp.nu_u_mps is not None:
+        s["ldv_scale_up"] = cal.scale_up
+        s["ldv_scale_up_sigma"] = cal.sigma["scale_up"]
+    return PipelineResult(summary=s, tables={"calibration_track": cal.track})
+
+
+PIPELINE = Pipeline("calibrate", run, PARAMS, "LDV mounting angles and scale factor against GNSS")

@@ -1,0 +1,141 @@
+"""``height``: 1-D LDV height through the calibrated mounting and the tilt-compensated attitude (methods §3).
+
+V_U = third row of C_b^n times V^b, V^b = C_d^b(η_L, φ_L) [0, v_fwd/K, (v_up/K_u)]; h(t) = h(t0) + ∫ V_U dt
+(trapezoid at the LDV rate), with the LDV lever arm's vertical change removed so h refers to the IMU centre.
+``h_uncompensated_m`` is the same chain run with α = β = 0 (what one gets without tilt compensation).
+Judged against GNSS ellipsoidal height at fix 4 or 2, brought from the antenna to the IMU centre.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ldvsurvey.nav.errmodel import c_db
+from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, c_bs_of, ldv_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.stages import RAD, calibration_stage, tilt_stage
+
+PARAMS = [
+    Param("calibration", "str", "auto", "auto: calibrate the LDV against GNSS in this log; nominal: use the "
+          "manifest's nominal mounting; given values of ldv_* always win", choices=("auto", "nominal")),
+    Param("calibration_window", "floats", None, "t0,t1 in s for the automatic calibration"),
+    Param("ldv_pitch_deg", "float", None, "LDV mounting pitch η_L"),
+    Param("ldv_heading_deg", "float", None, "LDV mounting heading φ_L"),
+    Param("ldv_scale", "float", None, "LDV scale factor K"),
+    Param("initial_h_m", "float", None, "height of the IMU centre at the start (default: manifest, else GNSS)"),
+    Param("output_rate_hz", "float", 100.0, "rate of height.csv"),
+]
+
+
+def integrate_height(t_l, c_bn_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0):
+    """Height (m) of the IMU centre at the LDV times by trapezoidal integration of V_U."""
+    vd = np.column_stack([np.zeros_like(nu_f), nu_f / scale, (nu_u / scale_up) if nu_u is not None else 0 * nu_f])
+    v_b = vd @ c_db(pitch, heading).T
+    v_u = np.einsum("kj,kj->k", c_bn_l[:, 2, :], v_b)
+    v_u = np.interp(t_l, t_l[ok], v_u[ok])  # bridge samples below min_quality
+    h = h0 + np.concatenate([[0.0], np.cumsum(0.5 * (v_u[1:] + v_u[:-1]) * np.diff(t_l))])
+    lev_u = c_bn_l[:, 2, :] @ np.asarray(lever, float)
+    return h + lev_u[0] - lev_u
+
+
+def error_stats(err: np.ndarray) -> dict:
+    if len(err) == 0:
+        return {"max": None, "std": None, "rms": None}
+    i = int(np.argmax(np.abs(err)))
+    return {"max": float(err[i]), "std": float(np.std(err)), "rms": float(np.sqrt(np.mean(err ** 2)))}
+
+
+def run(logs, params, progress) -> PipelineResult:
+    log = logs[0]
+    m = log.manifest
+    warnings = []
+    progress("preparing", 0.02)
+    inp = nav_inputs(log)
+    est = None
+    cbs = None
+    if inp.eta_rad is not None:
+        progress("base tilt of the rotating IMU", 0.05)
+        est, _ = tilt_stage(inp)
+        cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
+    given = {k: params[k] for k in ("ldv_pitch_deg", "ldv_heading_deg", "ldv_scale") if params[k] is not None}
+    cal_info = {"source": "nominal"}
+    pitch, heading, scale, scale_up = (m.ldv.nominal.pitch_deg * RAD, m.ldv.nominal.heading_deg * RAD,
+                                       m.ldv.nominal.scale, 1.0)
+    if params["calibration"] == "auto" and len(given) < 3:
+        if log.gnss is None:
+            warnings.append("no GNSS: the LDV is used with its nominal mounting (no calibration)")
+        else:
+            progress("LDV calibration against GNSS", 0.15)
+            cal = calibration_stage(inp, cbs, params["calibration_window"])
+            pitch, heading, scale, scale_up = cal.pitch_rad, cal.heading_rad, cal.scale, cal.scale_up
+            cal_info = {"source": "calibrate", "segment_t_s": list(cal.window_s)}
+    if "ldv_pitch_deg" in given:
+        pitch = given["ldv_pitch_deg"] * RAD
+    if "ldv_heading_deg" in given:
+        heading = given["ldv_heading_deg"] * RAD
+    if "ldv_scale" in given:
+        scale = given["ldv_scale"]
+    if given:
+        cal_info["given"] = given
+    cal_info.update({"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale})
+    progress("navigation (INS/LDV, no GNSS)", 0.5)
+    aid = ldv_aid(inp, scale=scale, pitch_rad=pitch, heading_rad=heading)
+    sol = navigate(inp, cbs=cbs, ldv=aid)
+    c_bn = sol.c_bn()
+    sol_raw = sol
+    if est is not None:  # the same chain without the tilt compensation (α = β = 0)
+        progress("navigation without the tilt compensation", 0.7)
+        sol_raw = navigate(inp, cbs=c_bs_of(inp, 0.0, 0.0), ldv=aid)
+    progress("height integration", 0.85)
+    ldv = log.ldv
+    t_l = ldv.t_s
+    ok = np.ones(len(t_l), bool)
+    if ldv.quality is not None and m.ldv.min_quality is not None:
+        ok = ldv.quality >= m.ldv.min_quality
+    inside = (t_l >= inp.t_s[0]) & (t_l <= inp.t_s[-1])
+    t_l, ok = t_l[inside], ok[inside]
+    nu_f = ldv.v_fwd_mps[inside]
+    nu_u = ldv.v_up_mps[inside] if ldv.v_up_mps is not None else None
+    h0 = params["initial_h_m"] if params["initial_h_m"] is not None else float(inp.pos0[2])
+    lever = m.ldv.lever_arm_m
+    c_l = attitude_at(sol, t_l, c_bn)
+    h = integrate_height(t_l, c_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0)
+    c_l_raw = attitude_at(sol_raw, t_l) if est is not None else c_l
+    h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0)
+    # GNSS reference (fix 4 or 2) at the IMU centre
+    summary = {"calibration": cal_info, "aiding": "ldv", "tilt_compensated": est is not None}
+    if est is not None:
+        summary.update({"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad})
+    h_gnss_col = np.full(len(t_l), np.nan)
+    fix_col = np.zeros(len(t_l))
+    g = log.gnss
+    if g is not None:
+        ref = np.isin(g.fix, (4, 2)) & np.isfinite(g.h_m) & (g.t_s >= t_l[0]) & (g.t_s <= t_l[-1])
+        h_ref = antenna_to_imu_h(log, attitude_at(sol, g.t_s, c_bn))
+        err = np.interp(g.t_s[ref], t_l, h) - h_ref[ref]
+        err_raw = np.interp(g.t_s[ref], t_l, h_raw) - h_ref[ref]
+        st, st_raw = error_stats(err), error_stats(err_raw)
+        summary.update({"max_error_m": st["max"], "std_error_m": st["std"], "rms_error_m": st["rms"],
+                        "n_reference": int(ref.sum()), "max_error_m_uncompensated": st_raw["max"],
+                        "std_error_m_uncompensated": st_raw["std"], "rms_error_m_uncompensated": st_raw["rms"]})
+        j = np.clip(np.searchsorted(t_l, g.t_s), 0, len(t_l) - 1)
+        j0 = np.clip(j - 1, 0, len(t_l) - 1)
+        j = np.where(np.abs(t_l[j0] - g.t_s) < np.abs(t_l[j] - g.t_s), j0, j)
+        near = np.abs(t_l[j] - g.t_s) <= 0.5 / m.ldv.rate_hz + 1e-9
+        h_gnss_col[j[near & ref]] = h_ref[near & ref]
+        fix_col[j[near]] = g.fix[near]
+    else:
+        warnings.append("no GNSS in the bundle: no reference to judge the height against")
+        summary.update({"max_error_m": None, "std_error_m": None, "rms_error_m": None, "n_reference": 0,
+                        "max_error_m_uncompensated": None, "std_error_m_uncompensated": None,
+                        "rms_error_m_uncompensated": None})
+    step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(t_l))))))
+    keep = np.zeros(len(t_l), bool)
+    keep[::step] = True
+    keep |= np.isfinite(h_gnss_col)  # every reference row stays
+    table = {"t_s": t_l[keep], "h_m": h[keep], "h_uncompensated_m": h_raw[keep], "h_gnss_m": h_gnss_col[keep],
+             "fix_quality": fix_col[keep].astype(int)}
+    return PipelineResult(summary=summary, tables={"height": table}, warnings=warnings)
+
+
+PIPELINE = Pipeline("height", run, PARAMS, "Height from the 1-D LDV and the (tilt-compensated) INS attitude")

@@ -1,0 +1,182 @@
+"""From a parsed bundle to navigation inputs: aids, static periods, alignment, navigation runs.
+
+Shared by the pipelines. Knows the bundle model and the numerical core, nothing of storage.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ldvsurvey.errors import ParameterError
+from ldvsurvey.io.drivelog import DriveLog
+from ldvsurvey.nav.align import coarse_align
+from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
+from ldvsurvey.nav.earth import radii
+from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, run_filter
+
+RAD = np.pi / 180.0
+#: fix quality -> 1-σ (horizontal, vertical) in m assumed for a survey receiver
+GNSS_SIGMA = {4: (0.03, 0.05), 5: (0.3, 0.5), 2: (1.0, 2.0), 1: (3.0, 5.0)}
+
+
+@dataclass
+class NavInputs:
+    """Everything a navigation run needs from one bundle (SI units, radians)."""
+
+    log: DriveLog
+    t_s: np.ndarray
+    dtheta_rad: np.ndarray
+    dvel_mps: np.ndarray
+    eta_rad: np.ndarray | None  # turntable angle per IMU sample (unwrapped)
+    ldv_ok: np.ndarray  # LDV usable at each IMU sample
+    nu_f_mps: np.ndarray  # measured forward speed at the IMU samples
+    nu_u_mps: np.ndarray | None
+    still: list[tuple[float, float]]  # intervals where the vehicle stands still
+    static_end_s: float
+    pos0: np.ndarray  # lat, lon (rad), h (m) of the IMU centre at the start
+    noise: ImuNoise
+
+
+def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
+    ldv = log.ldv
+    t = ldv.t_s
+    ok_l = np.ones(len(t), bool)
+    mq = log.manifest.ldv.min_quality
+    if ldv.quality is not None and mq is not None:
+        ok_l = ldv.quality >= mq
+    tg, vf = t[ok_l], ldv.v_fwd_mps[ok_l]
+    if len(tg) < 2:
+        raise ParameterError("the LDV has fewer than two samples above min_quality", field="ldv.csv")
+    nu_f = np.interp(t_imu, tg, vf)
+    nu_u = np.interp(t_imu, tg, ldv.v_up_mps[ok_l]) if ldv.v_up_mps is not None else None
+    # usable where the nearest good samples on both sides are close
+    rate = log.manifest.ldv.rate_hz
+    j = np.clip(np.searchsorted(tg, t_imu), 1, len(tg) - 1)
+    gap = tg[j] - tg[j - 1]
+    ok = (t_imu >= tg[0]) & (t_imu <= tg[-1]) & (gap <= 3.0 / rate + 1e-6)
+    return ok, nu_f, nu_u
+
+
+def _still_intervals(t, speed, ok, min_len_s=3.0, thresh=0.03):
+    """Intervals (s) where the LDV speed stays below ``thresh`` m/s for at least ``min_len_s``."""
+    still = ok & (np.abs(speed) < thresh)
+    out = []
+    edges = np.flatnonzero(np.diff(np.r_[0, still.astype(int), 0]))
+    for a, b in zip(edges[::2], edges[1::2]):
+        if t[b - 1] - t[a] >= min_len_s:
+            out.append((float(t[a]) + 0.5, float(t[b - 1]) - 0.5))
+    return out
+
+
+def nav_inputs(log: DriveLog) -> NavInputs:
+    """Prepare the navigation inputs of a bundle (detects still periods, finds the start position)."""
+    imu = log.imu
+    t = imu.t_s
+    m = log.manifest
+    eta = np.unwrap(np.radians(imu.turntable_deg)) if imu.turntable_deg is not None else None
+    ok, nu_f, nu_u = _interp_ldv(log, t)
+    still = _still_intervals(t, nu_f, ok)
+    static_s = m.initial.static_s
+    if static_s is None:
+        first = still[0] if still and still[0][0] <= t[0] + 5.0 else None
+        if first is None:
+            raise ParameterError("no static period at the start (manifest initial.static_s not given and the "
+                                 "LDV shows motion from the start)", field="initial.static_s")
+        static_end = first[1]
+    else:
+        static_end = float(t[0] + static_s)
+        if static_s < 30.0:
+            raise ParameterError("the static period is shorter than 30 s: too short to align",
+                                 file="manifest.json", field="initial.static_s")
+        still = [(a, b) for a, b in still if b > static_end + 1.0 or a > static_end]
+        still = [(float(t[0]), static_end)] + [(max(a, static_end), b) for a, b in still]
+    # start position: manifest, else the first GNSS fix
+    if m.initial.lat_deg is not None and m.initial.lon_deg is not None and m.initial.h_m is not None:
+        pos0 = np.array([m.initial.lat_deg * RAD, m.initial.lon_deg * RAD, m.initial.h_m])
+    else:
+        g = log.gnss
+        if g is None or not np.any(g.fix > 0):
+            raise ParameterError("no start position: give manifest initial.lat_deg/lon_deg/h_m or a GNSS fix",
+                                 file="manifest.json", field="initial")
+        k = int(np.flatnonzero(g.fix > 0)[0])
+        pos0 = np.array([g.lat_deg[k] * RAD, g.lon_deg[k] * RAD, g.h_m[k] - m.gnss.lever_arm_m[2]])
+    return NavInputs(log=log, t_s=t, dtheta_rad=imu.dtheta_rad, dvel_mps=imu.dvel_mps, eta_rad=eta,
+                     ldv_ok=ok, nu_f_mps=nu_f, nu_u_mps=nu_u, still=still, static_end_s=static_end,
+                     pos0=pos0, noise=ImuNoise.from_manifest(m.imu))
+
+
+def c_bs_of(inp: NavInputs, alpha_rad: float = 0.0, beta_rad: float = 0.0):
+    """C_b^s(η, α, β) per sample for a rotating IMU (None for a fixed one)."""
+    if inp.eta_rad is None:
+        return None
+    return np.ascontiguousarray(c_bs(inp.eta_rad, alpha_rad, beta_rad))
+
+
+def initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
+    """Coarse alignment over the static period: C_s^n at the start of the log."""
+    k = inp.t_s <= inp.static_end_s
+    if k.sum() < 100:
+        raise ParameterError("the static period holds fewer than 100 IMU samples", field="initial.static_s")
+    c_bn = coarse_align(inp.dtheta_rad[k], inp.dvel_mps[k], inp.pos0[0],
+                        c_bs=None if cbs is None else cbs[k],
+                        turntable_rad=None if inp.eta_rad is None else inp.eta_rad[k])
+    return c_bn if cbs is None else c_bn @ cbs[0].T  # C_s^n = C_b^n (C_b^s)ᵀ
+
+
+def gnss_aid(log: DriveLog, fixes=(4, 2, 5, 1), window=None) -> GnssAid | None:
+    """GNSS antenna fixes of the accepted qualities (optionally within a time window)."""
+    g = log.gnss
+    if g is None:
+        return None
+    keep = np.isin(g.fix, fixes) & np.isfinite(g.lat_deg)
+    if window is not None:
+        keep &= (g.t_s >= window[0]) & (g.t_s <= window[1])
+    if not keep.any():
+        return None
+    sig = np.array([GNSS_SIGMA.get(int(f), (np.nan, np.nan)) for f in g.fix[keep]])
+    return GnssAid(g.t_s[keep], g.lat_deg[keep] * RAD, g.lon_deg[keep] * RAD, g.h_m[keep], sig[:, 0], sig[:, 1],
+                   tuple(log.manifest.gnss.lever_arm_m))
+
+
+def ldv_aid(inp: NavInputs, scale=None, pitch_rad=None, heading_rad=None, scale_up=1.0) -> LdvAid:
+    """LDV aid with the given (or the manifest's nominal) mounting and scale."""
+    nom = inp.log.manifest.ldv.nominal
+    return LdvAid(inp.ldv_ok, inp.nu_f_mps, inp.nu_u_mps,
+                  scale=nom.scale if scale is None else scale,
+                  pitch_rad=nom.pitch_deg * RAD if pitch_rad is None else pitch_rad,
+                  heading_rad=nom.heading_deg * RAD if heading_rad is None else heading_rad,
+                  scale_up=scale_up, lever_arm_m=tuple(inp.log.manifest.ldv.lever_arm_m))
+
+
+def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssAid | None = None,
+             cfg: FilterConfig | None = None, smooth: bool = True, zupt: bool = True) -> NavSolution:
+    """Coarse alignment then the filter (ZUPT in still periods) with the given aids."""
+    q0 = q_from_c(initial_attitude(inp, cbs))
+    cfg = cfg or FilterConfig(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD))
+    return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q0, np.zeros(3), inp.pos0, inp.noise, cfg,
+                      c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth)
+
+
+def antenna_to_imu_h(log: DriveLog, c_bn_at_fix: np.ndarray) -> np.ndarray:
+    """Ellipsoidal heights of the GNSS fixes brought from the antenna to the IMU centre (m)."""
+    lever = np.asarray(log.manifest.gnss.lever_arm_m, float)
+    return log.gnss.h_m - (c_bn_at_fix @ lever)[:, 2]
+
+
+def attitude_at(sol: NavSolution, t_s: np.ndarray, c_bn_all: np.ndarray | None = None) -> np.ndarray:
+    """C_b^n at arbitrary times (nearest-neighbour quaternion interpolation, then normalised mix)."""
+    c_all = sol.c_bn() if c_bn_all is None else c_bn_all
+    q = q_from_c(c_all)
+    # keep the quaternion sign continuous before interpolating
+    flip = np.cumprod(np.where(np.sum(q[1:] * q[:-1], axis=1) < 0, -1.0, 1.0))
+    q[1:] *= flip[:, None]
+    qi = np.column_stack([np.interp(t_s, sol.t_s, q[:, i]) for i in range(4)])
+    return c_from_q(qi)
+
+
+def local_metres(lat0, lon0, lat, lon):
+    """Small-area East/North offsets (m) from a reference (rad)."""
+    rm, rn = radii(lat0)
+    return (lon - lon0) * rn * np.cos(lat0), (lat - lat0) * rm

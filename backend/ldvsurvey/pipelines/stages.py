@@ -1,0 +1,195 @@
+"""Stages shared by several pipelines: base-tilt estimation and LDV calibration."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ldvsurvey.errors import ParameterError
+from ldvsurvey.nav.errmodel import c_db
+from ldvsurvey.nav.filter import FilterConfig
+from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
+from ldvsurvey.pipelines.prep import NavInputs, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate
+
+RAD = np.pi / 180.0
+ARCSEC = RAD / 3600.0
+
+
+def static_part(inp: NavInputs) -> NavInputs:
+    """The inputs cut to the static period at the start."""
+    k = inp.t_s <= inp.static_end_s
+    return NavInputs(log=inp.log, t_s=inp.t_s[k], dtheta_rad=inp.dtheta_rad[k], dvel_mps=inp.dvel_mps[k],
+                     eta_rad=None if inp.eta_rad is None else inp.eta_rad[k], ldv_ok=inp.ldv_ok[k],
+                     nu_f_mps=inp.nu_f_mps[k], nu_u_mps=None if inp.nu_u_mps is None else inp.nu_u_mps[k],
+                     still=[(inp.t_s[0] - 1.0, inp.static_end_s)], static_end_s=inp.static_end_s,
+                     pos0=inp.pos0, noise=inp.noise)
+
+
+def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
+    """Estimate (α, β) from the stops 180° apart during the static period.
+
+    The sensor attitude comes from the smoothed zero-velocity filter over the static period,
+    which also calibrates the horizontal accelerometer biases (the rotation makes them observable).
+    """
+    if inp.eta_rad is None:
+        raise ParameterError("the IMU does not rotate (manifest imu.rotating is false, no turntable_deg)",
+                             file="imu.csv", field="turntable_deg")
+    st = static_part(inp)
+    stops = find_stops(st.t_s, st.eta_rad)
+    if len({round(np.degrees(s.eta_rad) % 360) for s in stops}) < 2:
+        raise ParameterError("no rotation of the turntable during the static period: the tilt needs stops "
+                             "180° apart while the vehicle stands still", file="imu.csv", field="turntable_deg")
+    cfg = FilterConfig(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD), rate_hz=10.0)
+    sol = navigate(st, cbs=c_bs_of(st), cfg=cfg, smooth=True)
+    c_sn = sol.c_bn() @ np.swapaxes(c_bs_of(st), -1, -2)  # back to C_s^n
+    level = float(np.median(sol.sigma[:, :2]))
+    est = estimate_tilt(st.t_s, c_sn, stops, st.still, level_sigma_rad=level)
+    if est is None:
+        raise ParameterError("no pair of turntable stops 180° apart while the vehicle stands still",
+                             file="imu.csv", field="turntable_deg")
+    return est, stops
+
+
+@dataclass
+class Calibration:
+    """LDV mounting and scale: values (rad, –) with 1-σ, from the KF; closed-form values beside."""
+
+    pitch_rad: float
+    heading_rad: float
+    scale: float
+    scale_up: float
+    sigma: dict
+    closed_form: dict
+    window_s: tuple[float, float]
+    track: dict  # calibration_track columns
+
+
+def choose_window(inp: NavInputs, window=None, min_distance_m: float = 500.0) -> tuple[float, float]:
+    """The calibration stretch: given, or the longest good-GNSS (fix 4/2) moving stretch."""
+    g = inp.log.gnss
+    if g is None:
+        raise ParameterError("calibration needs GNSS fixes (no gnss.nmea in the bundle)", file="gnss.nmea")
+    t0, t1 = float(inp.t_s[0]), float(inp.t_s[-1])
+    good = np.isin(g.fix, (4, 2)) & np.isfinite(g.lat_deg)
+    if window is not None:
+        a, b = window
+        if not (t0 <= a < b <= t1):
+            raise ParameterError(f"calibration_window [{a}, {b}] s is not inside the log [{t0:.2f}, {t1:.2f}] s",
+                                 field="calibration_window")
+        if np.count_nonzero(good & (g.t_s >= a) & (g.t_s <= b)) < 10:
+            raise ParameterError("fewer than 10 GNSS fixes of quality 4 or 2 in the calibration window",
+                                 field="calibration_window")
+        return float(a), float(b)
+    speed = np.interp(g.t_s, inp.t_s, np.abs(inp.nu_f_mps))
+    best, best_d = None, 0.0
+    idx = np.flatnonzero(good)
+    if len(idx) == 0:
+        raise ParameterError("no GNSS fix of quality 4 (RTK fixed) or 2 (differential) for the calibration",
+                             file="gnss.nmea", field="fix_quality")
+    runs = np.split(idx, np.flatnonzero(np.diff(g.t_s[idx]) > 2.5) + 1)
+    for r in runs:
+        mv = r[speed[r] > 1.0]
+        if len(mv) < 2:
+            continue
+        r = r[(r >= mv[0]) & (r <= mv[-1])]
+        e, n = local_metres(g.lat_deg[r[0]] * RAD, g.lon_deg[r[0]] * RAD, g.lat_deg[r] * RAD, g.lon_deg[r] * RAD)
+        d = float(np.sum(np.hypot(np.diff(e), np.diff(n))))
+        if d > best_d:
+            best, best_d = (float(g.t_s[r[0]]), float(g.t_s[r[-1]])), d
+    if best is None or best_d < min_distance_m:
+        raise ParameterError(f"no moving stretch with good GNSS (fix 4 or 2) of at least {min_distance_m:.0f} m "
+                             "for the calibration", file="gnss.nmea", field="fix_quality")
+    return best
+
+
+def _dead_reckon(t, c_bn, nu_f, nu_u, ok, scale, pitch, heading, scale_up):
+    """ENU positions (m) from LDV velocities through the attitude (trapezoid)."""
+    vd = np.column_stack([np.zeros_like(nu_f), nu_f / scale, (nu_u / scale_up) if nu_u is not None else 0 * nu_f])
+    v_n = np.einsum("kij,kj->ki", c_bn, vd @ c_db(pitch, heading).T)
+    v_n[~ok] = np.nan
+    good = np.isfinite(v_n[:, 0])
+    for i in range(3):  # bridge unusable LDV samples
+        v_n[:, i] = np.interp(t, t[good], v_n[good, i])
+    dt = np.diff(t)
+    return np.vstack([np.zeros(3), np.cumsum(0.5 * (v_n[1:] + v_n[:-1]) * dt[:, None], axis=0)])
+
+
+def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibration:
+    """Closed-form dead-reckoning comparison and the refined Kalman estimate (η_L, φ_L, K)."""
+    log = inp.log
+    a, b = choose_window(inp, window)
+    nom = log.manifest.ldv.nominal
+    up = inp.nu_u_mps is not None
+    # 1) attitude from a GNSS-aided INS (all good fixes), no LDV
+    if progress:
+        progress("calibration: GNSS/INS attitude", 0.1)
+    sol_g = navigate(inp, cbs=cbs, gnss=gnss_aid(log, fixes=(4, 2)), smooth=True)
+    c_bn = sol_g.c_bn()
+    k = (inp.t_s >= a) & (inp.t_s <= b)
+    t = inp.t_s[k]
+    g = log.gnss
+    gk = np.isin(g.fix, (4, 2)) & (g.t_s >= a) & (g.t_s <= b) & np.isfinite(g.lat_deg)
+    lev = np.asarray(log.manifest.gnss.lever_arm_m, float)
+    from ldvsurvey.pipelines.prep import attitude_at
+
+    c_fix = attitude_at(sol_g, g.t_s[gk], c_bn)
+    lev_n = c_fix @ lev
+    lat_r, lon_r = g.lat_deg[gk] * RAD, g.lon_deg[gk] * RAD
+    e, n = local_metres(lat_r[0], lon_r[0], lat_r, lon_r)
+    gpos = np.column_stack([e - lev_n[:, 0], n - lev_n[:, 1], g.h_m[gk] - lev_n[:, 2]])
+    gpos -= gpos[0]
+    # 2) closed form: similarity fit of the horizontal tracks, slope of the height residual
+    pitch, heading, scale = nom.pitch_deg * RAD, nom.heading_deg * RAD, nom.scale
+    nu_u = inp.nu_u_mps[k] if up else None
+    for _ in range(3):
+        dr = _dead_reckon(t, c_bn[k], inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], scale, pitch, heading, 1.0)
+        drg = np.column_stack([np.interp(g.t_s[gk], t, dr[:, i]) for i in range(3)])
+        drg -= drg[0]
+        d2 = drg[:, :2]
+        g2 = gpos[:, :2]
+        rho = np.arctan2(np.sum(d2[:, 0] * g2[:, 1] - d2[:, 1] * g2[:, 0]), np.sum(d2 * g2))
+        rot = np.array([[np.cos(rho), -np.sin(rho)], [np.sin(rho), np.cos(rho)]])
+        sig = np.sum(g2 * (d2 @ rot.T)) / np.sum(d2 * d2)
+        heading += rho
+        scale /= sig
+        dist = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(g2, axis=0).T))])
+        res_h = gpos[:, 2] - drg[:, 2]
+        slope = np.polyfit(dist, res_h, 1)[0]
+        pitch += np.arcsin(np.clip(slope, -1, 1))
+    res2 = g2 - sig * (d2 @ rot.T)
+    rms_h = float(np.sqrt(np.mean(res2 ** 2)))
+    span = float(np.sqrt(np.sum(d2 ** 2)))
+    n_pts = len(dist)
+    resid_v = res_h - np.polyval(np.polyfit(dist, res_h, 1), dist)
+    closed = {"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale,
+              "ldv_pitch_deg_sigma": float(np.std(resid_v) / np.sqrt(np.sum((dist - dist.mean()) ** 2)) / RAD),
+              "ldv_heading_deg_sigma": rms_h / span / RAD, "ldv_scale_sigma": rms_h / span * scale,
+              "n_fixes": int(n_pts)}
+    # 3) refined: the filter with the LDV states augmented, GNSS only in the window
+    if progress:
+        progress("calibration: Kalman filter with LDV states", 0.5)
+    aug = ("scale", "pitch", "heading") + (("scale_up",) if up else ())
+    cfg = FilterConfig(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD), ldv_aug=aug)
+    sol = navigate(inp, cbs=cbs, ldv=ldv_aid(inp), gnss=gnss_aid(log, fixes=(4, 2), window=(a, b)), cfg=cfg)
+    p = sol.ldv_params
+    cal = Calibration(pitch_rad=p["pitch"][0], heading_rad=p["heading"][0], scale=p["scale"][0],
+                      scale_up=p["scale_up"][0] if up else 1.0,
+                      sigma={"pitch": p["pitch"][1], "heading": p["heading"][1], "scale": p["scale"][1],
+                             "scale_up": p["scale_up"][1] if up else 0.0},
+                      closed_form=closed, window_s=(a, b), track={})
+    # 4) the calibrated dead-reckoning track over the window, from the first fix
+    dr = _dead_reckon(t, c_bn[k], inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], cal.scale, cal.pitch_rad,
+                      cal.heading_rad, cal.scale_up)
+    t_first = g.t_s[gk][0]
+    dr -= np.column_stack([np.interp(t_first, t, dr[:, i]) for i in range(3)])
+    from ldvsurvey.nav.earth import radii
+
+    rm, rn = radii(lat_r[0])
+    lat = lat_r[0] - lev_n[0, 1] / rm + dr[:, 1] / rm
+    lon = lon_r[0] - lev_n[0, 0] / (rn * np.cos(lat_r[0])) + dr[:, 0] / (rn * np.cos(lat_r[0]))
+    h = g.h_m[gk][0] - lev_n[0, 2] + dr[:, 2]
+    step = max(1, int(round(0.1 / np.median(np.diff(t)))))  # 10 Hz
+    cal.track = {"t_s": t[::step], "lat_deg": np.degrees(lat[::step]), "lon_deg": np.degrees(lon[::step]),
+                 "h_m": h[::step]}
+    return cal
