@@ -17,6 +17,8 @@ from ldvsurvey.pipelines.registry import PIPELINES
 def logs_for(name):
     if name in ("tilt", "height", "calibrate"):
         sc = catalog.height(minutes=60.0, length_m=15000.0)
+    elif name in ("gravity", "navigate"):
+        sc = catalog.gravity(n_lines=4)  # four 11-km lines: about one hour
     else:
         raise SystemExit(f"no benchmark log for {name}")
     t0 = time.perf_counter()
@@ -29,7 +31,7 @@ def logs_for(name):
 def main(names):
     cache = {}
     for name in names:
-        key = "height" if name in ("tilt", "height", "calibrate") else name
+        key = "height" if name in ("tilt", "height", "calibrate") else "gravity"
         if key not in cache:
             cache[key] = logs_for(name)
         logs = cache[key]
@@ -44,4 +46,4 @@ def main(names):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:] or ["tilt", "calibrate", "height"])
+    main(sys.argv[1:] or ["tilt", "calibrate", "height", "navigate", "gravity"])

@@ -44,7 +44,8 @@ def _run_seed(sc, m, imu, seed, smooth):
     v0 = tr0["v_n"][0] + rng.normal(0, cfg.vel_sigma0_mps, 3)
     vf, vu = ldv_measure(m, imu.t_s, sc.ldv, rng)
     tg = np.arange(np.ceil(imu.t_s[0]), imu.t_s[-1], 1.0)
-    glat, glon, gh, fix = gnss_fixes(m, tg, sc.ldv.c_bt(), sc.gnss_lever_m, lambda t: np.full(len(t), 4), rng)
+    glat, glon, gh, fix = gnss_fixes(m, tg, sc.ldv.c_bt(), sc.gnss_lever_m, lambda t: np.full(len(t), 4), rng,
+                                     white_only=True)
     s_h, s_v = FIX_SIGMA[4]
     gnss = GnssAid(tg, glat * RAD, glon * RAD, gh, np.full(len(tg), s_h), np.full(len(tg), s_v), sc.gnss_lever_m)
     ldv = LdvAid(np.ones(len(imu.t_s), bool), vf, vu, lever_arm_m=sc.ldv.lever_arm_m)

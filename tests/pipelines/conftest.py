@@ -26,3 +26,12 @@ def short_height_sim():
 
 def truth_height(sim, t_s):
     return np.interp(t_s, sim.imu.t_s, sim.imu.h_m)
+
+
+@pytest.fixture(scope="session")
+def gravity_sim():
+    """The gravimetry paper's survey on the product's simulator (see catalog.gravity)."""
+    sc = catalog.gravity()
+    sim = simulate(sc, seed=4)
+    files = bundle_files(sim)
+    return sim, files, parse_files(files)

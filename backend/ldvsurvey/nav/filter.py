@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ldvsurvey.nav import kfloop
-from ldvsurvey.nav.attitude import c_from_q, q_from_c, rotvec_to_c
-from ldvsurvey.nav.earth import ARCSEC, MGAL, radii
+from ldvsurvey.nav.attitude import c_from_q
+from ldvsurvey.nav.earth import ARCSEC, MGAL
 
 DEG = np.pi / 180.0
 AUG_NAMES = ("scale", "pitch", "heading", "scale_up")
@@ -72,8 +72,9 @@ class FilterConfig:
     zupt_sigma_mps: float = 0.003
     ldv_sigma_mps: tuple[float, float, float] = (0.02, 0.02, 0.02)  #: per LDV sample, E N U
     gate_sigma: float = 6.0  #: innovation gate (0 = off)
-    gravity_noise_mgal: float = 0.0  #: unmodelled gravity (DOV, disturbance) as white accel noise σ
-    gravity_corr_s: float = 60.0  #: its correlation time, for the PSD 2σ²τ
+    gravity_noise_mgal: float = 0.0  #: unmodelled vertical gravity disturbance Δg, σ as white accel noise
+    dov_noise_mgal: float = 0.0  #: unmodelled horizontal gravity (deflection of the vertical), σ
+    gravity_corr_s: float = 60.0  #: their correlation time, for the PSD 2σ²τ
     bias_instability: float = 0.0  #: relative random walk of biases per √h (0 = constants)
     ldv_aug: tuple[str, ...] = ()  #: subset of AUG_NAMES to estimate
     #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad
@@ -145,13 +146,17 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     for i, a in enumerate(aug):
         aug_idx[AUG_NAMES.index(a)] = 15 + i
     s_att = np.asarray(cfg.att_sigma0_rad, float)
+    # bias priors never zero (a manifest may say 0): that would make P⁻ singular for the smoother
+    sg = max(noise.gyro_bias_rps, 1e-4 * DEG / 3600.0)
+    sa = max(noise.accel_bias_mps2, 1e-6 * 9.80665)
     p0 = np.concatenate([s_att ** 2, np.full(3, cfg.vel_sigma0_mps ** 2), np.full(3, cfg.pos_sigma0_m ** 2),
-                         np.full(3, noise.gyro_bias_rps ** 2), np.full(3, noise.accel_bias_mps2 ** 2),
+                         np.full(3, sg ** 2), np.full(3, sa ** 2),
                          [cfg.ldv_aug_sigma0[a] ** 2 for a in aug]])
-    q_grav = 2.0 * (cfg.gravity_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
+    q_v = 2.0 * (cfg.gravity_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
+    q_h = 2.0 * (cfg.dov_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
     rw = (cfg.bias_instability ** 2) / 3600.0
-    qd = np.concatenate([np.full(3, noise.arw_psd), np.full(3, noise.vrw_psd + q_grav), np.zeros(3),
-                         np.full(3, rw * noise.gyro_bias_rps ** 2), np.full(3, rw * noise.accel_bias_mps2 ** 2),
+    qd = np.concatenate([np.full(3, noise.arw_psd), noise.vrw_psd + np.array([q_h, q_h, q_v]), np.zeros(3),
+                         np.full(3, rw * sg ** 2), np.full(3, rw * sa ** 2),
                          np.full(len(aug), 1e-14)])
     ep_t = np.concatenate([[t[0] - (t[1] - t[0])], t[decim - 1:m * decim:decim]])
     zupt = np.zeros(m + 1, dtype=np.bool_)
@@ -218,7 +223,7 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
         np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0)
     if smooth:
         xs, ps = kfloop.rts(phis, pplus, dts, dxs, qd)
-        q, v, p = _apply(t, ep_t, decim, m, xs, dxs, q, v, p)
+        q, v, p = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p)
     else:
         xs, ps = np.zeros_like(dxs), pplus
     sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", ps), 0.0))
@@ -246,24 +251,3 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
                        rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},
                        epoch_index=np.arange(m + 1) * decim - 1, epoch_bias=ep_bias,
                        epoch_cov=ps if keep_cov else None)
-
-
-def _apply(t, ep_t, decim, m, xs, dxs, q, v, p):
-    """Correct the forward nominal at every sample with the interpolated smoothed error."""
-    n_s = len(t)
-    k = np.arange(n_s)
-    j = np.minimum(k // decim + 1, m)
-    inside = k < m * decim
-    t_a, t_b = ep_t[j - 1], ep_t[j]
-    w = np.where(inside, (t - t_a) / np.where(t_b > t_a, t_b - t_a, 1.0), 1.0)
-    at_epoch = inside & ((k + 1) % decim == 0)
-    x_end = np.where(at_epoch[:, None], xs[j, :9], xs[j, :9] + dxs[j, :9])
-    x = (1 - w)[:, None] * xs[j - 1, :9] + w[:, None] * x_end
-    x[~inside] = xs[m, :9]
-    c = rotvec_to_c(x[:, 0:3]) @ c_from_q(q)
-    rm, rn = radii(p[:, 0])
-    p2 = p.copy()
-    p2[:, 0] -= x[:, 7] / (rm + p[:, 2])
-    p2[:, 1] -= x[:, 6] / ((rn + p[:, 2]) * np.cos(p[:, 0]))
-    p2[:, 2] -= x[:, 8]
-    return q_from_c(c), v - x[:, 3:6], p2

@@ -92,7 +92,13 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
     gz = np.zeros(3)
     gc = np.eye(3)
     gsig = np.zeros(2)
-    c_bn_prev = q_to_c(q) @ c_bs[0]
+    rotating = False
+    for kk in range(0, n_s, max(1, n_s // 50)):  # identity C_b^s (fixed IMU): skip the products
+        if np.abs(c_bs[kk] - np.eye(3)).max() > 0.0:
+            rotating = True
+            break
+    cdb = c_db(par[1], par[2])  # LDV mounting; changes only at feedback
+    c_bn_prev = q_to_c(q) @ c_bs[0] if rotating else q_to_c(q)
     j = 0
     for k in range(n_s):
         dt = t[k] - t_prev
@@ -109,20 +115,39 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         dth_prev, dv_prev = a_th, a_dv
         fsum += f_n * dt
         c_sn = q_to_c(q)
-        c_bn = c_sn @ c_bs[k]
+        c_bn = c_sn @ c_bs[k] if rotating else c_sn
         if ldv_ok[k]:
-            vd = np.array([0.0, nu_f[k] * par[0], (nu_u[k] * par[3]) if ldv_up else 0.0])
-            cdb = c_db(par[1], par[2])
-            v_l = c_bn @ (cdb @ vd)
-            rel = c_bn_prev.T @ c_bn
-            w_nb = np.array([rel[2, 1] - rel[1, 2], rel[0, 2] - rel[2, 0], rel[1, 0] - rel[0, 1]]) / (2.0 * dt)
-            v_head = v + c_bn @ cross(w_nb, l_ldv)
-            lz += v_head - v_l
-            lvl += v_l
-            lvd += vd
+            vd1 = nu_f[k] * par[0]
+            vd2 = (nu_u[k] * par[3]) if ldv_up else 0.0
+            # V^b = C_d^b [0, vd1, vd2]; v_l = C_b^n V^b (scalars: no small-array allocations)
+            vb0 = cdb[0, 1] * vd1 + cdb[0, 2] * vd2
+            vb1 = cdb[1, 1] * vd1 + cdb[1, 2] * vd2
+            vb2 = cdb[2, 1] * vd1 + cdb[2, 2] * vd2
+            # body rate from the attitude change: antisymmetric part of C_prevᵀ C
+            r21 = r12 = r02 = r20 = r10 = r01 = 0.0
+            for i in range(3):
+                r21 += c_bn_prev[i, 2] * c_bn[i, 1]
+                r12 += c_bn_prev[i, 1] * c_bn[i, 2]
+                r02 += c_bn_prev[i, 0] * c_bn[i, 2]
+                r20 += c_bn_prev[i, 2] * c_bn[i, 0]
+                r10 += c_bn_prev[i, 1] * c_bn[i, 0]
+                r01 += c_bn_prev[i, 0] * c_bn[i, 1]
+            w0 = (r21 - r12) / (2.0 * dt)
+            w1 = (r02 - r20) / (2.0 * dt)
+            w2 = (r10 - r01) / (2.0 * dt)
+            a0 = w1 * l_ldv[2] - w2 * l_ldv[1]
+            a1 = w2 * l_ldv[0] - w0 * l_ldv[2]
+            a2 = w0 * l_ldv[1] - w1 * l_ldv[0]
+            for i in range(3):
+                vl_i = c_bn[i, 0] * vb0 + c_bn[i, 1] * vb1 + c_bn[i, 2] * vb2
+                lz[i] += v[i] + c_bn[i, 0] * a0 + c_bn[i, 1] * a1 + c_bn[i, 2] * a2 - vl_i
+                lvl[i] += vl_i
+                for jj in range(3):
+                    lc[i, jj] += c_bn[i, jj]
+            lvd[1] += vd1
+            lvd[2] += vd2
             lnu[0] += nu_f[k]
             lnu[1] += nu_u[k] if ldv_up else 0.0
-            lc += c_bn
             ln += 1
         c_bn_prev = c_bn
         while gi < n_g and g_t[gi] <= t[k]:
@@ -172,7 +197,6 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             v_l = lvl / ln
             vd = lvd / ln
             cb = lc / ln
-            cdb = c_db(par[1], par[2])
             cols = np.zeros((3, 4))
             cols[:, 0] = -cb @ (cdb @ np.array([0.0, lnu[0] / ln, 0.0]))
             cols[:, 1] = -cb @ (cdb @ cross(np.array([1.0, 0.0, 0.0]), vd))
@@ -230,7 +254,8 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             par[2] -= x[aug_idx[2]]
         if aug_idx[3] >= 0:
             par[3] -= x[aug_idx[3]]
-        c_bn_prev = q_to_c(q) @ c_bs[k]
+        cdb = c_db(par[1], par[2])
+        c_bn_prev = q_to_c(q) @ c_bs[k] if rotating else q_to_c(q)
         dxs[j] = x
         pplus[j] = P
         par_out[j] = par
@@ -270,3 +295,33 @@ def rts(phis, pplus, dts, dxs, qd):
         xs[j] = a @ (xs[j + 1] + dxs[j + 1])
         ps[j] = pplus[j] + a @ (ps[j + 1] - pm) @ at
     return xs, ps
+
+
+@nb.njit(cache=True)
+def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p):
+    """Correct the forward nominal at every sample with the smoothed error interpolated in time
+    from x_s(j−1) to x_s(j) + dx_j (the post-update sample of epoch j takes x_s(j))."""
+    n_s = len(t)
+    q2 = np.empty_like(q)
+    v2 = np.empty_like(v)
+    p2 = np.empty_like(p)
+    x = np.zeros(9)
+    for k in range(n_s):
+        if k < m * decim:
+            j = k // decim + 1
+            if (k + 1) % decim == 0:
+                x[:] = xs[j, :9]
+            else:
+                ta, tb = ep_t[j - 1], ep_t[j]
+                w = (t[k] - ta) / (tb - ta) if tb > ta else 1.0
+                x[:] = (1.0 - w) * xs[j - 1, :9] + w * (xs[j, :9] + dxs[j, :9])
+        else:
+            x[:] = xs[m, :9]
+        qc = qmul(q_rotvec(x[0:3]), q[k])
+        q2[k] = qc / np.sqrt(np.sum(qc * qc))
+        v2[k] = v[k] - x[3:6]
+        rm, rn = radii_nb(p[k, 0])
+        p2[k, 0] = p[k, 0] - x[7] / (rm + p[k, 2])
+        p2[k, 1] = p[k, 1] - x[6] / ((rn + p[k, 2]) * np.cos(p[k, 0]))
+        p2[k, 2] = p[k, 2] - x[8]
+    return q2, v2, p2

@@ -36,10 +36,13 @@ def run(logs, params, progress) -> PipelineResult:
         "segment_t_s": list(cal.window_s), "method": "kalman filter with LDV states (closed form beside)",
         "closed_form": cal.closed_form, **extra,
     }
+    warnings = []
     if inp.nu_u_mps is not None:
         s["ldv_scale_up"] = cal.scale_up
         s["ldv_scale_up_sigma"] = cal.sigma["scale_up"]
-    return PipelineResult(summary=s, tables={"calibration_track": cal.track})
+        if cal.sigma["scale_up"] is None:
+            warnings.append(cal.closed_form["note"])
+    return PipelineResult(summary=s, tables={"calibration_track": cal.track}, warnings=warnings)
 
 
 PIPELINE = Pipeline("calibrate", run, PARAMS, "LDV mounting angles and scale factor against GNSS")

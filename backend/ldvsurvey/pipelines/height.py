@@ -12,16 +12,10 @@ import numpy as np
 
 from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
-from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, c_bs_of, ldv_aid, nav_inputs, navigate
-from ldvsurvey.pipelines.stages import RAD, calibration_stage, tilt_stage
+from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
+from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_setup
 
-PARAMS = [
-    Param("calibration", "str", "auto", "auto: calibrate the LDV against GNSS in this log; nominal: use the "
-          "manifest's nominal mounting; given values of ldv_* always win", choices=("auto", "nominal")),
-    Param("calibration_window", "floats", None, "t0,t1 in s for the automatic calibration"),
-    Param("ldv_pitch_deg", "float", None, "LDV mounting pitch η_L"),
-    Param("ldv_heading_deg", "float", None, "LDV mounting heading φ_L"),
-    Param("ldv_scale", "float", None, "LDV scale factor K"),
+PARAMS = calibration_params() + [
     Param("initial_h_m", "float", None, "height of the IMU centre at the start (default: manifest, else GNSS)"),
     Param("output_rate_hz", "float", 100.0, "rate of height.csv"),
 ]
@@ -48,39 +42,14 @@ def error_stats(err: np.ndarray) -> dict:
 def run(logs, params, progress) -> PipelineResult:
     log = logs[0]
     m = log.manifest
-    warnings = []
     progress("preparing", 0.02)
     inp = nav_inputs(log)
-    est = None
-    cbs = None
-    if inp.eta_rad is not None:
-        progress("base tilt of the rotating IMU", 0.05)
-        est, _ = tilt_stage(inp)
-        cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
-    given = {k: params[k] for k in ("ldv_pitch_deg", "ldv_heading_deg", "ldv_scale") if params[k] is not None}
-    cal_info = {"source": "nominal"}
-    pitch, heading, scale, scale_up = (m.ldv.nominal.pitch_deg * RAD, m.ldv.nominal.heading_deg * RAD,
-                                       m.ldv.nominal.scale, 1.0)
-    if params["calibration"] == "auto" and len(given) < 3:
-        if log.gnss is None:
-            warnings.append("no GNSS: the LDV is used with its nominal mounting (no calibration)")
-        else:
-            progress("LDV calibration against GNSS", 0.15)
-            cal = calibration_stage(inp, cbs, params["calibration_window"])
-            pitch, heading, scale, scale_up = cal.pitch_rad, cal.heading_rad, cal.scale, cal.scale_up
-            cal_info = {"source": "calibrate", "segment_t_s": list(cal.window_s)}
-    if "ldv_pitch_deg" in given:
-        pitch = given["ldv_pitch_deg"] * RAD
-    if "ldv_heading_deg" in given:
-        heading = given["ldv_heading_deg"] * RAD
-    if "ldv_scale" in given:
-        scale = given["ldv_scale"]
-    if given:
-        cal_info["given"] = given
-    cal_info.update({"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale})
+    setup = ldv_setup(inp, params, progress)
+    warnings = list(setup.warnings)
+    est, pitch, heading, scale, scale_up = setup.tilt, setup.pitch_rad, setup.heading_rad, setup.scale, setup.scale_up
     progress("navigation (INS/LDV, no GNSS)", 0.5)
-    aid = ldv_aid(inp, scale=scale, pitch_rad=pitch, heading_rad=heading)
-    sol = navigate(inp, cbs=cbs, ldv=aid)
+    aid = ldv_aid_of(inp, setup)
+    sol = navigate(inp, cbs=setup.cbs, ldv=aid)
     c_bn = sol.c_bn()
     sol_raw = sol
     if est is not None:  # the same chain without the tilt compensation (α = β = 0)
@@ -103,7 +72,7 @@ def run(logs, params, progress) -> PipelineResult:
     c_l_raw = attitude_at(sol_raw, t_l) if est is not None else c_l
     h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0)
     # GNSS reference (fix 4 or 2) at the IMU centre
-    summary = {"calibration": cal_info, "aiding": "ldv", "tilt_compensated": est is not None}
+    summary = {"calibration": setup.info, "aiding": "ldv", "tilt_compensated": est is not None}
     if est is not None:
         summary.update({"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad})
     h_gnss_col = np.full(len(t_l), np.nan)

@@ -37,6 +37,11 @@ class NavInputs:
     static_end_s: float
     pos0: np.ndarray  # lat, lon (rad), h (m) of the IMU centre at the start
     noise: ImuNoise
+    cache: dict = None  # solutions shared between stages of one pipeline run
+
+    def __post_init__(self):
+        if self.cache is None:
+            self.cache = {}
 
 
 def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
@@ -150,13 +155,36 @@ def ldv_aid(inp: NavInputs, scale=None, pitch_rad=None, heading_rad=None, scale_
                   scale_up=scale_up, lever_arm_m=tuple(inp.log.manifest.ldv.lever_arm_m))
 
 
+#: unmodelled gravity in the pipelines' filters: the vertical disturbance Δg (mGal) and the
+#: horizontal deflection (mGal-equivalent), as accelerometer noise correlated over ~60 s (1 km at 15 m/s).
+#: Without the vertical term, a few mGal of Δg bias the LDV pitch calibration by tens of arcseconds.
+GRAVITY_NOISE_MGAL = 10.0
+DOV_NOISE_MGAL = 1.0
+
+
+def pipeline_cfg(**kw) -> FilterConfig:
+    """The filter configuration the pipelines use (coarse-alignment σ, unmodelled gravity)."""
+    base = dict(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD), gravity_noise_mgal=GRAVITY_NOISE_MGAL,
+                dov_noise_mgal=DOV_NOISE_MGAL)
+    base.update(kw)
+    return FilterConfig(**base)
+
+
 def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssAid | None = None,
              cfg: FilterConfig | None = None, smooth: bool = True, zupt: bool = True) -> NavSolution:
     """Coarse alignment then the filter (ZUPT in still periods) with the given aids."""
     q0 = q_from_c(initial_attitude(inp, cbs))
-    cfg = cfg or FilterConfig(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD))
+    cfg = cfg or pipeline_cfg()
     return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q0, np.zeros(3), inp.pos0, inp.noise, cfg,
                       c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth)
+
+
+def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:
+    """The GNSS-aided INS (every fix weighted by its quality, no LDV), computed once per run."""
+    key = ("gnss_ins", None if cbs is None else id(cbs))
+    if key not in inp.cache:
+        inp.cache[key] = navigate(inp, cbs=cbs, gnss=gnss_aid(inp.log))
+    return inp.cache[key]
 
 
 def antenna_to_imu_h(log: DriveLog, c_bn_at_fix: np.ndarray) -> np.ndarray:

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.pipelines import calibrate, height, tilt
+from ldvsurvey.pipelines import calibrate, gravity, height, navigate, tilt
 from ldvsurvey.pipelines.base import Pipeline, parse_set_args, run_pipeline, write_result
 
-PIPELINES: dict[str, Pipeline] = {p.name: p for p in (calibrate.PIPELINE, tilt.PIPELINE, height.PIPELINE)}
+PIPELINES: dict[str, Pipeline] = {p.name: p for p in (calibrate.PIPELINE, tilt.PIPELINE, height.PIPELINE,
+                                                     navigate.PIPELINE, gravity.PIPELINE)}
 
 
 def get(name: str) -> Pipeline:

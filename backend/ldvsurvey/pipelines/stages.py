@@ -8,9 +8,8 @@ import numpy as np
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.errmodel import c_db
-from ldvsurvey.nav.filter import FilterConfig
 from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
-from ldvsurvey.pipelines.prep import NavInputs, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate
+from ldvsurvey.pipelines.prep import NavInputs, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate, pipeline_cfg
 
 RAD = np.pi / 180.0
 ARCSEC = RAD / 3600.0
@@ -40,8 +39,7 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     if len({round(np.degrees(s.eta_rad) % 360) for s in stops}) < 2:
         raise ParameterError("no rotation of the turntable during the static period: the tilt needs stops "
                              "180° apart while the vehicle stands still", file="imu.csv", field="turntable_deg")
-    cfg = FilterConfig(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD), rate_hz=10.0)
-    sol = navigate(st, cbs=c_bs_of(st), cfg=cfg, smooth=True)
+    sol = navigate(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True)
     c_sn = sol.c_bn() @ np.swapaxes(c_bs_of(st), -1, -2)  # back to C_s^n
     level = float(np.median(sol.sigma[:, :2]))
     est = estimate_tilt(st.t_s, c_sn, stops, st.still, level_sigma_rad=level)
@@ -124,7 +122,9 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     # 1) attitude from a GNSS-aided INS (all good fixes), no LDV
     if progress:
         progress("calibration: GNSS/INS attitude", 0.1)
-    sol_g = navigate(inp, cbs=cbs, gnss=gnss_aid(log, fixes=(4, 2)), smooth=True)
+    from ldvsurvey.pipelines.prep import gnss_ins
+
+    sol_g = gnss_ins(inp, cbs)
     c_bn = sol_g.c_bn()
     k = (inp.t_s >= a) & (inp.t_s <= b)
     t = inp.t_s[k]
@@ -169,15 +169,21 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     # 3) refined: the filter with the LDV states augmented, GNSS only in the window
     if progress:
         progress("calibration: Kalman filter with LDV states", 0.5)
-    aug = ("scale", "pitch", "heading") + (("scale_up",) if up else ())
-    cfg = FilterConfig(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD), ldv_aug=aug)
+    # the up-axis scale is observable only when the LDV up channel carries motion
+    moving = inp.ldv_ok & (np.abs(inp.nu_f_mps) > 1.0)
+    up_obs = up and moving.any() and float(np.sqrt(np.mean(inp.nu_u_mps[moving] ** 2))) > 0.05
+    aug = ("scale", "pitch", "heading") + (("scale_up",) if up_obs else ())
+    cfg = pipeline_cfg(ldv_aug=aug)
     sol = navigate(inp, cbs=cbs, ldv=ldv_aid(inp), gnss=gnss_aid(log, fixes=(4, 2), window=(a, b)), cfg=cfg)
     p = sol.ldv_params
     cal = Calibration(pitch_rad=p["pitch"][0], heading_rad=p["heading"][0], scale=p["scale"][0],
-                      scale_up=p["scale_up"][0] if up else 1.0,
+                      scale_up=p["scale_up"][0] if up_obs else log.manifest.ldv.nominal.scale,
                       sigma={"pitch": p["pitch"][1], "heading": p["heading"][1], "scale": p["scale"][1],
-                             "scale_up": p["scale_up"][1] if up else 0.0},
+                             "scale_up": p["scale_up"][1] if up_obs else None},
                       closed_form=closed, window_s=(a, b), track={})
+    if up and not up_obs:
+        cal.closed_form["note"] = ("up-axis scale not estimated: the LDV up channel shows no motion "
+                                   "(rms < 0.05 m/s) in the window; the nominal scale is used")
     # 4) the calibrated dead-reckoning track over the window, from the first fix
     dr = _dead_reckon(t, c_bn[k], inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], cal.scale, cal.pitch_rad,
                       cal.heading_rad, cal.scale_up)
@@ -193,3 +199,73 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     cal.track = {"t_s": t[::step], "lat_deg": np.degrees(lat[::step]), "lon_deg": np.degrees(lon[::step]),
                  "h_m": h[::step]}
     return cal
+
+
+#: the parameters shared by every pipeline that navigates with a calibrated LDV
+def calibration_params():
+    from ldvsurvey.pipelines.base import Param
+
+    return [
+        Param("calibration", "str", "auto", "auto: calibrate the LDV against GNSS in this log; nominal: use the "
+              "manifest's nominal mounting; given values of ldv_* always win", choices=("auto", "nominal")),
+        Param("calibration_window", "floats", None, "t0,t1 in s for the automatic calibration"),
+        Param("ldv_pitch_deg", "float", None, "LDV mounting pitch η_L"),
+        Param("ldv_heading_deg", "float", None, "LDV mounting heading φ_L"),
+        Param("ldv_scale", "float", None, "LDV scale factor K"),
+    ]
+
+
+@dataclass
+class LdvSetup:
+    """Tilt (rotating IMU), LDV mounting and scale as used, and where they came from."""
+
+    cbs: np.ndarray | None
+    tilt: TiltEstimate | None
+    pitch_rad: float
+    heading_rad: float
+    scale: float
+    scale_up: float
+    info: dict
+    warnings: list
+
+
+def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
+    """Base tilt (if the IMU rotates), then the LDV calibration: given, automatic or nominal."""
+    log = inp.log
+    m = log.manifest
+    warnings = []
+    est = None
+    cbs = None
+    if inp.eta_rad is not None:
+        progress("base tilt of the rotating IMU", 0.05)
+        est, _ = tilt_stage(inp)
+        cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
+    given = {k: params[k] for k in ("ldv_pitch_deg", "ldv_heading_deg", "ldv_scale") if params.get(k) is not None}
+    info = {"source": "nominal"}
+    pitch, heading, scale, scale_up = (m.ldv.nominal.pitch_deg * RAD, m.ldv.nominal.heading_deg * RAD,
+                                       m.ldv.nominal.scale, 1.0)
+    if params.get("calibration", "auto") == "auto" and len(given) < 3:
+        if log.gnss is None:
+            warnings.append("no GNSS: the LDV is used with its nominal mounting (no calibration)")
+        else:
+            progress("LDV calibration against GNSS", 0.15)
+            cal = calibration_stage(inp, cbs, params.get("calibration_window"))
+            pitch, heading, scale, scale_up = cal.pitch_rad, cal.heading_rad, cal.scale, cal.scale_up
+            info = {"source": "calibrate", "segment_t_s": list(cal.window_s)}
+    if "ldv_pitch_deg" in given:
+        pitch = given["ldv_pitch_deg"] * RAD
+    if "ldv_heading_deg" in given:
+        heading = given["ldv_heading_deg"] * RAD
+    if "ldv_scale" in given:
+        scale = given["ldv_scale"]
+    if given:
+        info["given"] = given
+    info.update({"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale})
+    if inp.nu_u_mps is not None:
+        info["ldv_scale_up"] = scale_up
+    return LdvSetup(cbs, est, pitch, heading, scale, scale_up, info, warnings)
+
+
+def ldv_aid_of(inp: NavInputs, setup: LdvSetup):
+    return ldv_aid(inp, scale=setup.scale, pitch_rad=setup.pitch_rad, heading_rad=setup.heading_rad,
+                   scale_up=setup.scale_up)

@@ -53,7 +53,67 @@ def height(minutes: float = 40.0, length_m: float = 10000.0, relief_m: float = 3
     return Scenario(name="height", road=road, segments=segs, static_s=static, **defaults)
 
 
-SCENARIOS = {"drive": drive, "height": height}
+def _line_times(motion, s_a: float, s_b: float, t_from: float, t_to: float):
+    """First times the vehicle passes arc lengths s_a and s_b within [t_from, t_to]."""
+    t = np.arange(t_from, t_to, 0.01)
+    s = motion.truth(t)["s_m"]
+    ia = int(np.argmin(np.abs(s - s_a)))
+    ib = int(np.argmin(np.abs(s - s_b)))
+    return float(min(t[ia], t[ib])), float(max(t[ia], t[ib]))
+
+
+def gravity(n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, speed_mps: float = 15.0,
+            **kw) -> Scenario:
+    """The gravimetry paper's survey: fixed IMU (0.003°/h, 20 µg), 2-D LDV (0.1 %), repeated lines
+    with large relief, GNSS partly degraded, a synthetic field with gradients up to 3 mGal/km."""
+    from ldvsurvey.nav.sim.fields import SinusoidField
+    from ldvsurvey.nav.sim.motion import Motion
+
+    L = line_km * 1000.0
+    a, b = 500.0, 500.0 + L  # line ends on the road
+    road_len = b + 500.0
+    g = relief_m / (0.50 * L)
+    r = 0.04 * L
+    grade = Ramps(0.0, [(0.05 * L + a, r, g), (0.45 * L + a, r, -0.55 * g), (0.7 * L + a, r, -0.45 * g),
+                        (0.85 * L + a, r, -0.4 * g), (0.93 * L + a, 0.05 * L, 0.4 * g)])
+    heading = Ramps(40 * RAD, [(0.2 * L + a, 300.0, 40 * RAD), (0.5 * L + a, 400.0, -75 * RAD),
+                               (0.75 * L + a, 300.0, 50 * RAD)])
+    lat0, lon0 = 28.4861 * RAD, 113.0623 * RAD
+    road = Road(lat0, lon0, 120.0, road_len, heading, grade)
+    segs = [Static(300.0)]
+    ends = (a - 300.0, b + 300.0)
+    for k in range(n_lines):
+        segs.append(Drive(ends[1] if k % 2 == 0 else ends[0], speed_mps, 20.0))
+        segs += [Static(20.0), TurnInPlace(30.0, np.pi), Static(20.0)]
+    sc_kw = dict(ldv=LdvSpecSim(pitch_rad=0.2 * RAD, heading_rad=-0.3 * RAD, scale=1.001, scale_up=1.001,
+                                noise_mps=0.01, kind="2d"),
+                 gyro_bias_dph=0.003, accel_bias_ug=20.0, gyro_arw_dprh=0.0005,
+                 # navigation-grade quartz accelerometer white noise; at 5 µg/√Hz the noise floor alone
+                 # is ~0.45 mGal per line through a 150 s filter
+                 accel_vrw_ug_rthz=2.0)
+    # a field of 3 mGal/km at most: Σ 2π A/λ = 3e-3 mGal/m
+    terms = [(10.0, 20000.0, 0.3, 0.4), (5.0, 8000.0, 1.9, 1.1), (2.0, 4000.0, 0.9, 2.0)]
+    grad = sum(2 * np.pi * A / lam for A, lam, _, _ in terms) * 1000.0
+    terms = [(A * 3.0 / grad, lam, th, ph) for A, lam, th, ph in terms]
+    sc_kw["gravity_field"] = SinusoidField(lat0, lon0, terms, offset_mgal=5.0)
+    sc_kw.update(kw)
+    sc = Scenario(name="gravity", road=road, segments=segs, static_s=300.0, s0_m=ends[0], **sc_kw)
+    m = Motion(road, segs, sc.t0_s, s0_m=ends[0])
+    lines = []
+    t = sc.t0_s + 300.0
+    for k, p in enumerate(m.pieces):
+        if p[2] == "drive":
+            ta, tb = _line_times(m, a, b, p[0], p[1])
+            lines.append((f"L{len(lines) + 1}", ta, tb))
+    sc.lines = lines
+    if "fix_schedule" not in kw:  # GNSS partly blocked on some lines (forest, valley)
+        dur = m.t_end_s - sc.t0_s
+        sc.fix_schedule = [(0.22 * dur, 0.26 * dur, 1), (0.26 * dur, 0.29 * dur, 0), (0.45 * dur, 0.5 * dur, 2),
+                           (0.62 * dur, 0.64 * dur, 0), (0.64 * dur, 0.70 * dur, 1), (0.84 * dur, 0.86 * dur, 5)]
+    return sc
+
+
+SCENARIOS = {"drive": drive, "height": height, "gravity": gravity}
 
 
 def by_name(name: str, **kw) -> Scenario:

@@ -52,6 +52,7 @@ class Scenario:
     static_s: float = 300.0
     lines: list = field(default_factory=list)  #: [(name, t_start_s, t_end_s)] absolute times
     current_n_mps: tuple | None = None  #: water current (vessel), ENU
+    s0_m: float = 0.0  #: arc length of the road where the vehicle starts
 
     def fix_of_t(self, t):
         fix = np.full(len(t), 4)
@@ -86,7 +87,7 @@ OPTICS = {"wavelength_nm": 1064.0, "beam_angle_deg": 10.0, "surface_angle_deg": 
 def simulate(sc: Scenario, seed: int = 1, with_nodov: bool = False) -> SimResult:
     """Simulate all sensors of a scenario."""
     rng = np.random.default_rng(seed)
-    motion = Motion(sc.road, sc.segments, sc.t0_s, dt_s=1.0 / sc.imu_rate_hz)
+    motion = Motion(sc.road, sc.segments, sc.t0_s, dt_s=1.0 / sc.imu_rate_hz, s0_m=sc.s0_m)
     dt = 1.0 / sc.imu_rate_hz
     n = int(round((motion.t_end_s - sc.t0_s) / dt))
     t = sc.t0_s + np.arange(n + 1) * dt
@@ -138,8 +139,8 @@ def manifest(sim: SimResult) -> dict:
                 "optics": OPTICS, "lever_arm_m": list(sc.ldv.lever_arm_m),
                 "noise_mps": sc.ldv.noise_mps},
         "gnss": {"lever_arm_m": list(sc.gnss_lever_m)},
-        "initial": {"lat_deg": float(np.degrees(sc.road.lat0_rad)), "lon_deg": float(np.degrees(sc.road.lon0_rad)),
-                    "h_m": float(sc.road.h0_m), "static_s": sc.static_s},
+        "initial": {"lat_deg": float(np.degrees(sim.imu.lat_rad[0])), "lon_deg": float(np.degrees(sim.imu.lon_rad[0])),
+                    "h_m": float(sim.imu.h_m[0]), "static_s": sc.static_s},
         "simulated": {"software": "ldv-survey", "scenario": sc.name},
     }
     if sc.lines:

@@ -18,8 +18,13 @@ from ldvsurvey.nav.sim.motion import Motion
 G0 = 9.80665
 DEG = np.pi / 180.0
 
-#: fix quality -> (horizontal σ, vertical σ) in m of the simulated receiver
+#: fix quality -> total (horizontal σ, vertical σ) in m of the simulated receiver
 FIX_SIGMA = {4: (0.02, 0.03), 5: (0.15, 0.25), 2: (0.5, 0.9), 1: (2.0, 3.5)}
+#: epoch-to-epoch white part (horizontal σ, vertical σ) in m (carrier-smoothed receiver noise);
+#: the rest of FIX_SIGMA is a first-order Gauss-Markov error with correlation time GNSS_CORR_S
+#: (multipath, atmosphere and orbit errors wander slowly)
+FIX_WHITE = {4: (0.01, 0.015), 5: (0.03, 0.05), 2: (0.1, 0.15), 1: (0.2, 0.3)}
+GNSS_CORR_S = 300.0
 
 
 @dataclass
@@ -85,18 +90,32 @@ def ldv_measure(motion: Motion, t_s, spec: LdvSpecSim, rng, current_n=None):
     return v_fwd, v_up
 
 
-def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng):
-    """Antenna fixes (lat_deg, lon_deg, h_m ellipsoidal, fix) with fix-dependent noise.
+def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng, white_only: bool = False):
+    """Antenna fixes (lat_deg, lon_deg, h_m ellipsoidal, fix) with fix-dependent errors
+    (white plus Gauss-Markov, see FIX_SIGMA and FIX_WHITE).
 
     ``fix_of_t(t) -> int array`` gives the fix quality (0 = no fix) at each time.
+    ``white_only`` makes the whole error white (σ from FIX_SIGMA).
     """
     t = np.asarray(t_s, float)
     _, _, tr, c_bn, _, _, _ = rates(motion, t, c_bt)
     lev = np.einsum("kij,j->ki", c_bn, np.asarray(lever_arm_m, float))
     fix = np.asarray(fix_of_t(t), dtype=int)
-    sig_h = np.array([FIX_SIGMA.get(int(f), (np.nan, np.nan))[0] for f in fix])
-    sig_v = np.array([FIX_SIGMA.get(int(f), (np.nan, np.nan))[1] for f in fix])
-    noise = rng.normal(0, 1, (len(t), 3)) * np.column_stack([sig_h, sig_h, sig_v])
+    sig = np.array([[FIX_SIGMA.get(int(f), (np.nan, np.nan))[0]] * 2 + [FIX_SIGMA.get(int(f), (np.nan, np.nan))[1]]
+                    for f in fix])
+    wsig = np.array([[FIX_WHITE.get(int(f), (0.0, 0.0))[0]] * 2 + [FIX_WHITE.get(int(f), (0.0, 0.0))[1]]
+                     for f in fix])
+    csig = np.sqrt(np.maximum(sig ** 2 - wsig ** 2, 0.0))
+    if white_only:  # the whole σ white (filter-consistency tests need the filter's own noise model)
+        wsig, csig = sig, 0.0 * sig
+    # unit-variance Gauss-Markov sequences, scaled by the current fix's correlated σ
+    gm = np.empty((len(t), 3))
+    gm[0] = rng.normal(0, 1, 3)
+    phi = np.exp(-np.diff(t, prepend=t[0]) / GNSS_CORR_S)
+    drive = rng.normal(0, 1, (len(t), 3))
+    for k in range(1, len(t)):
+        gm[k] = phi[k] * gm[k - 1] + np.sqrt(1 - phi[k] ** 2) * drive[k]
+    noise = wsig * rng.normal(0, 1, (len(t), 3)) + csig * gm
     rm, rn = radii(tr["lat_rad"])
     e = lev[:, 0] + noise[:, 0]
     nn = lev[:, 1] + noise[:, 1]

@@ -1,0 +1,96 @@
+"""``navigate``: alignment, the 15-state filter with 2-D (or 1-D) LDV aiding and/or GNSS, RTS smoother."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ldvsurvey.errors import ParameterError
+from ldvsurvey.nav.attitude import euler_from_c_bn
+from ldvsurvey.nav.earth import enu_offset_m
+from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, gnss_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_setup
+
+PARAMS = [
+    Param("aiding", "str", "ldv", "ldv, gnss or ldv+gnss", choices=("ldv", "gnss", "ldv+gnss")),
+    Param("smooth", "bool", True, "run the RTS smoother after the forward filter"),
+    Param("output_rate_hz", "float", 10.0, "rate of trajectory.csv"),
+] + calibration_params()
+
+DEG = 180.0 / np.pi
+
+
+def run_navigation(log, params, progress):
+    """The navigation solution and what was used (shared with the gravity pipeline)."""
+    inp = nav_inputs(log)
+    aiding = params.get("aiding", "ldv")
+    use_ldv = "ldv" in aiding
+    use_gnss = "gnss" in aiding
+    if use_gnss and log.gnss is None:
+        raise ParameterError("aiding includes gnss but the bundle has no gnss.nmea", field="aiding")
+    setup = ldv_setup(inp, params, progress) if use_ldv else None
+    cbs = setup.cbs if setup else None
+    if setup is None and inp.eta_rad is not None:
+        from ldvsurvey.pipelines.prep import c_bs_of
+        from ldvsurvey.pipelines.stages import tilt_stage
+
+        est, _ = tilt_stage(inp)
+        cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
+    progress(f"navigation ({aiding})", 0.5)
+    sol = navigate(inp, cbs=cbs, ldv=ldv_aid_of(inp, setup) if use_ldv else None,
+                   gnss=gnss_aid(log) if use_gnss else None, smooth=params.get("smooth", True))
+    return inp, setup, sol
+
+
+def errors_vs_gnss(log, sol, fixes=(4,)):
+    """Horizontal and height errors (m) of the solution at GNSS fixes of the given qualities (IMU centre)."""
+    g = log.gnss
+    if g is None:
+        return None, None, 0
+    k = np.isin(g.fix, fixes) & np.isfinite(g.lat_deg) & (g.t_s >= sol.t_s[0]) & (g.t_s <= sol.t_s[-1])
+    if not k.any():
+        return None, None, 0
+    c = attitude_at(sol, g.t_s[k])
+    lev = c @ np.asarray(log.manifest.gnss.lever_arm_m, float)
+    lat = np.interp(g.t_s[k], sol.t_s, sol.pos[:, 0])
+    lon = np.interp(g.t_s[k], sol.t_s, sol.pos[:, 1])
+    h = np.interp(g.t_s[k], sol.t_s, sol.pos[:, 2])
+    d = enu_offset_m(np.radians(g.lat_deg[k]), np.radians(g.lon_deg[k]), g.h_m[k], lat, lon, h + lev[:, 2])
+    d[:, 0] += lev[:, 0]
+    d[:, 1] += lev[:, 1]
+    return np.hypot(d[:, 0], d[:, 1]), d[:, 2], int(k.sum())
+
+
+def run(logs, params, progress) -> PipelineResult:
+    log = logs[0]
+    progress("preparing", 0.02)
+    inp, setup, sol = run_navigation(log, params, progress)
+    progress("writing", 0.9)
+    horiz, vert, n_ref = errors_vs_gnss(log, sol)
+    step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(sol.t_s))))))
+    sl = slice(step - 1, None, step)
+    p, r, hd = euler_from_c_bn(sol.c_bn()[sl])
+    sg = sol.sigma[sl]
+    table = {"t_s": sol.t_s[sl], "lat_deg": sol.pos[sl, 0] * DEG, "lon_deg": sol.pos[sl, 1] * DEG,
+             "h_m": sol.pos[sl, 2], "v_e_mps": sol.v_n[sl, 0], "v_n_mps": sol.v_n[sl, 1], "v_u_mps": sol.v_n[sl, 2],
+             "pitch_deg": p * DEG, "roll_deg": r * DEG, "heading_deg": hd * DEG,
+             "tilt_e_sigma_deg": sg[:, 0] * DEG, "tilt_n_sigma_deg": sg[:, 1] * DEG,
+             "heading_sigma_deg": sg[:, 2] * DEG, "v_e_sigma_mps": sg[:, 3], "v_n_sigma_mps": sg[:, 4],
+             "v_u_sigma_mps": sg[:, 5], "e_sigma_m": sg[:, 6], "n_sigma_m": sg[:, 7], "h_sigma_m": sg[:, 8]}
+    s = {"aiding": params["aiding"], "smoothed": bool(params["smooth"]),
+         "max_horizontal_error_m": None if horiz is None else float(np.max(horiz)),
+         "max_height_error_m": None if vert is None else float(vert[np.argmax(np.abs(vert))]),
+         "rms_horizontal_error_m": None if horiz is None else float(np.sqrt(np.mean(horiz ** 2))),
+         "n_reference": n_ref, "rejected_measurements": sol.rejected,
+         "gyro_bias_dph": (sol.gyro_bias_rps * DEG * 3600).tolist(),
+         "accel_bias_ug": (sol.accel_bias_mps2 / 9.80665e-6).tolist()}
+    warnings = []
+    if setup is not None:
+        s["calibration"] = setup.info
+        warnings += setup.warnings
+    if "gnss" in params["aiding"]:
+        warnings.append("errors against GNSS are not independent when GNSS aids the solution")
+    return PipelineResult(summary=s, tables={"trajectory": table}, warnings=warnings)
+
+
+PIPELINE = Pipeline("navigate", run, PARAMS, "SINS/LDV (and/or GNSS) navigation with RTS smoothing")

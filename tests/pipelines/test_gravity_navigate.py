@@ -1,0 +1,98 @@
+"""gravity and navigate on the product's simulator: six repeated 11-km lines, 332 m relief."""
+
+import numpy as np
+import pytest
+
+from ldvsurvey.io.drivelog import parse_files
+from ldvsurvey.nav.earth import MGAL, enu_offset_m
+from ldvsurvey.nav.gravity import zero_phase_lowpass
+from ldvsurvey.nav.sim.fields import ConstantField
+from ldvsurvey.nav.sim.motion import Static
+from ldvsurvey.nav.sim.road import Ramps, Road
+from ldvsurvey.nav.sim.scenario import Scenario, bundle_files, simulate
+from ldvsurvey.pipelines.base import Progress, run_pipeline
+from ldvsurvey.pipelines.gravity import ldv_chain
+from ldvsurvey.pipelines.navigate import run_navigation
+from ldvsurvey.pipelines.registry import get
+
+
+@pytest.fixture(scope="module")
+def gravity_result(gravity_sim):
+    _, _, log = gravity_sim
+    return run_pipeline(get("gravity"), [log], {"fir_length_s": 150.0})
+
+
+def test_survey_geometry(gravity_sim):
+    sim, _, log = gravity_sim
+    assert len(log.manifest.lines) == 6
+    assert np.ptp(sim.imu.h_m) > 320
+    assert sim.scenario.gravity_field.max_gradient_mgal_per_km() == pytest.approx(3.0)
+    assert np.any(sim.gnss_fix == 1) and np.any(sim.gnss_fix == 0)  # GNSS partly degraded
+
+
+def test_internal_coincidence_and_truth(gravity_sim, gravity_result):
+    sim, _, _ = gravity_sim
+    s = gravity_result.summary
+    assert s["fir_length_s"] <= 200
+    assert s["total_mgal"] <= 0.35, s["lines"]
+    assert len(s["lines"]) == 6 and s["common_length_m"] > 10_000
+    assert 500 < s["resolution_m"] < 2000  # half-wavelength beside the figure: v·L/2
+    # against the true, equally filtered disturbance, after one constant offset
+    g = gravity_result.tables["gravity"]
+    on = np.array([x != "" for x in g["line"]])
+    im = sim.imu
+    tm = 0.5 * (im.t_s[1:] + im.t_s[:-1])
+    true = sim.scenario.gravity_field.dg_mgal(0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]),
+                                              0.5 * (im.lon_rad[1:] + im.lon_rad[:-1]))
+    tf = zero_phase_lowpass(true * MGAL, 150.0, 100.0) / MGAL
+    e = g["dg_mgal"][on] - np.interp(g["t_s"][on], tm, tf)
+    e = e[np.isfinite(e)]
+    assert len(e) > 4000
+    assert np.std(e) <= 0.5
+    # the offset is the (unobservable) vertical accelerometer bias, nothing else
+    bias_z_mgal = sim.errors.accel_bias_mps2[2] / MGAL  # δg includes +b_z
+    assert np.mean(e) == pytest.approx(bias_z_mgal, abs=1.0)
+
+
+def test_sins_gnss_comparison_present_and_worse(gravity_result):
+    s = gravity_result.summary
+    g = s["gnss_comparison"]
+    assert g["aiding"] == "gnss" and len(g["lines"]) == 6
+    assert g["total_mgal"] > s["total_mgal"]  # GNSS partly blocked, as in the paper
+
+
+def test_tables_follow_the_spec(gravity_result):
+    g = gravity_result.tables["gravity"]
+    assert list(g) == ["t_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal"]
+    c = gravity_result.tables["coincidence"]
+    assert list(c) == ["line", "distance_m", "dg_mgal", "mean_mgal", "residual_mgal"]
+    np.testing.assert_allclose(np.asarray(c["dg_mgal"]) - np.asarray(c["mean_mgal"]), c["residual_mgal"])
+
+
+def test_navigation_within_budget(gravity_sim):
+    sim, _, log = gravity_sim
+    r = run_pipeline(get("navigate"), [log], {"aiding": "ldv", "output_rate_hz": 10.0})
+    tr = r.tables["trajectory"]
+    im = sim.imu
+    k = np.searchsorted(im.t_s, tr["t_s"])
+    d = enu_offset_m(im.lat_rad[k], im.lon_rad[k], im.h_m[k], np.radians(tr["lat_deg"]),
+                     np.radians(tr["lon_deg"]), tr["h_m"])
+    assert np.hypot(d[:, 0], d[:, 1]).max() <= 10.0
+    assert np.abs(d[:, 2]).max() <= 3.0
+    assert r.summary["smoothed"] is True and r.summary["aiding"] == "ldv"
+    assert {"e_sigma_m", "n_sigma_m", "h_sigma_m", "heading_sigma_deg"} <= set(tr)
+    # the reported 1-σ is honest: errors mostly within 3σ
+    assert np.mean(np.abs(d[:, 2]) <= 3 * tr["h_sigma_m"] + 0.05) > 0.95
+
+
+def test_vehicle_at_rest_on_plus_10_mgal():
+    road = Road(np.radians(28.0), np.radians(113.0), 150.0, 10.0, Ramps(np.radians(30.0)))
+    sc = Scenario(name="rest", road=road, segments=[Static(1500.0)], static_s=1500.0,
+                  gravity_field=ConstantField(dg_mgal=10.0), gyro_bias_dph=0.003, accel_bias_ug=0.0,
+                  gyro_arw_dprh=0.0005, accel_vrw_ug_rthz=2.0, fix_schedule=[])
+    log = parse_files(bundle_files(simulate(sc, seed=2)))
+    inp, setup, sol = run_navigation(log, {"aiding": "ldv", "calibration": "nominal"}, Progress())
+    ch = ldv_chain(inp, sol, setup)
+    dg = zero_phase_lowpass(ch["dg"], 150.0, ch["fs"]) / MGAL
+    mid = dg[len(dg) // 4: 3 * len(dg) // 4]
+    assert np.nanmean(mid) == pytest.approx(10.0, abs=0.1)
