@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.pipelines import calibrate, gravity, height, navigate, tilt
+from ldvsurvey.pipelines import calibrate, dov, gravity, height, navigate, tilt
 from ldvsurvey.pipelines.base import Pipeline, parse_set_args, run_pipeline, write_result
 
 PIPELINES: dict[str, Pipeline] = {p.name: p for p in (calibrate.PIPELINE, tilt.PIPELINE, height.PIPELINE,
-                                                     navigate.PIPELINE, gravity.PIPELINE)}
+                                                     navigate.PIPELINE, gravity.PIPELINE,
+                                                     dov.PIPELINE)}
 
 
 def get(name: str) -> Pipeline:
@@ -29,6 +30,15 @@ def run_pipeline_cli(name: str, bundles: list[str], out: str, sets: list[str]) -
     params = parse_set_args(sets)
     pipe.resolve(params)  # unknown or malformed parameters fail before any work
     logs = [load_bundle(b) for b in bundles]
+    if name == "dov":  # synthesized grids are cached in the application's database
+        from ldvsurvey.pipelines.dov import GRID_CACHE
+        from ldvsurvey.settings import get_settings
+        from ldvsurvey.store.db import upgrade_head
+        from ldvsurvey.store.gridcache import DbGridCache
+
+        url = get_settings().resolved_database_url()
+        upgrade_head(url)
+        GRID_CACHE.set(DbGridCache(url))
 
     def report(stage, frac):
         print(f"[{frac * 100:5.1f} %] {stage}", file=sys.stderr)

@@ -72,3 +72,17 @@ class LogArray(Base):
     parquet: Mapped[bytes] = mapped_column(LargeBinary, nullable=False)
 
     log: Mapped[Log] = relationship(back_populates="arrays")
+
+
+class DovGridRow(Base):
+    """A synthesized DOV grid (ξ, η, Δg on lat × lon nodes) cached by model, degree, step and area."""
+
+    __tablename__ = "dov_grids"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    key: Mapped[str] = mapped_column(String(300), unique=True, nullable=False)
+    source: Mapped[str] = mapped_column(String(300), nullable=False)
+    n_lat: Mapped[int] = mapped_column(Integer, nullable=False)
+    n_lon: Mapped[int] = mapped_column(Integer, nullable=False)
+    parquet: Mapped[bytes] = mapped_column(LargeBinary, nullable=False)
+    created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), nullable=False, default=utcnow)

@@ -113,7 +113,36 @@ def gravity(n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, sp
     return sc
 
 
-SCENARIOS = {"drive": drive, "height": height, "gravity": gravity}
+class GridField:
+    """A DovGrid as the simulator's gravity field (bilinear)."""
+
+    def __init__(self, grid):
+        self.grid = grid
+
+    def __call__(self, lat_rad, lon_rad, h_m):
+        return self.grid.interpolate(np.degrees(lat_rad), np.degrees(lon_rad), "linear")
+
+
+def dov(km: float = 315.0, speed_mps: float = 25.0, step_arcmin: float = 1.0, degree: int = 2190, **kw) -> Scenario:
+    """The DOV paper's simulation: due north from N34°18'57" E109°7'36" at 25 m/s; gyro 0.01°/h,
+    ARW 0.001°/√h, accel 50 µg, 5 µg/√Hz; the true field is the built-in EGM2008 on a 1' grid."""
+    from ldvsurvey.nav.dovgrid import area_for_track, egm_grid
+
+    lat0, lon0 = 34 + 18 / 60 + 57 / 3600, 109 + 7 / 60 + 36 / 3600
+    length = km * 1000.0 + 3000.0
+    road = Road(lat0 * RAD, lon0 * RAD, 500.0, length, Ramps(0.0))
+    lat_end = lat0 + length / 111000.0
+    area = area_for_track(np.array([lat0, lat_end]), np.array([lon0, lon0]), step_arcmin)
+    grid = kw.pop("grid", None) or egm_grid(area, step_arcmin, degree)
+    segs = [Static(300.0), Drive(km * 1000.0, speed_mps, 30.0)]
+    defaults = dict(gyro_bias_dph=0.01, gyro_arw_dprh=0.001, accel_bias_ug=50.0, accel_vrw_ug_rthz=5.0,
+                    gravity_field=GridField(grid), date="2023-06-01", ldv_rate_hz=10.0,
+                    ldv=LdvSpecSim(noise_mps=0.02, kind="1d"))
+    defaults.update(kw)
+    return Scenario(name="dov", road=road, segments=segs, static_s=300.0, **defaults)
+
+
+SCENARIOS = {"drive": drive, "height": height, "gravity": gravity, "dov": dov}
 
 
 def by_name(name: str, **kw) -> Scenario:

@@ -1,0 +1,191 @@
+"""``dov``: DOV-induced INS position error by direct difference, RK4 and two mechanizations
+("theoretical"), and compensation studies over grid step × update interval (methods §5)."""
+
+from __future__ import annotations
+
+import contextvars
+from pathlib import Path
+
+import numpy as np
+
+from ldvsurvey.errors import ParameterError
+from ldvsurvey.io.drivelog import parse_imu
+from ldvsurvey.io.gdf import parse_gdf
+from ldvsurvey.nav.align import coarse_align
+from ldvsurvey.nav.attitude import c_from_q, q_from_c
+from ldvsurvey.nav.dov import initial_misalignment, propagate
+from ldvsurvey.nav.dovgrid import DovGrid, area_for_track, egm_grid
+from ldvsurvey.nav.earth import OMEGA_IE, enu_offset_m, normal_gravity, radii
+from ldvsurvey.nav.mech import mechanize
+from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.prep import gnss_ins, nav_inputs
+
+#: a grid cache the caller may provide (the store's database cache); get(key) -> DovGrid | None, put(key, grid)
+GRID_CACHE: contextvars.ContextVar = contextvars.ContextVar("dov_grid_cache", default=None)
+
+PARAMS = [
+    Param("dov_grid", "paths", None, "two ICGEM .gdf files: ξ then η (arcsec); default: built-in EGM2008"),
+    Param("grid_step_arcmin", "float", 1.0, "step of the EGM2008 grid"),
+    Param("degree", "int", 2190, "maximum degree of the EGM2008 synthesis"),
+    Param("interpolation", "str", "bilinear", "grid interpolation along the track", choices=("bilinear", "bicubic")),
+    Param("update_s", "float", 0.09, "error-update period of the direct and RK4 propagators"),
+    Param("propagation_model", "str", "full", "full: with the Coriolis coupling of the velocity errors; "
+          "paper: eq. 10 exactly (Coriolis neglected)", choices=("full", "paper")),
+    Param("imu_nodov", "str", None, "imu.csv-format file of the same drive without the DOV (simulation only)"),
+    Param("compensation", "bool", True, "run the grid-step × update-interval compensation study"),
+    Param("compensation_steps_arcmin", "floats", [1.0, 2.5, 5.0, 10.0], "grid steps of the study"),
+    Param("compensation_updates_s", "floats", [0.03, 0.15, 0.3, 3.0], "update intervals of the study"),
+    Param("output_rate_hz", "float", 1.0, "rate of dov.csv"),
+]
+
+
+def _grid(params, lat_deg, lon_deg, progress) -> DovGrid:
+    paths = params["dov_grid"]
+    if paths:
+        if len(paths) != 2:
+            raise ParameterError("give two .gdf files: dov_grid=xi.gdf,eta.gdf", field="dov_grid")
+        parsed = []
+        for p in paths:
+            path = Path(p)
+            if not path.is_file():
+                raise ParameterError("no such file", file=str(path), field="dov_grid")
+            parsed.append(parse_gdf(path.read_bytes(), path.name))
+        (_, la1, lo1, v1), (_, la2, lo2, v2) = parsed
+        if v1.shape != v2.shape or not (np.allclose(la1, la2) and np.allclose(lo1, lo2)):
+            raise ParameterError("the ξ and η grids must share the same nodes", field="dov_grid")
+        grid = DovGrid(la1, lo1, v1, v2, None, source=f"{Path(paths[0]).name}, {Path(paths[1]).name}")
+    else:
+        step = params["grid_step_arcmin"]
+        area = area_for_track(lat_deg, lon_deg, step)
+        key = f"egm2008:deg{params['degree']}:step{step}:{area}"
+        cache = GRID_CACHE.get()
+        grid = cache.get(key) if cache is not None else None
+        if grid is None:
+            grid = egm_grid(area, step, params["degree"], progress=lambda s, f: progress(s, 0.05 + 0.2 * f))
+            if cache is not None:
+                cache.put(key, grid)
+    problem = grid.missing_cover(lat_deg, lon_deg)
+    if problem:
+        raise ParameterError(f"the DOV grid does not cover the track: {problem}", field="dov_grid")
+    return grid
+
+
+def _f_n_w_in(sol, inp):
+    """Specific force in n (m/s²) and ω_in^n (rad/s) along the reference trajectory."""
+    c = sol.c_bn() if sol.c_bs is None else c_from_q(sol.q_sn)
+    dt = np.r_[np.diff(inp.t_s)[:1], np.diff(inp.t_s)]
+    f_n = np.einsum("kij,kj->ki", c, inp.dvel_mps) / dt[:, None]
+    lat, h = sol.pos[:, 0], sol.pos[:, 2]
+    rm, rn = radii(lat)
+    v = sol.v_n
+    w_in = np.column_stack([-v[:, 1] / (rm + h), OMEGA_IE * np.cos(lat) + v[:, 0] / (rn + h),
+                            OMEGA_IE * np.sin(lat) + v[:, 0] * np.tan(lat) / (rn + h)])
+    return f_n, w_in
+
+
+def _mechanize(t, dth, dv, k_static, lat0, pos0, h_ref, gravity=None, dov0=None):
+    """Pure INS from a coarse alignment (levelled to the plumb line, or to the normal when the
+    DOV at the start is known), height held to the reference."""
+    c0 = coarse_align(dth[k_static], dv[k_static], lat0)
+    if dov0 is not None:  # the alignment knows the deflection: undo the plumb-line levelling
+        phi0 = initial_misalignment(dov0[0], dov0[1], lat0)
+        from ldvsurvey.nav.attitude import skew
+
+        c0 = (np.eye(3) + skew(phi0)) @ c0
+    q, v, p = mechanize(t, dth, dv, q_from_c(c0), np.zeros(3), pos0, gravity=gravity, height_ref=h_ref)
+    return p
+
+
+def run(logs, params, progress) -> PipelineResult:
+    log = logs[0]
+    warnings = []
+    progress("preparing", 0.02)
+    inp = nav_inputs(log)
+    if log.gnss is None:
+        raise ParameterError("the DOV pipeline needs GNSS for the reference trajectory (no gnss.nmea)",
+                             file="gnss.nmea")
+    progress("reference trajectory (GNSS/INS)", 0.04)
+    ref = gnss_ins(inp)
+    lat_deg, lon_deg = np.degrees(ref.pos[:, 0]), np.degrees(ref.pos[:, 1])
+    grid = _grid(params, lat_deg, lon_deg, progress)
+    method = "linear" if params["interpolation"] == "bilinear" else "cubic"
+    xi, eta, _ = grid.interpolate(lat_deg, lon_deg, method)
+    progress("direct and RK4 propagation", 0.3)
+    f_n, w_in = _f_n_w_in(ref, inp)
+    lat, h = ref.pos[:, 0], ref.pos[:, 2]
+    gam = normal_gravity(lat, h)
+    phi0 = initial_misalignment(xi[0], eta[0], lat[0])
+    out = {}
+    for name, rk in (("direct", False), ("rk4", True)):
+        to, dn, de, _ = propagate(inp.t_s, lat, h, ref.v_n[:, 0], f_n, w_in, gam, xi, eta,
+                                  params["update_s"], rk, phi0, params["propagation_model"] == "full")
+        out[name] = (to, dn, de)
+    progress("theoretical: two mechanizations", 0.45)
+    k_static = inp.t_s <= inp.static_end_s
+    h_ref = (ref.pos[:, 2], ref.v_n[:, 2])
+    pos0 = ref.pos[0].copy()
+    p_unc = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref)
+    if params["imu_nodov"]:
+        path = Path(params["imu_nodov"])
+        if not path.is_file():
+            raise ParameterError("no such file", file=str(path), field="imu_nodov")
+        imu2, _ = parse_imu(path.read_bytes(), log.manifest)
+        if len(imu2.t_s) != len(inp.t_s) or not np.allclose(imu2.t_s, inp.t_s):
+            raise ParameterError("imu_nodov must have the same sample times as imu.csv", file=path.name, field="t")
+        p_ref = _mechanize(inp.t_s, imu2.dtheta_rad, imu2.dvel_mps, k_static, lat[0], pos0, h_ref)
+        theo_kind = "two IMU files (with and without DOV)"
+    else:
+        p_ref = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref,
+                           gravity=(xi, eta, np.zeros_like(xi)), dov0=(xi[0], eta[0]))
+        theo_kind = "uncompensated vs compensated mechanization (no imu_nodov given)"
+        warnings.append("theoretical error from compensated vs uncompensated mechanization: give imu_nodov "
+                        "for two independent mechanizations")
+    d = enu_offset_m(p_ref[:, 0], p_ref[:, 1], p_ref[:, 2], p_unc[:, 0], p_unc[:, 1], p_ref[:, 2])
+    out["theoretical"] = (inp.t_s, d[:, 1], d[:, 0])
+    # compensation study: residual of a compensated INS against the exactly compensated one
+    comp = []
+    if params["compensation"]:
+        exact = (xi, eta, np.zeros_like(xi))
+        p_exact = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref,
+                             gravity=exact, dov0=(xi[0], eta[0]))
+        steps, updates = params["compensation_steps_arcmin"], params["compensation_updates_s"]
+        base = grid if not params["dov_grid"] else grid
+        for i, st in enumerate(steps):
+            g2 = base if abs(st - base.step_arcmin) < 1e-9 else base.resample(st)
+            xs, es, _ = g2.interpolate(lat_deg, lon_deg, "linear")
+            for u in updates:
+                progress(f"compensation study: {st}' grid, {u} s updates", 0.55 + 0.4 * i / len(steps))
+                k = np.floor((inp.t_s - inp.t_s[0]) / u).astype(int)
+                first = np.r_[0, np.flatnonzero(np.diff(k)) + 1]
+                held = np.repeat(first, np.diff(np.r_[first, len(k)]))
+                p_c = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref,
+                                 gravity=(xs[held], es[held], np.zeros_like(xs)), dov0=(xs[0], es[0]))
+                r = enu_offset_m(p_exact[:, 0], p_exact[:, 1], p_exact[:, 2], p_c[:, 0], p_c[:, 1], p_exact[:, 2])
+                comp.append({"grid_step_arcmin": st, "update_s": u,
+                             "max_residual_m": float(np.max(np.hypot(r[:, 0], r[:, 1])))})
+    progress("writing", 0.95)
+    step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(inp.t_s))))))
+    t_out = inp.t_s[step - 1::step]
+    cols = {"t_s": t_out, "lat_deg": lat_deg[step - 1::step], "lon_deg": lon_deg[step - 1::step],
+            "xi_arcsec": np.degrees(xi[step - 1::step]) * 3600, "eta_arcsec": np.degrees(eta[step - 1::step]) * 3600}
+    maxima = {}
+    for name in ("direct", "rk4", "theoretical"):
+        to, dn, de = out[name]
+        cols[f"dn_{name}_m"] = np.interp(t_out, to, dn)
+        cols[f"de_{name}_m"] = np.interp(t_out, to, de)
+        maxima[name] = {"max_north_m": float(dn[np.argmax(np.abs(dn))]), "max_east_m": float(de[np.argmax(np.abs(de))])}
+    th = maxima["theoretical"]
+    for name in ("direct", "rk4"):
+        maxima[name]["north_deviation_pct"] = 100 * (abs(maxima[name]["max_north_m"]) / abs(th["max_north_m"]) - 1)
+        maxima[name]["east_deviation_pct"] = 100 * (abs(maxima[name]["max_east_m"]) / abs(th["max_east_m"]) - 1)
+    maxima["theoretical"]["kind"] = theo_kind
+    s = {"max_north_error_m": {k: v["max_north_m"] for k, v in maxima.items()},
+         "max_east_error_m": {k: v["max_east_m"] for k, v in maxima.items()},
+         "methods": maxima, "compensation": comp, "dov_source": grid.source,
+         "initial_misalignment_arcsec": (np.degrees(phi0) * 3600).tolist(),
+         "xi_range_arcsec": [float(cols["xi_arcsec"].min()), float(cols["xi_arcsec"].max())],
+         "eta_range_arcsec": [float(cols["eta_arcsec"].min()), float(cols["eta_arcsec"].max())]}
+    return PipelineResult(summary=s, tables={"dov": cols}, warnings=warnings)
+
+
+PIPELINE = Pipeline("dov", run, PARAMS, "DOV-induced INS position error and its compensation")
