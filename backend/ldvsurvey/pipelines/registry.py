@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.pipelines import calibrate, dov, gravity, height, navigate, tilt
+from ldvsurvey.pipelines import calibrate, damping, dov, gravity, height, navigate, tilt
 from ldvsurvey.pipelines.base import Pipeline, parse_set_args, run_pipeline, write_result
 
 PIPELINES: dict[str, Pipeline] = {p.name: p for p in (calibrate.PIPELINE, tilt.PIPELINE, height.PIPELINE,
                                                      navigate.PIPELINE, gravity.PIPELINE,
-                                                     dov.PIPELINE)}
+                                                     dov.PIPELINE, damping.PIPELINE)}
 
 
 def get(name: str) -> Pipeline:

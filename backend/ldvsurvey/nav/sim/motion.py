@@ -46,11 +46,19 @@ def _grid(x: float, dt: float) -> float:
 class Motion:
     """A vehicle timeline on a road. Times are seconds of day (the bundle clock)."""
 
-    def __init__(self, road: Road, segments: list, t0_s: float, dt_s: float = 0.01, s0_m: float = 0.0):
+    def __init__(self, road: Road, segments: list, t0_s: float, dt_s: float = 0.01, s0_m: float = 0.0,
+                 heading_offset0_rad: float = 0.0, current_n_mps=None, current_from_s: float = 0.0,
+                 current_ramp_s: float = 30.0):
+        """``current_n_mps`` (ENU, m/s): a water current the vehicle (vessel) drifts with from
+        ``t0_s + current_from_s`` on (smoothly over ``current_ramp_s``); the road is then the track
+        through the water and the LDV frame moves along it relative to the water."""
         self.road = road
         self.t0_s = t0_s
+        self.current = None if current_n_mps is None else np.asarray(current_n_mps, float)
+        self.current_t0 = t0_s + current_from_s
+        self.current_ramp = current_ramp_s
         self.pieces = []  # (t_start, t_end, kind, params)
-        t, s, off = t0_s, s0_m, 0.0
+        t, s, off = t0_s, s0_m, heading_offset0_rad
         for seg in segments:
             if isinstance(seg, Static):
                 d = _grid(seg.duration_s, dt_s)
@@ -110,6 +118,29 @@ class Motion:
             raise ValueError("time outside the simulated timeline")
         return s, sd, sdd, off, offd, offdd
 
+    def _drift(self, t):
+        """Latitude and longitude (rad) added by the current: ∫ c_N/(R_M+h) dt, ∫ c_E/((R_N+h) cos L) dt
+        along the actual latitude, tabulated at 0.5 s and spline-interpolated (consistent with v_n)."""
+        if not hasattr(self, "_drift_splines"):
+            from scipy.interpolate import CubicSpline
+
+            from ldvsurvey.nav.earth import radii
+
+            tt = np.arange(self.t0_s - 1.0, self.t_end_s + 1.5, 0.5)
+            s, *_ = self._kinematics(np.clip(tt, self.t0_s, self.t_end_s))
+            lat_r, _, h = self.road.geodetic(s)
+            frac = smooth_step((tt - self.current_t0) / self.current_ramp)[0]
+            dlat = np.zeros_like(tt)
+            for _ in range(3):  # the radii depend (weakly) on the drifted latitude
+                rm, rn = radii(lat_r + dlat)
+                fn = frac * self.current[1] / (rm + h)
+                dlat = np.concatenate([[0.0], np.cumsum(0.5 * (fn[1:] + fn[:-1]) * 0.5)])
+            fe = frac * self.current[0] / ((rn + h) * np.cos(lat_r + dlat))
+            dlon = np.concatenate([[0.0], np.cumsum(0.5 * (fe[1:] + fe[:-1]) * 0.5)])
+            self._drift_splines = (CubicSpline(tt, dlat), CubicSpline(tt, dlon))
+        a, b = self._drift_splines
+        return a(t), b(t)
+
     def truth(self, t_s):
         """Truth at times ``t_s`` (s).
 
@@ -135,6 +166,14 @@ class Motion:
         heading_rate = dpsi * sd + offd
         pitch_rate = co * dth_r * sd - so * offd * th_r
         roll_rate = co * dga_r * sd - so * offd * ga_r
+        if self.current is not None:  # drift with the water
+            u = (t - self.current_t0) / self.current_ramp
+            frac, rate, _ = smooth_step(u)
+            dlat, dlon = self._drift(t)
+            lat = lat + dlat
+            lon = lon + dlon
+            v_n = v_n + frac[:, None] * self.current
+            a_n = a_n + (rate / self.current_ramp)[:, None] * self.current
         c_tn = c_bn_from_euler(pitch, roll, heading)
         # ω_nt^t = (R_x(θ) R_y(γ))ᵀ [0,0,ẏ] + R_y(γ)ᵀ [θ̇,0,0] + [0,γ̇,0], with y = −ψ
         yd = -heading_rate

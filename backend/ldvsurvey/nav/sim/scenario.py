@@ -53,6 +53,8 @@ class Scenario:
     lines: list = field(default_factory=list)  #: [(name, t_start_s, t_end_s)] absolute times
     current_n_mps: tuple | None = None  #: water current (vessel), ENU
     s0_m: float = 0.0  #: arc length of the road where the vehicle starts
+    heading_offset0_rad: float = 0.0  #: initial heading relative to the road (a vessel turning onto it)
+    current_from_s: float = 0.0  #: the current acts from here on (a moored vessel casting off)
 
     def fix_of_t(self, t):
         fix = np.full(len(t), 4)
@@ -87,7 +89,9 @@ OPTICS = {"wavelength_nm": 1064.0, "beam_angle_deg": 10.0, "surface_angle_deg": 
 def simulate(sc: Scenario, seed: int = 1, with_nodov: bool = False) -> SimResult:
     """Simulate all sensors of a scenario."""
     rng = np.random.default_rng(seed)
-    motion = Motion(sc.road, sc.segments, sc.t0_s, dt_s=1.0 / sc.imu_rate_hz, s0_m=sc.s0_m)
+    motion = Motion(sc.road, sc.segments, sc.t0_s, dt_s=1.0 / sc.imu_rate_hz, s0_m=sc.s0_m,
+                    heading_offset0_rad=sc.heading_offset0_rad, current_n_mps=sc.current_n_mps,
+                    current_from_s=sc.current_from_s)
     dt = 1.0 / sc.imu_rate_hz
     n = int(round((motion.t_end_s - sc.t0_s) / dt))
     t = sc.t0_s + np.arange(n + 1) * dt
@@ -110,8 +114,11 @@ def simulate(sc: Scenario, seed: int = 1, with_nodov: bool = False) -> SimResult
     n_l = int(np.floor((motion.t_end_s - sc.t0_s) * sc.ldv_rate_hz + 1e-9))
     t_l = sc.t0_s + np.arange(1, n_l + 1) / sc.ldv_rate_hz
     current = None
-    if sc.current_n_mps is not None:
-        current = np.broadcast_to(np.asarray(sc.current_n_mps, float), (len(t_l), 3))
+    if sc.current_n_mps is not None:  # a water-track LDV sees the velocity relative to the water
+        from ldvsurvey.nav.sim.road import smooth_step
+
+        frac = smooth_step((t_l - motion.current_t0) / motion.current_ramp)[0]
+        current = frac[:, None] * np.asarray(sc.current_n_mps, float)
     vf, vu = ldv_measure(motion, t_l, sc.ldv, rng, current_n=current)
     quality = rng.integers(150, 400, len(t_l)).astype(float)
     bad = rng.random(len(t_l)) < sc.ldv_dropout_share

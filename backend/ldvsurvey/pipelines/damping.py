@@ -1,0 +1,114 @@
+"""``damping``: undamped, conventional and delayed-state water-velocity damping (methods §6)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ldvsurvey.errors import ParameterError
+from ldvsurvey.nav.attitude import q_from_c
+from ldvsurvey.nav.damping import MODES, N, run_damping
+from ldvsurvey.nav.earth import enu_offset_m
+from ldvsurvey.nav.filter import DEG
+from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.prep import attitude_at, initial_attitude, nav_inputs
+
+PARAMS = [
+    Param("period_s", "float", 1.0, "covariance and conventional update period of the filters (s)"),
+    Param("delayed_baseline_s", "float", 60.0, "time between the two residuals the delayed-state measurement "
+          "differences: the current must stay constant over it"),
+    Param("ldv_sigma_mps", "float", 0.05, "1-σ of one water-LDV sample"),
+    Param("delayed_gate_sigma", "float", 5.0, "gate on the delayed-state velocity change (a current change)"),
+    Param("output_rate_hz", "float", 1.0, "rate of damping.csv"),
+]
+
+
+def _reference(log, t_s):
+    """Reference positions (IMU centre, rad/m) and velocities (m/s) from GNSS at fix 4/2/5."""
+    g = log.gnss
+    if g is None:
+        raise ParameterError("the damping comparison needs a GNSS reference (no gnss.nmea)", file="gnss.nmea")
+    k = np.isin(g.fix, (4, 5, 2)) & np.isfinite(g.lat_deg)
+    if k.sum() < 60:
+        raise ParameterError("fewer than 60 GNSS fixes of quality 4, 5 or 2 for the reference",
+                             file="gnss.nmea", field="fix_quality")
+    tg = g.t_s[k]
+    lat, lon, h = np.radians(g.lat_deg[k]), np.radians(g.lon_deg[k]), g.h_m[k]
+    v = np.gradient(np.column_stack([lat, lon]), tg, axis=0)
+    from ldvsurvey.nav.earth import radii
+
+    rm, rn = radii(lat)
+    v_n = np.column_stack([v[:, 1] * (rn + h) * np.cos(lat), v[:, 0] * (rm + h)])
+    return tg, lat, lon, h, v_n
+
+
+def run(logs, params, progress) -> PipelineResult:
+    log = logs[0]
+    m = log.manifest
+    if m.platform != "vessel":
+        raise ParameterError(f"damping is for vessels: the manifest says platform '{m.platform}'",
+                             file="manifest.json", field="platform")
+    if m.ldv.kind != "water":
+        raise ParameterError(f"damping needs a water-track LDV: the manifest says ldv.kind '{m.ldv.kind}'",
+                             file="manifest.json", field="ldv.kind")
+    if m.initial.static_s is None:
+        raise ParameterError("a vessel log needs manifest initial.static_s (the moored period): the water LDV "
+                             "cannot tell when the vessel stands still", file="manifest.json",
+                             field="initial.static_s")
+    progress("preparing", 0.02)
+    inp = nav_inputs(log)
+    tg, glat, glon, gh, gv = _reference(log, inp.t_s)
+    q0 = q_from_c(initial_attitude(inp, None))
+    noise = inp.noise
+    p0 = np.concatenate([np.array([0.05, 0.05, 2.0]) * DEG, np.full(3, 0.05), np.full(3, 1.0),
+                         np.full(3, max(noise.gyro_bias_rps, 1e-9)), np.full(3, max(noise.accel_bias_mps2, 1e-5)),
+                         [0.01]]) ** 2
+    qd = np.concatenate([np.full(3, noise.arw_psd), np.full(3, noise.vrw_psd), np.zeros(9), [1e-12]])
+    nom = m.ldv.nominal
+    results = {}
+    lever = np.asarray(m.gnss.lever_arm_m, float)
+    for i, name in enumerate(MODES):
+        progress(f"{name.replace('_', ' ')} navigation", 0.1 + 0.28 * i)
+        q, v, p, s, n_rej = run_damping(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q0, np.zeros(3), inp.pos0, MODES[name],
+                                 params["period_s"], inp.static_end_s, inp.ldv_ok, inp.nu_f_mps, 1.0 / nom.scale,
+                                 nom.pitch_deg * DEG, nom.heading_deg * DEG, p0, qd, params["ldv_sigma_mps"],
+                                 float(inp.pos0[2]), 0.05, 0.5,
+                                 max(1, int(round(params["delayed_baseline_s"] / params["period_s"]))),
+                                 params["delayed_gate_sigma"])
+        # errors against GNSS (antenna → IMU centre) at the fixes after the moored period
+        use = tg > inp.static_end_s
+        from ldvsurvey.nav.attitude import c_from_q
+
+        c_fix = c_from_q(np.column_stack([np.interp(tg[use], inp.t_s, q[:, j]) for j in range(4)]))
+        lev = c_fix @ lever
+        lat = np.interp(tg[use], inp.t_s, p[:, 0])
+        lon = np.interp(tg[use], inp.t_s, p[:, 1])
+        d = enu_offset_m(glat[use], glon[use], gh[use], lat, lon, gh[use])
+        d[:, 0] += lev[:, 0]
+        d[:, 1] += lev[:, 1]
+        dv = np.column_stack([np.interp(tg[use], inp.t_s, v[:, j]) for j in range(2)]) - gv[use]
+        results[name] = {"t": tg[use], "dn": d[:, 1], "de": d[:, 0], "dvn": dv[:, 1], "dve": dv[:, 0],
+                         "scale": 1.0 / s[-1], "rejected": int(n_rej)}
+    summary = {}
+    for name, r in results.items():
+        pe = np.hypot(r["dn"], r["de"])
+        ve = np.hypot(r["dvn"], r["dve"])
+        summary[name] = {"max_position_error_m": float(pe.max()), "rms_position_error_m": float(np.sqrt(np.mean(pe ** 2))),
+                         "rms_velocity_error_mps": float(np.sqrt(np.mean(ve ** 2))),
+                         "max_velocity_error_mps": float(ve.max())}
+    c, d = summary["conventional"], summary["delayed_state"]
+    summary["position_improvement_pct"] = 100 * (1 - d["rms_position_error_m"] / c["rms_position_error_m"])
+    summary["velocity_improvement_pct"] = 100 * (1 - d["rms_velocity_error_mps"] / c["rms_velocity_error_mps"])
+    summary["reference"] = "GNSS fixes of quality 4, 5, 2 (antenna brought to the IMU centre)"
+    summary["ldv_scale_estimate"] = {k: r["scale"] for k, r in results.items() if k != "undamped"}
+    summary["delayed_state_skipped"] = results["delayed_state"]["rejected"]
+    step = max(1, int(round(1.0 / params["output_rate_hz"])))
+    t_out = results["undamped"]["t"][::step]
+    cols = {"t_s": t_out}
+    for name, r in results.items():
+        for key, col in (("dn", "north_error_m"), ("de", "east_error_m"), ("dvn", "north_velocity_error_mps"),
+                         ("dve", "east_velocity_error_mps")):
+            cols[f"{name}_{col}"] = r[key][::step]
+    return PipelineResult(summary=summary, tables={"damping": cols})
+
+
+PIPELINE = Pipeline("damping", run, PARAMS, "Water-velocity horizontal damping of SINS (delayed-state filter)")
