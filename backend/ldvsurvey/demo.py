@@ -26,20 +26,41 @@ def write_demo(directory: str | Path, scenario: str = "height", seed: int = 1,
     return [out, out / "truth"]
 
 
+DEMO = (("height", "height"), ("gravity", "gravity"))  # (scenario, pipeline run on it)
+
+
 def load_demo_survey(database_url: str, data_dir: Path) -> list[int]:
-    """Make sure the demo bundles are simulated (cached under data_dir/demo) and stored."""
+    """Simulate the demo bundles once (cached under data_dir/demo), store them, and queue their
+    pipelines unless a job for them exists already. Returns the log ids."""
+    from sqlalchemy import select
+
     from ldvsurvey.io.drivelog import load_bundle
     from ldvsurvey.io.quality import quality_report
+    from ldvsurvey.jobs.runner import enqueue
     from ldvsurvey.store.db import session_scope
     from ldvsurvey.store.logs import store_log
+    from ldvsurvey.store.models import Job
 
     ids = []
-    for name in ("height",):
-        folder = Path(data_dir) / "demo" / name
+    for scenario, pipeline in DEMO:
+        folder = Path(data_dir) / "demo" / scenario
         if not (folder / "manifest.json").exists():
-            write_demo(folder, scenario=name)
+            print(f"simulating the demo {scenario} drive (first start only)…", flush=True)
+            write_demo(folder, scenario=scenario)
         log = load_bundle(folder)
         with session_scope(database_url) as s:
             row, _ = store_log(s, log, quality_report(log))
-            ids.append(row.id)
+            log_id = row.id
+            job = s.scalar(select(Job).where(Job.pipeline == pipeline))
+            if job is None or log_id not in job.log_ids:
+                job = Job(pipeline=pipeline, log_ids=[log_id], parameters={}, status="queued", stage="queued",
+                          progress=0.0)
+                s.add(job)
+                s.flush()
+                new_job = job.id
+            else:
+                new_job = None
+        if new_job is not None:
+            enqueue(new_job)
+        ids.append(log_id)
     return ids

@@ -18,6 +18,9 @@ class Settings(BaseSettings):
     max_upload_bytes: int = 512 * 1024 * 1024
     max_unzipped_bytes: int = 2 * 1024 * 1024 * 1024
     max_zip_ratio: float = 200.0  # uncompressed/compressed per member (zip bomb guard)
+    redis_url: str | None = None  # RedisHuey transport (scale-out); default SqliteHuey in data_dir
+    run_consumer: bool = True  # start the huey consumer inside the server process
+    workers: int = 2  # consumer worker threads in the server process
 
     def resolved_database_url(self) -> str:
         """SQLAlchemy URL: ``LDVSURVEY_DATABASE_URL`` or ``sqlite:///<data_dir>/ldvsurvey.db``."""

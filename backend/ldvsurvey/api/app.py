@@ -10,6 +10,7 @@ from fastapi.staticfiles import StaticFiles
 
 from ldvsurvey import __version__
 from ldvsurvey.api.limits import BodySizeLimit
+from ldvsurvey.api.jobs import router as jobs_router
 from ldvsurvey.api.logs import router as logs_router
 from ldvsurvey.errors import InputError
 from ldvsurvey.settings import Settings, get_settings
@@ -40,6 +41,32 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return {"status": "ok", "version": __version__, "database": dialect}
 
     app.include_router(logs_router)
+    app.include_router(jobs_router)
+
+    import plotly
+
+    plotly_js = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+
+    @app.get("/vendor/plotly.min.js", include_in_schema=False)
+    def plotly_bundle():
+        from fastapi.responses import FileResponse
+
+        return FileResponse(plotly_js, media_type="text/javascript")
+
+    from ldvsurvey.jobs import runner
+
+    runner.configure(url, settings)
+    if settings.run_consumer:
+        consumer = runner.Consumer(workers=settings.workers)
+
+        @app.on_event("startup")
+        def _start_consumer():
+            consumer.start()
+
+        @app.on_event("shutdown")
+        def _stop_consumer():
+            consumer.stop()
+
     if FRONTEND_DIR.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_upload_bytes)

@@ -1,0 +1,157 @@
+"""``/api/jobs`` and ``/api/logs/{id}/jobs``: start, watch, cancel, retry; result files and views."""
+
+from __future__ import annotations
+
+import datetime as dt
+
+from fastapi import APIRouter, Depends, HTTPException, Query, Request, Response
+from pydantic import BaseModel, Field
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from ldvsurvey.api.deps import get_session
+from ldvsurvey.errors import ParameterError
+from ldvsurvey.store import logs as store
+from ldvsurvey.store.models import Job, JobFile
+
+router = APIRouter(tags=["jobs"])
+#: parameters naming server-side files are not accepted from the network
+SERVER_PATH_PARAMS = {"dov_grid", "imu_nodov"}
+
+
+class JobRequest(BaseModel):
+    pipeline: str = Field(..., examples=["height"])
+    parameters: dict[str, str | float | int | bool | list[float] | None] = Field(default_factory=dict)
+    log_ids: list[int] = Field(default_factory=list, description="further logs (gravity line comparison)")
+
+
+def job_dict(j: Job) -> dict:
+    def iso(x):
+        return x.isoformat() if isinstance(x, dt.datetime) else None
+
+    return {"id": j.id, "pipeline": j.pipeline, "log_ids": j.log_ids, "parameters": j.parameters,
+            "status": j.status, "stage": j.stage, "progress": j.progress, "attempts": j.attempts,
+            "cancel_requested": j.cancel_requested, "error": j.error, "created_at": iso(j.created_at),
+            "started_at": iso(j.started_at), "finished_at": iso(j.finished_at), "heartbeat_at": iso(j.heartbeat_at),
+            "summary": j.summary}
+
+
+@router.get("/api/pipelines", summary="Pipelines with their parameters and defaults")
+def list_pipelines() -> list[dict]:
+    from ldvsurvey.pipelines.registry import PIPELINES
+
+    return [{"name": p.name, "description": p.description, "multi_input": p.multi_input,
+             "parameters": [{"name": q.name, "kind": q.kind, "default": q.default, "help": q.help,
+                             "choices": list(q.choices) if q.choices else None}
+                            for q in p.params if q.name not in SERVER_PATH_PARAMS]}
+            for p in PIPELINES.values()]
+
+
+@router.post("/api/logs/{log_id}/jobs", status_code=201, summary="Start a pipeline on a log")
+def start_job(log_id: int, req: JobRequest, request: Request, session: Session = Depends(get_session)) -> dict:
+    from ldvsurvey.jobs.runner import enqueue
+    from ldvsurvey.pipelines.registry import get
+
+    ids = [log_id] + [i for i in req.log_ids if i != log_id]
+    for i in ids:
+        if store.get_log(session, i) is None:
+            raise HTTPException(404, f"log {i} not found")
+    pipe = get(req.pipeline)
+    bad = SERVER_PATH_PARAMS & set(req.parameters)
+    if bad:
+        raise ParameterError("names a file on the server: not accepted through the API", field=sorted(bad)[0])
+    if len(ids) > 1 and not pipe.multi_input:
+        raise ParameterError(f"'{pipe.name}' takes one log", field="log_ids")
+    values = pipe.resolve({k: v for k, v in req.parameters.items() if v is not None})
+    guard = getattr(request.app.state, "job_guard", None)
+    if guard is not None:
+        guard(request, session)
+    job = Job(pipeline=pipe.name, log_ids=ids, parameters={k: v for k, v in req.parameters.items() if v is not None},
+              status="queued", stage="queued", progress=0.0)
+    session.add(job)
+    session.commit()
+    enqueue(job.id)
+    out = job_dict(job)
+    out["resolved_parameters"] = values
+    return out
+
+
+def _job(session: Session, job_id: int) -> Job:
+    j = session.get(Job, job_id)
+    if j is None:
+        raise HTTPException(404, f"job {job_id} not found")
+    return j
+
+
+@router.get("/api/jobs", summary="Jobs, newest first")
+def list_jobs(log_id: int | None = None, session: Session = Depends(get_session)) -> list[dict]:
+    jobs = list(session.scalars(select(Job).order_by(Job.id.desc())))
+    if log_id is not None:
+        jobs = [j for j in jobs if log_id in j.log_ids]
+    return [job_dict(j) for j in jobs]
+
+
+@router.get("/api/jobs/{job_id}", summary="One job: status, stage, progress, error, summary")
+def get_job(job_id: int, session: Session = Depends(get_session)) -> dict:
+    return job_dict(_job(session, job_id))
+
+
+@router.post("/api/jobs/{job_id}/cancel", summary="Ask a job to stop (between stages)")
+def cancel_job(job_id: int, session: Session = Depends(get_session)) -> dict:
+    j = _job(session, job_id)
+    if j.status in ("succeeded", "failed", "cancelled"):
+        raise HTTPException(409, f"job {job_id} already {j.status}")
+    j.cancel_requested = True
+    if j.status == "queued":
+        j.status, j.stage = "cancelled", "cancelled"
+        j.finished_at = dt.datetime.now(dt.timezone.utc)
+    session.commit()
+    return job_dict(j)
+
+
+@router.post("/api/jobs/{job_id}/retry", summary="Run a failed or cancelled job again")
+def retry_job(job_id: int, session: Session = Depends(get_session)) -> dict:
+    from ldvsurvey.jobs.runner import enqueue
+
+    j = _job(session, job_id)
+    if j.status not in ("failed", "cancelled"):
+        raise HTTPException(409, f"only failed or cancelled jobs can be retried (job {job_id} is {j.status})")
+    j.status, j.stage, j.progress, j.error, j.cancel_requested = "queued", "queued", 0.0, None, False
+    j.finished_at = None
+    session.commit()
+    enqueue(j.id)
+    return job_dict(j)
+
+
+@router.get("/api/jobs/{job_id}/files", summary="Result files of a job")
+def list_job_files(job_id: int, session: Session = Depends(get_session)) -> list[dict]:
+    _job(session, job_id)
+    rows = session.execute(select(JobFile.name, JobFile.size_bytes).where(JobFile.job_id == job_id)
+                           .order_by(JobFile.name))
+    return [{"name": n, "size_bytes": s} for n, s in rows]
+
+
+def job_file(session: Session, job_id: int, name: str) -> bytes:
+    f = session.scalar(select(JobFile).where(JobFile.job_id == job_id, JobFile.name == name))
+    if f is None:
+        raise HTTPException(404, f"job {job_id} has no file '{name}'")
+    return f.content
+
+
+@router.get("/api/jobs/{job_id}/files/{name}", summary="A result file, exactly as the CLI writes it")
+def get_job_file(job_id: int, name: str, session: Session = Depends(get_session)) -> Response:
+    _job(session, job_id)
+    data = job_file(session, job_id, name)
+    ctype = "application/json" if name.endswith(".json") else "text/csv"
+    return Response(content=data, media_type=ctype, headers={"Content-Disposition": f'attachment; filename="{name}"'})
+
+
+@router.get("/api/jobs/{job_id}/views/{view}", summary="A Plotly figure of a result (downsampled)")
+def get_view(job_id: int, view: str, x0: float | None = None, x1: float | None = None,
+             points: int = Query(2000, ge=100, le=20000), session: Session = Depends(get_session)) -> dict:
+    from ldvsurvey.api.views import build_view
+
+    j = _job(session, job_id)
+    if j.status != "succeeded":
+        raise HTTPException(409, f"job {job_id} is {j.status}: no results yet")
+    return build_view(session, j, view, x0, x1, points)

@@ -1,0 +1,166 @@
+"""Plotly figures of the stored results, downsampled on the server (MinMax-LTTB).
+
+Each view reads the job's CSV files (the same files the CLI writes) and returns figure JSON;
+``x0``/``x1`` re-fetch detail for a zoomed range.
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pyarrow.csv as pacsv
+from fastapi import HTTPException
+from tsdownsample import MinMaxLTTBDownsampler
+
+from ldvsurvey.store.models import Job
+
+VIEWS = {
+    "height": ["height", "height_error"],
+    "tilt": ["attitude"],
+    "navigate": ["trajectory"],
+    "calibrate": ["calibration_track"],
+    "gravity": ["gravity_lines", "gravity_residuals", "gravity_compare_gnss"],
+    "dov": ["dov_deflection", "dov_error"],
+    "damping": ["damping"],
+}
+
+
+def _csv(session, job: Job, name: str) -> dict[str, np.ndarray]:
+    from ldvsurvey.api.jobs import job_file
+
+    table = pacsv.read_csv(io.BytesIO(job_file(session, job.id, name)))
+    out = {}
+    for c in table.column_names:
+        col = table.column(c)
+        try:
+            out[c] = col.to_numpy(zero_copy_only=False).astype(float)
+        except (ValueError, TypeError):
+            out[c] = np.array([("" if v is None else str(v)) for v in col.to_pylist()], dtype=object)
+    return out
+
+
+def _down(x, y, x0, x1, n):
+    """Indices of at most n points of (x, y) within [x0, x1] (MinMax-LTTB)."""
+    k = np.flatnonzero(np.isfinite(x) & np.isfinite(y) & ((x >= x0) if x0 is not None else True)
+                       & ((x <= x1) if x1 is not None else True))
+    if len(k) <= n:
+        return k
+    order = np.argsort(x[k], kind="stable")
+    k = k[order]
+    sel = MinMaxLTTBDownsampler().downsample(np.ascontiguousarray(x[k]), np.ascontiguousarray(y[k]), n_out=n)
+    return k[np.sort(sel)]
+
+
+def _trace(x, y, name, x0, x1, n, **kw):
+    k = _down(np.asarray(x, float), np.asarray(y, float), x0, x1, n)
+    return {"type": "scattergl", "mode": kw.pop("mode", "lines"), "name": name, "x": np.asarray(x)[k].tolist(),
+            "y": np.asarray(y)[k].tolist(), **kw}
+
+
+def _fig(traces, title, xt, yt, **layout):
+    return {"data": traces, "layout": {"title": {"text": title}, "xaxis": {"title": {"text": xt}},
+                                       "yaxis": {"title": {"text": yt}}, "margin": {"t": 50, "r": 20, "b": 90},
+                                       "legend": {"orientation": "h", "y": -0.22}, **layout}}
+
+
+def build_view(session, job: Job, view: str, x0, x1, n) -> dict:
+    if view not in VIEWS.get(job.pipeline, []):
+        raise HTTPException(404, f"no view '{view}' for a {job.pipeline} job (views: {VIEWS.get(job.pipeline)})")
+    s = job.summary or {}
+    if view in ("height", "height_error"):
+        h = _csv(session, job, "height.csv")
+        t = h["t_s"]
+        if view == "height":
+            tr = [_trace(t, h["h_m"], "LDV height (tilt compensated)", x0, x1, n),
+                  _trace(t, h["h_uncompensated_m"], "LDV height (uncompensated)", x0, x1, n),
+                  _trace(t, h["h_gnss_m"], "GNSS height (fix 4/2)", x0, x1, n, mode="markers",
+                         marker={"size": 3})]
+            return _fig(tr, "Height of the IMU centre", "t (s of day)", "h (m, ellipsoidal)")
+        tr = [_trace(t, h["h_m"] - h["h_gnss_m"], "error, tilt compensated", x0, x1, n, mode="markers",
+                     marker={"size": 3}),
+              _trace(t, h["h_uncompensated_m"] - h["h_gnss_m"], "error, uncompensated", x0, x1, n, mode="markers",
+                     marker={"size": 3})]
+        return _fig(tr, f"Height error against GNSS: std {s.get('std_error_m', float('nan')):.3f} m, "
+                        f"max {s.get('max_error_m', float('nan')):.3f} m", "t (s of day)", "LDV − GNSS (m)")
+    if view == "attitude":
+        a = _csv(session, job, "attitude.csv")
+        t = a["t_s"]
+        tr = [_trace(t, a["pitch_raw_deg"], "pitch raw", x0, x1, n), _trace(t, a["pitch_deg"], "pitch compensated", x0, x1, n),
+              _trace(t, a["roll_raw_deg"], "roll raw", x0, x1, n), _trace(t, a["roll_deg"], "roll compensated", x0, x1, n)]
+        return _fig(tr, f"Attitude: α = {s.get('alpha_rad', 0):.2e} rad, β = {s.get('beta_rad', 0):.2e} rad",
+                    "t (s of day)", "angle (deg)")
+    if view in ("trajectory", "calibration_track"):
+        name = "trajectory.csv" if view == "trajectory" else "calibration_track.csv"
+        d = _csv(session, job, name)
+        lat0, lon0 = np.radians(d["lat_deg"][0]), np.radians(d["lon_deg"][0])
+        e = (np.radians(d["lon_deg"]) - lon0) * 6378137.0 * np.cos(lat0)
+        nn = (np.radians(d["lat_deg"]) - lat0) * 6356752.0
+        tr = [_trace(e, nn, "solution", None, None, n, mode="lines")]
+        log = _first_log(session, job)
+        if log is not None and log.gnss is not None:
+            g = log.gnss
+            ok = np.isfinite(g.lat_deg)
+            ge = (np.radians(g.lon_deg[ok]) - lon0) * 6378137.0 * np.cos(lat0)
+            gn = (np.radians(g.lat_deg[ok]) - lat0) * 6356752.0
+            k = _down(ge, gn, None, None, n)
+            tr.append({"type": "scattergl", "mode": "markers", "name": "GNSS (colour: fix quality)",
+                       "x": ge[k].tolist(), "y": gn[k].tolist(),
+                       "marker": {"size": 4, "color": g.fix[ok][k].astype(int).tolist(), "colorscale": "Viridis",
+                                  "showscale": True, "colorbar": {"title": {"text": "fix"}}}})
+        return _fig(tr, "Trajectory (local east/north from the start)", "east (m)", "north (m)",
+                    yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1})
+    if view in ("gravity_lines", "gravity_residuals"):
+        c = _csv(session, job, "coincidence.csv")
+        tr = []
+        for name in sorted(set(c["line"])):
+            k = c["line"] == name
+            y = c["dg_mgal"][k] if view == "gravity_lines" else c["residual_mgal"][k]
+            tr.append(_trace(c["distance_m"][k], y, str(name), x0, x1, n))
+        if view == "gravity_lines":
+            k = c["line"] == sorted(set(c["line"]))[0]
+            tr.append(_trace(c["distance_m"][k], c["mean_mgal"][k], "mean line", x0, x1, n,
+                             line={"width": 3, "color": "black"}))
+            return _fig(tr, f"Gravity disturbance on the repeated lines (FIR {s.get('fir_length_s')} s, "
+                            f"resolution {s.get('resolution_m', 0):.0f} m)", "along-track distance (m)", "δg (mGal)")
+        return _fig(tr, f"Residuals about the mean line: total ±{s.get('total_mgal', float('nan')):.3f} mGal",
+                    "along-track distance (m)", "residual (mGal)")
+    if view == "gravity_compare_gnss":
+        g = _csv(session, job, "gravity.csv")
+        on = g["line"] != ""
+        tr = [_trace(g["t_s"][on], g["dg_mgal"][on], "SINS/LDV δg", x0, x1, n, mode="markers", marker={"size": 3})]
+        gc = s.get("gnss_comparison") or {}
+        title = (f"SINS/LDV ±{s.get('total_mgal', float('nan')):.2f} mGal vs SINS/GNSS "
+                 f"±{gc.get('total_mgal', float('nan')) if gc.get('total_mgal') is not None else float('nan'):.2f} mGal")
+        return _fig(tr, title, "t (s of day)", "δg (mGal)")
+    if view == "dov_deflection":
+        d = _csv(session, job, "dov.csv")
+        t = d["t_s"]
+        return _fig([_trace(t, d["xi_arcsec"], "ξ", x0, x1, n), _trace(t, d["eta_arcsec"], "η", x0, x1, n)],
+                    f"Deflection of the vertical along the track ({s.get('dov_source', '')})", "t (s of day)",
+                    "arcsec")
+    if view == "dov_error":
+        d = _csv(session, job, "dov.csv")
+        t = d["t_s"]
+        tr = []
+        for m in ("direct", "rk4", "theoretical"):
+            tr.append(_trace(t, d[f"dn_{m}_m"], f"north, {m}", x0, x1, n))
+            tr.append(_trace(t, d[f"de_{m}_m"], f"east, {m}", x0, x1, n, line={"dash": "dot"}))
+        return _fig(tr, "DOV-caused position error", "t (s of day)", "m")
+    if view == "damping":
+        d = _csv(session, job, "damping.csv")
+        t = d["t_s"]
+        tr = [_trace(t, d[f"{m}_north_error_m"], f"{m.replace('_', ' ')}, north", x0, x1, n)
+              for m in ("undamped", "conventional", "delayed_state")]
+        return _fig(tr, f"Position error: delayed-state improves {s.get('position_improvement_pct', 0):.1f} % over "
+                        "conventional", "t (s of day)", "north error (m)")
+    raise HTTPException(404, f"unknown view '{view}'")
+
+
+def _first_log(session, job):
+    from ldvsurvey.store.logs import load_drivelog
+
+    try:
+        return load_drivelog(session, job.log_ids[0])
+    except Exception:
+        return None

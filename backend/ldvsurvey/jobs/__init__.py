@@ -1,0 +1,1 @@
+"""Background jobs: the ``jobs`` table is the truth, huey is the transport."""

@@ -1,0 +1,131 @@
+"""The dashboard in a real headless Chromium: drag-and-drop upload, pipelines, plots, downloads, errors."""
+
+import base64
+import io
+import json
+import zipfile
+
+import httpx
+import pytest
+
+from ldvsurvey.nav.sim import catalog
+from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from tests.browser.conftest import shot
+
+pytestmark = pytest.mark.browser
+
+
+def _zip(files):
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+        for n, d in files.items():
+            zf.writestr(n, d)
+    return buf.getvalue()
+
+
+def drop_files(page, name_bytes: dict):
+    """Dispatch a real drop event carrying File objects onto the drop zone."""
+    payload = {n: base64.b64encode(b).decode() for n, b in name_bytes.items()}
+    page.evaluate("""(files) => {
+        const dt = new DataTransfer();
+        for (const [name, b64] of Object.entries(files)) {
+            const bin = Uint8Array.from(atob(b64), c => c.charCodeAt(0));
+            dt.items.add(new File([bin], name));
+        }
+        const zone = document.getElementById('drop');
+        zone.dispatchEvent(new DragEvent('dragover', {dataTransfer: dt, bubbles: true}));
+        zone.dispatchEvent(new DragEvent('drop', {dataTransfer: dt, bubbles: true}));
+    }""", payload)
+
+
+def wait_job(base, job_id, timeout_s=240):
+    import time
+
+    for _ in range(int(timeout_s * 2)):
+        j = httpx.get(f"{base}/api/jobs/{job_id}").json()
+        if j["status"] in ("succeeded", "failed", "cancelled"):
+            return j
+        time.sleep(0.5)
+    raise TimeoutError(job_id)
+
+
+def start_job(page, pipeline):
+    page.select_option("#pipe", pipeline)
+    page.click("#start")
+    page.wait_for_selector("#startmsg:has-text('queued')")
+    return int(page.inner_text("#startmsg").split()[1])
+
+
+@pytest.fixture(scope="module")
+def height_zip():
+    return _zip(bundle_files(simulate(catalog.height(minutes=12.0, length_m=3000.0), seed=8)))
+
+
+@pytest.fixture(scope="module")
+def gravity_zip():
+    return _zip(bundle_files(simulate(catalog.gravity(n_lines=3, line_km=3.0), seed=9)))
+
+
+def test_upload_run_height_plot_and_download(server, page, height_zip):
+    page.goto(server + "/#/logs")
+    drop_files(page, {"height-run.zip": height_zip})
+    page.wait_for_selector("#upload-ok", timeout=60_000)
+    shot(page, "logs")
+    page.click("#upload-ok a")
+    page.wait_for_selector("#pipe")
+    shot(page, "log-detail")
+    job = start_job(page, "height")
+    page.wait_for_selector(f"tr[data-job='{job}'] progress")  # live progress row
+    j = wait_job(server, job)
+    assert j["status"] == "succeeded", j["error"]
+    page.goto(f"{server}/#/jobs/{job}")
+    page.wait_for_selector("#view-height .main-svg", timeout=30_000)
+    # the plot carries the data, not just a div
+    n = page.evaluate("() => document.getElementById('view-height').data.map(t => t.x.length)")
+    assert len(n) == 3 and min(n[:2]) > 100
+    ys = page.evaluate("() => document.getElementById('view-height').data[0].y.slice(0, 5)")
+    assert all(isinstance(v, (int, float)) for v in ys)
+    shot(page, "view-height")
+    with page.expect_download() as dl:
+        page.click("#downloads a:has-text('height.csv')")
+    got = open(dl.value.path(), "rb").read()
+    assert got == httpx.get(f"{server}/api/jobs/{job}/files/height.csv").content
+    assert got.startswith(b"t_s,h_m,h_uncompensated_m,h_gnss_m,fix_quality")
+
+
+def test_gravity_lines_and_coincidence_table(server, page, gravity_zip):
+    page.goto(server + "/#/logs")
+    page.set_input_files("#pick", files=[{"name": "gravity.zip", "mimeType": "application/zip",
+                                          "buffer": gravity_zip}])
+    page.wait_for_selector("#upload-ok", timeout=60_000)
+    page.click("#upload-ok a")
+    page.wait_for_selector("#pipe")
+    job = start_job(page, "gravity")
+    j = wait_job(server, job)
+    assert j["status"] == "succeeded", j["error"]
+    page.goto(f"{server}/#/jobs/{job}")
+    page.wait_for_selector("#view-gravity_lines .main-svg", timeout=30_000)
+    names = page.evaluate("() => document.getElementById('view-gravity_lines').data.map(t => t.name)")
+    assert {"L1", "L2", "L3", "mean line"} <= set(names)
+    rows = page.locator("table.coincidence").first.locator("tr").count()
+    assert rows == 1 + 3
+    shot(page, "view-gravity")
+    page.goto(server + "/#/compare")
+    page.wait_for_selector("#cmp .main-svg", timeout=30_000)
+    shot(page, "compare")
+
+
+def test_bad_bundle_shows_file_line_field(server, page, height_zip):
+    files = {}
+    with zipfile.ZipFile(io.BytesIO(height_zip)) as zf:
+        for n in zf.namelist():
+            files[n] = zf.read(n)
+    m = json.loads(files["manifest.json"])
+    m["imu"]["rate_hz"] = "100 Hz"
+    files["manifest.json"] = json.dumps(m, indent=2).encode()
+    page.goto(server + "/#/logs")
+    drop_files(page, files)
+    page.wait_for_selector("#upload-error", timeout=60_000)
+    text = page.inner_text("#upload-error")
+    assert "manifest.json" in text and "imu.rate_hz" in text and "line" in text
+    shot(page, "upload-error")
