@@ -33,15 +33,22 @@ def _cmd_validate(args) -> int:
 
 
 def _cmd_serve(args) -> int:
+    import os
+
     import uvicorn
 
     from ldvsurvey.api.app import create_app
+    from ldvsurvey.settings import get_settings
 
+    if args.demo:  # visitors act as the clearly marked demo account
+        os.environ["LDVSURVEY_DEMO_MODE"] = "1"
+        get_settings.cache_clear()
     app = create_app()
     if args.demo:
         from ldvsurvey.demo import load_demo_survey
 
         load_demo_survey(app.state.database_url, app.state.settings.data_dir)
+        print(f"dashboard with the demo survey: http://{args.host}:{args.port}/", flush=True)
     uvicorn.run(app, host=args.host, port=args.port, log_level="info")
     return 0
 

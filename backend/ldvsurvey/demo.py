@@ -49,7 +49,10 @@ def load_demo_survey(database_url: str, data_dir: Path) -> list[int]:
             write_demo(folder, scenario=scenario)
         log = load_bundle(folder)
         with session_scope(database_url) as s:
-            row, _ = store_log(s, log, quality_report(log))
+            from ldvsurvey.store.users import get_or_create_project
+
+            project = get_or_create_project(s, "Demo survey")
+            row, _ = store_log(s, log, quality_report(log), project.id)
             log_id = row.id
             job = s.scalar(select(Job).where(Job.pipeline == pipeline))
             if job is None or log_id not in job.log_ids:

@@ -21,6 +21,17 @@ class Settings(BaseSettings):
     redis_url: str | None = None  # RedisHuey transport (scale-out); default SqliteHuey in data_dir
     run_consumer: bool = True  # start the huey consumer inside the server process
     workers: int = 2  # consumer worker threads in the server process
+    heartbeat_s: float = 5.0  # running jobs refresh their heartbeat this often
+    stale_s: float = 60.0  # a running job without heartbeat for this long is re-queued
+    reap_every_s: float = 30.0
+    auth_enabled: bool = True  # users, projects, sessions; off only for local single-user use
+    demo_mode: bool = False  # visitors act as the clearly marked demo account
+    admin_user: str | None = None  # first admin, created at start when set
+    admin_password: str | None = None
+    cookie_secure: bool = False  # set behind HTTPS
+    session_hours: float = 12.0
+    max_active_jobs_per_user: int = 4
+    uploads_per_minute: int = 30
 
     def resolved_database_url(self) -> str:
         """SQLAlchemy URL: ``LDVSURVEY_DATABASE_URL`` or ``sqlite:///<data_dir>/ldvsurvey.db``."""

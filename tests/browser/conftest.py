@@ -24,7 +24,8 @@ def _free_port():
 def server(tmp_path_factory):
     port = _free_port()
     data = tmp_path_factory.mktemp("srv")
-    env = {**os.environ, "LDVSURVEY_DATA_DIR": str(data), "LDVSURVEY_MAX_UPLOAD_BYTES": str(200 * 1024 * 1024)}
+    env = {**os.environ, "LDVSURVEY_DATA_DIR": str(data), "LDVSURVEY_MAX_UPLOAD_BYTES": str(200 * 1024 * 1024),
+           "LDVSURVEY_DEMO_MODE": "1"}  # the page acts as the demo account (as after ./scripts/run.sh)
     env.pop("LDVSURVEY_DATABASE_URL", None)
     log = open(data / "server.log", "w")
     proc = subprocess.Popen([sys.executable, "-m", "ldvsurvey.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],

@@ -10,6 +10,8 @@ from fastapi.staticfiles import StaticFiles
 
 from ldvsurvey import __version__
 from ldvsurvey.api.limits import BodySizeLimit
+from ldvsurvey.api.auth import RateLimiter, bootstrap_users
+from ldvsurvey.api.auth import router as auth_router
 from ldvsurvey.api.jobs import router as jobs_router
 from ldvsurvey.api.logs import router as logs_router
 from ldvsurvey.errors import InputError
@@ -28,6 +30,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                   description="Drive logs of SINS + LDV + GNSS: upload, validate, process, compare.")
     app.state.settings = settings
     app.state.database_url = url
+    app.state.rate_limiter = RateLimiter()
+    if settings.auth_enabled:
+        bootstrap_users(url, settings)
 
     @app.exception_handler(InputError)
     async def _input_error(_request: Request, exc: InputError):
@@ -40,6 +45,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             dialect = conn.dialect.name
         return {"status": "ok", "version": __version__, "database": dialect}
 
+    app.include_router(auth_router)
     app.include_router(logs_router)
     app.include_router(jobs_router)
 
@@ -56,16 +62,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     from ldvsurvey.jobs import runner
 
     runner.configure(url, settings)
-    if settings.run_consumer:
-        consumer = runner.Consumer(workers=settings.workers)
+    consumer = runner.Consumer(workers=settings.workers, reap_every_s=settings.reap_every_s,
+                               consume=settings.run_consumer)
 
-        @app.on_event("startup")
-        def _start_consumer():
-            consumer.start()
+    @app.on_event("startup")
+    def _start_consumer():
+        consumer.start()
 
-        @app.on_event("shutdown")
-        def _stop_consumer():
-            consumer.stop()
+    @app.on_event("shutdown")
+    def _stop_consumer():
+        consumer.stop()
 
     if FRONTEND_DIR.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")

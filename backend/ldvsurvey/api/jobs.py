@@ -9,9 +9,9 @@ from pydantic import BaseModel, Field
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from ldvsurvey.api.auth import Principal, check_job_quota, principal, visible_job, visible_log
 from ldvsurvey.api.deps import get_session
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.store import logs as store
 from ldvsurvey.store.models import Job, JobFile
 
 router = APIRouter(tags=["jobs"])
@@ -48,14 +48,14 @@ def list_pipelines() -> list[dict]:
 
 
 @router.post("/api/logs/{log_id}/jobs", status_code=201, summary="Start a pipeline on a log")
-def start_job(log_id: int, req: JobRequest, request: Request, session: Session = Depends(get_session)) -> dict:
+def start_job(log_id: int, req: JobRequest, request: Request, session: Session = Depends(get_session),
+              who: Principal = Depends(principal)) -> dict:
     from ldvsurvey.jobs.runner import enqueue
     from ldvsurvey.pipelines.registry import get
 
     ids = [log_id] + [i for i in req.log_ids if i != log_id]
     for i in ids:
-        if store.get_log(session, i) is None:
-            raise HTTPException(404, f"log {i} not found")
+        visible_log(session, who, i)
     pipe = get(req.pipeline)
     bad = SERVER_PATH_PARAMS & set(req.parameters)
     if bad:
@@ -63,11 +63,9 @@ def start_job(log_id: int, req: JobRequest, request: Request, session: Session =
     if len(ids) > 1 and not pipe.multi_input:
         raise ParameterError(f"'{pipe.name}' takes one log", field="log_ids")
     values = pipe.resolve({k: v for k, v in req.parameters.items() if v is not None})
-    guard = getattr(request.app.state, "job_guard", None)
-    if guard is not None:
-        guard(request, session)
+    check_job_quota(request, session, who)
     job = Job(pipeline=pipe.name, log_ids=ids, parameters={k: v for k, v in req.parameters.items() if v is not None},
-              status="queued", stage="queued", progress=0.0)
+              status="queued", stage="queued", progress=0.0, user_id=who.user.id if who.user else None)
     session.add(job)
     session.commit()
     enqueue(job.id)
@@ -76,29 +74,40 @@ def start_job(log_id: int, req: JobRequest, request: Request, session: Session =
     return out
 
 
-def _job(session: Session, job_id: int) -> Job:
-    j = session.get(Job, job_id)
-    if j is None:
-        raise HTTPException(404, f"job {job_id} not found")
-    return j
 
 
 @router.get("/api/jobs", summary="Jobs, newest first")
-def list_jobs(log_id: int | None = None, session: Session = Depends(get_session)) -> list[dict]:
+def list_jobs(log_id: int | None = None, session: Session = Depends(get_session),
+              who: Principal = Depends(principal)) -> list[dict]:
+    from ldvsurvey.store.models import Log
+
     jobs = list(session.scalars(select(Job).order_by(Job.id.desc())))
     if log_id is not None:
         jobs = [j for j in jobs if log_id in j.log_ids]
+    if who.projects is not None:
+        seen = {}
+
+        def ok(j):
+            for i in j.log_ids:
+                if i not in seen:
+                    row = session.get(Log, i)
+                    seen[i] = row is not None and who.can_see(row)
+                if not seen[i]:
+                    return False
+            return True
+
+        jobs = [j for j in jobs if ok(j)]
     return [job_dict(j) for j in jobs]
 
 
 @router.get("/api/jobs/{job_id}", summary="One job: status, stage, progress, error, summary")
-def get_job(job_id: int, session: Session = Depends(get_session)) -> dict:
-    return job_dict(_job(session, job_id))
+def get_job(job_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+    return job_dict(visible_job(session, who, job_id))
 
 
 @router.post("/api/jobs/{job_id}/cancel", summary="Ask a job to stop (between stages)")
-def cancel_job(job_id: int, session: Session = Depends(get_session)) -> dict:
-    j = _job(session, job_id)
+def cancel_job(job_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+    j = visible_job(session, who, job_id)
     if j.status in ("succeeded", "failed", "cancelled"):
         raise HTTPException(409, f"job {job_id} already {j.status}")
     j.cancel_requested = True
@@ -110,10 +119,10 @@ def cancel_job(job_id: int, session: Session = Depends(get_session)) -> dict:
 
 
 @router.post("/api/jobs/{job_id}/retry", summary="Run a failed or cancelled job again")
-def retry_job(job_id: int, session: Session = Depends(get_session)) -> dict:
+def retry_job(job_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
     from ldvsurvey.jobs.runner import enqueue
 
-    j = _job(session, job_id)
+    j = visible_job(session, who, job_id)
     if j.status not in ("failed", "cancelled"):
         raise HTTPException(409, f"only failed or cancelled jobs can be retried (job {job_id} is {j.status})")
     j.status, j.stage, j.progress, j.error, j.cancel_requested = "queued", "queued", 0.0, None, False
@@ -124,8 +133,8 @@ def retry_job(job_id: int, session: Session = Depends(get_session)) -> dict:
 
 
 @router.get("/api/jobs/{job_id}/files", summary="Result files of a job")
-def list_job_files(job_id: int, session: Session = Depends(get_session)) -> list[dict]:
-    _job(session, job_id)
+def list_job_files(job_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> list[dict]:
+    visible_job(session, who, job_id)
     rows = session.execute(select(JobFile.name, JobFile.size_bytes).where(JobFile.job_id == job_id)
                            .order_by(JobFile.name))
     return [{"name": n, "size_bytes": s} for n, s in rows]
@@ -139,8 +148,9 @@ def job_file(session: Session, job_id: int, name: str) -> bytes:
 
 
 @router.get("/api/jobs/{job_id}/files/{name}", summary="A result file, exactly as the CLI writes it")
-def get_job_file(job_id: int, name: str, session: Session = Depends(get_session)) -> Response:
-    _job(session, job_id)
+def get_job_file(job_id: int, name: str, session: Session = Depends(get_session),
+                 who: Principal = Depends(principal)) -> Response:
+    visible_job(session, who, job_id)
     data = job_file(session, job_id, name)
     ctype = "application/json" if name.endswith(".json") else "text/csv"
     return Response(content=data, media_type=ctype, headers={"Content-Disposition": f'attachment; filename="{name}"'})
@@ -148,10 +158,11 @@ def get_job_file(job_id: int, name: str, session: Session = Depends(get_session)
 
 @router.get("/api/jobs/{job_id}/views/{view}", summary="A Plotly figure of a result (downsampled)")
 def get_view(job_id: int, view: str, x0: float | None = None, x1: float | None = None,
-             points: int = Query(2000, ge=100, le=20000), session: Session = Depends(get_session)) -> dict:
+             points: int = Query(2000, ge=100, le=20000), session: Session = Depends(get_session),
+             who: Principal = Depends(principal)) -> dict:
     from ldvsurvey.api.views import build_view
 
-    j = _job(session, job_id)
+    j = visible_job(session, who, job_id)
     if j.status != "succeeded":
         raise HTTPException(409, f"job {job_id} is {j.status}: no results yet")
     return build_view(session, j, view, x0, x1, points)

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import mimetypes
 
-from fastapi import APIRouter, Depends, File, HTTPException, Request, Response, UploadFile
+from fastapi import APIRouter, Depends, File, Form, HTTPException, Request, Response, UploadFile
 from sqlalchemy.orm import Session
 
+from ldvsurvey.api.auth import Principal, check_upload_rate, principal, visible_log
 from ldvsurvey.api.deps import get_session
 from ldvsurvey.errors import BundleError, TooLargeError
 from ldvsurvey.io.drivelog import parse_files, read_zip
@@ -21,7 +22,7 @@ def log_summary(row) -> dict:
     q = row.quality or {}
     gnss = q.get("gnss") or {}
     return {
-        "id": row.id, "name": row.name, "sha256": row.sha256, "platform": row.platform,
+        "id": row.id, "name": row.name, "sha256": row.sha256, "project_id": row.project_id, "platform": row.platform,
         "ldv_kind": row.ldv_kind, "imu_rotating": row.imu_rotating,
         "survey_date": row.survey_date.isoformat(), "t_start_s": row.t_start_s,
         "t_end_s": row.t_end_s, "duration_s": row.duration_s, "has_gnss": row.has_gnss,
@@ -59,14 +60,23 @@ def read_upload(uploads: list[UploadFile], max_unzipped: int, max_ratio: float) 
 
 @router.post("", status_code=201, summary="Upload a drive-log bundle (one .zip, or the files)")
 def upload_log(request: Request, response: Response, files: list[UploadFile] = File(...),
-               session: Session = Depends(get_session)) -> dict:
-    """Validate, parse and store a bundle. The same bundle uploaded again is not stored twice
-    (200 with ``duplicate: true`` and the existing log)."""
+               project_id: int | None = Form(None), session: Session = Depends(get_session),
+               who: Principal = Depends(principal)) -> dict:
+    """Validate, parse and store a bundle in a project. The same bundle uploaded again to the same
+    project is not stored twice (200 with ``duplicate: true`` and the existing log)."""
     st = request.app.state.settings
+    check_upload_rate(request, who)
+    if who.projects is not None:
+        if project_id is None:
+            if not who.projects:
+                raise HTTPException(403, "you are not a member of any project")
+            project_id = who.projects[0]
+        elif project_id not in who.projects:
+            raise HTTPException(404, f"project {project_id} not found")
     members = read_upload(files, st.max_unzipped_bytes, st.max_zip_ratio)
     log = parse_files(members)
     quality = quality_report(log)
-    row, created = store.store_log(session, log, quality)
+    row, created = store.store_log(session, log, quality, project_id)
     session.commit()
     if not created:
         response.status_code = 200
@@ -75,27 +85,21 @@ def upload_log(request: Request, response: Response, files: list[UploadFile] = F
 
 
 @router.get("", summary="List drive logs")
-def list_logs(session: Session = Depends(get_session)) -> list[dict]:
-    return [log_summary(r) for r in store.list_logs(session)]
-
-
-def _get(session: Session, log_id: int):
-    row = store.get_log(session, log_id)
-    if row is None:
-        raise HTTPException(404, f"log {log_id} not found")
-    return row
+def list_logs(session: Session = Depends(get_session), who: Principal = Depends(principal)) -> list[dict]:
+    return [log_summary(r) for r in store.list_logs(session) if who.can_see(r)]
 
 
 @router.get("/{log_id}", summary="One log: manifest, quality report, files")
-def get_log(log_id: int, session: Session = Depends(get_session)) -> dict:
-    row = _get(session, log_id)
+def get_log(log_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+    row = visible_log(session, who, log_id)
     return {**log_summary(row), "manifest": row.manifest, "quality": row.quality,
             "files": [{"name": n, "sha256": h, "size_bytes": s} for n, h, s in store.list_files(session, log_id)]}
 
 
 @router.get("/{log_id}/files/{name}", summary="An original file, byte for byte")
-def get_file(log_id: int, name: str, session: Session = Depends(get_session)) -> Response:
-    _get(session, log_id)
+def get_file(log_id: int, name: str, session: Session = Depends(get_session),
+             who: Principal = Depends(principal)) -> Response:
+    visible_log(session, who, log_id)
     f = store.get_file(session, log_id, name)
     if f is None:
         raise HTTPException(404, f"log {log_id} has no file '{name}'")
@@ -107,9 +111,9 @@ def get_file(log_id: int, name: str, session: Session = Depends(get_session)) ->
 
 
 @router.delete("/{log_id}", status_code=204, summary="Delete a log with all its files and arrays")
-def delete_log(log_id: int, session: Session = Depends(get_session)) -> Response:
-    if not store.delete_log(session, log_id):
-        raise HTTPException(404, f"log {log_id} not found")
+def delete_log(log_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> Response:
+    visible_log(session, who, log_id)
+    store.delete_log(session, log_id)
     return Response(status_code=204)
 
 

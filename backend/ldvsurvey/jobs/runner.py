@@ -24,8 +24,9 @@ _task = None
 
 def configure(database_url: str, settings) -> object:
     """Bind the task functions to a database and a huey queue (the server's or a worker's settings)."""
-    global _db_url, _huey, _task
+    global _db_url, _huey, _task, HEARTBEAT_S, STALE_S
     _db_url = database_url
+    HEARTBEAT_S, STALE_S = settings.heartbeat_s, settings.stale_s
     _huey = make_huey(settings)
     _task = _huey.task(retries=0, name="ldvsurvey.run_job")(execute)
     return _huey
@@ -136,9 +137,9 @@ def enqueue(job_id: int) -> None:
     _task(job_id)
 
 
-def reap(stale_s: float = STALE_S) -> list[int]:
+def reap(stale_s: float | None = None) -> list[int]:
     """Re-queue running jobs whose heartbeat is older than ``stale_s`` (their worker died)."""
-    limit = now() - dt.timedelta(seconds=stale_s)
+    limit = now() - dt.timedelta(seconds=STALE_S if stale_s is None else stale_s)
     with session_scope(_url()) as s:
         ids = list(s.scalars(select(Job.id).where(Job.status == "running", Job.heartbeat_at < limit)))
         for i in ids:
@@ -150,11 +151,11 @@ def reap(stale_s: float = STALE_S) -> list[int]:
 
 
 class Consumer:
-    """The huey consumer inside the server process, plus the periodic reaper."""
+    """The periodic reaper and, unless workers run as separate processes, the huey consumer."""
 
-    def __init__(self, workers: int = 2, reap_every_s: float = 30.0):
+    def __init__(self, workers: int = 2, reap_every_s: float = 30.0, consume: bool = True):
         self.consumer = _huey.create_consumer(workers=workers, worker_type="thread", periodic=False,
-                                              check_worker_health=True)
+                                              check_worker_health=True) if consume else None
         self.reap_every_s = reap_every_s
         self._stop = threading.Event()
         self._reaper = threading.Thread(target=self._reap_loop, daemon=True)
@@ -168,11 +169,13 @@ class Consumer:
 
     def start(self):
         reap()
-        # inside the server the web server owns the signals (and we may not be on the main thread)
-        self.consumer._set_signal_handlers = lambda: None
-        self.consumer.start()
+        if self.consumer is not None:
+            # inside the server the web server owns the signals (and we may not be on the main thread)
+            self.consumer._set_signal_handlers = lambda: None
+            self.consumer.start()
         self._reaper.start()
 
     def stop(self):
         self._stop.set()
-        self.consumer.stop(graceful=True)
+        if self.consumer is not None:
+            self.consumer.stop(graceful=True)

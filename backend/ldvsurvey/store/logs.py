@@ -33,11 +33,12 @@ def _arrays(log: DriveLog) -> dict[str, dict[str, np.ndarray]]:
     return out
 
 
-def find_by_sha(session: Session, sha256: str) -> Log | None:
-    return session.scalar(select(Log).where(Log.sha256 == sha256))
+def find_by_sha(session: Session, sha256: str, project_id: int | None = None) -> Log | None:
+    return session.scalar(select(Log).where(Log.sha256 == sha256, Log.project_id.is_(project_id)
+                                            if project_id is None else Log.project_id == project_id))
 
 
-def store_log(session: Session, log: DriveLog, quality: dict) -> tuple[Log, bool]:
+def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | None = None) -> tuple[Log, bool]:
     """Store a parsed bundle (originals, Parquet arrays, quality) unless already stored.
 
     Returns
@@ -45,11 +46,11 @@ def store_log(session: Session, log: DriveLog, quality: dict) -> tuple[Log, bool
     (Log, created) : the row and whether it was created now (False: duplicate upload).
     """
     sha = log.sha256
-    existing = find_by_sha(session, sha)
+    existing = find_by_sha(session, sha, project_id)
     if existing is not None:
         return existing, False
     m = log.manifest
-    row = Log(sha256=sha, name=m.name, platform=m.platform, ldv_kind=m.ldv.kind,
+    row = Log(sha256=sha, project_id=project_id, name=m.name, platform=m.platform, ldv_kind=m.ldv.kind,
               imu_rotating=m.imu.rotating, survey_date=m.date,
               t_start_s=float(log.imu.t_s[0]), t_end_s=float(log.imu.t_s[-1]),
               duration_s=float(log.imu.t_s[-1] - log.imu.t_s[0]), has_gnss=log.gnss is not None,
@@ -66,7 +67,7 @@ def store_log(session: Session, log: DriveLog, quality: dict) -> tuple[Log, bool
         session.flush()
     except IntegrityError:  # a concurrent upload of the same bundle won the race
         session.rollback()
-        existing = find_by_sha(session, sha)
+        existing = find_by_sha(session, sha, project_id)
         if existing is None:
             raise
         return existing, False
@@ -96,6 +97,12 @@ def delete_log(session: Session, log_id: int) -> bool:
     """Delete a log with every file and array row. Returns False when it did not exist."""
     if session.get(Log, log_id) is None:
         return False
+    from ldvsurvey.store.models import Job, JobFile
+
+    job_ids = [j.id for j in session.scalars(select(Job)) if log_id in (j.log_ids or [])]
+    if job_ids:  # the results computed from this log go with it
+        session.execute(delete(JobFile).where(JobFile.job_id.in_(job_ids)))
+        session.execute(delete(Job).where(Job.id.in_(job_ids)))
     session.execute(delete(LogArray).where(LogArray.log_id == log_id))
     session.execute(delete(LogFile).where(LogFile.log_id == log_id))
     session.execute(delete(Log).where(Log.id == log_id))

@@ -1,0 +1,178 @@
+"""Authentication and authorization: session cookies with CSRF for pages, bearer tokens for REST.
+
+Every log belongs to a project; only the project's members (and admins) see or change it.
+With ``auth_enabled`` off (local single-user use) everything is open. In demo mode a visitor
+without a session acts as the clearly marked demo account.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import defaultdict, deque
+from dataclasses import dataclass
+
+from fastapi import APIRouter, Depends, HTTPException, Request, Response
+from pydantic import BaseModel
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from ldvsurvey.api.deps import get_session
+from ldvsurvey.store import users as ustore
+from ldvsurvey.store.models import Job, Log, User
+
+COOKIE = "ldvs_session"
+UNSAFE = {"POST", "PUT", "PATCH", "DELETE"}
+router = APIRouter(tags=["auth"])
+
+
+@dataclass
+class Principal:
+    user: User | None  # None: authentication disabled
+    projects: list[int] | None  # None: every project
+    csrf: str | None = None
+
+    def can_see(self, log: Log) -> bool:
+        return self.projects is None or log.project_id in self.projects
+
+
+def principal(request: Request, session: Session = Depends(get_session)) -> Principal:
+    st = request.app.state.settings
+    if not st.auth_enabled:
+        return Principal(None, None)
+    user, csrf, via_cookie = None, None, False
+    authz = request.headers.get("authorization", "")
+    if authz.lower().startswith("bearer "):
+        user = ustore.token_user(session, authz[7:].strip())
+        if user is None:
+            raise HTTPException(401, "invalid API token")
+    elif request.cookies.get(COOKIE):
+        found = ustore.session_user(session, request.cookies[COOKIE])
+        if found is not None:
+            user, csrf = found
+            via_cookie = True
+    if user is None and st.demo_mode:
+        user = session.scalar(select(User).where(User.is_demo.is_(True)))
+    if user is None:
+        if request.method in UNSAFE:
+            raise HTTPException(401, "log in (session cookie) or send an API token (Authorization: Bearer …)")
+        raise HTTPException(401, "authentication required")
+    if via_cookie and request.method in UNSAFE and request.headers.get("x-csrf-token") != csrf:
+        raise HTTPException(403, "missing or wrong CSRF token (X-CSRF-Token header)")
+    return Principal(user, None if user.is_admin else ustore.project_ids(session, user), csrf)
+
+
+def visible_log(session: Session, who: Principal, log_id: int) -> Log:
+    """The log if it exists and the principal may see it; 404 otherwise (no existence leak)."""
+    row = session.get(Log, log_id)
+    if row is None or not who.can_see(row):
+        raise HTTPException(404, f"log {log_id} not found")
+    return row
+
+
+def visible_job(session: Session, who: Principal, job_id: int) -> Job:
+    j = session.get(Job, job_id)
+    if j is None:
+        raise HTTPException(404, f"job {job_id} not found")
+    for lid in j.log_ids:
+        row = session.get(Log, lid)
+        if row is not None and not who.can_see(row):
+            raise HTTPException(404, f"job {job_id} not found")
+    return j
+
+
+class RateLimiter:
+    """Sliding-window count per key (per process)."""
+
+    def __init__(self):
+        self._hits: dict = defaultdict(deque)
+        self._lock = threading.Lock()
+
+    def allow(self, key, limit: int, window_s: float = 60.0) -> bool:
+        now = time.monotonic()
+        with self._lock:
+            q = self._hits[key]
+            while q and q[0] < now - window_s:
+                q.popleft()
+            if len(q) >= limit:
+                return False
+            q.append(now)
+            return True
+
+
+def check_upload_rate(request: Request, who: Principal) -> None:
+    st = request.app.state.settings
+    key = who.user.id if who.user is not None else request.client.host if request.client else "anon"
+    if not request.app.state.rate_limiter.allow(("upload", key), st.uploads_per_minute):
+        raise HTTPException(429, f"more than {st.uploads_per_minute} uploads a minute: slow down")
+
+
+def check_job_quota(request: Request, session: Session, who: Principal) -> None:
+    st = request.app.state.settings
+    if who.user is None:
+        return
+    active = session.scalar(select(func.count()).select_from(Job).where(
+        Job.user_id == who.user.id, Job.status.in_(("queued", "running"))))
+    if active >= st.max_active_jobs_per_user:
+        raise HTTPException(429, f"{active} jobs already queued or running (limit {st.max_active_jobs_per_user})")
+
+
+class Login(BaseModel):
+    username: str
+    password: str
+
+
+@router.post("/api/login", summary="Start a session (sets an HttpOnly cookie; returns the CSRF token)")
+def login(body: Login, request: Request, response: Response, session: Session = Depends(get_session)) -> dict:
+    st = request.app.state.settings
+    if not request.app.state.rate_limiter.allow(("login", request.client.host if request.client else ""), 20):
+        raise HTTPException(429, "too many login attempts")
+    user = ustore.verify(session, body.username, body.password)
+    if user is None:
+        raise HTTPException(401, "wrong user name or password")
+    token, csrf = ustore.new_session(session, user, st.session_hours)
+    response.set_cookie(COOKIE, token, httponly=True, samesite="lax", secure=st.cookie_secure,
+                        max_age=int(st.session_hours * 3600))
+    return {"user": user.username, "csrf": csrf}
+
+
+@router.post("/api/logout", summary="End the session")
+def logout(request: Request, response: Response, session: Session = Depends(get_session)) -> dict:
+    if request.cookies.get(COOKIE):
+        ustore.end_session(session, request.cookies[COOKIE])
+    response.delete_cookie(COOKIE)
+    return {"ok": True}
+
+
+@router.get("/api/me", summary="Who am I (user, projects, CSRF token for page writes)")
+def me(who: Principal = Depends(principal)) -> dict:
+    if who.user is None:
+        return {"user": None, "auth": False, "csrf": None, "demo": False, "projects": None}
+    return {"user": who.user.username, "auth": True, "csrf": who.csrf, "demo": who.user.is_demo,
+            "admin": who.user.is_admin, "projects": who.projects}
+
+
+class TokenRequest(BaseModel):
+    name: str = "api"
+
+
+@router.post("/api/tokens", status_code=201, summary="Create an API token (shown once)")
+def create_token(body: TokenRequest, who: Principal = Depends(principal),
+                 session: Session = Depends(get_session)) -> dict:
+    if who.user is None:
+        raise HTTPException(400, "authentication is disabled: no tokens needed")
+    return {"token": ustore.new_api_token(session, who.user, body.name), "name": body.name}
+
+
+def bootstrap_users(database_url: str, settings) -> None:
+    """Create the first admin from the environment and the demo account in demo mode."""
+    from ldvsurvey.store.db import session_scope
+
+    with session_scope(database_url) as s:
+        if settings.admin_user and settings.admin_password:
+            if s.scalar(select(User).where(User.username == settings.admin_user)) is None:
+                ustore.create_user(s, settings.admin_user, settings.admin_password, is_admin=True)
+        if settings.demo_mode and s.scalar(select(User).where(User.is_demo.is_(True))) is None:
+            import secrets
+
+            ustore.create_user(s, "demo", secrets.token_urlsafe(16), is_demo=True, project="Demo survey")
