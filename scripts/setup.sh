@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up everything ldv-survey needs on a fresh Debian machine with Python >= 3.11:
 # a virtual environment in .venv with the package and its test tools, and (with
-# --browser) Debian's chromium for the browser tests. Idempotent and quick when done.
+# --browser) Debian's chromium and docker-compose for the tests. Idempotent and quick when done.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -20,8 +20,9 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$sum" ]; then
   echo "$sum" > "$stamp"
 fi
 
-if [ "$want_browser" = 1 ] && [ ! -x /usr/bin/chromium ]; then
+# the test tools from Debian: Chromium for the browser tests, docker-compose to validate the compose file
+if [ "$want_browser" = 1 ] && { [ ! -x /usr/bin/chromium ] || ! command -v docker-compose >/dev/null; }; then
   SUDO=""; [ "$(id -u)" = 0 ] || SUDO=sudo
   $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium >/dev/null
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium docker-compose >/dev/null
 fi

@@ -68,6 +68,16 @@ def _cmd_run(args) -> int:
     return run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [])
 
 
+def _cmd_migrate(args) -> int:
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.db import upgrade_head
+
+    url = get_settings().resolved_database_url()
+    upgrade_head(url)
+    print("database at head")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="ldv-survey", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"ldv-survey {__version__}")
@@ -91,6 +101,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=1)
     d.add_argument("--duration-s", type=float, default=None, help="override the scenario's length")
     d.set_defaults(func=_cmd_demo)
+
+    mg = sub.add_parser("migrate", help="bring the database (LDVSURVEY_DATABASE_URL) to the newest schema")
+    mg.set_defaults(func=_cmd_migrate)
 
     s = sub.add_parser("serve", help="run the dashboard")
     s.add_argument("--host", default="127.0.0.1")

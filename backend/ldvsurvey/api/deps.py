@@ -4,7 +4,16 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
-from fastapi import Request
+from typing import Annotated
+
+from fastapi import Path, Request
+from pydantic import Field
+
+#: a database id: positive and within what every engine stores (SQLite, PostgreSQL integer)
+ID_MAX = 2**31 - 1
+LogId = Annotated[int, Path(ge=1, le=ID_MAX, description="log id")]
+JobId = Annotated[int, Path(ge=1, le=ID_MAX, description="job id")]
+BodyId = Annotated[int, Field(ge=1, le=ID_MAX)]
 from sqlalchemy.orm import Session
 
 from ldvsurvey.store.db import session_factory

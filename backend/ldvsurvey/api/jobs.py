@@ -10,7 +10,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api.auth import Principal, check_job_quota, principal, visible_job, visible_log
-from ldvsurvey.api.deps import get_session
+from ldvsurvey.api.deps import BodyId, JobId, LogId, get_session
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.store.models import Job, JobFile
 
@@ -22,7 +22,8 @@ SERVER_PATH_PARAMS = {"dov_grid", "imu_nodov"}
 class JobRequest(BaseModel):
     pipeline: str = Field(..., examples=["height"])
     parameters: dict[str, str | float | int | bool | list[float] | None] = Field(default_factory=dict)
-    log_ids: list[int] = Field(default_factory=list, description="further logs (gravity line comparison)")
+    log_ids: list[BodyId] = Field(default_factory=list, max_length=50,
+                                  description="further logs (gravity line comparison)")
 
 
 def job_dict(j: Job) -> dict:
@@ -48,7 +49,7 @@ def list_pipelines() -> list[dict]:
 
 
 @router.post("/api/logs/{log_id}/jobs", status_code=201, summary="Start a pipeline on a log")
-def start_job(log_id: int, req: JobRequest, request: Request, session: Session = Depends(get_session),
+def start_job(log_id: LogId, req: JobRequest, request: Request, session: Session = Depends(get_session),
               who: Principal = Depends(principal)) -> dict:
     from ldvsurvey.jobs.runner import enqueue
     from ldvsurvey.pipelines.registry import get
@@ -77,7 +78,7 @@ def start_job(log_id: int, req: JobRequest, request: Request, session: Session =
 
 
 @router.get("/api/jobs", summary="Jobs, newest first")
-def list_jobs(log_id: int | None = None, session: Session = Depends(get_session),
+def list_jobs(log_id: int | None = Query(None, ge=1, le=2**31 - 1), session: Session = Depends(get_session),
               who: Principal = Depends(principal)) -> list[dict]:
     from ldvsurvey.store.models import Log
 
@@ -101,12 +102,12 @@ def list_jobs(log_id: int | None = None, session: Session = Depends(get_session)
 
 
 @router.get("/api/jobs/{job_id}", summary="One job: status, stage, progress, error, summary")
-def get_job(job_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+def get_job(job_id: JobId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
     return job_dict(visible_job(session, who, job_id))
 
 
 @router.post("/api/jobs/{job_id}/cancel", summary="Ask a job to stop (between stages)")
-def cancel_job(job_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+def cancel_job(job_id: JobId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
     j = visible_job(session, who, job_id)
     if j.status in ("succeeded", "failed", "cancelled"):
         raise HTTPException(409, f"job {job_id} already {j.status}")
@@ -119,7 +120,7 @@ def cancel_job(job_id: int, session: Session = Depends(get_session), who: Princi
 
 
 @router.post("/api/jobs/{job_id}/retry", summary="Run a failed or cancelled job again")
-def retry_job(job_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+def retry_job(job_id: JobId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
     from ldvsurvey.jobs.runner import enqueue
 
     j = visible_job(session, who, job_id)
@@ -133,7 +134,7 @@ def retry_job(job_id: int, session: Session = Depends(get_session), who: Princip
 
 
 @router.get("/api/jobs/{job_id}/files", summary="Result files of a job")
-def list_job_files(job_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> list[dict]:
+def list_job_files(job_id: JobId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> list[dict]:
     visible_job(session, who, job_id)
     rows = session.execute(select(JobFile.name, JobFile.size_bytes).where(JobFile.job_id == job_id)
                            .order_by(JobFile.name))
@@ -148,7 +149,7 @@ def job_file(session: Session, job_id: int, name: str) -> bytes:
 
 
 @router.get("/api/jobs/{job_id}/files/{name}", summary="A result file, exactly as the CLI writes it")
-def get_job_file(job_id: int, name: str, session: Session = Depends(get_session),
+def get_job_file(job_id: JobId, name: str, session: Session = Depends(get_session),
                  who: Principal = Depends(principal)) -> Response:
     visible_job(session, who, job_id)
     data = job_file(session, job_id, name)
@@ -157,7 +158,7 @@ def get_job_file(job_id: int, name: str, session: Session = Depends(get_session)
 
 
 @router.get("/api/jobs/{job_id}/views/{view}", summary="A Plotly figure of a result (downsampled)")
-def get_view(job_id: int, view: str, x0: float | None = None, x1: float | None = None,
+def get_view(job_id: JobId, view: str, x0: float | None = None, x1: float | None = None,
              points: int = Query(2000, ge=100, le=20000), session: Session = Depends(get_session),
              who: Principal = Depends(principal)) -> dict:
     from ldvsurvey.api.views import build_view

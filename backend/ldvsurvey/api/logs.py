@@ -8,7 +8,7 @@ from fastapi import APIRouter, Depends, File, Form, HTTPException, Request, Resp
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api.auth import Principal, check_upload_rate, principal, visible_log
-from ldvsurvey.api.deps import get_session
+from ldvsurvey.api.deps import BodyId, JobId, LogId, get_session
 from ldvsurvey.errors import BundleError, TooLargeError
 from ldvsurvey.io.drivelog import parse_files, read_zip
 from ldvsurvey.io.quality import quality_report
@@ -60,7 +60,7 @@ def read_upload(uploads: list[UploadFile], max_unzipped: int, max_ratio: float) 
 
 @router.post("", status_code=201, summary="Upload a drive-log bundle (one .zip, or the files)")
 def upload_log(request: Request, response: Response, files: list[UploadFile] = File(...),
-               project_id: int | None = Form(None), session: Session = Depends(get_session),
+               project_id: int | None = Form(None, ge=1, le=2**31 - 1), session: Session = Depends(get_session),
                who: Principal = Depends(principal)) -> dict:
     """Validate, parse and store a bundle in a project. The same bundle uploaded again to the same
     project is not stored twice (200 with ``duplicate: true`` and the existing log)."""
@@ -90,14 +90,14 @@ def list_logs(session: Session = Depends(get_session), who: Principal = Depends(
 
 
 @router.get("/{log_id}", summary="One log: manifest, quality report, files")
-def get_log(log_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+def get_log(log_id: LogId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
     row = visible_log(session, who, log_id)
     return {**log_summary(row), "manifest": row.manifest, "quality": row.quality,
             "files": [{"name": n, "sha256": h, "size_bytes": s} for n, h, s in store.list_files(session, log_id)]}
 
 
 @router.get("/{log_id}/files/{name}", summary="An original file, byte for byte")
-def get_file(log_id: int, name: str, session: Session = Depends(get_session),
+def get_file(log_id: LogId, name: str, session: Session = Depends(get_session),
              who: Principal = Depends(principal)) -> Response:
     visible_log(session, who, log_id)
     f = store.get_file(session, log_id, name)
@@ -111,7 +111,7 @@ def get_file(log_id: int, name: str, session: Session = Depends(get_session),
 
 
 @router.delete("/{log_id}", status_code=204, summary="Delete a log with all its files and arrays")
-def delete_log(log_id: int, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> Response:
+def delete_log(log_id: LogId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> Response:
     visible_log(session, who, log_id)
     store.delete_log(session, log_id)
     return Response(status_code=204)

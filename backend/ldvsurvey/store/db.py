@@ -56,6 +56,8 @@ def upgrade_head(url: str) -> None:
     cfg.set_main_option("sqlalchemy.url", url.replace("%", "%%"))
     eng = get_engine(url)
     with eng.begin() as conn:
+        if conn.dialect.name == "postgresql":  # several API workers start at once: one migrates
+            conn.exec_driver_sql("SELECT pg_advisory_xact_lock(7274001)")
         cfg.attributes["connection"] = conn
         command.upgrade(cfg, "head")
 
