@@ -165,7 +165,7 @@ async function jobPage(id) {
   const body = document.getElementById("jobbody");
   body.innerHTML = `<div class="card" id="downloads">${files.map((f) => `<a class="dl" download href="/api/jobs/${id}/files/${encodeURIComponent(f.name)}"><button>${esc(f.name)}</button></a>`).join(" ")}</div>
     ${summaryTable(j)}${(VIEWS[j.pipeline] || []).map((v) => `<div class="card"><div class="plot" id="view-${v}" data-view="${v}"></div></div>`).join("")}`;
-  for (const v of VIEWS[j.pipeline] || []) await drawView(id, v);
+  await Promise.all((VIEWS[j.pipeline] || []).map((v) => drawView(id, v)));  // in parallel
 }
 
 async function drawView(id, v, x0, x1) {

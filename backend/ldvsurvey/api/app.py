@@ -57,7 +57,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     def plotly_bundle():
         from fastapi.responses import FileResponse
 
-        return FileResponse(plotly_js, media_type="text/javascript")
+        # the bundle changes only with the installed plotly package: let browsers keep it (and V8 its code cache)
+        return FileResponse(plotly_js, media_type="text/javascript",
+                            headers={"Cache-Control": "public, max-age=86400"})
 
     from ldvsurvey.jobs import runner
 

@@ -54,7 +54,7 @@ def _down(x, y, x0, x1, n):
 
 def _trace(x, y, name, x0, x1, n, **kw):
     k = _down(np.asarray(x, float), np.asarray(y, float), x0, x1, n)
-    return {"type": "scattergl", "mode": kw.pop("mode", "lines"), "name": name, "x": np.asarray(x)[k].tolist(),
+    return {"type": "scatter", "mode": kw.pop("mode", "lines"), "name": name, "x": np.asarray(x)[k].tolist(),
             "y": np.asarray(y)[k].tolist(), **kw}
 
 
@@ -104,7 +104,7 @@ def build_view(session, job: Job, view: str, x0, x1, n) -> dict:
             ge = (np.radians(g.lon_deg[ok]) - lon0) * 6378137.0 * np.cos(lat0)
             gn = (np.radians(g.lat_deg[ok]) - lat0) * 6356752.0
             k = _down(ge, gn, None, None, n)
-            tr.append({"type": "scattergl", "mode": "markers", "name": "GNSS (colour: fix quality)",
+            tr.append({"type": "scatter", "mode": "markers", "name": "GNSS (colour: fix quality)",
                        "x": ge[k].tolist(), "y": gn[k].tolist(),
                        "marker": {"size": 4, "color": g.fix[ok][k].astype(int).tolist(), "colorscale": "Viridis",
                                   "showscale": True, "colorbar": {"title": {"text": "fix"}}}})
