@@ -11,16 +11,9 @@ import pytest
 from ldvsurvey.nav.sim import catalog
 from ldvsurvey.nav.sim.scenario import bundle_files, simulate
 from tests.browser.conftest import shot
+from tests.bundles import zip_bytes
 
 pytestmark = pytest.mark.browser
-
-
-def _zip(files):
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
-        for n, d in files.items():
-            zf.writestr(n, d)
-    return buf.getvalue()
 
 
 def drop_files(page, name_bytes: dict):
@@ -58,12 +51,12 @@ def start_job(page, pipeline):
 
 @pytest.fixture(scope="module")
 def height_zip():
-    return _zip(bundle_files(simulate(catalog.height(minutes=12.0, length_m=3000.0), seed=8)))
+    return zip_bytes(bundle_files(simulate(catalog.height(minutes=12.0, length_m=3000.0), seed=8)))
 
 
 @pytest.fixture(scope="module")
 def gravity_zip():
-    return _zip(bundle_files(simulate(catalog.gravity(n_lines=3, line_km=3.0), seed=9)))
+    return zip_bytes(bundle_files(simulate(catalog.gravity(n_lines=3, line_km=3.0), seed=9)))
 
 
 def test_upload_run_height_plot_and_download(server, page, height_zip):

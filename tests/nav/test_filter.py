@@ -5,7 +5,7 @@ import pytest
 from scipy.stats import chi2
 
 from ldvsurvey.nav.align import coarse_align
-from ldvsurvey.nav.attitude import c_bn_from_euler, q_from_c, skew
+from ldvsurvey.nav.attitude import q_from_c, skew
 from ldvsurvey.nav.earth import ARCSEC, radii
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, run_filter
 from ldvsurvey.nav.sim import catalog

@@ -1,12 +1,10 @@
 """Failure and concurrency tests on real PostgreSQL + Redis (and SQLite for comparison)."""
 
 import concurrent.futures as cf
-import io
 import os
 import signal
 import threading
 import time
-import zipfile
 
 import httpx
 import pytest
@@ -14,16 +12,8 @@ from sqlalchemy import create_engine, text
 
 from ldvsurvey.nav.sim import catalog
 from ldvsurvey.nav.sim.scenario import bundle_files, simulate
-from tests.bundles import make_bundle
+from tests.bundles import make_bundle, zip_bytes
 from tests.scaleout.conftest import Stack
-
-
-def _zip(files):
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
-        for n, d in files.items():
-            zf.writestr(n, d)
-    return buf.getvalue()
 
 
 def _wait(base, job_id, until=("succeeded", "failed", "cancelled"), timeout=300, pred=None):
@@ -43,7 +33,7 @@ def _count(db_url, table):
 
 @pytest.fixture(scope="module")
 def gravity_zip():
-    return _zip(bundle_files(simulate(catalog.gravity(n_lines=3, line_km=4.0), seed=21)))
+    return zip_bytes(bundle_files(simulate(catalog.gravity(n_lines=3, line_km=4.0), seed=21)))
 
 
 def test_worker_sigkill_mid_gravity_job_requeued_and_finished_once(pg_fresh, tmp_path, gravity_zip):
@@ -71,7 +61,7 @@ def test_worker_sigkill_mid_gravity_job_requeued_and_finished_once(pg_fresh, tmp
 def test_api_restart_during_upload_leaves_no_partial_log(pg_fresh, tmp_path):
     db, rd = pg_fresh
     st = Stack(tmp_path, db, rd, api_workers=1)
-    big = _zip(make_bundle(seed=40, n_imu=200_000))
+    big = zip_bytes(make_bundle(seed=40, n_imu=200_000))
     try:
         st.start_api()
         st.start_worker()

@@ -8,7 +8,7 @@ from fastapi import APIRouter, Depends, File, Form, HTTPException, Request, Resp
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api.auth import Principal, check_upload_rate, principal, visible_log
-from ldvsurvey.api.deps import BodyId, JobId, LogId, get_session
+from ldvsurvey.api.deps import LogId, get_session
 from ldvsurvey.errors import BundleError, TooLargeError
 from ldvsurvey.io.drivelog import parse_files, read_zip
 from ldvsurvey.io.quality import quality_report

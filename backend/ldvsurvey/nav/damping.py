@@ -16,9 +16,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ldvsurvey.nav.attitude import q_rotvec, q_to_c, qmul
-from ldvsurvey.nav.earth import radii_nb
+from ldvsurvey.nav.attitude import q_to_c
 from ldvsurvey.nav.errmodel import build_f, c_db, discretize, skew_nb
+from ldvsurvey.nav.kfloop import feedback
 from ldvsurvey.nav.mech import mech_step
 
 MODES = {"undamped": 0, "conventional": 1, "delayed_state": 2}
@@ -185,16 +185,7 @@ def run_damping(t, dth, dvel, q0, v0, pos0, mode, period_s, zupt_end, ldv_ok, nu
             P_cross = P.copy()
             have_prev = True
         # feedback
-        q = qmul(q_rotvec(x[0:3]), q)
-        q = q / np.sqrt(np.sum(q * q))
-        rm, rn = radii_nb(pos[0])
-        dpos = np.array([x[7] / (rm + pos[2]), x[6] / ((rn + pos[2]) * np.cos(pos[0])), x[8]])
-        v = v - x[3:6]
-        pos = pos - dpos
-        v_prev = v_prev - x[3:6]
-        pos_prev = pos_prev - dpos
-        b_g = b_g + x[9:12]
-        b_a = b_a + x[12:15]
+        q, v, pos, v_prev, pos_prev, b_g, b_a = feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
         s_ldv = s_ldv - x[15]
         q_out[k] = q
         v_out[k] = v

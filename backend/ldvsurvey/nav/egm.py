@@ -177,7 +177,7 @@ def _row_sums(t, u, n_max, m_max, c, s, q):
         # column recursion in n for this m, P̄_{n,m}
         x2, ix2 = pmm, ipmm  # P_{m,m}
         x1, ix1 = 0.0, 0  # P_{m-1,m} = 0
-        p_prev = 0.0
+
         for n in range(m, n_max + 1):
             if n > m:
                 a_nm = np.sqrt((2.0 * n - 1.0) * (2.0 * n + 1.0) / ((n - m) * (n + m)))
@@ -201,7 +201,6 @@ def _row_sums(t, u, n_max, m_max, c, s, q):
             dp = (n * t * p - f * p1) / u
             ad[m] += cn * dp * w
             bd[m] += sn * dp * w
-            p_prev = p
     return at, bt, ar, br, ad, bd
 
 

@@ -22,6 +22,18 @@ from ldvsurvey.nav.errmodel import build_f, c_db, discretize, skew_nb
 from ldvsurvey.nav.mech import mech_step
 
 
+@nb.njit(cache=True)
+def feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a):
+    """Closed-loop reset of the 15 base states: C ← (I + [φ×]) C, v ← v − δv, p ← p − δp (metres to
+    lat/lon), biases += estimates. The previous velocity/position (used for mid-interval
+    extrapolation) get the same correction. Returns the corrected (q, v, pos, v_prev, pos_prev, b_g, b_a)."""
+    q = qmul(q_rotvec(x[0:3]), q)
+    q = q / np.sqrt(np.sum(q * q))
+    rm, rn = radii_nb(pos[0])
+    dpos = np.array([x[7] / (rm + pos[2]), x[6] / ((rn + pos[2]) * np.cos(pos[0])), x[8]])
+    return (q, v - x[3:6], pos - dpos, v_prev - x[3:6], pos_prev - dpos, b_g + x[9:12], b_a + x[12:15])
+
+
 MAX_REJECT_RUN = 5  #: epochs of consecutive rejections after which a measurement is taken anyway
 
 
@@ -236,16 +248,7 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             g_pending = False
         P = 0.5 * (P + P.T)
         # ---- feedback ----
-        q = qmul(q_rotvec(x[0:3]), q)
-        q = q / np.sqrt(np.sum(q * q))
-        rm, rn = radii_nb(pos[0])
-        dpos = np.array([x[7] / (rm + pos[2]), x[6] / ((rn + pos[2]) * np.cos(pos[0])), x[8]])
-        v = v - x[3:6]
-        pos = pos - dpos
-        v_prev = v_prev - x[3:6]
-        pos_prev = pos_prev - dpos
-        b_g = b_g + x[9:12]
-        b_a = b_a + x[12:15]
+        q, v, pos, v_prev, pos_prev, b_g, b_a = feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
         if aug_idx[0] >= 0:
             par[0] -= x[aug_idx[0]]
         if aug_idx[1] >= 0:

@@ -6,11 +6,11 @@ import numpy as np
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import q_from_c
-from ldvsurvey.nav.damping import MODES, N, run_damping
+from ldvsurvey.nav.damping import MODES, run_damping
 from ldvsurvey.nav.earth import enu_offset_m
 from ldvsurvey.nav.filter import DEG
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
-from ldvsurvey.pipelines.prep import attitude_at, initial_attitude, nav_inputs
+from ldvsurvey.pipelines.prep import initial_attitude, nav_inputs
 
 PARAMS = [
     Param("period_s", "float", 1.0, "covariance and conventional update period of the filters (s)"),

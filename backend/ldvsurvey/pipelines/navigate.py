@@ -8,7 +8,7 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
-from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, gnss_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.prep import attitude_at, gnss_aid, nav_inputs, navigate
 from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_setup
 
 PARAMS = [

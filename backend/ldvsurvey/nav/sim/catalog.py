@@ -100,8 +100,7 @@ def gravity(n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, sp
     sc = Scenario(name="gravity", road=road, segments=segs, static_s=300.0, s0_m=ends[0], **sc_kw)
     m = Motion(road, segs, sc.t0_s, s0_m=ends[0])
     lines = []
-    t = sc.t0_s + 300.0
-    for k, p in enumerate(m.pieces):
+    for p in m.pieces:
         if p[2] == "drive":
             ta, tb = _line_times(m, a, b, p[0], p[1])
             lines.append((f"L{len(lines) + 1}", ta, tb))
