@@ -4,13 +4,8 @@ Prints figures; asserts nothing. Run: .venv/bin/python benchmarks/bench_views.py
 """
 
 import os
-import socket
 import statistics
-import subprocess
-import sys
-import tempfile
 import time
-from pathlib import Path
 
 import httpx
 
@@ -21,21 +16,10 @@ def main(repeats=5):
     from ldvsurvey.nav.sim import catalog
     from ldvsurvey.nav.sim.scenario import bundle_files, simulate
 
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    data = Path(tempfile.mkdtemp())
-    env = {**os.environ, "LDVSURVEY_DATA_DIR": str(data), "LDVSURVEY_DEMO_MODE": "1"}
-    srv = subprocess.Popen([sys.executable, "-m", "ldvsurvey.cli", "serve", "--port", str(port)], env=env,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    base = f"http://127.0.0.1:{port}"
+    from _server import start
+
+    srv, base, data = start(["-m", "ldvsurvey.cli", "serve", "--port", "{port}"], {"LDVSURVEY_DEMO_MODE": "1"})
     try:
-        for _ in range(100):
-            try:
-                if httpx.get(base + "/api/health").status_code == 200:
-                    break
-            except httpx.HTTPError:
-                time.sleep(0.2)
         files = bundle_files(simulate(catalog.height(minutes=60.0, length_m=15000.0), seed=1))
         log_id = httpx.post(base + "/api/logs", files=[("files", (n, d)) for n, d in files.items()],
                             timeout=300).json()["id"]

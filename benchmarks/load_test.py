@@ -4,11 +4,8 @@ Starts its own server (SQLite, a temporary data directory) with one stored log a
 then prints p50/p99 per endpoint. Run: .venv/bin/python benchmarks/load_test.py [seconds] [users]
 """
 
-import os
-import socket
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -22,21 +19,11 @@ def main(seconds=60, users=50):
     from ldvsurvey.nav.sim import catalog
     from ldvsurvey.nav.sim.scenario import bundle_files, simulate
 
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    data = Path(tempfile.mkdtemp())
-    env = {**os.environ, "LDVSURVEY_DATA_DIR": str(data), "LDVSURVEY_AUTH_ENABLED": "false"}
-    srv = subprocess.Popen([sys.executable, "-m", "uvicorn", "ldvsurvey.api.asgi:app", "--port", str(port),
-                            "--workers", "2", "--log-level", "warning"], env=env)
-    base = f"http://127.0.0.1:{port}"
+    from _server import start
+
+    srv, base, data = start(["-m", "uvicorn", "ldvsurvey.api.asgi:app", "--port", "{port}", "--workers", "2",
+                             "--log-level", "warning"], {"LDVSURVEY_AUTH_ENABLED": "false"})
     try:
-        for _ in range(100):
-            try:
-                if httpx.get(base + "/api/health").status_code == 200:
-                    break
-            except httpx.HTTPError:
-                time.sleep(0.2)
         files = bundle_files(simulate(catalog.height(minutes=12.0, length_m=3000.0), seed=1))
         log_id = httpx.post(base + "/api/logs", files=[("files", (n, d)) for n, d in files.items()], timeout=120).json()["id"]
         job = httpx.post(f"{base}/api/logs/{log_id}/jobs", json={"pipeline": "height"}).json()["id"]
