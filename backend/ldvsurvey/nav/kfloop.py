@@ -38,6 +38,22 @@ MAX_REJECT_RUN = 5  #: epochs of consecutive rejections after which a measuremen
 
 
 @nb.njit(cache=True)
+def _gated_rows(x, P, H, z, r, gate, kind, run, rejected, nis_row):
+    """Scalar updates for the rows of one measurement type with the innovation gate and its
+    lock-out protection: after MAX_REJECT_RUN epochs with a rejection the gate is lifted.
+    ``kind`` indexes ``run``/``rejected``; normalized innovations go to ``nis_row``."""
+    g_eff = gate if run[kind] < MAX_REJECT_RUN else 0.0
+    any_rej = False
+    for i in range(H.shape[0]):
+        ok, nz = _scalar_update(x, P, H[i], z[i], r[i], g_eff)
+        nis_row[i] = nz
+        if not ok:
+            rejected[kind] += 1
+            any_rej = True
+    run[kind] = run[kind] + 1 if any_rej else 0
+
+
+@nb.njit(cache=True)
 def _scalar_update(x, P, h, z, r, gate):
     """One scalar measurement z = h·x + noise(r). Returns accepted (bool) and normalized innovation.
 
@@ -193,17 +209,10 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         dts[j] = T
         x = np.zeros(n)
         if zupt_epoch[j]:
-            g_eff = gate if run[0] < MAX_REJECT_RUN else 0.0
-            any_rej = False
+            H = np.zeros((3, n))
             for i in range(3):
-                h = np.zeros(n)
-                h[3 + i] = 1.0
-                ok, nz = _scalar_update(x, P, h, v[i], zupt_sigma ** 2, g_eff)
-                nis[j, i] = nz
-                if not ok:
-                    rejected[0] += 1
-                    any_rej = True
-            run[0] = run[0] + 1 if any_rej else 0
+                H[i, 3 + i] = 1.0
+            _gated_rows(x, P, H, v, np.full(3, zupt_sigma ** 2), gate, 0, run, rejected, nis[j, 0:3])
         if ln > 0:
             z = lz / ln
             v_l = lvl / ln
@@ -215,36 +224,22 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             cols[:, 2] = -cb @ cross(np.array([0.0, 0.0, 1.0]), cdb @ vd)
             cols[:, 3] = -cb @ (cdb @ np.array([0.0, 0.0, lnu[1] / ln]))
             hphi = -skew_nb(v_l)
-            g_eff = gate if run[1] < MAX_REJECT_RUN else 0.0
-            any_rej = False
+            H = np.zeros((3, n))
             for i in range(3):
-                h = np.zeros(n)
-                h[0:3] = hphi[i]
-                h[3 + i] = 1.0
+                H[i, 0:3] = hphi[i]
+                H[i, 3 + i] = 1.0
                 for a in range(4):
                     if aug_idx[a] >= 0:
-                        h[aug_idx[a]] = cols[i, a]
-                ok, nz = _scalar_update(x, P, h, z[i], ldv_sigma[i] ** 2 / ln, g_eff)
-                nis[j, 3 + i] = nz
-                if not ok:
-                    rejected[1] += 1
-                    any_rej = True
-            run[1] = run[1] + 1 if any_rej else 0
+                        H[i, aug_idx[a]] = cols[i, a]
+            _gated_rows(x, P, H, z, ldv_sigma ** 2 / ln, gate, 1, run, rejected, nis[j, 3:6])
         if g_pending:
             hphi = skew_nb(gc @ l_gnss)
-            g_eff = gate if run[2] < MAX_REJECT_RUN else 0.0
-            any_rej = False
+            H = np.zeros((3, n))
             for i in range(3):
-                h = np.zeros(n)
-                h[0:3] = hphi[i]
-                h[6 + i] = 1.0
-                sig = gsig[0] if i < 2 else gsig[1]
-                ok, nz = _scalar_update(x, P, h, gz[i], sig * sig, g_eff)
-                nis[j, 6 + i] = nz
-                if not ok:
-                    rejected[2] += 1
-                    any_rej = True
-            run[2] = run[2] + 1 if any_rej else 0
+                H[i, 0:3] = hphi[i]
+                H[i, 6 + i] = 1.0
+            r_g = np.array([gsig[0] ** 2, gsig[0] ** 2, gsig[1] ** 2])
+            _gated_rows(x, P, H, gz, r_g, gate, 2, run, rejected, nis[j, 6:9])
             g_pending = False
         P = 0.5 * (P + P.T)
         # ---- feedback ----
