@@ -21,7 +21,8 @@ def _cmd_validate(args) -> int:
 
     log = load_bundle(args.bundle)
     report = quality_report(log)
-    report.get("gnss", {}) and report["gnss"].pop("fix_timeline", None)
+    if report["gnss"] is not None:  # the per-run timeline is for the dashboard, not the terminal
+        report["gnss"].pop("fix_timeline", None)
     m = log.manifest
     print(f"{args.bundle}: valid {m.format} bundle '{m.name}' ({m.platform}, LDV {m.ldv.kind}, "
           f"IMU {'rotating' if m.imu.rotating else 'fixed'}), {report['duration_s']:.1f} s")

@@ -9,7 +9,7 @@ from sqlalchemy.orm import Session
 
 from ldvsurvey.api.auth import Principal, check_upload_rate, principal, visible_log
 from ldvsurvey.api.deps import LogId, get_session
-from ldvsurvey.errors import BundleError, TooLargeError
+from ldvsurvey.errors import BundleError
 from ldvsurvey.io.drivelog import parse_files, read_zip
 from ldvsurvey.io.quality import quality_report
 from ldvsurvey.store import logs as store
@@ -116,5 +116,3 @@ def delete_log(log_id: LogId, session: Session = Depends(get_session), who: Prin
     store.delete_log(session, log_id)
     return Response(status_code=204)
 
-
-__all__ = ["router", "TooLargeError"]

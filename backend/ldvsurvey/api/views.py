@@ -97,16 +97,17 @@ def build_view(session, job: Job, view: str, x0, x1, n) -> dict:
         e = (np.radians(d["lon_deg"]) - lon0) * 6378137.0 * np.cos(lat0)
         nn = (np.radians(d["lat_deg"]) - lat0) * 6356752.0
         tr = [_trace(e, nn, "solution", None, None, n, mode="lines")]
-        log = _first_log(session, job)
-        if log is not None and log.gnss is not None:
-            g = log.gnss
-            ok = np.isfinite(g.lat_deg)
-            ge = (np.radians(g.lon_deg[ok]) - lon0) * 6378137.0 * np.cos(lat0)
-            gn = (np.radians(g.lat_deg[ok]) - lat0) * 6356752.0
+        from ldvsurvey.store.logs import load_array
+
+        g = load_array(session, job.log_ids[0], "gnss")
+        if g is not None:
+            ok = np.isfinite(g["lat_deg"])
+            ge = (np.radians(g["lon_deg"][ok]) - lon0) * 6378137.0 * np.cos(lat0)
+            gn = (np.radians(g["lat_deg"][ok]) - lat0) * 6356752.0
             k = _down(ge, gn, None, None, n)
             tr.append({"type": "scatter", "mode": "markers", "name": "GNSS (colour: fix quality)",
                        "x": ge[k].tolist(), "y": gn[k].tolist(),
-                       "marker": {"size": 4, "color": g.fix[ok][k].astype(int).tolist(), "colorscale": "Viridis",
+                       "marker": {"size": 4, "color": g["fix"][ok][k].astype(int).tolist(), "colorscale": "Viridis",
                                   "showscale": True, "colorbar": {"title": {"text": "fix"}}}})
         return _fig(tr, "Trajectory (local east/north from the start)", "east (m)", "north (m)",
                     yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1})
@@ -155,12 +156,3 @@ def build_view(session, job: Job, view: str, x0, x1, n) -> dict:
         return _fig(tr, f"Position error: delayed-state improves {s.get('position_improvement_pct', 0):.1f} % over "
                         "conventional", "t (s of day)", "north error (m)")
     raise HTTPException(404, f"unknown view '{view}'")
-
-
-def _first_log(session, job):
-    from ldvsurvey.store.logs import load_drivelog
-
-    try:
-        return load_drivelog(session, job.log_ids[0])
-    except Exception:
-        return None

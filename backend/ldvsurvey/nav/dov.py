@@ -81,7 +81,6 @@ def propagate(t, lat, h, v_e, f_n, w_in, gam, xi, eta, dt_update, rk4, phi0, cor
             w_up = 2.0 * OMEGA_IE * np.sin(lat[j]) + v_e[j] * np.tan(lat[j]) / (rn + h[j])
             ae += w_up * dvn
             an -= w_up * dve
-        phi_old = phi.copy()
         if rk4:
             # ω_in at t, t + τ/2 and t + τ from the trajectory samples
             jm = j
@@ -102,7 +101,6 @@ def propagate(t, lat, h, v_e, f_n, w_in, gam, xi, eta, dt_update, rk4, phi0, cor
         dlat += dvn / (rm + h[j]) * dt_update
         sl, cl = np.sin(lat[j]), np.cos(lat[j])
         dlon += (dve / (cl * (rn + h[j])) + dlat * v_e[j] * sl / (cl * cl) / (rn + h[j])) * dt_update
-        _ = phi_old
     return t_out, dn, de, ph
 
 

@@ -149,9 +149,8 @@ def run(logs, params, progress) -> PipelineResult:
         p_exact = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref,
                              gravity=exact, dov0=(xi[0], eta[0]))
         steps, updates = params["compensation_steps_arcmin"], params["compensation_updates_s"]
-        base = grid if not params["dov_grid"] else grid
         for i, st in enumerate(steps):
-            g2 = base if abs(st - base.step_arcmin) < 1e-9 else base.resample(st)
+            g2 = grid if abs(st - grid.step_arcmin) < 1e-9 else grid.resample(st)
             xs, es, _ = g2.interpolate(lat_deg, lon_deg, "linear")
             for u in updates:
                 progress(f"compensation study: {st}' grid, {u} s updates", 0.55 + 0.4 * i / len(steps))

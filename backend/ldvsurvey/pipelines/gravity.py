@@ -108,11 +108,12 @@ def gnss_chain(log, inp, sol):
             "fs": 1.0 / np.median(np.diff(tg)), "weight": 1.0 / var}
 
 
-def parse_lines(text, log):
+def parse_lines(text):
+    """``t0-t1,t0-t1,...`` into [(name, t0, t1)]."""
     out = []
     for k, item in enumerate(str(text).split(",")):
         try:
-            a, b = (float(x) for x in item.strip().split("-", 1) if True)
+            a, b = (float(x) for x in item.strip().split("-", 1))
         except ValueError:
             raise ParameterError(f"expected t0-t1 pairs, got {item!r}", field="lines") from None
         if not b > a:
@@ -210,7 +211,7 @@ def run(logs, params, progress) -> PipelineResult:
             gchains.append(None)
         prefix = f"B{i + 1}-" if len(logs) > 1 else ""
         if params["lines"]:
-            found = parse_lines(params["lines"], log)
+            found = parse_lines(params["lines"])
         elif log.manifest.lines:
             found = [(ln.name, ln.t_start, ln.t_end) for ln in log.manifest.lines]
         else:

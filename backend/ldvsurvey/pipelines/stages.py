@@ -160,12 +160,11 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     res2 = g2 - sig * (d2 @ rot.T)
     rms_h = float(np.sqrt(np.mean(res2 ** 2)))
     span = float(np.sqrt(np.sum(d2 ** 2)))
-    n_pts = len(dist)
     resid_v = res_h - np.polyval(np.polyfit(dist, res_h, 1), dist)
     closed = {"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale,
               "ldv_pitch_deg_sigma": float(np.std(resid_v) / np.sqrt(np.sum((dist - dist.mean()) ** 2)) / RAD),
               "ldv_heading_deg_sigma": rms_h / span / RAD, "ldv_scale_sigma": rms_h / span * scale,
-              "n_fixes": int(n_pts)}
+              "n_fixes": int(len(dist))}
     # 3) refined: the filter with the LDV states augmented, GNSS only in the window
     if progress:
         progress("calibration: Kalman filter with LDV states", 0.5)

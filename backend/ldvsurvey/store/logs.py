@@ -115,6 +115,12 @@ def count_rows(session: Session) -> dict[str, int]:
             for t in (Log, LogFile, LogArray)}
 
 
+def load_array(session: Session, log_id: int, name: str) -> dict[str, np.ndarray] | None:
+    """One stored stream (``imu``, ``ldv``, ``gnss``) as columns, without reading the others."""
+    blob = session.scalar(select(LogArray.parquet).where(LogArray.log_id == log_id, LogArray.name == name))
+    return None if blob is None else from_parquet(blob)
+
+
 def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
     """Rebuild the parsed :class:`DriveLog` from the stored Parquet arrays (no re-parse)."""
     row = session.get(Log, log_id)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -207,12 +207,3 @@ def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:
                                        np.mod(np.degrees(im.eta_rad), 360.0) if im.eta_rad is not None else None,
                                        comment="the same drive without the deflection of the vertical")
     return out
-
-
-def scenario_dict(sc: Scenario) -> dict:
-    """JSON-ready description (for logs)."""
-    d = asdict(sc)
-    d.pop("road")
-    d.pop("gravity_field")
-    d["segments"] = [type(s).__name__ + str(vars(s)) for s in sc.segments]
-    return d
