@@ -10,8 +10,8 @@ Everything follows from its gradient δg = ∇T (m/s²):
 so that g^n = [−γη, −γξ, −(γ+Δg)] (ENU), with γ the normal gravity at the point. A mass below
 gives Δg > 0 above it, and north of it ξ > 0 (the zenith tilts away from it).
 
-Realistic construction (:func:`build_field`, from one seed): two *regional* masses 60–120 km
-away and 20–40 km deep, scaled so the DOV at the survey centre has a magnitude drawn in
+Realistic construction (:func:`build_field`, from one seed): two *regional* masses 150–300 km
+away and 50–100 km deep, scaled so the DOV at the survey centre has a magnitude drawn in
 5–30″ (Δg varies smoothly by tens of mGal with it: DOV and Δg are correlated through the one
 potential); ``n_local`` *local* masses (excess and deficit) 2–8 km deep within the survey area,
 scaled so their Δg peaks near ±20 mGal and the total horizontal Δg gradient over the area
@@ -86,30 +86,34 @@ def build_field(spec: GravityFieldSpec, lat_rad, lon_rad, h_m) -> PointMassField
     # regional: two masses far away and deep, scaled to a DOV magnitude drawn in [min, max]
     reg = []
     for _ in range(2):
-        az, dist, depth = rng.uniform(0, 2 * np.pi), rng.uniform(60e3, 120e3), rng.uniform(20e3, 40e3)
+        az, dist, depth = rng.uniform(0, 2 * np.pi), rng.uniform(150e3, 300e3), rng.uniform(50e3, 100e3)
         reg.append([dist * np.sin(az), dist * np.cos(az), -depth, rng.choice([1.0, -1.0]) * 1e9])
     reg = np.array(reg)
     ge, gn, _ = PointMassField(lat0, lon0, h0, reg).gradient(0.0, 0.0, 0.0)
     target = rng.uniform(spec.dov_min_arcsec, spec.dov_max_arcsec) * ARCSEC * gam
     reg[:, 3] *= target / np.hypot(ge, gn)
-    # local: excesses and deficits under the survey area
-    loc = np.column_stack([rng.uniform(-half, half, spec.n_local), rng.uniform(-half, half, spec.n_local),
-                           -rng.uniform(2e3, 8e3, spec.n_local),
-                           rng.choice([1.0, -1.0], spec.n_local) * rng.uniform(0.5, 1.0, spec.n_local)])
-    loc[:, 3] *= spec.local_dg_mgal * MGAL * loc[:, 2] ** 2  # peak Δg = GM/d² of each mass
+    # local: excesses and deficits near the track, each at most ~0.8 of the gradient bound alone
+    # (a mass at depth d with peak Δg A has a largest horizontal gradient 0.859 A/d)
+    pick = rng.integers(0, len(e), spec.n_local)
+    depth = rng.uniform(2e3, 8e3, spec.n_local)
+    peak = np.minimum(spec.local_dg_mgal * rng.uniform(0.5, 1.0, spec.n_local),
+                      0.8 * spec.max_gradient_mgal_per_km * depth / 1000.0 / 0.859)
+    loc = np.column_stack([e[pick] + rng.normal(0, 2e3, spec.n_local), n[pick] + rng.normal(0, 2e3, spec.n_local),
+                           -depth, rng.choice([1.0, -1.0], spec.n_local) * peak * MGAL * depth ** 2])
     # the horizontal gradient of Δg over the area (regional + local) stays below the bound
     g = np.linspace(-1.2 * half, 1.2 * half, 121)
     ee, nn = np.meshgrid(g, g)
     step = g[1] - g[0]
 
-    def max_grad(lm):
-        _, _, gu = PointMassField(lat0, lon0, h0, np.vstack([reg, lm])).gradient(ee, nn, 0.0 * ee)
+    def max_grad(ms):
+        _, _, gu = PointMassField(lat0, lon0, h0, ms).gradient(ee, nn, 0.0 * ee)
         dgy, dgx = np.gradient(-gu / MGAL, step, step)
         return float(np.max(np.hypot(dgx, dgy))) * 1000.0
 
+    budget = max(spec.max_gradient_mgal_per_km - max_grad(reg), 0.3 * spec.max_gradient_mgal_per_km)
     mg = max_grad(loc)
-    if mg > spec.max_gradient_mgal_per_km:
-        loc[:, 3] *= spec.max_gradient_mgal_per_km / mg * 0.98
+    if mg > budget:
+        loc[:, 3] *= budget / mg * 0.98
     return PointMassField(lat0, lon0, h0, np.vstack([reg, loc]))
 
 
