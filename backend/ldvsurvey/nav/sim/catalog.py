@@ -184,7 +184,8 @@ def _split_effects(seed: int, effects, kw: dict):
 
 
 def _realistic(sc: Scenario, eff, seed: int) -> Scenario:
-    """Attach the effects: a moving start drops the initial static period; the GNSS effect
+    """Attach the effects: a moving start drops the initial static period and starts the log at
+    cruising speed; the GNSS effect
     moves the antenna to its real lever arm."""
     from ldvsurvey.nav.sim.motion import Static as _Static
 
@@ -194,6 +195,8 @@ def _realistic(sc: Scenario, eff, seed: int) -> Scenario:
     if eff.moving_start is not None and sc.segments and isinstance(sc.segments[0], _Static):
         sc.segments = sc.segments[1:]
         sc.static_s = 0.0
+        ramp = getattr(sc.segments[0], "ramp_s", 0.0)
+        sc.lead_s = ramp + 10.0  # the log starts 10 s after the vehicle reached its speed
     if eff.gnss is not None:
         sc.gnss_lever_m = tuple(eff.gnss.lever_arm_m)
     return sc

@@ -58,6 +58,7 @@ class Scenario:
     current_from_s: float = 0.0  #: the current acts from here on (a moored vessel casting off)
     effects: Effects = field(default_factory=Effects.ideal)  #: real-drive effects (all off: ideal)
     seed: int = 1  #: sensor-noise seed used when ``simulate`` is not given one
+    lead_s: float = 0.0  #: the motion starts this long before t0_s (a log that starts on the move)
 
     def fix_of_t(self, t):
         fix = np.full(len(t), 4)
@@ -102,10 +103,11 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
     eff = sc.effects
     erng = np.random.default_rng([eff.seed, seed, 99])
     extras: dict = {}
-    motion = Motion(sc.road, sc.segments, sc.t0_s, dt_s=1.0 / sc.imu_rate_hz, s0_m=sc.s0_m,
-                    heading_offset0_rad=sc.heading_offset0_rad, current_n_mps=sc.current_n_mps,
-                    current_from_s=sc.current_from_s)
     dt = 1.0 / sc.imu_rate_hz
+    lead = round(sc.lead_s / dt) * dt
+    motion = Motion(sc.road, sc.segments, sc.t0_s - lead, dt_s=1.0 / sc.imu_rate_hz, s0_m=sc.s0_m,
+                    heading_offset0_rad=sc.heading_offset0_rad, current_n_mps=sc.current_n_mps,
+                    current_from_s=sc.current_from_s + lead)
     n = int(round((motion.t_end_s - sc.t0_s) / dt))
     t = sc.t0_s + np.arange(n + 1) * dt
     c_bt = sc.ldv.c_bt()
@@ -305,6 +307,9 @@ def mean_travel_direction(sim: SimResult, t_from_s: float | None = None, t_to_s:
     b = sim.motion.t_end_s if t_to_s is None else t_to_s
     t = np.arange(a, b, 0.1)
     moving = sim.motion.truth(t)["speed_mps"] >= min_speed_mps
+    if not moving.any():  # a log that never moves: no travel direction
+        return {"pitch_rad": None, "heading_rad": None, "pitch_std_rad": None, "heading_std_rad": None,
+                "t_from_s": float(a), "t_to_s": float(b), "n_samples": 0}
     p, h = effective_travel_direction(sim, t[moving])
     return {"pitch_rad": float(np.mean(p)), "heading_rad": float(np.mean(h)), "pitch_std_rad": float(np.std(p)),
             "heading_std_rad": float(np.std(h)), "t_from_s": float(a), "t_to_s": float(b),
