@@ -54,3 +54,35 @@ def test_demo_names_registered():
     sc = catalog.by_name("realistic-gravity", seed=2)
     assert sc.ldv.kind == "2d" and sc.accel_vrw_ug_rthz == 5.0 and len(sc.lines) == 6
     assert catalog.realistic_vessel().effects.body_attitude is None
+
+
+def test_demo_writes_bundle_truth_and_grids(tmp_path):
+    """``ldv-survey demo DIR --scenario realistic-drive``: a loadable bundle, truth with the effects'
+    columns, and ξ/η/Δg grids that the product's .gdf reader accepts."""
+    import json
+
+    from ldvsurvey.cli import main
+    from ldvsurvey.io.drivelog import load_bundle
+    from ldvsurvey.io.gdf import parse_gdf
+
+    out = tmp_path / "d"
+    assert main(["demo", str(out), "--scenario", "realistic-drive", "--seed", "3", "--duration-s", "480"]) == 0
+    load_bundle(out)
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["gnss"]["lever_arm_m"] == [0.3, 0.8, 1.6]
+    for name in ("xi.gdf", "eta.gdf", "dg.gdf"):
+        parse_gdf((out / "grids" / name).read_bytes(), name)
+    meta = json.loads((out / "truth" / "truth.json").read_text())
+    assert set(meta["effects"]) == set(effect_names()) and meta["ldv_effective"]["n_samples"] > 0
+    cols = np.genfromtxt(out / "truth" / "truth.csv", delimiter=",", names=True, skip_header=1)
+    for c in ("dg_mgal", "xi_arcsec", "eta_arcsec", "ldv_travel_pitch_deg", "head_travel_pitch_deg",
+              "body_pitch_deg", "gyro_gm_x_dph", "accel_gm_z_ug"):
+        assert c in cols.dtype.names
+    moving = np.hypot(cols["v_e_mps"], cols["v_n_mps"]) > 2.0
+    # in the head's own axes the travel direction is the body's attitude over its path, reversed
+    np.testing.assert_allclose(cols["head_travel_pitch_deg"][moving], -cols["body_pitch_deg"][moving], atol=0.01)
+    np.testing.assert_allclose(cols["head_travel_heading_deg"][moving], cols["body_yaw_deg"][moving], atol=0.01)
+    with pytest.raises(Exception, match="fixed length"):
+        from ldvsurvey.demo import write_demo
+
+        write_demo(tmp_path / "g", scenario="realistic-gravity", duration_s=600.0)
