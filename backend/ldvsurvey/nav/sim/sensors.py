@@ -1,7 +1,9 @@
 """Sensor models of the simulator: IMU errors, LDV (1-D, 2-D, water) and GNSS fixes.
 
-The LDV head frame d is the travel frame: the vehicle moves along the head's forward axis
-(the LDV model's no-side-slip assumption); the IMU body is mounted on it with C_d^b(η_L, φ_L).
+In the ideal scenarios the LDV head frame d is the travel frame: the vehicle moves along the
+head's forward axis (the LDV model's no-side-slip assumption); the IMU body is mounted on it with
+C_d^b(η_L, φ_L). With the body-attitude effect (``body.py``) the head is fixed in the body and the
+travel direction moves in it.
 """
 
 from __future__ import annotations
