@@ -19,7 +19,6 @@ LAT, LON, H = 0.52, 2.0, 100.0
 SPEC = ImuErrorSpec(gyro_scale_ppm=(150.0, -80.0, 220.0), accel_scale_ppm=(-120.0, 60.0, 250.0),
                     gyro_nonorth_urad=(30.0, -45.0, 12.0, 38.0, -20.0, 25.0),
                     accel_nonorth_urad=(-33.0, 41.0, 15.0, -27.0, 22.0, -18.0))
-NONORTH_INDEX = [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)]
 
 
 def _scenario(segments, effects, **kw):

@@ -12,7 +12,7 @@ from ldvsurvey.nav.sim import catalog
 from ldvsurvey.nav.sim.effects import Effects, TurntableSpec
 from ldvsurvey.nav.sim.motion import Motion, Static
 from ldvsurvey.nav.sim.road import Ramps, Road
-from ldvsurvey.nav.sim.scenario import Scenario, bundle_files, simulate
+from ldvsurvey.nav.sim.scenario import Scenario, bundle_files, simulate, truth_files
 
 LAT = 0.5
 LSB = 360.0 / 2 ** 16
@@ -69,7 +69,7 @@ def test_continuous_rotation():
     late = t > sim.scenario.t0_s + 10.0
     slope = np.polyfit(t[late], np.unwrap(np.radians(deg[late])), 1)[0]
     assert np.degrees(slope) == pytest.approx(6.0, rel=1e-5)
-    meta = json.loads(__import__("ldvsurvey.nav.sim.scenario", fromlist=["x"]).truth_files(sim)["truth.json"])
+    meta = json.loads(truth_files(sim)["truth.json"])
     assert meta["turntable"]["scheme"] == "continuous"
 
 

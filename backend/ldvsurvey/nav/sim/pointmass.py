@@ -67,6 +67,11 @@ class PointMassField:
 
     __call__ = components
 
+    def dg_mgal(self, lat_rad, lon_rad, h_m=None):
+        """Δg (mGal) at geodetic points (at the origin height when ``h_m`` is not given)."""
+        h = self.h0_m if h_m is None else h_m
+        return self.components(lat_rad, lon_rad, np.broadcast_to(h, np.shape(lat_rad)))[2] / MGAL
+
     def grids(self, lat_deg, lon_deg, h_m: float):
         """ξ, η (arcsec) and Δg (mGal) on a lat × lon grid (ascending degrees) at height h_m."""
         la, lo = np.meshgrid(np.radians(lat_deg), np.radians(lon_deg), indexing="ij")

@@ -88,6 +88,11 @@ class SimResult:
     extras: dict = field(default_factory=dict)  #: truth of the effects (see ``effect_truth``)
     body: object | None = None  #: the BodyModel when the body-attitude effect is on
 
+    @property
+    def gravity_field(self):
+        """The gravity field the IMU sensed (the scenario's, or the effect's point masses), or None."""
+        return self.extras.get("gravity_field", self.scenario.gravity_field)
+
 
 OPTICS = {"wavelength_nm": 1064.0, "beam_angle_deg": 10.0, "surface_angle_deg": 30.0, "refractive_index": 1.00027}
 
