@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from fastapi import FastAPI, Request
+from fastapi.middleware.gzip import GZipMiddleware
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
@@ -12,8 +13,13 @@ from ldvsurvey import __version__
 from ldvsurvey.api.limits import BodySizeLimit
 from ldvsurvey.api.auth import RateLimiter, bootstrap_users
 from ldvsurvey.api.auth import router as auth_router
+from ldvsurvey.api.compare import router as compare_router
+from ldvsurvey.api.docs import mount_docs
 from ldvsurvey.api.jobs import router as jobs_router
 from ldvsurvey.api.logs import router as logs_router
+from ldvsurvey.api.people import router as people_router
+from ldvsurvey.api.security import SecurityHeaders
+from ldvsurvey.api.throttle import LoginThrottle
 from ldvsurvey.errors import InputError
 from ldvsurvey.settings import Settings, get_settings
 from ldvsurvey.store.db import get_engine, upgrade_head
@@ -26,11 +32,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or get_settings()
     url = settings.resolved_database_url()
     upgrade_head(url)
-    app = FastAPI(title="ldv-survey", version=__version__,
+    app = FastAPI(title="ldv-survey", version=__version__, docs_url=None, redoc_url=None,
                   description="Drive logs of SINS + LDV + GNSS: upload, validate, process, compare.")
     app.state.settings = settings
     app.state.database_url = url
     app.state.rate_limiter = RateLimiter()
+    app.state.login_throttle = LoginThrottle(url, settings)
     if settings.auth_enabled:
         bootstrap_users(url, settings)
 
@@ -46,8 +53,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return {"status": "ok", "version": __version__, "database": dialect}
 
     app.include_router(auth_router)
+    app.include_router(people_router)
     app.include_router(logs_router)
     app.include_router(jobs_router)
+    app.include_router(compare_router)
+    mount_docs(app)
 
     import plotly
 
@@ -78,4 +88,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     if FRONTEND_DIR.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_upload_bytes)
+    app.add_middleware(GZipMiddleware, minimum_size=1024, compresslevel=5)
+    if settings.security_headers:
+        app.add_middleware(SecurityHeaders)  # outermost: every answer carries them, refusals too
     return app
