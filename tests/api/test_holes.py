@@ -72,7 +72,7 @@ def test_unknown_member_named_but_not_inflated(client):
 
 
 def test_security_headers_on_pages_docs_api_and_errors(client):
-    for path in ("/", "/docs", "/api/health", "/api/logs/999999", "/app.js"):
+    for path in ("/", "/docs", "/api/health", "/api/logs/999999", "/js/main.js"):
         h = client.get(path).headers
         csp = h.get("content-security-policy", "")
         assert "script-src 'self'" in csp and "unsafe-inline" not in csp.split("script-src")[1].split(";")[0], path

@@ -27,8 +27,8 @@ def _ids(jobs: str) -> list[int]:
     except ValueError:
         raise HTTPException(422, "jobs: give job ids separated by commas, e.g. 3,5") from None
     ids = list(dict.fromkeys(ids))
-    if len(ids) < 2 or len(ids) > 20 or not all(1 <= i <= ID_MAX for i in ids):
-        raise HTTPException(422, "jobs: give 2 to 20 distinct job ids")
+    if not 1 <= len(ids) <= 20 or not all(1 <= i <= ID_MAX for i in ids):
+        raise HTTPException(422, "jobs: give 1 to 20 distinct job ids (the first is the reference)")
     return ids
 
 

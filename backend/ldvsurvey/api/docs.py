@@ -1,4 +1,4 @@
-"""``/docs``: Swagger UI served from this server (the ``swagger-ui-bundle`` package), no CDN and no inline script."""
+"""``/docs``: Swagger UI served from this server (the ``swagger-ui-bundle-v2`` package, Swagger UI 5), no CDN and no inline script."""
 
 from __future__ import annotations
 
