@@ -7,7 +7,9 @@ export function num(x, digits = 6) {
   if (Number.isNaN(v)) return "–";
   if (!Number.isFinite(v)) return v > 0 ? "∞" : "−∞";
   if (Number.isInteger(v)) return String(v);
-  return String(Number(v.toPrecision(digits)));
+  // large values keep three decimals (e.g. seconds of day); trailing zeros are dropped
+  const p = Math.min(15, Math.max(digits, Math.floor(Math.log10(Math.abs(v))) + 4));
+  return String(Number(v.toPrecision(p)));
 }
 
 export const fixed = (x, d = 2) => (x === null || x === undefined || Number.isNaN(Number(x)))
