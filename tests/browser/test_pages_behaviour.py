@@ -116,3 +116,11 @@ def test_frontend_source_rules():
         assert len(text.splitlines()) <= 400, f.name
         if f.name != "html.js":
             assert "&amp;" not in text and "&lt;" not in text, f"{f.name} escapes by itself"
+
+
+def test_delete_is_visible_at_once(server):
+    """Over real HTTP the 204 comes after the commit: an immediate GET says 404 every time."""
+    for seed in range(95, 100):
+        log_id = upload(server, seed)
+        assert httpx.delete(f"{server}/api/logs/{log_id}").status_code == 204
+        assert httpx.get(f"{server}/api/logs/{log_id}").status_code == 404
