@@ -183,3 +183,27 @@ def test_cli_users_and_projects(tmp_path, monkeypatch, capsys):
             assert r.status_code == 200 and c.get("/api/me").json()["admin"] is True
     finally:
         get_settings.cache_clear()
+
+
+def test_login_throttle_in_redis_when_configured(st):
+    """With LDVSURVEY_REDIS_URL the counters live in Redis: two API processes see the same counts."""
+    import os
+
+    import redis
+
+    url = os.environ.get("LDVSURVEY_TEST_REDIS_URL", "redis://127.0.0.1:6379/15")
+    try:
+        redis.Redis.from_url(url, socket_connect_timeout=1).ping()
+    except redis.RedisError:
+        pytest.skip(f"no Redis at {url}")
+    rst = st.model_copy(update={"redis_url": url, "run_consumer": False})
+    app1, app2 = create_app(rst), create_app(rst)
+    with TestClient(app1) as c1, TestClient(app2) as c2:
+        for k in range(5):
+            (c1 if k % 2 else c2).post("/api/login", json={"username": ADMIN["username"], "password": f"no{k}"})
+        assert c1.post("/api/login", json=ADMIN).status_code == 429
+        assert c2.post("/api/login", json=ADMIN).status_code == 429
+        with session_scope(app1.state.database_url) as s:  # nothing was counted in the database
+            from ldvsurvey.store.models import LoginFailure
+
+            assert s.query(LoginFailure).count() == 0

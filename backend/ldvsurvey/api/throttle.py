@@ -58,9 +58,13 @@ class LoginThrottle:
         self.max_client = settings.login_failures_per_client
         self.redis = None
         if settings.redis_url:
+            import hashlib
+
             import redis
 
             self.redis = redis.Redis.from_url(settings.redis_url)
+            # deployments (databases) sharing one Redis keep separate counters
+            self.prefix = f"ldvs:loginfail:{hashlib.sha256(database_url.encode()).hexdigest()[:12]}:"
 
     @staticmethod
     def keys(account: str, client: str) -> tuple[str, str]:
@@ -68,7 +72,7 @@ class LoginThrottle:
 
     def _count(self, key: str) -> int:
         if self.redis is not None:
-            k = "ldvs:loginfail:" + key
+            k = self.prefix + key
             self.redis.zremrangebyscore(k, 0, time.time() - self.window_s)
             return int(self.redis.zcard(k))
         with session_scope(self.url) as s:
@@ -90,8 +94,8 @@ class LoginThrottle:
             now = time.time()
             with self.redis.pipeline() as p:
                 for k in keys:
-                    p.zadd("ldvs:loginfail:" + k, {uuid.uuid4().hex: now})
-                    p.expire("ldvs:loginfail:" + k, int(self.window_s) + 1)
+                    p.zadd(self.prefix + k, {uuid.uuid4().hex: now})
+                    p.expire(self.prefix + k, int(self.window_s) + 1)
                 p.execute()
             return
         with session_scope(self.url) as s:
@@ -102,7 +106,7 @@ class LoginThrottle:
         """A right password clears the account's failures (not the client's)."""
         ka, _ = self.keys(account, client)
         if self.redis is not None:
-            self.redis.delete("ldvs:loginfail:" + ka)
+            self.redis.delete(self.prefix + ka)
             return
         with session_scope(self.url) as s:
             ustore.forget_login_failures(s, [ka])
