@@ -63,13 +63,21 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     plotly_js = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
 
+    gz_cache: dict = {}
+
     @app.get("/vendor/plotly.min.js", include_in_schema=False)
-    def plotly_bundle():
-        from fastapi.responses import FileResponse
+    def plotly_bundle(request: Request):
+        import gzip
+
+        from fastapi.responses import FileResponse, Response
 
         # the bundle changes only with the installed plotly package: let browsers keep it (and V8 its code cache)
-        return FileResponse(plotly_js, media_type="text/javascript",
-                            headers={"Cache-Control": "public, max-age=86400"})
+        cache = {"Cache-Control": "public, max-age=86400", "Vary": "Accept-Encoding"}
+        if "gzip" not in request.headers.get("accept-encoding", ""):
+            return FileResponse(plotly_js, media_type="text/javascript", headers=cache)
+        if "gz" not in gz_cache:  # compressed once per process, not on every request
+            gz_cache["gz"] = gzip.compress(plotly_js.read_bytes(), compresslevel=6)
+        return Response(gz_cache["gz"], media_type="text/javascript", headers={**cache, "Content-Encoding": "gzip"})
 
     from ldvsurvey.jobs import runner
 

@@ -1,4 +1,5 @@
-"""``/docs``: Swagger UI served from this server (the ``swagger-ui-bundle-v2`` package, Swagger UI 5), no CDN and no inline script."""
+"""``/docs``: Swagger UI 5 served from this server (the ``swagger-ui-bundle-v2`` package):
+no CDN, no inline script."""
 
 from __future__ import annotations
 

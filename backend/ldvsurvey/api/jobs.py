@@ -47,7 +47,8 @@ def job_detail(session: Session, j: Job) -> dict:
         row = session.get(Log, lid)
         if row is not None:
             inputs.append({"log_id": lid, "name": row.name, "bundle_sha256": row.sha256,
-                           "files": [{"name": n, "sha256": h, "size_bytes": b} for n, h, b in list_files(session, lid)]})
+                           "files": [{"name": n, "sha256": h, "size_bytes": b}
+                                     for n, h, b in list_files(session, lid)]})
     s = j.summary or {}
     warnings = s.get("warnings")
     if warnings is None:  # not finished: the logs' own warnings
