@@ -15,6 +15,7 @@ const part = (v) => {
 export const html = (strings, ...values) =>
   new Safe(strings.reduce((out, s, i) => out + s + (i < values.length ? part(values[i]) : ""), ""));
 export const raw = (s) => new Safe(String(s));
-export const render = (el, fragment) => { el.innerHTML = String(fragment); return el; };
+// fragment: html`...`, an array of them, or plain text (escaped)
+export const render = (el, fragment) => { el.innerHTML = part(fragment); return el; };
 export const $ = (sel, root = document) => root.querySelector(sel);
 export const $$ = (sel, root = document) => [...root.querySelectorAll(sel)];

@@ -48,6 +48,8 @@ def test_admin_makes_user_and_project_user_sees_only_that(auth_server, page):
     page.click("#user-create")
     page.wait_for_selector("tr[data-user='ivan']")
     assert "Field 2026" in page.inner_text("tr[data-user='ivan']")
+    lines = [ln.strip() for ln in page.inner_text("#admin").split("\n")]
+    assert "," not in lines  # lists of rows are joined without separators
     shot(page, "admin")
     # one log in the new project, one in the admin's own (upload without project_id)
     c = api_as(auth_server, *ADMIN)

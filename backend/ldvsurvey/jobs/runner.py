@@ -138,7 +138,7 @@ def execute(job_id: int) -> str:
                     s.add(JobFile(job_id=job_id, name=name, size_bytes=len(data), content=data))
                 s.execute(update(Job).where(Job.id == job_id).values(
                     status="succeeded", stage="done", progress=100.0, finished_at=now(), summary=result.summary,
-                    stage_log=log_stage("done", 100.0)))
+                    stage_log=list(stage_log) if current[0] == "done" else log_stage("done", 100.0)))
         except IntegrityError:  # the job (its log) was deleted while the results were being written
             raise Cancelled() from None
         return "succeeded"
