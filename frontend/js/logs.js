@@ -9,6 +9,7 @@ export async function logsPage(ctx, app) {
   const q = new URLSearchParams(location.hash.split("?")[1] || "");
   render(app, html`<h2>Drive logs</h2>
   <div id="upload"></div>
+  <p class="hint">An upload goes to the project chosen in the filter below, or to your own project.</p>
   <form id="filters" class="row">
     <label>Project <select id="f-project"><option value="">all</option>
       ${projects.map((p) => html`<option value="${p.id}" ${q.get("project") === String(p.id) ? "selected" : ""}>

@@ -109,3 +109,23 @@ def test_docs_render_without_network(auth_server, page):
     page.wait_for_selector(".opblock-summary-path[data-path='/api/logs']")
     assert outside == []
     shot(page, "docs-offline")
+
+
+def test_change_password_in_the_browser(auth_server, page):
+    c = api_as(auth_server, *ADMIN)
+    assert c.post("/api/admin/users", json={"username": "judy", "password": "judy-password"}).status_code == 201
+    c.close()
+    ui_login(page, auth_server, "judy", "judy-password")
+    page.click("#account-link")
+    page.wait_for_selector("#password-form")
+    page.fill("#password-form input[name=old]", "judy-password")
+    page.fill("#password-form input[name=new]", "judy-new-password")
+    page.click("#password-change")
+    page.wait_for_selector("#login-form")  # every session ended: log in again
+    page.fill("#login-user", "judy")
+    page.fill("#login-password", "judy-password")
+    page.click("#login-submit")
+    page.wait_for_selector("#login-error")
+    page.fill("#login-password", "judy-new-password")
+    page.click("#login-submit")
+    page.wait_for_selector("#account-link")

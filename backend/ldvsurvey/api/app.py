@@ -27,6 +27,22 @@ from ldvsurvey.store.db import get_engine, upgrade_head
 FRONTEND_DIR = Path(__file__).resolve().parents[3] / "frontend"
 
 
+def _say_how_to_log_in(url: str, settings: Settings) -> None:
+    import logging
+
+    from sqlalchemy import func, select
+
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.models import User
+
+    with session_scope(url) as s:
+        admins = s.scalar(select(func.count()).select_from(User).where(User.is_admin.is_(True), User.disabled.is_(False)))
+    if not admins and not settings.demo_mode:
+        logging.getLogger("ldvsurvey").warning(
+            "no admin yet: create one with `ldv-survey user add NAME --admin`, or start with "
+            "LDVSURVEY_ADMIN_USER and LDVSURVEY_ADMIN_PASSWORD set (see the README)")
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the app; runs the database migrations (``upgrade head``) first."""
     settings = settings or get_settings()
@@ -40,6 +56,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.login_throttle = LoginThrottle(url, settings)
     if settings.auth_enabled:
         bootstrap_users(url, settings)
+        _say_how_to_log_in(url, settings)
 
     @app.exception_handler(InputError)
     async def _input_error(_request: Request, exc: InputError):
