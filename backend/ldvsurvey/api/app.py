@@ -36,7 +36,8 @@ def _say_how_to_log_in(url: str, settings: Settings) -> None:
     from ldvsurvey.store.models import User
 
     with session_scope(url) as s:
-        admins = s.scalar(select(func.count()).select_from(User).where(User.is_admin.is_(True), User.disabled.is_(False)))
+        admins = s.scalar(select(func.count()).select_from(User)
+                          .where(User.is_admin.is_(True), User.disabled.is_(False)))
     if not admins and not settings.demo_mode:
         logging.getLogger("ldvsurvey").warning(
             "no admin yet: create one with `ldv-survey user add NAME --admin`, or start with "
