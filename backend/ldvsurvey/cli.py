@@ -79,6 +79,78 @@ def _cmd_migrate(args) -> int:
     return 0
 
 
+def _db():
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.db import session_scope, upgrade_head
+
+    url = get_settings().resolved_database_url()
+    upgrade_head(url)
+    return session_scope(url)
+
+
+def _password(args) -> str:
+    import getpass
+    import os
+
+    if args.password_env:
+        pw = os.environ.get(args.password_env)
+        if not pw:
+            raise InputError(f"environment variable {args.password_env} is empty or unset", field="password")
+        return pw
+    pw = getpass.getpass("password: ")
+    if pw != getpass.getpass("again: "):
+        raise InputError("the two passwords differ", field="password")
+    return pw
+
+
+def _cmd_user(args) -> int:
+    from ldvsurvey.store import users as ustore
+
+    with _db() as s:
+        if args.action == "add":
+            pw = _password(args)
+            ustore.check_password(pw)
+            u = ustore.create_user(s, args.username, pw, is_admin=args.admin, own_project=not args.project)
+            for p in args.project or []:
+                ustore.add_member(s, u.id, ustore.find_project(s, p).id)
+            print(f"user '{u.username}' created{' (admin)' if args.admin else ''}")
+        elif args.action == "list":
+            for u in ustore.list_users(s):
+                flags = [f for f, on in (("admin", u["is_admin"]), ("demo", u["is_demo"]),
+                                         ("disabled", u["disabled"])) if on]
+                print(f"{u['id']}\t{u['username']}\t{','.join(flags) or '-'}\t"
+                      f"{'; '.join(p['name'] for p in u['projects']) or '-'}")
+        elif args.action in ("disable", "enable"):
+            ustore.set_disabled(s, ustore.find_user(s, args.username), args.action == "disable")
+            print(f"user '{args.username}' {args.action}d")
+        elif args.action == "password":
+            user = ustore.find_user(s, args.username)
+            ustore.set_password(s, user, _password(args))
+            print(f"password of '{args.username}' set")
+    return 0
+
+
+def _cmd_project(args) -> int:
+    from ldvsurvey.store import users as ustore
+
+    with _db() as s:
+        if args.action == "add":
+            p = ustore.create_project(s, args.name)
+            print(f"project {p.id} '{p.name}' created")
+        elif args.action == "list":
+            for p in ustore.list_projects(s):
+                print(f"{p['id']}\t{p['name']}\t{', '.join(p['members']) or '-'}")
+        elif args.action == "member":
+            p, u = ustore.find_project(s, args.name), ustore.find_user(s, args.username)
+            if args.remove:
+                ustore.remove_member(s, u.id, p.id)
+                print(f"'{u.username}' removed from '{p.name}'")
+            else:
+                ustore.add_member(s, u.id, p.id)
+                print(f"'{u.username}' is a member of '{p.name}'")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="ldv-survey", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"ldv-survey {__version__}")
@@ -105,6 +177,34 @@ def build_parser() -> argparse.ArgumentParser:
 
     mg = sub.add_parser("migrate", help="bring the database (LDVSURVEY_DATABASE_URL) to the newest schema")
     mg.set_defaults(func=_cmd_migrate)
+
+    u = sub.add_parser("user", help="manage users (in LDVSURVEY_DATABASE_URL / LDVSURVEY_DATA_DIR)")
+    ua = u.add_subparsers(dest="action", required=True)
+    x = ua.add_parser("add", help="create a user (asks for the password unless --password-env)")
+    x.add_argument("username")
+    x.add_argument("--admin", action="store_true", help="may manage users and projects and sees every project")
+    x.add_argument("--project", action="append", help="make them a member (name or id; repeatable); "
+                                                      "without it they get a project of their own")
+    x.add_argument("--password-env", metavar="VAR", help="read the password from this environment variable")
+    ua.add_parser("list", help="users, flags and projects")
+    for act in ("disable", "enable"):
+        x = ua.add_parser(act, help=f"{act} a user (a disabled user can not log in; tokens stop working)")
+        x.add_argument("username")
+    x = ua.add_parser("password", help="set a user's password (ends their sessions)")
+    x.add_argument("username")
+    x.add_argument("--password-env", metavar="VAR")
+    u.set_defaults(func=_cmd_user)
+
+    pr = sub.add_parser("project", help="manage projects and their members")
+    pa = pr.add_subparsers(dest="action", required=True)
+    x = pa.add_parser("add", help="create a project")
+    x.add_argument("name")
+    pa.add_parser("list", help="projects and their members")
+    x = pa.add_parser("member", help="add (or --remove) a user to a project")
+    x.add_argument("name", help="project name or id")
+    x.add_argument("username")
+    x.add_argument("--remove", action="store_true")
+    pr.set_defaults(func=_cmd_project)
 
     s = sub.add_parser("serve", help="run the dashboard")
     s.add_argument("--host", default="127.0.0.1")

@@ -32,6 +32,12 @@ class Settings(BaseSettings):
     session_hours: float = 12.0
     max_active_jobs_per_user: int = 4
     uploads_per_minute: int = 30
+    login_failures_per_account: int = 10  # within login_window_s, then that account's logins wait
+    login_failures_per_client: int = 30  # within login_window_s, then that client's logins wait
+    login_window_s: float = 900.0
+    trusted_proxies: str = ""  # comma-separated addresses/networks whose X-Forwarded-For is believed
+    max_zip_members: int = 64  # a bundle has a handful of files
+    security_headers: bool = True
 
     def resolved_database_url(self) -> str:
         """SQLAlchemy URL: ``LDVSURVEY_DATABASE_URL`` or ``sqlite:///<data_dir>/ldvsurvey.db``."""

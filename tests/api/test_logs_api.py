@@ -125,3 +125,45 @@ def test_empty_upload_and_mixed_upload(client, db_counts):
                                         ("files", ("imu.csv", files["imu.csv"], "text/csv"))])
     assert r.status_code == 422 and "not both" in r.json()["detail"]
     assert db_counts() == EMPTY
+
+
+def test_list_filters_by_project_platform_and_date(settings):
+    import copy
+
+    from fastapi.testclient import TestClient
+
+    from ldvsurvey.api.app import create_app
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.users import create_user, new_api_token
+    from tests.bundles import MANIFEST
+
+    st = settings.model_copy(update={"auth_enabled": True})
+    app = create_app(st)
+    with session_scope(app.state.database_url) as s:
+        u = create_user(s, "root", "root-password", is_admin=True)
+        tok = new_api_token(s, u, "t")
+    h = {"Authorization": f"Bearer {tok}"}
+    with TestClient(app) as c:
+        p2 = c.post("/api/admin/projects", json={"name": "second"}, headers=h).json()["id"]
+        made = {}
+        for seed, (date, platform, project) in enumerate([("2023-03-20", "vehicle", None),
+                                                          ("2024-06-01", "vessel", None),
+                                                          ("2024-07-15", "vehicle", p2)]):
+            m = copy.deepcopy(MANIFEST)
+            m["date"], m["platform"] = date, platform
+            data = {"project_id": str(project)} if project else {}
+            r = c.post("/api/logs", headers=h, data=data,
+                       files=[("files", (n, d, "x")) for n, d in make_bundle(seed=80 + seed, n_imu=300,
+                                                                             manifest=m).items()])
+            assert r.status_code == 201, r.text
+            made[(date, platform)] = r.json()["id"]
+
+        def ids(q):
+            return sorted(lg["id"] for lg in c.get(f"/api/logs?{q}", headers=h).json())
+
+        assert ids("") == sorted(made.values())
+        assert ids("platform=vessel") == [made[("2024-06-01", "vessel")]]
+        assert ids(f"project_id={p2}") == [made[("2024-07-15", "vehicle")]]
+        assert ids("date_from=2024-01-01") == sorted([made[("2024-06-01", "vessel")], made[("2024-07-15", "vehicle")]])
+        assert ids("date_to=2024-06-01&platform=vehicle") == [made[("2023-03-20", "vehicle")]]
+        assert c.get("/api/logs?date_from=yesterday", headers=h).status_code == 422

@@ -20,13 +20,17 @@ def _free_port():
         return s.getsockname()[1]
 
 
-@pytest.fixture(scope="session")
-def server(tmp_path_factory):
+ADMIN = ("admin", "first-admin-password")
+
+
+def _serve(tmp_path_factory, extra: dict):
     port = _free_port()
     data = tmp_path_factory.mktemp("srv")
     env = {**os.environ, "LDVSURVEY_DATA_DIR": str(data), "LDVSURVEY_MAX_UPLOAD_BYTES": str(200 * 1024 * 1024),
-           "LDVSURVEY_DEMO_MODE": "1"}  # the page acts as the demo account (as after ./scripts/run.sh)
-    env.pop("LDVSURVEY_DATABASE_URL", None)
+           **extra}
+    for k in ("LDVSURVEY_DATABASE_URL", "LDVSURVEY_REDIS_URL", "LDVSURVEY_DEMO_MODE", "LDVSURVEY_AUTH_ENABLED"):
+        if k not in extra:
+            env.pop(k, None)
     log = open(data / "server.log", "w")
     proc = subprocess.Popen([sys.executable, "-m", "ldvsurvey.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
                             env=env, stdout=log, stderr=subprocess.STDOUT)
@@ -40,6 +44,22 @@ def server(tmp_path_factory):
         if proc.poll() is not None:
             raise RuntimeError((data / "server.log").read_text())
         time.sleep(0.5)
+    return proc, base
+
+
+@pytest.fixture(scope="session")
+def server(tmp_path_factory):
+    # the page acts as the demo account (as after ./scripts/run.sh)
+    proc, base = _serve(tmp_path_factory, {"LDVSURVEY_DEMO_MODE": "1"})
+    yield base
+    proc.terminate()
+    proc.wait(timeout=20)
+
+
+@pytest.fixture(scope="session")
+def auth_server(tmp_path_factory):
+    """Authentication on, no demo account: the first admin comes from the environment (as in the README)."""
+    proc, base = _serve(tmp_path_factory, {"LDVSURVEY_ADMIN_USER": ADMIN[0], "LDVSURVEY_ADMIN_PASSWORD": ADMIN[1]})
     yield base
     proc.terminate()
     proc.wait(timeout=20)

@@ -67,12 +67,25 @@ def test_upload_run_height_plot_and_download(server, page, height_zip):
     page.click("#upload-ok a")
     page.wait_for_selector("#pipe")
     shot(page, "log-detail")
+    csp = []
+    page.on("console", lambda m: csp.append(m.text) if "Content Security Policy" in m.text else None)
     job = start_job(page, "height")
     page.wait_for_selector(f"tr[data-job='{job}'] progress")  # live progress row
+    page.goto(f"{server}/#/jobs/{job}")  # watched while it runs: the page follows it to the end
+    page.wait_for_selector("#jobstatus .status-succeeded", timeout=240_000)
     j = wait_job(server, job)
     assert j["status"] == "succeeded", j["error"]
-    page.goto(f"{server}/#/jobs/{job}")
     page.wait_for_selector("#view-height .main-svg", timeout=30_000)
+    assert "running" not in page.inner_text("#jobstate")
+    assert "done" in page.inner_text("#job-stages")
+    imu_sha = next(f["sha256"] for f in j["inputs"][0]["files"] if f["name"] == "imu.csv")
+    assert imu_sha in page.inner_text("#job-inputs")
+    # every plot names both axes
+    for v in ("height", "height_error"):
+        page.wait_for_selector(f"#view-{v} .main-svg", timeout=30_000)
+        titles = page.evaluate(f"""() => {{ const l = document.getElementById('view-{v}').layout;
+            return [l.xaxis.title.text, l.yaxis.title.text]; }}""")
+        assert all(titles), (v, titles)
     # the plot carries the data, not just a div
     n = page.evaluate("() => document.getElementById('view-height').data.map(t => t.x.length)")
     assert len(n) == 3 and min(n[:2]) > 100
@@ -84,6 +97,13 @@ def test_upload_run_height_plot_and_download(server, page, height_zip):
     got = open(dl.value.path(), "rb").read()
     assert got == httpx.get(f"{server}/api/jobs/{job}/files/height.csv").content
     assert got.startswith(b"t_s,h_m,h_uncompensated_m,h_gnss_m,fix_quality")
+    # the log page's GNSS fix plot: axis titles and one legend entry per fix quality
+    page.goto(f"{server}/#/logs/{j['log_ids'][0]}")
+    page.wait_for_selector("#fixplot .main-svg", timeout=30_000)
+    fix = page.evaluate("""() => { const el = document.getElementById('fixplot');
+        return {x: el.layout.xaxis.title.text, y: el.layout.yaxis.title.text, names: el.data.map(t => t.name)}; }""")
+    assert fix["x"] and fix["y"] and len(fix["names"]) >= 1 and all(n[0].isdigit() for n in fix["names"])
+    assert csp == []
 
 
 def test_gravity_lines_and_coincidence_table(server, page, gravity_zip):
@@ -105,6 +125,7 @@ def test_gravity_lines_and_coincidence_table(server, page, gravity_zip):
     shot(page, "view-gravity")
     page.goto(server + "/#/compare")
     page.wait_for_selector("#cmp .main-svg", timeout=30_000)
+    page.wait_for_selector("#cmp-download")
     shot(page, "compare")
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from fastapi import FastAPI, Request
+from fastapi.middleware.gzip import GZipMiddleware
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
@@ -12,8 +13,13 @@ from ldvsurvey import __version__
 from ldvsurvey.api.limits import BodySizeLimit
 from ldvsurvey.api.auth import RateLimiter, bootstrap_users
 from ldvsurvey.api.auth import router as auth_router
+from ldvsurvey.api.compare import router as compare_router
+from ldvsurvey.api.docs import mount_docs
 from ldvsurvey.api.jobs import router as jobs_router
 from ldvsurvey.api.logs import router as logs_router
+from ldvsurvey.api.people import router as people_router
+from ldvsurvey.api.security import SecurityHeaders
+from ldvsurvey.api.throttle import LoginThrottle
 from ldvsurvey.errors import InputError
 from ldvsurvey.settings import Settings, get_settings
 from ldvsurvey.store.db import get_engine, upgrade_head
@@ -21,18 +27,37 @@ from ldvsurvey.store.db import get_engine, upgrade_head
 FRONTEND_DIR = Path(__file__).resolve().parents[3] / "frontend"
 
 
+def _say_how_to_log_in(url: str, settings: Settings) -> None:
+    import logging
+
+    from sqlalchemy import func, select
+
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.models import User
+
+    with session_scope(url) as s:
+        admins = s.scalar(select(func.count()).select_from(User)
+                          .where(User.is_admin.is_(True), User.disabled.is_(False)))
+    if not admins and not settings.demo_mode:
+        logging.getLogger("ldvsurvey").warning(
+            "no admin yet: create one with `ldv-survey user add NAME --admin`, or start with "
+            "LDVSURVEY_ADMIN_USER and LDVSURVEY_ADMIN_PASSWORD set (see the README)")
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the app; runs the database migrations (``upgrade head``) first."""
     settings = settings or get_settings()
     url = settings.resolved_database_url()
     upgrade_head(url)
-    app = FastAPI(title="ldv-survey", version=__version__,
+    app = FastAPI(title="ldv-survey", version=__version__, docs_url=None, redoc_url=None,
                   description="Drive logs of SINS + LDV + GNSS: upload, validate, process, compare.")
     app.state.settings = settings
     app.state.database_url = url
     app.state.rate_limiter = RateLimiter()
+    app.state.login_throttle = LoginThrottle(url, settings)
     if settings.auth_enabled:
         bootstrap_users(url, settings)
+        _say_how_to_log_in(url, settings)
 
     @app.exception_handler(InputError)
     async def _input_error(_request: Request, exc: InputError):
@@ -46,20 +71,31 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return {"status": "ok", "version": __version__, "database": dialect}
 
     app.include_router(auth_router)
+    app.include_router(people_router)
     app.include_router(logs_router)
     app.include_router(jobs_router)
+    app.include_router(compare_router)
+    mount_docs(app)
 
     import plotly
 
     plotly_js = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
 
+    gz_cache: dict = {}
+
     @app.get("/vendor/plotly.min.js", include_in_schema=False)
-    def plotly_bundle():
-        from fastapi.responses import FileResponse
+    def plotly_bundle(request: Request):
+        import gzip
+
+        from fastapi.responses import FileResponse, Response
 
         # the bundle changes only with the installed plotly package: let browsers keep it (and V8 its code cache)
-        return FileResponse(plotly_js, media_type="text/javascript",
-                            headers={"Cache-Control": "public, max-age=86400"})
+        cache = {"Cache-Control": "public, max-age=86400", "Vary": "Accept-Encoding"}
+        if "gzip" not in request.headers.get("accept-encoding", ""):
+            return FileResponse(plotly_js, media_type="text/javascript", headers=cache)
+        if "gz" not in gz_cache:  # compressed once per process, not on every request
+            gz_cache["gz"] = gzip.compress(plotly_js.read_bytes(), compresslevel=6)
+        return Response(gz_cache["gz"], media_type="text/javascript", headers={**cache, "Content-Encoding": "gzip"})
 
     from ldvsurvey.jobs import runner
 
@@ -78,4 +114,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     if FRONTEND_DIR.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_upload_bytes)
+    app.add_middleware(GZipMiddleware, minimum_size=1024, compresslevel=5)
+    if settings.security_headers:
+        app.add_middleware(SecurityHeaders)  # outermost: every answer carries them, refusals too
     return app

@@ -13,11 +13,12 @@ from collections import defaultdict, deque
 from dataclasses import dataclass
 
 from fastapi import APIRouter, Depends, HTTPException, Request, Response
-from pydantic import BaseModel
+from pydantic import BaseModel, Field
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api.deps import get_session
+from ldvsurvey.api.throttle import client_address
 from ldvsurvey.store import users as ustore
 from ldvsurvey.store.models import Job, Log, User
 
@@ -118,19 +119,27 @@ def check_job_quota(request: Request, session: Session, who: Principal) -> None:
 
 
 class Login(BaseModel):
-    username: str
-    password: str
+    username: str = Field(..., max_length=200)
+    password: str = Field(..., max_length=1000)
 
 
-@router.post("/api/login", summary="Start a session (sets an HttpOnly cookie; returns the CSRF token)")
+@router.post("/api/login", summary="Start a session (sets an HttpOnly cookie; returns the CSRF token)",
+             responses={401: {"description": "wrong user name or password"},
+                        429: {"description": "too many failed logins for the account or the client"}})
 def login(body: Login, request: Request, response: Response, session: Session = Depends(get_session)) -> dict:
     st = request.app.state.settings
-    if not request.app.state.rate_limiter.allow(("login", request.client.host if request.client else ""), 20):
-        raise HTTPException(429, "too many login attempts")
+    throttle = request.app.state.login_throttle
+    client = client_address(request)
+    reason = throttle.blocked(body.username, client)
+    if reason:
+        raise HTTPException(429, reason)
     user = ustore.verify(session, body.username, body.password)
     if user is None:
+        throttle.failed(body.username, client)
         raise HTTPException(401, "wrong user name or password")
+    throttle.succeeded(body.username, client)
     token, csrf = ustore.new_session(session, user, st.session_hours)
+    session.commit()  # the cookie works on the very next request
     response.set_cookie(COOKIE, token, httponly=True, samesite="lax", secure=st.cookie_secure,
                         max_age=int(st.session_hours * 3600))
     return {"user": user.username, "csrf": csrf}
@@ -140,28 +149,19 @@ def login(body: Login, request: Request, response: Response, session: Session = 
 def logout(request: Request, response: Response, session: Session = Depends(get_session)) -> dict:
     if request.cookies.get(COOKIE):
         ustore.end_session(session, request.cookies[COOKIE])
+        session.commit()
     response.delete_cookie(COOKIE)
     return {"ok": True}
 
 
 @router.get("/api/me", summary="Who am I (user, projects, CSRF token for page writes)")
-def me(who: Principal = Depends(principal)) -> dict:
+def me(who: Principal = Depends(principal), session: Session = Depends(get_session)) -> dict:
     if who.user is None:
-        return {"user": None, "auth": False, "csrf": None, "demo": False, "projects": None}
+        return {"user": None, "auth": False, "csrf": None, "demo": False, "admin": False, "projects": None,
+                "project_list": ustore.list_projects(session)}
     return {"user": who.user.username, "auth": True, "csrf": who.csrf, "demo": who.user.is_demo,
-            "admin": who.user.is_admin, "projects": who.projects}
-
-
-class TokenRequest(BaseModel):
-    name: str = "api"
-
-
-@router.post("/api/tokens", status_code=201, summary="Create an API token (shown once)")
-def create_token(body: TokenRequest, who: Principal = Depends(principal),
-                 session: Session = Depends(get_session)) -> dict:
-    if who.user is None:
-        raise HTTPException(400, "authentication is disabled: no tokens needed")
-    return {"token": ustore.new_api_token(session, who.user, body.name), "name": body.name}
+            "admin": who.user.is_admin, "projects": who.projects,
+            "project_list": ustore.list_projects(session, who.projects)}
 
 
 def bootstrap_users(database_url: str, settings) -> None:

@@ -13,6 +13,7 @@ from pydantic import Field
 ID_MAX = 2**31 - 1
 LogId = Annotated[int, Path(ge=1, le=ID_MAX, description="log id")]
 JobId = Annotated[int, Path(ge=1, le=ID_MAX, description="job id")]
+PathId = Annotated[int, Path(ge=1, le=ID_MAX, description="id")]
 BodyId = Annotated[int, Field(ge=1, le=ID_MAX)]
 from sqlalchemy.orm import Session
 

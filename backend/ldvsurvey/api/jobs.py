@@ -34,7 +34,27 @@ def job_dict(j: Job) -> dict:
             "status": j.status, "stage": j.stage, "progress": j.progress, "attempts": j.attempts,
             "cancel_requested": j.cancel_requested, "error": j.error, "created_at": iso(j.created_at),
             "started_at": iso(j.started_at), "finished_at": iso(j.finished_at), "heartbeat_at": iso(j.heartbeat_at),
-            "summary": j.summary}
+            "summary": j.summary, "stage_log": j.stage_log or []}
+
+
+def job_detail(session: Session, j: Job) -> dict:
+    """:func:`job_dict` with the inputs (each log's files with their SHA-256) and the warnings."""
+    from ldvsurvey.store.logs import list_files
+    from ldvsurvey.store.models import Log
+
+    inputs = []
+    for lid in j.log_ids:
+        row = session.get(Log, lid)
+        if row is not None:
+            inputs.append({"log_id": lid, "name": row.name, "bundle_sha256": row.sha256,
+                           "files": [{"name": n, "sha256": h, "size_bytes": b}
+                                     for n, h, b in list_files(session, lid)]})
+    s = j.summary or {}
+    warnings = s.get("warnings")
+    if warnings is None:  # not finished: the logs' own warnings
+        warnings = [w for lid in j.log_ids if (row := session.get(Log, lid)) is not None
+                    for w in (row.quality or {}).get("warnings", [])]
+    return {**job_dict(j), "inputs": inputs, "warnings": warnings}
 
 
 @router.get("/api/pipelines", summary="Pipelines with their parameters and defaults")
@@ -103,7 +123,7 @@ def list_jobs(log_id: int | None = Query(None, ge=1, le=2**31 - 1), session: Ses
 
 @router.get("/api/jobs/{job_id}", summary="One job: status, stage, progress, error, summary")
 def get_job(job_id: JobId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
-    return job_dict(visible_job(session, who, job_id))
+    return job_detail(session, visible_job(session, who, job_id))
 
 
 @router.post("/api/jobs/{job_id}/cancel", summary="Ask a job to stop (between stages)")
@@ -165,5 +185,7 @@ def get_view(job_id: JobId, view: str, x0: float | None = None, x1: float | None
 
     j = visible_job(session, who, job_id)
     if j.status != "succeeded":
-        raise HTTPException(409, f"job {job_id} is {j.status}: no results yet")
+        what = {"failed": "it failed, so there are no results (see its error)",
+                "cancelled": "it was cancelled, so there are no results"}.get(j.status, "no results yet")
+        raise HTTPException(409, f"job {job_id} is {j.status}: {what}")
     return build_view(session, j, view, x0, x1, points)

@@ -2,17 +2,19 @@
 
 from __future__ import annotations
 
+import datetime as dt
 import mimetypes
 
-from fastapi import APIRouter, Depends, File, Form, HTTPException, Request, Response, UploadFile
+from fastapi import APIRouter, Depends, File, Form, HTTPException, Query, Request, Response, UploadFile
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api.auth import Principal, check_upload_rate, principal, visible_log
-from ldvsurvey.api.deps import LogId, get_session
-from ldvsurvey.errors import BundleError
-from ldvsurvey.io.drivelog import parse_files, read_zip
+from ldvsurvey.api.deps import ID_MAX, LogId, get_session
+from ldvsurvey.api.uploads import read_upload
+from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.quality import quality_report
 from ldvsurvey.store import logs as store
+from ldvsurvey.store import users as ustore
 
 router = APIRouter(prefix="/api/logs", tags=["logs"])
 
@@ -36,28 +38,6 @@ def log_summary(row) -> dict:
     }
 
 
-def read_upload(uploads: list[UploadFile], max_unzipped: int, max_ratio: float) -> dict[str, bytes]:
-    """Turn the multipart parts into ``{file name: bytes}`` (one zip, or the files)."""
-    if not uploads:
-        raise BundleError("no file in the upload (send one .zip or the bundle's files as 'files')")
-    parts = {}
-    for up in uploads:
-        name = (up.filename or "").replace("\\", "/").rsplit("/", 1)[-1]
-        if not name:
-            raise BundleError("an uploaded part has no file name")
-        if name in parts:
-            raise BundleError("file uploaded twice", file=name)
-        parts[name] = up.file.read()
-    if len(parts) == 1:
-        (name, data), = parts.items()
-        if name.lower().endswith(".zip") or data[:2] == b"PK":
-            return read_zip(data, max_unzipped, max_ratio, name=name)
-    zips = [n for n in parts if n.lower().endswith(".zip")]
-    if zips:
-        raise BundleError("send either one .zip or the separate files, not both", file=zips[0])
-    return parts
-
-
 @router.post("", status_code=201, summary="Upload a drive-log bundle (one .zip, or the files)")
 def upload_log(request: Request, response: Response, files: list[UploadFile] = File(...),
                project_id: int | None = Form(None, ge=1, le=2**31 - 1), session: Session = Depends(get_session),
@@ -73,7 +53,14 @@ def upload_log(request: Request, response: Response, files: list[UploadFile] = F
             project_id = who.projects[0]
         elif project_id not in who.projects:
             raise HTTPException(404, f"project {project_id} not found")
-    members = read_upload(files, st.max_unzipped_bytes, st.max_zip_ratio)
+    elif who.user is not None:  # an admin: a named project must exist; none named: their own
+        from ldvsurvey.store.models import Project
+
+        if project_id is None:
+            project_id = ustore.default_project(session, who.user)
+        elif session.get(Project, project_id) is None:
+            raise HTTPException(404, f"project {project_id} not found")
+    members = read_upload(files, st)
     log = parse_files(members)
     quality = quality_report(log)
     row, created = store.store_log(session, log, quality, project_id)
@@ -84,9 +71,15 @@ def upload_log(request: Request, response: Response, files: list[UploadFile] = F
     return {**log_summary(row), "duplicate": not created, "quality": row.quality}
 
 
-@router.get("", summary="List drive logs")
-def list_logs(session: Session = Depends(get_session), who: Principal = Depends(principal)) -> list[dict]:
-    return [log_summary(r) for r in store.list_logs(session) if who.can_see(r)]
+@router.get("", summary="List drive logs (newest first), optionally filtered")
+def list_logs(project_id: int | None = Query(None, ge=1, le=ID_MAX),
+              platform: str | None = Query(None, max_length=16, description="vehicle or vessel"),
+              date_from: dt.date | None = Query(None, description="survey date on or after (YYYY-MM-DD)"),
+              date_to: dt.date | None = Query(None, description="survey date on or before (YYYY-MM-DD)"),
+              session: Session = Depends(get_session), who: Principal = Depends(principal)) -> list[dict]:
+    rows = store.list_logs(session, project_id=project_id, platform=platform or None, date_from=date_from,
+                           date_to=date_to)
+    return [log_summary(r) for r in rows if who.can_see(r)]
 
 
 @router.get("/{log_id}", summary="One log: manifest, quality report, files")
@@ -114,5 +107,6 @@ def get_file(log_id: LogId, name: str, session: Session = Depends(get_session),
 def delete_log(log_id: LogId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> Response:
     visible_log(session, who, log_id)
     store.delete_log(session, log_id)
+    session.commit()  # answer only once it is gone: an immediate GET says 404
     return Response(status_code=204)
 

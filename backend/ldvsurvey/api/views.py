@@ -15,6 +15,10 @@ from tsdownsample import MinMaxLTTBDownsampler
 
 from ldvsurvey.store.models import Job
 
+ARCSEC_PER_RAD = 180.0 * 3600.0 / np.pi
+#: NMEA GGA fix quality
+FIX_NAMES = {0: "0 no fix", 1: "1 GPS", 2: "2 DGPS", 3: "3 PPS", 4: "4 RTK fixed", 5: "5 RTK float",
+             6: "6 dead reckoning", 7: "7 manual", 8: "8 simulation"}
 VIEWS = {
     "height": ["height", "height_error"],
     "tilt": ["attitude"],
@@ -88,8 +92,9 @@ def build_view(session, job: Job, view: str, x0, x1, n) -> dict:
         t = a["t_s"]
         tr = [_trace(t, a["pitch_raw_deg"], "pitch raw", x0, x1, n), _trace(t, a["pitch_deg"], "pitch compensated", x0, x1, n),
               _trace(t, a["roll_raw_deg"], "roll raw", x0, x1, n), _trace(t, a["roll_deg"], "roll compensated", x0, x1, n)]
-        return _fig(tr, f"Attitude: α = {s.get('alpha_rad', 0):.2e} rad, β = {s.get('beta_rad', 0):.2e} rad",
-                    "t (s of day)", "angle (deg)")
+        al, be = s.get("alpha_rad", 0.0), s.get("beta_rad", 0.0)
+        return _fig(tr, f"Attitude: α = {al:.2e} rad ({al * ARCSEC_PER_RAD:.1f}″), "
+                        f"β = {be:.2e} rad ({be * ARCSEC_PER_RAD:.1f}″)", "t (s of day)", "angle (deg)")
     if view in ("trajectory", "calibration_track"):
         name = "trajectory.csv" if view == "trajectory" else "calibration_track.csv"
         d = _csv(session, job, name)
@@ -104,11 +109,12 @@ def build_view(session, job: Job, view: str, x0, x1, n) -> dict:
             ok = np.isfinite(g["lat_deg"])
             ge = (np.radians(g["lon_deg"][ok]) - lon0) * 6378137.0 * np.cos(lat0)
             gn = (np.radians(g["lat_deg"][ok]) - lat0) * 6356752.0
-            k = _down(ge, gn, None, None, n)
-            tr.append({"type": "scatter", "mode": "markers", "name": "GNSS (colour: fix quality)",
-                       "x": ge[k].tolist(), "y": gn[k].tolist(),
-                       "marker": {"size": 4, "color": g["fix"][ok][k].astype(int).tolist(), "colorscale": "Viridis",
-                                  "showscale": True, "colorbar": {"title": {"text": "fix"}}}})
+            fix = g["fix"][ok].astype(int)
+            for q in sorted(set(fix.tolist())):  # one legend entry per fix quality (a discrete legend)
+                kq = np.flatnonzero(fix == q)
+                k = kq[_down(ge[kq], gn[kq], None, None, n)]
+                tr.append({"type": "scatter", "mode": "markers", "name": f"GNSS, {FIX_NAMES.get(q, f'fix {q}')}",
+                           "x": ge[k].tolist(), "y": gn[k].tolist(), "marker": {"size": 4}})
         return _fig(tr, "Trajectory (local east/north from the start)", "east (m)", "north (m)",
                     yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1})
     if view in ("gravity_lines", "gravity_residuals"):

@@ -8,6 +8,7 @@ import time
 import traceback
 
 from sqlalchemy import delete, select, update
+from sqlalchemy.exc import IntegrityError
 
 from ldvsurvey.errors import InputError
 from ldvsurvey.jobs.queue import make_huey
@@ -60,7 +61,19 @@ def execute(job_id: int) -> str:
         job.status, job.started_at, job.heartbeat_at = "running", now(), now()
         job.attempts += 1
         job.error = None
+        attempt = job.attempts
+        stage_log = [e for e in (job.stage_log or []) if e.get("attempt", 0) < attempt]
+        stage_log.append({"attempt": attempt, "t_s": 0.0, "stage": "started", "progress": 0.0})
+        job.stage_log = list(stage_log)
         pipeline_name, log_ids, params = job.pipeline, list(job.log_ids), dict(job.parameters)
+    t0 = time.monotonic()
+    current = ["started"]
+
+    def log_stage(stage: str, progress: float) -> list:
+        current[0] = stage[:200]
+        stage_log.append({"attempt": attempt, "t_s": round(time.monotonic() - t0, 3), "stage": stage[:200],
+                          "progress": progress})
+        return list(stage_log)
     stop = threading.Event()
 
     def beat():
@@ -77,16 +90,21 @@ def execute(job_id: int) -> str:
 
     def report(stage, fraction):
         t = time.monotonic()
-        if t - last[0] > 0.5 or fraction >= 1.0:
+        pct = round(100.0 * fraction, 1)
+        if stage[:200] != current[0]:  # every stage enters the job's stage log
             last[0] = t
-            _set(job_id, stage=stage[:200], progress=round(100.0 * fraction, 1), heartbeat_at=now())
+            _set(job_id, stage=stage[:200], progress=pct, heartbeat_at=now(), stage_log=log_stage(stage, pct))
+        elif t - last[0] > 0.5 or fraction >= 1.0:
+            last[0] = t
+            _set(job_id, stage=stage[:200], progress=pct, heartbeat_at=now())
 
     def cancelled():
         t = time.monotonic()
         if t - cancel_cache[1] > 0.5:
             cancel_cache[1] = t
             with session_scope(url) as s:
-                cancel_cache[0] = bool(s.scalar(select(Job.cancel_requested).where(Job.id == job_id)))
+                flag = s.scalar(select(Job.cancel_requested).where(Job.id == job_id))
+            cancel_cache[0] = flag is None or bool(flag)  # a deleted job (its log was deleted) stops too
         return cancel_cache[0]
 
     try:
@@ -110,26 +128,49 @@ def execute(job_id: int) -> str:
             if token is not None:
                 GRID_CACHE.reset(token)
         files = result_files(result)
-        with session_scope(url) as s:  # results written once, in one transaction
-            s.execute(delete(JobFile).where(JobFile.job_id == job_id))
-            for name, data in files.items():
-                s.add(JobFile(job_id=job_id, name=name, size_bytes=len(data), content=data))
-            s.execute(update(Job).where(Job.id == job_id).values(
-                status="succeeded", stage="done", progress=100.0, finished_at=now(), summary=result.summary))
+        try:
+            with session_scope(url) as s:  # results written once, in one transaction
+                row = s.scalar(select(Job).where(Job.id == job_id).with_for_update())
+                if row is None or row.cancel_requested:
+                    raise Cancelled()
+                s.execute(delete(JobFile).where(JobFile.job_id == job_id))
+                for name, data in files.items():
+                    s.add(JobFile(job_id=job_id, name=name, size_bytes=len(data), content=data))
+                s.execute(update(Job).where(Job.id == job_id).values(
+                    status="succeeded", stage="done", progress=100.0, finished_at=now(), summary=result.summary,
+                    stage_log=list(stage_log) if current[0] == "done" else log_stage("done", 100.0)))
+        except IntegrityError:  # the job (its log) was deleted while the results were being written
+            raise Cancelled() from None
         return "succeeded"
     except Cancelled:
-        _set(job_id, status="cancelled", stage="cancelled", finished_at=now())
+        _set(job_id, status="cancelled", stage="cancelled", finished_at=now(),
+             stage_log=log_stage("cancelled", 0.0))
         return "cancelled"
     except InputError as exc:
-        _set(job_id, status="failed", stage="failed", finished_at=now(), error=str(exc))
+        _set(job_id, status="failed", stage="failed", finished_at=now(), error=str(exc),
+             stage_log=log_stage(f"failed: {exc}", 0.0))
         return "failed"
-    except Exception as exc:  # keep the worker alive; the user sees what happened
+    except Exception as exc:  # keep the worker alive; the user sees what happened and what to do
         traceback.print_exc()
-        _set(job_id, status="failed", stage="failed", finished_at=now(),
-             error=f"internal error: {type(exc).__name__}: {exc}")
+        msg = user_message(pipeline_name, current[0], exc)
+        _set(job_id, status="failed", stage="failed", finished_at=now(), error=msg,
+             stage_log=log_stage(f"failed: {type(exc).__name__}", 0.0))
         return "failed"
     finally:
         stop.set()
+
+
+def user_message(pipeline: str, stage: str, exc: Exception) -> str:
+    """What a user reads when a pipeline stops on something other than bad input."""
+    detail = f"{type(exc).__name__}: {exc}"[:300]
+    if isinstance(exc, MemoryError):
+        what = "ran out of memory"
+        todo = "Run it on a shorter log (split the drive) or ask the operator for a larger worker."
+    else:
+        what = "stopped on a case it does not handle"
+        todo = ("Check the log's quality report (gaps, GNSS fixes, LDV quality) and the parameters, then retry; "
+                "if it fails again, report this job with its log.")
+    return f"The {pipeline} pipeline {what} during '{stage}'. {todo} (technical detail: {detail})"
 
 
 def enqueue(job_id: int) -> None:

@@ -55,6 +55,25 @@ def upgrade_head(url: str) -> None:
     cfg.set_main_option("script_location", str(MIGRATIONS_DIR))
     cfg.set_main_option("sqlalchemy.url", url.replace("%", "%%"))
     eng = get_engine(url)
+    if eng.dialect.name == "sqlite":
+        # tables are recreated to change them (batch mode): with foreign keys on, dropping the old
+        # table would cascade into its children. The pragma only works outside a transaction.
+        with eng.connect() as conn:
+            conn.exec_driver_sql("PRAGMA foreign_keys=OFF")
+            conn.commit()  # ends SQLAlchemy's autobegun (empty) transaction
+            try:
+                with conn.begin():
+                    cfg.attributes["connection"] = conn
+                    command.upgrade(cfg, "head")
+                bad = conn.exec_driver_sql("PRAGMA foreign_key_check").fetchall()
+                conn.commit()
+                if bad:
+                    raise RuntimeError(f"migration left rows without their parent: {bad[:5]}")
+            finally:
+                conn.rollback()
+                conn.exec_driver_sql("PRAGMA foreign_keys=ON")
+                conn.commit()
+        return
     with eng.begin() as conn:
         if conn.dialect.name == "postgresql":  # several API workers start at once: one migrates
             conn.exec_driver_sql("SELECT pg_advisory_xact_lock(7274001)")

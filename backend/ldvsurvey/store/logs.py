@@ -74,8 +74,19 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
     return row, True
 
 
-def list_logs(session: Session) -> list[Log]:
-    return list(session.scalars(select(Log).order_by(Log.id.desc())))
+def list_logs(session: Session, *, project_id: int | None = None, platform: str | None = None,
+              date_from=None, date_to=None) -> list[Log]:
+    """Logs, newest first; each given filter narrows (survey dates inclusive)."""
+    q = select(Log).order_by(Log.id.desc())
+    if project_id is not None:
+        q = q.where(Log.project_id == project_id)
+    if platform is not None:
+        q = q.where(Log.platform == platform)
+    if date_from is not None:
+        q = q.where(Log.survey_date >= date_from)
+    if date_to is not None:
+        q = q.where(Log.survey_date <= date_to)
+    return list(session.scalars(q))
 
 
 def get_log(session: Session, log_id: int) -> Log | None:
@@ -100,7 +111,8 @@ def delete_log(session: Session, log_id: int) -> bool:
     from ldvsurvey.store.models import Job, JobFile
 
     job_ids = [j.id for j in session.scalars(select(Job)) if log_id in (j.log_ids or [])]
-    if job_ids:  # the results computed from this log go with it
+    if job_ids:  # the results computed from this log go with it; a running one stops when it sees its
+        # row gone (jobs.runner treats a missing row as cancelled and keeps no results)
         session.execute(delete(JobFile).where(JobFile.job_id.in_(job_ids)))
         session.execute(delete(Job).where(Job.id.in_(job_ids)))
     session.execute(delete(LogArray).where(LogArray.log_id == log_id))

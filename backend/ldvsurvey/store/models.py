@@ -22,7 +22,8 @@ class Log(Base):
     __tablename__ = "logs"
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    __table_args__ = (UniqueConstraint("project_id", "sha256", name="uq_logs_project_sha256"),)
+    __table_args__ = (UniqueConstraint("project_id", "sha256", name="uq_logs_project_sha256"),
+                      {"sqlite_autoincrement": True})  # ids never reused
 
     sha256: Mapped[str] = mapped_column(String(64), nullable=False)
     project_id: Mapped[int | None] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), nullable=True)
@@ -95,6 +96,7 @@ class Job(Base):
     """A pipeline run: the source of truth for status, progress, heartbeat and attempts."""
 
     __tablename__ = "jobs"
+    __table_args__ = {"sqlite_autoincrement": True}  # ids never reused
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     pipeline: Mapped[str] = mapped_column(String(32), nullable=False)
@@ -112,6 +114,8 @@ class Job(Base):
     finished_at: Mapped[dt.datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
     heartbeat_at: Mapped[dt.datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
     user_id: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    #: [{"t_s": seconds since the attempt started, "stage": ..., "progress": percent}, ...]
+    stage_log: Mapped[list | None] = mapped_column(JSON, nullable=True)
 
 
 class JobFile(Base):
@@ -135,6 +139,7 @@ class User(Base):
     password_hash: Mapped[str] = mapped_column(String(300), nullable=False)
     is_admin: Mapped[bool] = mapped_column(Boolean, nullable=False, default=False)
     is_demo: Mapped[bool] = mapped_column(Boolean, nullable=False, default=False)
+    disabled: Mapped[bool] = mapped_column(Boolean, nullable=False, default=False)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), nullable=False, default=utcnow)
 
 
@@ -170,3 +175,15 @@ class ApiToken(Base):
     user_id: Mapped[int] = mapped_column(ForeignKey("users.id", ondelete="CASCADE"), nullable=False)
     name: Mapped[str] = mapped_column(String(100), nullable=False)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), nullable=False, default=utcnow)
+    expires_at: Mapped[dt.datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+    last_used_at: Mapped[dt.datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+
+
+class LoginFailure(Base):
+    """One failed login, counted per account and per client (shared by every API process)."""
+
+    __tablename__ = "login_failures"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    key: Mapped[str] = mapped_column(String(300), nullable=False, index=True)
+    at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), nullable=False, index=True)

@@ -8,10 +8,11 @@ import secrets
 
 from argon2 import PasswordHasher
 from argon2.exceptions import InvalidHashError, VerificationError
-from sqlalchemy import delete, select
+from sqlalchemy import delete, func, select
 from sqlalchemy.orm import Session
 
-from ldvsurvey.store.models import ApiToken, Membership, Project, SessionRow, User
+from ldvsurvey.errors import InputError
+from ldvsurvey.store.models import ApiToken, LoginFailure, Membership, Project, SessionRow, User
 
 _ph = PasswordHasher()
 
@@ -20,15 +21,123 @@ def _h(token: str) -> str:
     return hashlib.sha256(token.encode()).hexdigest()
 
 
+MIN_PASSWORD = 8
+
+
+class AccountError(InputError):
+    """A user, project or membership request that cannot be done as asked."""
+
+
+class Conflict(AccountError):
+    status_code = 409
+
+
+def _now() -> dt.datetime:
+    return dt.datetime.now(dt.timezone.utc)
+
+
+def _aware(t: dt.datetime | None) -> dt.datetime | None:
+    return None if t is None else (t if t.tzinfo else t.replace(tzinfo=dt.timezone.utc))
+
+
+def check_password(password: str) -> None:
+    if len(password) < MIN_PASSWORD:
+        raise AccountError(f"a password needs at least {MIN_PASSWORD} characters", field="password")
+
+
 def create_user(s: Session, username: str, password: str, *, is_admin=False, is_demo=False,
-                project: str | None = None) -> User:
-    """A user and, unless given, a project of their own that they are a member of."""
+                project: str | None = None, own_project: bool = True) -> User:
+    """A user and (unless ``own_project`` is false) a project, by default one of their own, they are a member of."""
+    username = username.strip()
+    if not username or len(username) > 100 or any(c.isspace() for c in username):
+        raise AccountError("a user name is 1 to 100 characters without spaces", field="username")
+    if s.scalar(select(User.id).where(User.username == username)) is not None:
+        raise Conflict(f"user '{username}' already exists", field="username")
     u = User(username=username, password_hash=_ph.hash(password), is_admin=is_admin, is_demo=is_demo)
     s.add(u)
     s.flush()
-    p = get_or_create_project(s, project or f"{username}'s project")
-    add_member(s, u.id, p.id)
+    if own_project or project:
+        p = get_or_create_project(s, project or f"{username}'s project")
+        add_member(s, u.id, p.id)
     return u
+
+
+def find_user(s: Session, username: str) -> User:
+    u = s.scalar(select(User).where(User.username == username))
+    if u is None:
+        raise AccountError(f"no user '{username}'", field="username")
+    return u
+
+
+def find_project(s: Session, name_or_id: str | int) -> Project:
+    p = s.get(Project, int(name_or_id)) if str(name_or_id).isdigit() else None
+    p = p or s.scalar(select(Project).where(Project.name == str(name_or_id)))
+    if p is None:
+        raise AccountError(f"no project '{name_or_id}'", field="project")
+    return p
+
+
+def create_project(s: Session, name: str) -> Project:
+    name = name.strip()
+    if not name or len(name) > 200:
+        raise AccountError("a project name is 1 to 200 characters", field="name")
+    if s.scalar(select(Project.id).where(Project.name == name)) is not None:
+        raise Conflict(f"project '{name}' already exists", field="name")
+    p = Project(name=name)
+    s.add(p)
+    s.flush()
+    return p
+
+
+def set_password(s: Session, user: User, password: str) -> None:
+    """New password; every session of the user ends (they log in again)."""
+    check_password(password)
+    user.password_hash = _ph.hash(password)
+    s.execute(delete(SessionRow).where(SessionRow.user_id == user.id))
+
+
+def set_disabled(s: Session, user: User, disabled: bool) -> None:
+    """A disabled user can not log in; their sessions and API tokens stop working at once."""
+    user.disabled = disabled
+    if disabled:
+        s.execute(delete(SessionRow).where(SessionRow.user_id == user.id))
+
+
+def remove_member(s: Session, user_id: int, project_id: int) -> None:
+    s.execute(delete(Membership).where(Membership.user_id == user_id, Membership.project_id == project_id))
+
+
+def default_project(s: Session, user: User) -> int:
+    """The project an upload without ``project_id`` goes to: the user's first, or a new one of their own."""
+    pid = s.scalar(select(Membership.project_id).where(Membership.user_id == user.id)
+                   .order_by(Membership.project_id).limit(1))
+    if pid is None:
+        p = get_or_create_project(s, f"{user.username}'s project")
+        add_member(s, user.id, p.id)
+        pid = p.id
+    return pid
+
+
+def list_users(s: Session) -> list[dict]:
+    names = dict(s.execute(select(Project.id, Project.name)).all())
+    members: dict[int, list] = {}
+    for uid, pid in s.execute(select(Membership.user_id, Membership.project_id)):
+        members.setdefault(uid, []).append({"id": pid, "name": names[pid]})
+    return [{"id": u.id, "username": u.username, "is_admin": u.is_admin, "is_demo": u.is_demo,
+             "disabled": u.disabled, "created_at": u.created_at.isoformat(), "projects": members.get(u.id, [])}
+            for u in s.scalars(select(User).order_by(User.username))]
+
+
+def list_projects(s: Session, ids: list[int] | None = None) -> list[dict]:
+    """Projects (all, or those with the given ids) with their members' user names."""
+    users = dict(s.execute(select(User.id, User.username)).all())
+    members: dict[int, list] = {}
+    for uid, pid in s.execute(select(Membership.user_id, Membership.project_id)):
+        members.setdefault(pid, []).append(users[uid])
+    q = select(Project).order_by(Project.name)
+    if ids is not None:
+        q = q.where(Project.id.in_(ids))
+    return [{"id": p.id, "name": p.name, "members": sorted(members.get(p.id, []))} for p in s.scalars(q)]
 
 
 def get_or_create_project(s: Session, name: str) -> Project:
@@ -48,7 +157,7 @@ def add_member(s: Session, user_id: int, project_id: int) -> None:
 
 def verify(s: Session, username: str, password: str) -> User | None:
     u = s.scalar(select(User).where(User.username == username))
-    if u is None:
+    if u is None or u.disabled:
         _ph.hash(password)  # same work whether or not the user exists
         return None
     try:
@@ -80,19 +189,71 @@ def session_user(s: Session, token: str) -> tuple[User, str] | None:
     if exp < dt.datetime.now(dt.timezone.utc):
         s.delete(row)
         return None
-    return s.get(User, row.user_id), row.csrf
+    u = s.get(User, row.user_id)
+    return None if u is None or u.disabled else (u, row.csrf)
 
 
 def end_session(s: Session, token: str) -> None:
     s.execute(delete(SessionRow).where(SessionRow.token_hash == _h(token)))
 
 
-def new_api_token(s: Session, user: User, name: str) -> str:
+def new_api_token(s: Session, user: User, name: str, expires_days: float | None = None) -> str:
+    """A bearer token (returned once; only its hash is kept), expiring after ``expires_days`` (None: never)."""
+    name = (name or "").strip()
+    if not name or len(name) > 100:
+        raise AccountError("a token name is 1 to 100 characters", field="name")
+    if expires_days is not None and not 0 < expires_days <= 3660:
+        raise AccountError("a token expires after more than 0 and at most 3660 days", field="expires_days")
     token = "ldvs_" + secrets.token_urlsafe(32)
-    s.add(ApiToken(token_hash=_h(token), user_id=user.id, name=name))
+    exp = None if expires_days is None else _now() + dt.timedelta(days=expires_days)
+    s.add(ApiToken(token_hash=_h(token), user_id=user.id, name=name, expires_at=exp))
+    s.flush()
     return token
+
+
+def list_tokens(s: Session, user: User) -> list[dict]:
+    def iso(t):
+        return None if t is None else _aware(t).isoformat()
+
+    now = _now()
+    return [{"id": t.id, "name": t.name, "created_at": iso(t.created_at), "expires_at": iso(t.expires_at),
+             "last_used_at": iso(t.last_used_at),
+             "expired": t.expires_at is not None and _aware(t.expires_at) <= now}
+            for t in s.scalars(select(ApiToken).where(ApiToken.user_id == user.id).order_by(ApiToken.id))]
+
+
+def revoke_token(s: Session, user: User, token_id: int) -> bool:
+    """Delete one of the user's tokens; False when they have no token with that id."""
+    r = s.execute(delete(ApiToken).where(ApiToken.id == token_id, ApiToken.user_id == user.id))
+    return r.rowcount > 0
 
 
 def token_user(s: Session, token: str) -> User | None:
     row = s.scalar(select(ApiToken).where(ApiToken.token_hash == _h(token)))
-    return None if row is None else s.get(User, row.user_id)
+    if row is None or (row.expires_at is not None and _aware(row.expires_at) <= _now()):
+        return None
+    u = s.get(User, row.user_id)
+    if u is None or u.disabled:
+        return None
+    if row.last_used_at is None or _now() - _aware(row.last_used_at) > dt.timedelta(minutes=5):
+        row.last_used_at = _now()  # coarse, so that reads do not write on every request
+    return u
+
+
+def record_login_failure(s: Session, keys: list[str]) -> None:
+    for k in keys:
+        s.add(LoginFailure(key=k[:300], at=_now()))
+
+
+def login_failures(s: Session, key: str, window_s: float) -> int:
+    since = _now() - dt.timedelta(seconds=window_s)
+    return s.scalar(select(func.count()).select_from(LoginFailure).where(LoginFailure.key == key[:300],
+                                                                         LoginFailure.at >= since))
+
+
+def forget_login_failures(s: Session, keys: list[str]) -> None:
+    s.execute(delete(LoginFailure).where(LoginFailure.key.in_([k[:300] for k in keys])))
+
+
+def prune_login_failures(s: Session, older_than_s: float) -> None:
+    s.execute(delete(LoginFailure).where(LoginFailure.at < _now() - dt.timedelta(seconds=older_than_s)))

@@ -1,0 +1,132 @@
+"""``/api/compare``: gravity lines of several gravity jobs compared on the server.
+
+The first job is the reference. For each line present in the reference and another job, the
+common points are the reference's along-track distances inside the other job's distance range
+on that line; the other job's δg is linearly interpolated there. Differences are other − reference.
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+from fastapi import APIRouter, Depends, HTTPException, Query, Response
+from sqlalchemy.orm import Session
+
+from ldvsurvey.api.auth import Principal, principal, visible_job
+from ldvsurvey.api.deps import ID_MAX, get_session
+
+router = APIRouter(tags=["compare"])
+JOBS_Q = Query(..., description="gravity job ids, comma-separated; the first is the reference",
+               examples=["3,5"], max_length=400)
+
+
+def _ids(jobs: str) -> list[int]:
+    try:
+        ids = [int(x) for x in jobs.split(",") if x.strip()]
+    except ValueError:
+        raise HTTPException(422, "jobs: give job ids separated by commas, e.g. 3,5") from None
+    ids = list(dict.fromkeys(ids))
+    if not 1 <= len(ids) <= 20 or not all(1 <= i <= ID_MAX for i in ids):
+        raise HTTPException(422, "jobs: give 1 to 20 distinct job ids (the first is the reference)")
+    return ids
+
+
+def _lines(session, job) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    from ldvsurvey.api.views import _csv
+
+    c = _csv(session, job, "coincidence.csv")
+    out = {}
+    for name in sorted(set(c["line"].tolist())):
+        k = c["line"] == name
+        d, g = c["distance_m"][k], c["dg_mgal"][k]
+        order = np.argsort(d, kind="stable")
+        out[str(name)] = (d[order], g[order])
+    return out
+
+
+def _stats(x: np.ndarray) -> dict:
+    if len(x) == 0:
+        return {"n_common": 0, "mean_mgal": None, "std_mgal": None, "rms_mgal": None, "max_abs_mgal": None}
+    return {"n_common": int(len(x)), "mean_mgal": float(np.mean(x)), "std_mgal": float(np.std(x)),
+            "rms_mgal": float(np.sqrt(np.mean(x * x))), "max_abs_mgal": float(np.max(np.abs(x)))}
+
+
+def compare_jobs(session: Session, who: Principal, ids: list[int]) -> dict:
+    """Common points and differences against the first job, line by line, with statistics."""
+    jobs = []
+    for i in ids:
+        j = visible_job(session, who, i)
+        if j.pipeline != "gravity":
+            raise HTTPException(422, f"job {i} is a {j.pipeline} job: only gravity jobs have lines to compare")
+        if j.status != "succeeded":
+            raise HTTPException(409, f"job {i} is {j.status}: it has no lines to compare yet")
+        jobs.append(j)
+    ref = _lines(session, jobs[0])
+    points, stats = [], []
+    for j in jobs[1:]:
+        other = _lines(session, j)
+        all_diff = []
+        for name, (d_ref, g_ref) in ref.items():
+            if name not in other:
+                continue
+            d_o, g_o = other[name]
+            k = (d_ref >= d_o[0]) & (d_ref <= d_o[-1])
+            g_at = np.interp(d_ref[k], d_o, g_o)
+            diff = g_at - g_ref[k]
+            all_diff.append(diff)
+            stats.append({"job": j.id, "line": name, **_stats(diff),
+                          "distance_range_m": [float(d_ref[k][0]), float(d_ref[k][-1])] if k.any() else None})
+            points += [(j.id, name, float(a), float(b), float(c), float(e))
+                       for a, b, c, e in zip(d_ref[k], g_ref[k], g_at, diff)]
+        stats.append({"job": j.id, "line": "all", **_stats(np.concatenate(all_diff) if all_diff else np.array([]))})
+    return {"reference_job": ids[0], "jobs": ids, "statistics": stats, "points": points}
+
+
+@router.get("/api/compare", summary="Compare gravity lines of jobs: statistics of the differences")
+def compare(jobs: str = JOBS_Q, session: Session = Depends(get_session),
+            who: Principal = Depends(principal)) -> dict:
+    out = compare_jobs(session, who, _ids(jobs))
+    out.pop("points")
+    return out
+
+
+@router.get("/api/compare/csv", summary="The common points and their differences as CSV")
+def compare_csv(jobs: str = JOBS_Q, session: Session = Depends(get_session),
+                who: Principal = Depends(principal)) -> Response:
+    out = compare_jobs(session, who, _ids(jobs))
+    buf = io.StringIO()
+    buf.write("job,line,distance_m,dg_reference_mgal,dg_job_mgal,diff_mgal\n")
+    for j, line, d, a, b, c in out["points"]:
+        buf.write(f"{j},{line},{d:.3f},{a:.6f},{b:.6f},{c:.6f}\n")
+    name = "compare_" + "_".join(map(str, out["jobs"])) + ".csv"
+    return Response(buf.getvalue(), media_type="text/csv",
+                    headers={"Content-Disposition": f'attachment; filename="{name}"'})
+
+
+@router.get("/api/compare/view", summary="Plotly figure: δg of every job and the differences to the reference")
+def compare_view(jobs: str = JOBS_Q, session: Session = Depends(get_session),
+                 who: Principal = Depends(principal)) -> dict:
+    ids = _ids(jobs)
+    out = compare_jobs(session, who, ids)
+    traces = []
+    for i in ids:
+        for name, (d, g) in _lines(session, visible_job(session, who, i)).items():
+            traces.append({"type": "scatter", "mode": "lines", "name": f"job {i} {name}", "x": d.tolist(),
+                           "y": g.tolist(), "legendgroup": f"job {i}"})
+    pts = out["points"]
+    for j in ids[1:]:
+        for name in dict.fromkeys(p[1] for p in pts if p[0] == j):
+            sel = [p for p in pts if p[0] == j and p[1] == name]
+            traces.append({"type": "scatter", "mode": "lines", "name": f"job {j} − job {ids[0]}, {name}",
+                           "x": [p[2] for p in sel], "y": [p[5] for p in sel], "yaxis": "y2",
+                           "line": {"dash": "dot"}})
+    allrows = [s for s in out["statistics"] if s["line"] == "all" and s["n_common"]]
+    sub = "; ".join(f"job {s['job']} − job {ids[0]}: mean {s['mean_mgal']:.2f}, std {s['std_mgal']:.2f} mGal"
+                    for s in allrows)
+    return {"data": traces, "layout": {
+        "title": {"text": f"Gravity lines compared ({sub or 'no common points'})"},
+        "xaxis": {"title": {"text": "along-track distance (m)"}},
+        "yaxis": {"title": {"text": "δg (mGal)"}, "domain": [0.42, 1.0]},
+        "yaxis2": {"title": {"text": "difference (mGal)"}, "domain": [0.0, 0.32], "anchor": "x"},
+        "margin": {"t": 50, "r": 20, "b": 90}, "legend": {"orientation": "h", "y": -0.22}}}

@@ -1,0 +1,170 @@
+"""People and access: projects one may see, one's password and API tokens; for admins users,
+projects and memberships (the same operations as ``ldv-survey user|project``)."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Depends, HTTPException, Response
+from pydantic import BaseModel, Field
+from sqlalchemy.orm import Session
+
+from ldvsurvey.api.auth import Principal, principal
+from ldvsurvey.api.deps import BodyId, PathId, get_session
+from ldvsurvey.store import users as ustore
+from ldvsurvey.store.models import User
+
+router = APIRouter(tags=["people"])
+Id = BodyId
+
+
+def _me(who: Principal) -> User:
+    if who.user is None:
+        raise HTTPException(400, "authentication is disabled: there are no accounts")
+    return who.user
+
+
+def admin(who: Principal = Depends(principal)) -> Principal:
+    if who.user is None or not who.user.is_admin:
+        raise HTTPException(403, "only an admin may do this")
+    return who
+
+
+@router.get("/api/projects", summary="The projects you may see (all of them for admins)")
+def my_projects(who: Principal = Depends(principal), session: Session = Depends(get_session)) -> list[dict]:
+    return ustore.list_projects(session, who.projects)
+
+
+class PasswordChange(BaseModel):
+    old_password: str = Field(..., max_length=1000)
+    new_password: str = Field(..., max_length=1000)
+
+
+@router.post("/api/password", summary="Change your password (ends all your sessions: log in again)")
+def change_password(body: PasswordChange, response: Response, who: Principal = Depends(principal),
+                    session: Session = Depends(get_session)) -> dict:
+    user = _me(who)
+    if ustore.verify(session, user.username, body.old_password) is None:
+        raise HTTPException(403, "the current password is wrong")
+    ustore.set_password(session, user, body.new_password)
+    session.commit()
+    response.delete_cookie("ldvs_session")
+    return {"ok": True}
+
+
+class TokenRequest(BaseModel):
+    name: str = Field("api", min_length=1, max_length=100)
+    expires_days: float | None = Field(90, gt=0, le=3660, description="days until it stops working; null: never")
+
+
+@router.get("/api/tokens", summary="Your API tokens (names and dates; never the secret)")
+def list_tokens(who: Principal = Depends(principal), session: Session = Depends(get_session)) -> list[dict]:
+    return ustore.list_tokens(session, _me(who))
+
+
+@router.post("/api/tokens", status_code=201, summary="Create an API token (the secret is shown once)")
+def create_token(body: TokenRequest, who: Principal = Depends(principal),
+                 session: Session = Depends(get_session)) -> dict:
+    token = ustore.new_api_token(session, _me(who), body.name, body.expires_days)
+    session.commit()
+    row = ustore.list_tokens(session, who.user)[-1]
+    return {**row, "token": token}
+
+
+@router.delete("/api/tokens/{token_id}", status_code=204, summary="Revoke one of your API tokens")
+def revoke_token(token_id: PathId, who: Principal = Depends(principal),
+                 session: Session = Depends(get_session)) -> Response:
+    if not ustore.revoke_token(session, _me(who), token_id):
+        raise HTTPException(404, f"you have no token {token_id}")
+    session.commit()
+    return Response(status_code=204)
+
+
+class NewUser(BaseModel):
+    username: str = Field(..., min_length=1, max_length=100)
+    password: str = Field(..., max_length=1000)
+    is_admin: bool = False
+    project_ids: list[Id] = Field(default_factory=list, max_length=100)
+
+
+class UserChange(BaseModel):
+    disabled: bool | None = None
+    is_admin: bool | None = None
+    password: str | None = Field(None, max_length=1000)
+
+
+@router.get("/api/admin/users", summary="Users with their projects (admin)")
+def admin_users(_: Principal = Depends(admin), session: Session = Depends(get_session)) -> list[dict]:
+    return ustore.list_users(session)
+
+
+@router.post("/api/admin/users", status_code=201, summary="Create a user (admin)")
+def admin_add_user(body: NewUser, _: Principal = Depends(admin), session: Session = Depends(get_session)) -> dict:
+    ustore.check_password(body.password)
+    for pid in body.project_ids:
+        ustore.find_project(session, pid)
+    u = ustore.create_user(session, body.username, body.password, is_admin=body.is_admin, own_project=False)
+    for pid in body.project_ids:
+        ustore.add_member(session, u.id, pid)
+    session.commit()
+    return next(x for x in ustore.list_users(session) if x["id"] == u.id)
+
+
+@router.patch("/api/admin/users/{user_id}", summary="Disable/enable a user, make admin, set a password (admin)")
+def admin_change_user(user_id: PathId, body: UserChange, who: Principal = Depends(admin),
+                      session: Session = Depends(get_session)) -> dict:
+    u = session.get(User, user_id)
+    if u is None:
+        raise HTTPException(404, f"user {user_id} not found")
+    if u.id == who.user.id and (body.disabled or body.is_admin is False):
+        raise HTTPException(409, "you can not disable yourself or drop your own admin right")
+    if body.disabled is not None:
+        ustore.set_disabled(session, u, body.disabled)
+    if body.is_admin is not None:
+        u.is_admin = body.is_admin
+    if body.password is not None:
+        ustore.set_password(session, u, body.password)
+    session.commit()
+    return next(x for x in ustore.list_users(session) if x["id"] == u.id)
+
+
+class NewProject(BaseModel):
+    name: str = Field(..., min_length=1, max_length=200)
+
+
+@router.get("/api/admin/projects", summary="All projects with their members (admin)")
+def admin_projects(_: Principal = Depends(admin), session: Session = Depends(get_session)) -> list[dict]:
+    return ustore.list_projects(session)
+
+
+@router.post("/api/admin/projects", status_code=201, summary="Create a project (admin)")
+def admin_add_project(body: NewProject, _: Principal = Depends(admin),
+                      session: Session = Depends(get_session)) -> dict:
+    p = ustore.create_project(session, body.name)
+    session.commit()
+    return {"id": p.id, "name": p.name, "members": []}
+
+
+@router.put("/api/admin/projects/{project_id}/members/{user_id}", summary="Add a member (admin)")
+def admin_add_member(project_id: PathId, user_id: PathId, _: Principal = Depends(admin),
+                     session: Session = Depends(get_session)) -> dict:
+    _check(session, project_id, user_id)
+    ustore.add_member(session, user_id, project_id)
+    session.commit()
+    return next(p for p in ustore.list_projects(session, [project_id]))
+
+
+@router.delete("/api/admin/projects/{project_id}/members/{user_id}", summary="Remove a member (admin)")
+def admin_remove_member(project_id: PathId, user_id: PathId, _: Principal = Depends(admin),
+                        session: Session = Depends(get_session)) -> dict:
+    _check(session, project_id, user_id)
+    ustore.remove_member(session, user_id, project_id)
+    session.commit()
+    return next(p for p in ustore.list_projects(session, [project_id]))
+
+
+def _check(session: Session, project_id: int, user_id: int) -> None:
+    from ldvsurvey.store.models import Project
+
+    if session.get(Project, project_id) is None:
+        raise HTTPException(404, f"project {project_id} not found")
+    if session.get(User, user_id) is None:
+        raise HTTPException(404, f"user {user_id} not found")

@@ -1,0 +1,28 @@
+// Numbers and results as people read them.
+export const ARCSEC_PER_RAD = 180 * 3600 / Math.PI;
+
+export function num(x, digits = 6) {
+  if (x === null || x === undefined || x === "") return "–";
+  const v = Number(x);
+  if (Number.isNaN(v)) return "–";
+  if (!Number.isFinite(v)) return v > 0 ? "∞" : "−∞";
+  if (Number.isInteger(v)) return String(v);
+  // large values keep three decimals (e.g. seconds of day); trailing zeros are dropped
+  const p = Math.min(15, Math.max(digits, Math.floor(Math.log10(Math.abs(v))) + 4));
+  return String(Number(v.toPrecision(p)));
+}
+
+export const fixed = (x, d = 2) => (x === null || x === undefined || Number.isNaN(Number(x)))
+  ? "–" : Number(x).toFixed(d);
+
+export const pct = (share, d = 1) => (share === null || share === undefined) ? "–" : `${fixed(100 * share, d)} %`;
+
+// a summary value with its unit spelt out; angles in radians also in arcseconds
+export function quantity(key, v) {
+  if (typeof v !== "number") return String(v);
+  if (/_rad$/.test(key)) return `${num(v)} rad (${num(v * ARCSEC_PER_RAD, 4)}″)`;
+  return num(v);
+}
+
+export const FIX_NAMES = { 0: "0 no fix", 1: "1 GPS", 2: "2 DGPS", 3: "3 PPS", 4: "4 RTK fixed", 5: "5 RTK float",
+  6: "6 dead reckoning", 7: "7 manual", 8: "8 simulation" };
