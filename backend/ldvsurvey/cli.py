@@ -69,6 +69,58 @@ def _cmd_run(args) -> int:
     return run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [])
 
 
+def _parse_source(role: str, spec: str):
+    from ldvsurvey.errors import BundleError
+    from ldvsurvey.io.importers import REGISTRY, Source
+
+    fmt, sep, path = spec.partition(":")
+    if not sep or not path:
+        raise BundleError(f"expected FORMAT:FILE (formats: {', '.join(REGISTRY)}), got '{spec}'", field=f"--{role}")
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise BundleError("no such file", file=path, field=f"--{role}")
+    return Source(role=role, format=fmt.lower(), name=p.name, data=p.read_bytes())
+
+
+def _cmd_import(args) -> int:
+    import os
+    import tempfile
+    from pathlib import Path
+
+    from ldvsurvey.errors import BundleError
+    from ldvsurvey.io.importers import build_bundle, parse_partial_manifest
+    from ldvsurvey.io.writers import write_bundle
+
+    sources = [_parse_source(role, spec) for role, spec in (("imu", args.imu), ("gnss", args.gnss), ("ldv", args.ldv))
+               if spec]
+    mpath = Path(args.manifest)
+    if not mpath.is_file():
+        raise BundleError("no such file", file=args.manifest, field="--manifest")
+    partial = parse_partial_manifest(mpath.read_bytes(), file=mpath.name)
+    result = build_bundle(sources, partial)
+    out = Path(args.out)
+    if out.suffix.lower() != ".zip":
+        raise BundleError("the output must be a .zip path", file=args.out, field="--out")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(suffix=".zip", dir=out.parent)  # nothing appears at --out unless all went well
+    os.close(fd)
+    try:
+        write_bundle(result.files, tmp)
+        os.replace(tmp, out)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    s = result.summary
+    print(f"{out}: {', '.join(f['role'] + '=' + f['format'] for f in s['files'])}; {s['date']}, "
+          f"t {s['time_span_s'][0]:.3f}-{s['time_span_s'][1]:.3f} s; IMU {s['rates_hz']['imu']} Hz "
+          f"(axes {s['imu_axes']}, static tilt {s['static_tilt_deg']:.2f} deg), LDV {s['rates_hz']['ldv']} Hz")
+    for w in result.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    return 0
+
+
 def _cmd_migrate(args) -> int:
     from ldvsurvey.settings import get_settings
     from ldvsurvey.store.db import upgrade_head
@@ -102,6 +154,16 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=1)
     d.add_argument("--duration-s", type=float, default=None, help="override the scenario's length")
     d.set_defaults(func=_cmd_demo)
+
+    im = sub.add_parser("import", help="turn field recordings (novatel, ubx, kf-gins, nmea, csv, native) into a "
+                                       "validated bundle .zip")
+    im.add_argument("--imu", required=True, metavar="FORMAT:FILE")
+    im.add_argument("--gnss", metavar="FORMAT:FILE")
+    im.add_argument("--ldv", metavar="FORMAT:FILE")
+    im.add_argument("--manifest", required=True, metavar="PARTIAL.json",
+                    help="what no recording holds: LDV kind and mounting, lever arms, platform, import options")
+    im.add_argument("--out", required=True, metavar="BUNDLE.zip")
+    im.set_defaults(func=_cmd_import)
 
     mg = sub.add_parser("migrate", help="bring the database (LDVSURVEY_DATABASE_URL) to the newest schema")
     mg.set_defaults(func=_cmd_migrate)
