@@ -80,7 +80,7 @@ def _date_of(parts: dict, manifest: dict, leap_override) -> dt.date:
         if st.kind == "utc_tod" and st.day is not None:
             return st.day
         if st.kind == "unix":
-            return dt.datetime.fromtimestamp(float(st.values[0]), dt.timezone.utc).date()
+            return dt.datetime.fromtimestamp(float(st.values[0]) + st.offset_s, dt.timezone.utc).date()
     raise BundleError("no recording states the calendar day (GPS seconds of week or UTC time of day only): "
                       "give it as \"date\": \"YYYY-MM-DD\" in the partial manifest", file=MANIFEST_FILE,
                       field="date")
@@ -101,7 +101,7 @@ def _to_bundle_time(st: Stamps, day: dt.date, leap_s: int, near_week: int) -> np
             week = np.asarray(st.week, dtype=np.int64) + (week[0] - int(np.unique(st.week)[0]))
         return gpstime.gps_to_bundle(st.values, day, leap_s, week)
     if st.kind == "unix":
-        return gpstime.unix_to_bundle(st.values, day)
+        return gpstime.unix_to_bundle(st.values, day, st.offset_s)
     if st.kind == "utc_tod":
         return gpstime.tod_to_bundle(st.values, st.day or day, day)
     raise ValueError(st.kind)

@@ -29,6 +29,7 @@ class Stamps:
     where: np.ndarray
     week: np.ndarray | None = None
     day: dt.date | None = None
+    offset_s: int = 0  #: whole seconds to add to ``values`` (keeps UNIX times precise in float64)
 
 
 @dataclass

@@ -87,10 +87,10 @@ def gps_to_bundle(sow: np.ndarray, day: dt.date, leap_s: int, week: np.ndarray |
     return w * WEEK_S + (sow - sow_midnight)
 
 
-def unix_to_bundle(unix_s: np.ndarray, day: dt.date) -> np.ndarray:
-    """UNIX time (UTC, no leap seconds counted) to the bundle clock of ``day``."""
-    midnight = (dt.datetime.combine(day, dt.time()) - dt.datetime(1970, 1, 1)).total_seconds()
-    return np.asarray(unix_s, dtype=np.float64) - midnight
+def unix_to_bundle(unix_s: np.ndarray, day: dt.date, offset_s: int = 0) -> np.ndarray:
+    """UNIX time (UTC, no leap seconds counted; ``offset_s`` + ``unix_s``) to the bundle clock of ``day``."""
+    midnight = int((dt.datetime.combine(day, dt.time()) - dt.datetime(1970, 1, 1)).total_seconds())
+    return np.asarray(unix_s, dtype=np.float64) + float(offset_s - midnight)
 
 
 def tod_to_bundle(tod_s: np.ndarray, first_day: dt.date, day: dt.date) -> np.ndarray:
