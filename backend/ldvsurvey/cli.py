@@ -66,7 +66,38 @@ def _cmd_demo(args) -> int:
 def _cmd_run(args) -> int:
     from ldvsurvey.pipelines.registry import run_pipeline_cli
 
-    return run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [])
+    rc = run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [])
+    if rc == 0 and args.format != "csv":
+        for p in export_geo_files(args.out, args.format, args.bundles[0]):
+            print(p)
+    return rc
+
+
+def export_geo_files(out_dir, fmt: str, bundle) -> list:
+    """Beside the CSV tables in ``out_dir``, the same tables as GeoJSON or KML (with provenance)."""
+    from pathlib import Path
+
+    from ldvsurvey.io.writers import geo_export, gnss_track
+
+    out = Path(out_dir)
+    summary = json.loads((out / "summary.json").read_text())
+    track, paths = None, []
+    for csv_path in sorted(out.glob("*.csv")):
+        data = csv_path.read_bytes()
+        header = data.split(b"\n", 1)[0].decode()
+        if "lat_deg" not in header.split(","):
+            if "t_s" not in header.split(","):
+                continue  # no time, no position (coincidence.csv): nothing to draw
+            if track is None:
+                from ldvsurvey.io.drivelog import load_bundle
+
+                track = gnss_track(load_bundle(bundle)) or {}
+            if not track:
+                continue
+        name, content = geo_export(fmt, csv_path.stem, data, summary, track or None)
+        (out / name).write_bytes(content)
+        paths.append(out / name)
+    return paths
 
 
 def _parse_source(role: str, spec: str):
@@ -146,6 +177,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("bundles", nargs="+", metavar="BUNDLE")
     r.add_argument("--out", required=True, help="output folder for summary.json and the CSV tables")
     r.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a pipeline parameter")
+    r.add_argument("--format", choices=("csv", "geojson", "kml"), default="csv",
+                   help="also write the tables with positions as GeoJSON or KML (the CSV tables are always written)")
     r.set_defaults(func=_cmd_run)
 
     d = sub.add_parser("demo", help="write a simulated bundle (the product's own simulator)")
