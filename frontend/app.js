@@ -1,4 +1,5 @@
 // ldv-survey dashboard: plain ES module, talks to the REST API only.
+import { importFlow, isBundle } from "./import.js";
 const app = document.getElementById("app");
 const api = async (path, opts = {}) => {
   const r = await fetch(path, { credentials: "same-origin", ...opts,
@@ -67,6 +68,7 @@ async function refreshLogs() {
 function upload(files) {
   const msg = document.getElementById("upmsg"), prog = document.getElementById("upprog");
   if (!files.length) return;
+  if (!isBundle(files)) return importFlow(files, msg, refreshLogs); // foreign recordings: preview, then confirm
   const fd = new FormData(); files.forEach((f) => fd.append("files", f, f.name));
   const xhr = new XMLHttpRequest();
   xhr.open("POST", "/api/logs");
