@@ -181,3 +181,29 @@ def test_unknown_imu_type_names_the_message(sim):
     with pytest.raises(BundleError) as e:
         get_importer("novatel").read(data, "span.log", "imu", {})
     assert e.value.file == "span.log" and "message 1" in e.value.field and "imu_type" in e.value.field
+
+
+def test_rawimux_long_header_ascii_and_inspvax_counted(sim):
+    """RAWIMUXA (long ASCII header) reads like RAWIMUSXA; an INSPVAXA in the stream is counted only."""
+    from ldvsurvey.io.importers import get_importer
+
+    day = dt.date.fromisoformat(sim.scenario.date)
+    week, s0 = sow_of_midnight(day)
+    _, sg, sa = HG1700_AG58
+    out = []
+    for k in range(50):
+        sow = Decimal(repr(float(sim.imu.t_s[k]))) + s0
+        g = np.round(sim.dtheta_rad[k] / sg).astype(int)
+        a = np.round(sim.dvel_mps[k] / sa).astype(int)
+        body = (f"RAWIMUXA,COM1,0,80.0,FINESTEERING,{week},{sow:.3f},02000000,0000,16809;00,11,{week},{sow:.9f},"
+                f"00000000,{a[2]},{-a[1]},{a[0]},{g[2]},{-g[1]},{g[0]}")
+        out.append(f"#{body}*{crc32(body.encode()):08x}")
+    body = (f"INSPVAXA,COM1,0,80.0,FINESTEERING,{week},{s0 + 30000}.000,02000000,0000,16809;INS_SOLUTION_GOOD,"
+            f"INS_RTKFIXED,28.4861,113.0623,120.0,-16.9,0.0,0.0,0.0,0.0,0.0,30.0,0.01,0.01,0.02,0.01,0.01,0.01,"
+            f"0.1,0.1,0.2,00000000,0")
+    out.insert(10, f"#{body}*{crc32(body.encode()):08x}")
+    part = get_importer("novatel").read(("\r\n".join(out) + "\r\n").encode(), "span.log", "imu", {})
+    assert len(part.dvel_mps) == 50
+    assert np.max(np.abs(part.dvel_mps - sim.dvel_mps[:50])) <= 0.5 * sa * (1 + 1e-9)
+    assert np.max(np.abs(part.dtheta_rad - sim.dtheta_rad[:50])) <= 0.5 * sg * (1 + 1e-9)
+    assert any("INSPVAX" in n for n in part.notes)

@@ -67,15 +67,15 @@ def sniff(data: bytes, name: str) -> str | None:
     return None
 
 
-def _messages(data: bytes, file: str):
-    """Yield (message number, message) for every decoded message; count undecodable frames."""
+def _messages(data: bytes, file: str, bad: list):
+    """Yield (message number, message) for every decoded message; undecodable frames go to ``bad``."""
     try:
         import novatel_edie as ne
         from novatel_edie import oem
     except ImportError:  # pragma: no cover - a dependency of the package
         raise BundleError("the novatel-edie package is not installed", file=file) from None
     parser = oem.Parser()
-    pos, n, bad = 0, 0, []
+    pos, n = 0, 0
     while True:
         if pos < len(data):
             pos += parser.write(data[pos:pos + max(1, min(parser.available_space, 1 << 18))])
@@ -91,16 +91,15 @@ def _messages(data: bytes, file: str):
     rest = parser.flush(True)
     if rest and bytes(rest).strip():
         bad.append(n + 1)
-    _messages.bad = bad
 
 
 def read(data: bytes, file: str, role: str, opts: dict):
     if role not in ROLES:
         raise BundleError(f"the novatel format has no '{role}' data (it has: imu, gnss)", file=file)
-    _messages.bad = []
+    bad: list[int] = []
     imu_rows, pos_rows, ins = [], [], 0
     types = set()
-    for n, msg in _messages(data, file):
+    for n, msg in _messages(data, file, bad):
         name = type(msg).__name__.split("_")[0]
         if name in ("RAWIMUSX", "RAWIMUX") and role == "imu":
             d = msg.to_dict()
@@ -122,7 +121,6 @@ def read(data: bytes, file: str, role: str, opts: dict):
                              d["height"] + d["undulation"], d["undulation"], fix, d["num_soln_svs"], n))
         elif name == "INSPVAX":
             ins += 1
-    bad = _messages.bad
     notes = []
     if bad:
         notes.append(f"{file}: {len(bad)} undecodable frame(s) (bad CRC or truncated) skipped, first at message "

@@ -46,12 +46,11 @@ def _signed24(v: int) -> int:
     return v - (1 << 24) if v & 0x800000 else v
 
 
-def _messages(data: bytes, file: str):
+def _messages(data: bytes, file: str, errors: list):
     try:
         from pyubx2 import UBX_PROTOCOL, UBXReader
     except ImportError:  # pragma: no cover
         raise BundleError("the pyubx2 package is not installed", file=file) from None
-    errors = []
     reader = UBXReader(io.BytesIO(data), protfilter=UBX_PROTOCOL, quitonerror=1, errorhandler=errors.append)
     n = 0
     for _raw, msg in reader:
@@ -59,16 +58,15 @@ def _messages(data: bytes, file: str):
             continue
         n += 1
         yield n, msg
-    _messages.errors = errors
 
 
 def read(data: bytes, file: str, role: str, opts: dict):
     if role not in ROLES:
         raise BundleError(f"the ubx format has no '{role}' data (it has: imu, gnss)", file=file)
-    _messages.errors = []
+    errs: list = []
     samples: dict[int, list] = {}  # time tag -> [gyro xyz, accel xyz, message number]
     fixes = []
-    for n, msg in _messages(data, file):
+    for n, msg in _messages(data, file, errs):
         ident = msg.identity
         if role == "imu" and ident == "ESF-RAW":
             k = 1
@@ -96,7 +94,6 @@ def read(data: bytes, file: str, role: str, opts: dict):
             fixes.append((week, itow_s, msg.lat, msg.lon, msg.height / 1000.0, (msg.height - msg.hMSL) / 1000.0,
                           fix, msg.numSV, msg.pDOP, n))
     notes = []
-    errs = _messages.errors
     if errs:
         notes.append(f"{file}: {len(errs)} UBX frame(s) with a bad checksum or length skipped ({errs[0]})")
     if role == "gnss":
