@@ -61,6 +61,8 @@ def test_nmea_across_midnight_takes_the_date_from_rmc():
     lines = []
     for k, tt in enumerate(t):
         lines.append(format_gga(tt, 28.1 + 1e-6 * k, 113.0, 40.0, -16.5, 4))
+        if k == 5:  # the same epoch from a second talker: kept once
+            lines.append(format_gga(tt, 28.1 + 1e-6 * k, 113.0, 40.0, -16.5, 4, talker="GN"))
         if k == 0:
             body = "GPRMC,235950.00,A,2806.0000,N,11300.0000,E,0.0,0.0,200323,,,A"
             cks = 0
@@ -79,6 +81,7 @@ def test_nmea_across_midnight_takes_the_date_from_rmc():
     np.testing.assert_array_equal(log.gnss.t_s, t)
     np.testing.assert_allclose(log.gnss.h_m, 40.0 - 16.5)
     assert any("bad checksum" in w for w in res.warnings)
+    assert any("repeated GGA" in w for w in res.warnings)
 
 
 def test_csv_column_map_with_rates_units_axes_and_unix_time():

@@ -83,8 +83,9 @@ def _read_parts(files: list[UploadFile], manifest: str | None, formats: str | No
 
 
 @router.post("/preview", summary="Convert foreign recordings and say what was found (nothing stored)")
-def preview_import(files: list[UploadFile] = File(...), manifest: str | None = Form(None),
+def preview_import(request: Request, files: list[UploadFile] = File(...), manifest: str | None = Form(None),
                    formats: str | None = Form(None), who: Principal = Depends(principal)) -> dict:
+    check_upload_rate(request, who)  # a preview converts everything: it counts as an upload
     sources, partial, _ = _read_parts(files, manifest, formats)
     result = build_bundle(sources, partial)
     s = result.summary

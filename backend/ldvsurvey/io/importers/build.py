@@ -63,7 +63,7 @@ def _options(manifest: dict, role: str) -> dict:
     return opts
 
 
-def _date_of(parts: dict, manifest: dict, leap_override) -> dt.date:
+def _date_of(parts: dict, manifest: dict) -> dt.date:
     if manifest.get("date") is not None:
         try:
             return dt.date.fromisoformat(str(manifest["date"]))
@@ -168,7 +168,7 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         if role not in parts:
             raise BundleError(f"an {role.upper()} recording is required (--{role} FORMAT:FILE)", field=role)
     time_opts = (m.get("import") or {}).get("time") or {}
-    day = _date_of(parts, m, time_opts.get("gps_utc_s"))
+    day = _date_of(parts, m)
     if time_opts.get("gps_utc_s") is not None:
         leap = time_opts["gps_utc_s"]
         if not isinstance(leap, int) or isinstance(leap, bool):

@@ -46,7 +46,7 @@ def _num(value, file, line, name):
 def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
     if role != "gnss":
         raise BundleError(f"the nmea format has only GNSS fixes, not '{role}'", file=file)
-    rows, bad_cks, day = [], 0, None
+    rows, bad_cks, day, repeats = [], 0, None, 0
     prev_tod = None
     for lineno, raw in enumerate(data.decode("ascii", "replace").splitlines(), start=1):
         s = raw.strip()
@@ -85,12 +85,17 @@ def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
         sep = _num(msg.geo_sep, file, lineno, "geoid_separation") if msg.geo_sep not in ("", None) else 0.0
         nsat = _num(msg.num_sats, file, lineno, "num_sats") if msg.num_sats else np.nan
         hdop = _num(msg.horizontal_dil, file, lineno, "hdop") if msg.horizontal_dil else np.nan
+        if rows and tod == rows[-1][0]:  # the same epoch again (e.g. GP and GN talkers): keep the first
+            repeats += 1
+            continue
         prev_tod = tod
         rows.append((tod, lat, lon, alt + sep, sep, fix, nsat, hdop, lineno))
     if not rows:
         raise BundleError(f"no GGA sentence with a fix ({bad_cks} with a bad checksum)", file=file)
     a = np.array(rows, dtype=np.float64)
     notes = [f"{file}: {bad_cks} sentence(s) with a bad checksum skipped"] if bad_cks else []
+    if repeats:
+        notes.append(f"{file}: {repeats} repeated GGA epoch(s) skipped")
     if day is None:
         notes.append(f"{file}: no RMC sentence with a date: the manifest's date is used")
     lines = a[:, 8].astype(np.int64)
