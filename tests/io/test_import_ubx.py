@@ -105,3 +105,24 @@ def test_bad_checksum_frame_is_skipped():
     bad[len(good) // 3 - 1] ^= 0xFF  # first frame's checksum
     part = get_importer("ubx").read(bytes(bad), "esf.ubx", "imu", {})
     assert len(part.dvel_mps) == 2 and any("checksum" in n for n in part.notes)
+
+
+def test_esf_meas_gives_the_same_increments(sim):
+    """ESF-MEAS (one time tag per message, numMeas in the flags) read like ESF-RAW, within one LSB."""
+    dt_s = 0.01
+    n = 300
+    rates = rfu_to_frd(sim.dtheta_rad[:n]) / dt_s
+    acc = rfu_to_frd(sim.dvel_mps[:n]) / dt_s
+    g = np.round(rates / GYRO_LSB).astype(np.int64)
+    a = np.round(acc / ACC_LSB).astype(np.int64)
+    tags = 1000 + 10 * np.arange(1, n + 1)
+    out = bytearray()
+    for k, tag in enumerate(tags):
+        payload = struct.pack("<IHH", int(tag), 6 << 11, 0) + b"".join(
+            struct.pack("<I", (int(v) & 0xFFFFFF) | (dtype << 24))
+            for dtype, v in ((14, g[k, 0]), (13, g[k, 1]), (5, g[k, 2]), (16, a[k, 0]), (17, a[k, 1]), (18, a[k, 2])))
+        out += UBXMessage(b"\x10", b"\x02", GET, payload=payload).serialize()
+    part = get_importer("ubx").read(bytes(out), "meas.ubx", "imu", {})
+    np.testing.assert_array_equal(part.stamps.values, tags / 1000.0)
+    assert np.max(np.abs(part.dtheta_rad - rfu_to_frd(sim.dtheta_rad[:n]))) <= 0.5 * GYRO_LSB * dt_s * (1 + 1e-6)
+    assert np.max(np.abs(part.dvel_mps - rfu_to_frd(sim.dvel_mps[:n]))) <= 0.5 * ACC_LSB * dt_s * (1 + 1e-6)
