@@ -61,6 +61,11 @@ def test_kml_parses_with_fastkml_and_carries_provenance():
     assert (lon, lat) == pytest.approx((113.0, 28.4))
     prov = {d.get("name"): d.find("k:value", ns).text for d in root.find("k:Document/k:ExtendedData", ns)}
     assert prov["pipeline"] == "gravity" and "ab" * 32 in prov["inputs"]
+    import os
+
+    xsd = os.path.join(os.path.dirname(fastkml.__file__), "schema", "ogckml22.xsd")  # the OGC schema fastkml ships
+    schema = etree.XMLSchema(etree.parse(xsd))
+    assert schema.validate(root), schema.error_log
     k = fastkml.KML.from_string(data)
     doc = list(k.features)[0]
     assert doc.name == "gravity"

@@ -224,9 +224,9 @@ def table_kml(table: str, csv_data: bytes, summary: dict, track: dict | None = N
            f"<name>{escape(table)}</name>",
            "<description>" + escape(f"ldv-survey {prov.get('pipeline', '')} result {table}; heights are "
                                     "ellipsoidal (WGS-84), in ExtendedData h_m") + "</description>",
-           data(prov),
            '<Style id="line"><LineStyle><color>ff0000ff</color><width>3</width></LineStyle></Style>',
-           '<Style id="point"><IconStyle><scale>0.4</scale></IconStyle></Style>']
+           '<Style id="point"><IconStyle><scale>0.4</scale></IconStyle></Style>',
+           data(prov)]  # the KML 2.2 schema's order: name, description, styles, ExtendedData, then features
     points = []
     for f in feats:
         g, p = f["geometry"], f["properties"]
