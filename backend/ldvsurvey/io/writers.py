@@ -171,6 +171,8 @@ def geo_features(table: str, cols: dict, summary: dict, track: dict | None = Non
     good = np.flatnonzero(ok)
     if table in TRACK_TABLES:
         idx = good[_thin(len(good))]
+        if len(idx) < 2:  # RFC 7946: a line has two positions at least
+            return feats
         t = np.asarray(cols.get("t_s", np.full(len(lon), np.nan)), float)
         feats.append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": [coord(i) for i in idx]},
                       "properties": {"name": table, "kind": "track", "t_start_s": _jsonval(t[idx[0]]) if len(idx) else None,
@@ -182,6 +184,8 @@ def geo_features(table: str, cols: dict, summary: dict, track: dict | None = Non
         for name in dict.fromkeys(names[good]):
             sel = good[names[good] == name]
             idx = sel[_thin(len(sel))]
+            if len(idx) < 2:
+                continue
             props = {"name": str(name), "kind": "survey_line"}
             props.update({k: _jsonval(v) for k, v in by_name.get(name, {}).items() if k != "name"})
             feats.append({"type": "Feature", "properties": props,
