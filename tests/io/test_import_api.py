@@ -119,3 +119,22 @@ def test_job_download_as_geojson_and_kml(client, recordings):
     k = client.get(f"/api/jobs/{job_id}/files/trajectory.csv?format=kml")
     assert k.status_code == 200 and b'xmlns="http://www.opengis.net/kml/2.2"' in k.content
     assert client.get(f"/api/jobs/{job_id}/files/trajectory.csv?format=shp").status_code == 422
+
+
+def test_formats_hint_and_partial_manifest_as_a_json_file(client):
+    """A CSV needs its format named (form field ``formats``); a .json part is the partial manifest."""
+    from pathlib import Path
+
+    ex = Path(__file__).resolve().parents[2] / "docs" / "examples"
+    files = {"imu.csv": (ex / "csv" / "imu.csv").read_bytes(), "receiver.nmea": (ex / "nmea" / "receiver.nmea").read_bytes(),
+             "ldv.csv": (ex / "ldv.csv").read_bytes(), "partial.json": (ex / "csv" / "partial.json").read_bytes()}
+    r = client.post("/api/imports/preview", files=_multipart(files))
+    assert r.status_code == 422 and r.json()["error"]["file"] == "imu.csv"  # a CSV is not guessed
+    r = client.post("/api/imports/preview", files=_multipart(files), data={"formats": json.dumps({"imu.csv": "csv:imu"})})
+    assert r.status_code == 200, r.text
+    p = r.json()
+    assert {(f["name"], f["format"], f["role"]) for f in p["files"]} == {
+        ("imu.csv", "csv", "imu"), ("receiver.nmea", "nmea", "gnss"), ("ldv.csv", "native", "ldv")}
+    assert p["imu_axes"] == "FLU" and p["date"] == "2023-03-20" and p["rates_hz"]["imu"] == 100.0
+    r = client.post("/api/imports/preview", files=_multipart(files), data={"formats": json.dumps({"imu.csv": "sbf"})})
+    assert r.status_code == 422 and r.json()["error"]["file"] == "formats"
