@@ -66,7 +66,90 @@ def _cmd_demo(args) -> int:
 def _cmd_run(args) -> int:
     from ldvsurvey.pipelines.registry import run_pipeline_cli
 
-    return run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [])
+    rc = run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [])
+    if rc == 0 and args.format != "csv":
+        for p in export_geo_files(args.out, args.format, args.bundles[0]):
+            print(p)
+    return rc
+
+
+def export_geo_files(out_dir, fmt: str, bundle) -> list:
+    """Beside the CSV tables in ``out_dir``, the same tables as GeoJSON or KML (with provenance)."""
+    from pathlib import Path
+
+    from ldvsurvey.io.writers import geo_export, gnss_track
+
+    out = Path(out_dir)
+    summary = json.loads((out / "summary.json").read_text())
+    track, paths = None, []
+    for csv_path in sorted(out.glob("*.csv")):
+        data = csv_path.read_bytes()
+        header = data.split(b"\n", 1)[0].decode()
+        if "lat_deg" not in header.split(","):
+            if "t_s" not in header.split(","):
+                continue  # no time, no position (coincidence.csv): nothing to draw
+            if track is None:
+                from ldvsurvey.io.drivelog import load_bundle
+
+                track = gnss_track(load_bundle(bundle)) or {}
+            if not track:
+                continue
+        name, content = geo_export(fmt, csv_path.stem, data, summary, track or None)
+        (out / name).write_bytes(content)
+        paths.append(out / name)
+    return paths
+
+
+def _parse_source(role: str, spec: str):
+    from ldvsurvey.errors import BundleError
+    from ldvsurvey.io.importers import REGISTRY, Source
+
+    fmt, sep, path = spec.partition(":")
+    if not sep or not path:
+        raise BundleError(f"expected FORMAT:FILE (formats: {', '.join(REGISTRY)}), got '{spec}'", field=f"--{role}")
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise BundleError("no such file", file=path, field=f"--{role}")
+    return Source(role=role, format=fmt.lower(), name=p.name, data=p.read_bytes())
+
+
+def _cmd_import(args) -> int:
+    import os
+    import tempfile
+    from pathlib import Path
+
+    from ldvsurvey.errors import BundleError
+    from ldvsurvey.io.importers import build_bundle, parse_partial_manifest
+    from ldvsurvey.io.writers import write_bundle
+
+    sources = [_parse_source(role, spec) for role, spec in (("imu", args.imu), ("gnss", args.gnss), ("ldv", args.ldv))
+               if spec]
+    mpath = Path(args.manifest)
+    if not mpath.is_file():
+        raise BundleError("no such file", file=args.manifest, field="--manifest")
+    partial = parse_partial_manifest(mpath.read_bytes(), file=mpath.name)
+    result = build_bundle(sources, partial)
+    out = Path(args.out)
+    if out.suffix.lower() != ".zip":
+        raise BundleError("the output must be a .zip path", file=args.out, field="--out")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(suffix=".zip", dir=out.parent)  # nothing appears at --out unless all went well
+    os.close(fd)
+    try:
+        write_bundle(result.files, tmp)
+        os.replace(tmp, out)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    s = result.summary
+    print(f"{out}: {', '.join(f['role'] + '=' + f['format'] for f in s['files'])}; {s['date']}, "
+          f"t {s['time_span_s'][0]:.3f}-{s['time_span_s'][1]:.3f} s; IMU {s['rates_hz']['imu']} Hz "
+          f"(axes {s['imu_axes']}, static tilt {s['static_tilt_deg']:.2f} deg), LDV {s['rates_hz']['ldv']} Hz")
+    for w in result.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    return 0
 
 
 def _cmd_migrate(args) -> int:
@@ -166,6 +249,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("bundles", nargs="+", metavar="BUNDLE")
     r.add_argument("--out", required=True, help="output folder for summary.json and the CSV tables")
     r.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a pipeline parameter")
+    r.add_argument("--format", choices=("csv", "geojson", "kml"), default="csv",
+                   help="also write the tables with positions as GeoJSON or KML (the CSV tables are always written)")
     r.set_defaults(func=_cmd_run)
 
     d = sub.add_parser("demo", help="write a simulated bundle (the product's own simulator)")
@@ -174,6 +259,16 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=1)
     d.add_argument("--duration-s", type=float, default=None, help="override the scenario's length")
     d.set_defaults(func=_cmd_demo)
+
+    im = sub.add_parser("import", help="turn field recordings (novatel, ubx, kf-gins, nmea, csv, native) into a "
+                                       "validated bundle .zip")
+    im.add_argument("--imu", required=True, metavar="FORMAT:FILE")
+    im.add_argument("--gnss", metavar="FORMAT:FILE")
+    im.add_argument("--ldv", metavar="FORMAT:FILE")
+    im.add_argument("--manifest", required=True, metavar="PARTIAL.json",
+                    help="what no recording holds: LDV kind and mounting, lever arms, platform, import options")
+    im.add_argument("--out", required=True, metavar="BUNDLE.zip")
+    im.set_defaults(func=_cmd_import)
 
     mg = sub.add_parser("migrate", help="bring the database (LDVSURVEY_DATABASE_URL) to the newest schema")
     mg.set_defaults(func=_cmd_migrate)

@@ -10,6 +10,7 @@ import { comparePage } from "./compare.js";
 import { loginPage } from "./login.js";
 import { accountPage } from "./account.js";
 import { adminPage } from "./admin.js";
+import "./import.js"; // foreign recordings dropped on the upload zone
 
 const app = $("#app");
 const ROUTES = [

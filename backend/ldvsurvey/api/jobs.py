@@ -169,9 +169,13 @@ def job_file(session: Session, job_id: int, name: str) -> bytes:
 
 
 @router.get("/api/jobs/{job_id}/files/{name}", summary="A result file, exactly as the CLI writes it")
-def get_job_file(job_id: JobId, name: str, session: Session = Depends(get_session),
-                 who: Principal = Depends(principal)) -> Response:
-    visible_job(session, who, job_id)
+def get_job_file(job_id: JobId, name: str, format: str = Query("csv", pattern="^(csv|geojson|kml)$"),
+                 session: Session = Depends(get_session), who: Principal = Depends(principal)) -> Response:
+    j = visible_job(session, who, job_id)
+    if format != "csv":  # a table with positions as GeoJSON (RFC 7946) or KML 2.2, with the summary's provenance
+        from ldvsurvey.api.imports import job_geo_file
+
+        return job_geo_file(session, j, name, format)
     data = job_file(session, job_id, name)
     ctype = "application/json" if name.endswith(".json") else "text/csv"
     return Response(content=data, media_type=ctype, headers={"Content-Disposition": f'attachment; filename="{name}"'})

@@ -81,3 +81,187 @@ def write_bundle(files: dict[str, bytes], path: str | Path) -> Path:
         for name, data in files.items():
             (p / name).write_bytes(data)
     return p
+
+
+# --- GIS exports: GeoJSON (RFC 7946) and KML 2.2 of the result tables ---------------------------------
+
+GEO_FORMATS = ("geojson", "kml")
+#: tables drawn as one line (a track); others are points with their values
+TRACK_TABLES = ("trajectory", "calibration_track")
+MAX_FEATURES = 20000
+KML_NS = "http://www.opengis.net/kml/2.2"
+
+
+def read_result_table(data: bytes) -> dict[str, np.ndarray]:
+    """A result CSV (header row, numbers or text, empty = missing) as columns."""
+    import pandas as pd
+
+    df = pd.read_csv(io.BytesIO(data), comment="#")
+    return {c: df[c].to_numpy() for c in df.columns}
+
+
+def provenance(summary: dict) -> dict:
+    """What every export carries: the keys of ``summary.json`` that trace a result to its inputs."""
+    keys = ("pipeline", "software_version", "format_version", "started_at", "inputs", "parameters")
+    return {k: summary.get(k) for k in keys if k in summary}
+
+
+def _positions(cols: dict, track: dict | None):
+    """lon, lat, h (h may be None) of each row; rows without a position are NaN.
+
+    Tables without positions (``height.csv``) are placed on ``track`` (t_s, lat_deg, lon_deg of the
+    log's GNSS fixes), linearly interpolated in time.
+    """
+    if "lat_deg" in cols and "lon_deg" in cols:
+        lat = np.asarray(cols["lat_deg"], float)
+        lon = np.asarray(cols["lon_deg"], float)
+    elif track is not None and "t_s" in cols and len(track["t_s"]) > 1:
+        t = np.asarray(cols["t_s"], float)
+        inside = (t >= track["t_s"][0]) & (t <= track["t_s"][-1])
+        lat = np.where(inside, np.interp(t, track["t_s"], track["lat_deg"]), np.nan)
+        lon = np.where(inside, np.interp(t, track["t_s"], track["lon_deg"]), np.nan)
+    else:
+        return None
+    h = np.asarray(cols["h_m"], float) if "h_m" in cols else None
+    return lon, lat, h
+
+
+def _thin(n: int) -> np.ndarray:
+    step = max(1, int(np.ceil(n / MAX_FEATURES)))
+    idx = np.arange(0, n, step)
+    if n and idx[-1] != n - 1:
+        idx = np.append(idx, n - 1)
+    return idx
+
+
+def _jsonval(v):
+    if isinstance(v, (np.floating, float)):
+        return float(v) if np.isfinite(v) else None
+    if isinstance(v, (np.integer,)):
+        return int(v)
+    if isinstance(v, (np.bool_,)):
+        return bool(v)
+    if v is None or (isinstance(v, float) and not np.isfinite(v)):
+        return None
+    return v if isinstance(v, (str, int, bool)) else str(v)
+
+
+def geo_features(table: str, cols: dict, summary: dict, track: dict | None = None) -> list[dict]:
+    """GeoJSON features of one result table (positions WGS-84 lon, lat; heights ellipsoidal, m).
+
+    Track tables become one LineString; tables with a ``line`` column add one LineString per survey
+    line (with that line's summary figures); every other row becomes a Point with all its values.
+    """
+    pos = _positions(cols, track)
+    if pos is None:
+        from ldvsurvey.errors import InputError
+
+        raise InputError(f"'{table}' has no positions (no lat_deg/lon_deg and no GNSS track to place it on)",
+                         file=f"{table}.csv")
+    lon, lat, h = pos
+    ok = np.isfinite(lon) & np.isfinite(lat)
+
+    def coord(i):
+        c = [round(float(lon[i]), 9), round(float(lat[i]), 9)]
+        if h is not None and np.isfinite(h[i]):
+            c.append(round(float(h[i]), 4))
+        return c
+
+    feats = []
+    good = np.flatnonzero(ok)
+    if table in TRACK_TABLES:
+        idx = good[_thin(len(good))]
+        if len(idx) < 2:  # RFC 7946: a line has two positions at least
+            return feats
+        t = np.asarray(cols.get("t_s", np.full(len(lon), np.nan)), float)
+        feats.append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": [coord(i) for i in idx]},
+                      "properties": {"name": table, "kind": "track", "t_start_s": _jsonval(t[idx[0]]) if len(idx) else None,
+                                     "t_end_s": _jsonval(t[idx[-1]]) if len(idx) else None}})
+        return feats
+    if "line" in cols:
+        by_name = {ln.get("name"): ln for ln in (summary.get("lines") or []) if isinstance(ln, dict)}
+        names = np.asarray(cols["line"]).astype(str)
+        for name in dict.fromkeys(names[good]):
+            sel = good[names[good] == name]
+            idx = sel[_thin(len(sel))]
+            if len(idx) < 2:
+                continue
+            props = {"name": str(name), "kind": "survey_line"}
+            props.update({k: _jsonval(v) for k, v in by_name.get(name, {}).items() if k != "name"})
+            feats.append({"type": "Feature", "properties": props,
+                          "geometry": {"type": "LineString", "coordinates": [coord(i) for i in idx]}})
+    for i in good[_thin(len(good))]:
+        props = {k: _jsonval(np.asarray(v)[i]) for k, v in cols.items()}
+        feats.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": coord(i)}, "properties": props})
+    return feats
+
+
+def table_geojson(table: str, csv_data: bytes, summary: dict, track: dict | None = None) -> bytes:
+    """A result table as an RFC 7946 FeatureCollection carrying the result's provenance."""
+    feats = geo_features(table, read_result_table(csv_data), summary, track)
+    fc = {"type": "FeatureCollection", "name": table,
+          "provenance": provenance(summary),  # a foreign member (RFC 7946 §6.1): ignored by readers that don't know it
+          "features": feats}
+    return (json.dumps(fc, allow_nan=False, separators=(",", ":")) + "\n").encode()
+
+
+def table_kml(table: str, csv_data: bytes, summary: dict, track: dict | None = None) -> bytes:
+    """A result table as a KML 2.2 document (lines and placemarks, values and provenance as ExtendedData).
+
+    Coordinates carry longitude and latitude only and are clamped to the ground: KML altitudes are
+    above mean sea level, our heights ellipsoidal, so heights go into ExtendedData (``h_m``).
+    """
+    from xml.sax.saxutils import escape
+
+    feats = geo_features(table, read_result_table(csv_data), summary, track)
+    prov = provenance(summary)
+
+    def data(items):
+        return "<ExtendedData>" + "".join(
+            f'<Data name="{escape(str(k))}"><value>{escape(v if isinstance(v, str) else json.dumps(v))}</value></Data>'
+            for k, v in items.items()) + "</ExtendedData>"
+
+    def coords(cs):
+        return " ".join(f"{c[0]!r},{c[1]!r}" for c in cs)
+
+    out = ['<?xml version="1.0" encoding="UTF-8"?>', f'<kml xmlns="{KML_NS}">', "<Document>",
+           f"<name>{escape(table)}</name>",
+           "<description>" + escape(f"ldv-survey {prov.get('pipeline', '')} result {table}; heights are "
+                                    "ellipsoidal (WGS-84), in ExtendedData h_m") + "</description>",
+           '<Style id="line"><LineStyle><color>ff0000ff</color><width>3</width></LineStyle></Style>',
+           '<Style id="point"><IconStyle><scale>0.4</scale></IconStyle></Style>',
+           data(prov)]  # the KML 2.2 schema's order: name, description, styles, ExtendedData, then features
+    points = []
+    for f in feats:
+        g, p = f["geometry"], f["properties"]
+        if g["type"] == "LineString":
+            out.append(f"<Placemark><name>{escape(str(p.get('name', table)))}</name><styleUrl>#line</styleUrl>"
+                       f"{data(p)}<LineString><tessellate>1</tessellate><coordinates>{coords(g['coordinates'])}"
+                       f"</coordinates></LineString></Placemark>")
+        else:
+            points.append(f"<Placemark><styleUrl>#point</styleUrl>{data(p)}<Point><coordinates>"
+                          f"{coords([g['coordinates']])}</coordinates></Point></Placemark>")
+    if points:
+        out.append(f"<Folder><name>{escape(table)} values</name>{''.join(points)}</Folder>")
+    out += ["</Document>", "</kml>"]
+    return ("\n".join(out) + "\n").encode()
+
+
+def geo_export(fmt: str, table: str, csv_data: bytes, summary: dict, track: dict | None = None) -> tuple[str, bytes]:
+    """(file name, bytes) of ``table`` in ``fmt`` (``geojson`` or ``kml``)."""
+    if fmt == "geojson":
+        return f"{table}.geojson", table_geojson(table, csv_data, summary, track)
+    if fmt == "kml":
+        return f"{table}.kml", table_kml(table, csv_data, summary, track)
+    from ldvsurvey.errors import ParameterError
+
+    raise ParameterError(f"unknown export format '{fmt}' (known: csv, {', '.join(GEO_FORMATS)})", field="format")
+
+
+def gnss_track(log) -> dict | None:
+    """t_s, lat_deg, lon_deg of a log's GNSS fixes (to place tables without positions)."""
+    g = getattr(log, "gnss", None)
+    if g is None:
+        return None
+    ok = (g.fix > 0) & np.isfinite(g.lat_deg)
+    return {"t_s": g.t_s[ok], "lat_deg": g.lat_deg[ok], "lon_deg": g.lon_deg[ok]}

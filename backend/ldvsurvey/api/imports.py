@@ -1,0 +1,163 @@
+"""``/api/imports``: foreign recordings (NovAtel, u-blox, KF-GINS, NMEA, CSV) converted to a bundle.
+
+``POST /api/imports/preview`` converts and validates without storing and answers what was found
+(formats, time span, rates, a downsampled GNSS track); ``POST /api/imports`` converts, validates and
+stores the bundle with the original files kept byte for byte beside it (named ``original-<name>``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+from fastapi import APIRouter, Depends, File, Form, HTTPException, Request, Response, UploadFile
+from sqlalchemy.orm import Session
+
+from ldvsurvey.api.auth import Principal, check_upload_rate, principal
+from ldvsurvey.api.deps import get_session
+from ldvsurvey.errors import BundleError
+from ldvsurvey.io.importers import REGISTRY, Source, build_bundle, detect, parse_partial_manifest
+
+router = APIRouter(prefix="/api/imports", tags=["imports"])
+ORIGINAL_PREFIX = "original-"
+ROLES = ("imu", "gnss", "ldv")
+
+
+def _hints(formats: str | None) -> dict[str, tuple[str, str | None]]:
+    """``formats`` form field: JSON object file name -> "FORMAT" or "FORMAT:ROLE"."""
+    if not formats:
+        return {}
+    try:
+        raw = json.loads(formats)
+    except json.JSONDecodeError as exc:
+        raise BundleError(f"invalid JSON: {exc.msg}", file="formats", line=exc.lineno) from None
+    if not isinstance(raw, dict):
+        raise BundleError("must be a JSON object {file name: \"format\" or \"format:role\"}", file="formats")
+    out = {}
+    for name, spec in raw.items():
+        fmt, _, role = str(spec).partition(":")
+        if fmt not in REGISTRY:
+            raise BundleError(f"unknown format '{fmt}' (known: {', '.join(REGISTRY)})", file="formats", field=name)
+        if role and role not in ROLES:
+            raise BundleError(f"unknown role '{role}' (known: {', '.join(ROLES)})", file="formats", field=name)
+        out[name] = (fmt, role or None)
+    return out
+
+
+def _read_parts(files: list[UploadFile], manifest: str | None, formats: str | None):
+    """(sources, partial manifest, originals) from the multipart fields."""
+    if not files:
+        raise BundleError("no file in the upload (send the recordings as 'files')")
+    hints = _hints(formats)
+    originals, partial = {}, None
+    for up in files:
+        name = (up.filename or "").replace("\\", "/").rsplit("/", 1)[-1]
+        if not name:
+            raise BundleError("an uploaded part has no file name")
+        if name in originals:
+            raise BundleError("file uploaded twice", file=name)
+        originals[name] = up.file.read()
+    if manifest:
+        partial = parse_partial_manifest(manifest.encode(), file="manifest")
+    sources = []
+    for name, data in originals.items():
+        if name in hints:
+            fmt, role = hints[name]
+            if role is None:
+                found = detect(data, name)
+                role = found[1] if found and found[0] == fmt else None
+            if role is None:
+                raise BundleError(f"say which data it holds: \"{fmt}:imu\", \"{fmt}:gnss\" or \"{fmt}:ldv\"",
+                                  file="formats", field=name)
+        elif name.lower().endswith(".json") and partial is None:
+            partial = parse_partial_manifest(data, file=name)
+            continue
+        else:
+            found = detect(data, name)
+            if found is None:
+                raise BundleError("format not recognised: name it in 'formats' (e.g. {\"%s\": \"csv:imu\"})" % name,
+                                  file=name)
+            fmt, role = found
+        sources.append(Source(role=role, format=fmt, name=name, data=data))
+    return sources, partial or {}, originals
+
+
+@router.post("/preview", summary="Convert foreign recordings and say what was found (nothing stored)")
+def preview_import(request: Request, files: list[UploadFile] = File(...), manifest: str | None = Form(None),
+                   formats: str | None = Form(None), who: Principal = Depends(principal)) -> dict:
+    check_upload_rate(request, who)  # a preview converts everything: it counts as an upload
+    sources, partial, _ = _read_parts(files, manifest, formats)
+    result = build_bundle(sources, partial)
+    s = result.summary
+    return {"files": s["files"], "time_span_s": s["time_span_s"], "rates_hz": s["rates_hz"],
+            "gnss_track": s["gnss_track"], "date": s["date"], "imu_axes": s["imu_axes"],
+            "static_tilt_deg": s["static_tilt_deg"], "warnings": result.warnings}
+
+
+@router.post("", status_code=201, summary="Convert foreign recordings, validate and store the bundle")
+def create_import(request: Request, response: Response, files: list[UploadFile] = File(...),
+                  manifest: str | None = Form(None), formats: str | None = Form(None),
+                  project_id: int | None = Form(None, ge=1, le=2**31 - 1), session: Session = Depends(get_session),
+                  who: Principal = Depends(principal)) -> dict:
+    """Answers like ``POST /api/logs`` (201 with the log; 200 with ``duplicate: true``)."""
+    from ldvsurvey.api.logs import log_summary
+    from ldvsurvey.io.drivelog import parse_files
+    from ldvsurvey.io.quality import quality_report
+    from ldvsurvey.store import logs as store
+    from ldvsurvey.store.models import LogFile
+
+    check_upload_rate(request, who)
+    if who.projects is not None:
+        if project_id is None:
+            if not who.projects:
+                raise HTTPException(403, "you are not a member of any project")
+            project_id = who.projects[0]
+        elif project_id not in who.projects:
+            raise HTTPException(404, f"project {project_id} not found")
+    sources, partial, originals = _read_parts(files, manifest, formats)
+    result = build_bundle(sources, partial)
+    log = parse_files(result.files)
+    quality = quality_report(log)
+    quality.setdefault("warnings", [])
+    quality["warnings"] = list(quality["warnings"]) + [w for w in result.warnings if w not in quality["warnings"]]
+    row, created = store.store_log(session, log, quality, project_id)
+    if created:
+        for name, content in sorted(originals.items()):
+            session.add(LogFile(log_id=row.id, name=ORIGINAL_PREFIX + name, sha256=hashlib.sha256(content).hexdigest(),
+                                size_bytes=len(content), content=content))
+    session.commit()
+    if not created:
+        response.status_code = 200
+    response.headers["Location"] = f"/api/logs/{row.id}"
+    return {**log_summary(row), "duplicate": not created, "quality": row.quality,
+            "import": {"files": result.summary["files"], "warnings": result.warnings}}
+
+
+def job_geo_file(session: Session, job, name: str, fmt: str) -> Response:
+    """A job's result table converted to GeoJSON or KML (``GET /api/jobs/{id}/files/{name}?format=``)."""
+    from sqlalchemy import select
+
+    from ldvsurvey.io.writers import geo_export
+    from ldvsurvey.store.logs import load_array
+    from ldvsurvey.store.models import JobFile
+
+    def content(n):
+        f = session.scalar(select(JobFile).where(JobFile.job_id == job.id, JobFile.name == n))
+        if f is None:
+            raise HTTPException(404, f"job {job.id} has no file '{n}'")
+        return f.content
+
+    if not name.endswith(".csv"):
+        raise BundleError("only the CSV tables convert to GeoJSON or KML", file=name, field="format")
+    data = content(name)
+    summary = json.loads(content("summary.json"))
+    header = data.split(b"\n", 1)[0].decode().split(",")
+    track = None
+    if "lat_deg" not in header and job.log_ids:
+        g = load_array(session, job.log_ids[0], "gnss")
+        if g is not None:
+            ok = g["fix"] > 0
+            track = {"t_s": g["t_s"][ok], "lat_deg": g["lat_deg"][ok], "lon_deg": g["lon_deg"][ok]}
+    out_name, out = geo_export(fmt, name[:-4], data, summary, track)
+    ctype = "application/geo+json" if fmt == "geojson" else "application/vnd.google-earth.kml+xml"
+    return Response(content=out, media_type=ctype, headers={"Content-Disposition": f'attachment; filename="{out_name}"'})

@@ -1,0 +1,255 @@
+"""Assemble a validated ``ldv-drive-log/1`` bundle from imported recordings and a partial manifest."""
+
+from __future__ import annotations
+
+import copy
+import datetime as dt
+import hashlib
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ldvsurvey import FORMAT_VERSION, __version__
+from ldvsurvey.errors import BundleError
+from ldvsurvey.io.importers import gpstime
+from ldvsurvey.io.importers.axes import c_rfu_sensor, check_static_up
+from ldvsurvey.io.importers.common import GnssPart, ImuPart, LdvPart, Stamps, check_increasing
+
+MANIFEST_FILE = "manifest (partial)"
+
+
+@dataclass
+class Source:
+    """One recording to import: role (imu, gnss, ldv), format name, file name and bytes."""
+
+    role: str
+    format: str
+    name: str
+    data: bytes
+
+
+@dataclass
+class ImportResult:
+    """The bundle's files, what the import had to say, and a summary for previews."""
+
+    files: dict[str, bytes]
+    warnings: list[str]
+    summary: dict = field(default_factory=dict)
+
+
+def parse_partial_manifest(data: bytes | str | dict | None, file: str = MANIFEST_FILE) -> dict:
+    """The partial manifest as a dict (the keys no recording holds: LDV kind/mounting, lever arms...)."""
+    if data is None:
+        return {}
+    if isinstance(data, dict):
+        return copy.deepcopy(data)
+    text = data.decode("utf-8-sig", "replace") if isinstance(data, bytes) else data
+    if not text.strip():
+        return {}
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise BundleError(f"invalid JSON: {exc.msg}", file=file, line=exc.lineno) from None
+    if not isinstance(raw, dict):
+        raise BundleError("top level must be a JSON object", file=file, line=1)
+    return raw
+
+
+def _options(manifest: dict, role: str) -> dict:
+    opts = (manifest.get("import") or {}).get(role) or {}
+    if not isinstance(opts, dict):
+        raise BundleError("must be an object", file=MANIFEST_FILE, field=f"import.{role}")
+    return opts
+
+
+def _date_of(parts: dict, manifest: dict) -> dt.date:
+    if manifest.get("date") is not None:
+        try:
+            return dt.date.fromisoformat(str(manifest["date"]))
+        except ValueError:
+            raise BundleError(f"'{manifest['date']}' is not a date (YYYY-MM-DD)", file=MANIFEST_FILE,
+                              field="date") from None
+    for role in ("imu", "gnss", "ldv"):
+        p = parts.get(role)
+        if p is None or not len(p.stamps.values):
+            continue
+        st = p.stamps
+        if st.kind == "gps" and st.week is not None:
+            return gpstime.utc_day_of_gps(int(st.week[0]), float(st.values[0]))
+        if st.kind == "utc_tod" and st.day is not None:
+            return st.day
+        if st.kind == "unix":
+            return dt.datetime.fromtimestamp(float(st.values[0]) + st.offset_s, dt.timezone.utc).date()
+    raise BundleError("no recording states the calendar day (GPS seconds of week or UTC time of day only): "
+                      "give it as \"date\": \"YYYY-MM-DD\" in the partial manifest", file=MANIFEST_FILE,
+                      field="date")
+
+
+def to_bundle_time(st: Stamps, day: dt.date, leap_s: int, near_week: int) -> np.ndarray:
+    """Any :class:`Stamps` to the bundle clock of ``day``."""
+    return np.round(_to_bundle_time(st, day, leap_s, near_week), 9)  # time tags are kept to the nanosecond
+
+
+def _to_bundle_time(st: Stamps, day: dt.date, leap_s: int, near_week: int) -> np.ndarray:
+    if st.kind == "bundle":
+        return np.asarray(st.values, dtype=np.float64)
+    if st.kind == "gps":
+        week = None
+        if st.week is not None:
+            week = np.array([gpstime.resolve_week(int(w), near_week) for w in np.unique(st.week)])
+            week = np.asarray(st.week, dtype=np.int64) + (week[0] - int(np.unique(st.week)[0]))
+        return gpstime.gps_to_bundle(st.values, day, leap_s, week)
+    if st.kind == "unix":
+        return gpstime.unix_to_bundle(st.values, day, st.offset_s)
+    if st.kind == "utc_tod":
+        return gpstime.tod_to_bundle(st.values, st.day or day, day)
+    raise ValueError(st.kind)
+
+
+def _rate_hz(t: np.ndarray) -> float:
+    return float(1.0 / np.median(np.diff(t))) if len(t) > 1 else 0.0
+
+
+def _round_rate(r: float) -> float:
+    return float(round(r)) if abs(r - round(r)) < 0.01 * r else round(r, 3)
+
+
+def _gga_lines(t, g: GnssPart, sep_default: float | None) -> tuple[bytes, str]:
+    from ldvsurvey.io.nmea import format_gga
+
+    if g.sep_m is not None:
+        sep = np.asarray(g.sep_m, dtype=np.float64)
+        how = "geoid separation as the recording states it"
+    elif sep_default is not None:
+        sep = np.full(len(t), float(sep_default))
+        how = f"geoid separation {sep_default} m from the partial manifest (import.gnss.geoid_separation_m)"
+    else:
+        sep = np.zeros(len(t))
+        how = ("the recording gives ellipsoidal heights only: GGA altitude holds the ellipsoidal height and the "
+               "separation field 0 (ellipsoidal height = altitude + separation stays exact)")
+    nsat = g.n_sat if g.n_sat is not None else np.full(len(t), 12.0)
+    hdop = g.hdop if g.hdop is not None else np.full(len(t), 0.9)
+    out = []
+    for k in range(len(t)):
+        n = int(nsat[k]) if np.isfinite(nsat[k]) else 0
+        hd = float(hdop[k]) if np.isfinite(hdop[k]) else 0.0
+        out.append(format_gga(float(t[k]), float(g.lat_deg[k]), float(g.lon_deg[k]), float(g.h_ell_m[k] - sep[k]),
+                              float(sep[k]), int(g.fix[k]), n_sat=min(n, 99), hdop=hd, talker="GN"))
+    return ("\r\n".join(out) + "\r\n").encode(), how
+
+
+def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
+    """Read every source with its importer, put all on the bundle clock and axes, write and validate.
+
+    Raises
+    ------
+    BundleError
+        Naming the source file, the line or message number and the field; nothing is returned then.
+    """
+    from ldvsurvey.io.drivelog import parse_files
+    from ldvsurvey.io.importers import get_importer
+    from ldvsurvey.io.writers import imu_csv, ldv_csv, manifest_json
+
+    m = copy.deepcopy(partial_manifest)
+    warnings: list[str] = []
+    parts, by_role = {}, {}
+    for src in sources:
+        if src.role in parts:
+            raise BundleError(f"two {src.role} recordings given", file=src.name)
+        imp = get_importer(src.format, src.name)
+        if src.role not in imp.ROLES:
+            raise BundleError(f"the {imp.NAME} format has no {src.role} data (it has: {', '.join(imp.ROLES)})",
+                              file=src.name)
+        parts[src.role] = imp.read(src.data, src.name, src.role, _options(m, src.role))
+        by_role[src.role] = src
+        warnings += parts[src.role].notes
+    for role in ("imu", "ldv"):
+        if role not in parts:
+            raise BundleError(f"an {role.upper()} recording is required (--{role} FORMAT:FILE)", field=role)
+    time_opts = (m.get("import") or {}).get("time") or {}
+    day = _date_of(parts, m)
+    if time_opts.get("gps_utc_s") is not None:
+        leap = time_opts["gps_utc_s"]
+        if not isinstance(leap, int) or isinstance(leap, bool):
+            raise BundleError(f"expected a whole number of seconds, got {leap!r}", file=MANIFEST_FILE,
+                              field="import.time.gps_utc_s")
+    else:
+        leap = gpstime.gps_minus_utc_s(day)
+        uses_gps = any(p.stamps.kind == "gps" for p in parts.values())
+        if uses_gps and day > gpstime.LEAP_TABLE_VALID_TO:
+            warnings.append(f"the built-in leap-second table is known complete to {gpstime.LEAP_TABLE_VALID_TO}; "
+                            f"{day} is later: GPS−UTC = {leap} s assumed (set import.time.gps_utc_s if a leap "
+                            "second was inserted since)")
+    near_week = gpstime.gps_week_of(day, leap)[0]
+    t = {role: to_bundle_time(p.stamps, day, leap, near_week) for role, p in parts.items()}
+    for role, p in parts.items():
+        check_increasing(t[role], p.stamps.where, by_role[role].name,
+                         unit="line" if by_role[role].format not in ("ubx", "novatel") else "message")
+
+    imu: ImuPart = parts["imu"]
+    code = _options(m, "imu").get("axes", imu.axes)
+    c = c_rfu_sensor(code, file=MANIFEST_FILE, field="import.imu.axes")
+    dth = imu.dtheta_rad @ c.T
+    dv = imu.dvel_mps @ c.T
+    static_s = float(((m.get("initial") or {}).get("static_s")) or 10.0)
+    max_tilt = float(_options(m, "imu").get("max_static_tilt_deg", 5.0))
+    tilt = check_static_up(dv, t["imu"], code, min(static_s, 60.0), by_role["imu"].name, max_tilt)
+
+    m.setdefault("format", FORMAT_VERSION)
+    m["date"] = day.isoformat()
+    m.setdefault("name", f"Imported {by_role['imu'].name}")
+    m.setdefault("platform", "vehicle")
+    m.setdefault("imu", {})
+    imu_rate = _round_rate(_rate_hz(t["imu"]))
+    m["imu"].setdefault("rate_hz", imu_rate)
+    m["imu"].setdefault("rotating", imu.turntable_deg is not None)
+    ldv: LdvPart = parts["ldv"]
+    m.setdefault("ldv", {})
+    ldv_rate = _round_rate(_rate_hz(t["ldv"]))
+    m["ldv"].setdefault("rate_hz", ldv_rate)
+    if "kind" not in m["ldv"]:
+        m["ldv"]["kind"] = "2d" if "v_up" in ldv.columns else "1d"
+        warnings.append(f"ldv.kind not in the partial manifest: '{m['ldv']['kind']}' assumed from the columns")
+
+    files = {}
+    files["imu.csv"] = imu_csv(t["imu"], dth, dv, imu.turntable_deg,
+                               comment=f"imported from {by_role['imu'].name} ({by_role['imu'].format}, axes {code})")
+    lc = ldv.columns
+    files["ldv.csv"] = ldv_csv(t["ldv"], v_fwd_mps=lc.get("v_fwd"), v_up_mps=lc.get("v_up"), quality=lc.get("quality"),
+                               fd_hz=lc.get("fd_hz"), comment=f"imported from {by_role['ldv'].name} "
+                                                              f"({by_role['ldv'].format})")
+    gnss_track, gnss_rate = [], None
+    if "gnss" in parts:
+        g: GnssPart = parts["gnss"]
+        if g.raw_nmea is not None:
+            files["gnss.nmea"] = g.raw_nmea
+            how = "copied unchanged"
+        else:
+            files["gnss.nmea"], how = _gga_lines(t["gnss"], g, _options(m, "gnss").get("geoid_separation_m"))
+        gnss_rate = _rate_hz(t["gnss"])
+        step = max(1, len(g.lat_deg) // 500)
+        gnss_track = [[round(float(lo), 8), round(float(la), 8)] for lo, la in zip(g.lon_deg[::step], g.lat_deg[::step])]
+    else:
+        how = None
+    prov = {"software": f"ldv-survey {__version__}", "gps_minus_utc_s": leap,
+            "leap_table_valid_to": gpstime.LEAP_TABLE_VALID_TO.isoformat(), "imu_axes": code,
+            "static_tilt_deg": round(tilt, 3),
+            "sources": [{"role": s.role, "format": s.format, "file": s.name,
+                         "sha256": hashlib.sha256(s.data).hexdigest()} for s in sources]}
+    if how:
+        prov["gnss_heights"] = how
+    m.setdefault("import", {})
+    if isinstance(m["import"], dict):
+        m["import"]["provenance"] = prov
+    files["manifest.json"] = manifest_json(m)
+    files = {k: files[k] for k in ("manifest.json", "imu.csv", "ldv.csv", "gnss.nmea") if k in files}
+    log = parse_files(files)  # the same validation as any upload
+    warnings += log.warnings
+    spans = [(float(v[0]), float(v[-1])) for v in t.values() if len(v)]
+    summary = {"files": [{"name": s.name, "format": s.format, "role": s.role} for s in sources],
+               "time_span_s": [min(a for a, _ in spans), max(b for _, b in spans)],
+               "rates_hz": {"imu": imu_rate, "ldv": ldv_rate, "gnss": None if gnss_rate is None else round(gnss_rate, 3)},
+               "gnss_track": gnss_track, "date": day.isoformat(), "imu_axes": code,
+               "static_tilt_deg": round(tilt, 3)}
+    return ImportResult(files=files, warnings=warnings, summary=summary)

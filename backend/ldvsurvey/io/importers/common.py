@@ -1,0 +1,143 @@
+"""What every importer returns, and a strict reader for whitespace/comma separated numbers."""
+
+from __future__ import annotations
+
+import datetime as dt
+import io
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ldvsurvey.errors import BundleError
+
+
+@dataclass
+class Stamps:
+    """Sample times as the recording states them.
+
+    Attributes
+    ----------
+    kind : ``gps`` (seconds of GPS week, ``week`` per sample or None), ``utc_tod`` (UTC seconds of
+        day, ``day`` the UTC day of the first sample if the recording states it), ``unix`` (UNIX s)
+        or ``bundle`` (already the bundle clock).
+    values : (N,) seconds.
+    where : (N,) line or message number of each sample, for error messages.
+    """
+
+    kind: str
+    values: np.ndarray
+    where: np.ndarray
+    week: np.ndarray | None = None
+    day: dt.date | None = None
+    offset_s: int = 0  #: whole seconds to add to ``values`` (keeps UNIX times precise in float64)
+
+
+@dataclass
+class ImuPart:
+    """IMU increments over (t_prev, t] in the sensor's own axes ``axes`` (see :mod:`.axes`).
+
+    dtheta_rad, dvel_mps : (N, 3) rad and m/s.
+    """
+
+    stamps: Stamps
+    dtheta_rad: np.ndarray
+    dvel_mps: np.ndarray
+    axes: str = "RFU"
+    turntable_deg: np.ndarray | None = None
+    notes: list[str] = field(default_factory=list)
+    quantum: tuple[float, float] | None = None  #: (rad, m/s) of one count, when the format is integer
+
+
+@dataclass
+class GnssPart:
+    """Position fixes of the antenna: WGS-84 lat/lon (deg), ellipsoidal height (m)."""
+
+    stamps: Stamps
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
+    h_ell_m: np.ndarray
+    fix: np.ndarray
+    sep_m: np.ndarray | None = None  #: geoid separation the recording states (GGA, BESTPOS undulation)
+    n_sat: np.ndarray | None = None
+    hdop: np.ndarray | None = None
+    notes: list[str] = field(default_factory=list)
+    raw_nmea: bytes | None = None  #: native gnss.nmea, copied unchanged
+
+
+@dataclass
+class LdvPart:
+    """LDV columns of ``ldv.csv`` (``v_fwd`` or ``fd_hz``, optional ``v_up``, ``quality``)."""
+
+    stamps: Stamps
+    columns: dict[str, np.ndarray]
+    notes: list[str] = field(default_factory=list)
+
+
+def fix_from_sigma(sigma_h_m: np.ndarray) -> np.ndarray:
+    """GGA fix quality from a horizontal 1-σ (m) when the recording has no solution type.
+
+    ≤ 0.05 m: 4 (RTK fixed); ≤ 0.3 m: 5 (RTK float); ≤ 1 m: 2 (differential); else 1 (single).
+    """
+    s = np.asarray(sigma_h_m, dtype=np.float64)
+    return np.select([s <= 0.05, s <= 0.3, s <= 1.0], [4, 5, 2], 1).astype(np.int16)
+
+
+def read_number_table(data: bytes, file: str, min_cols: int, names: list[str] | None = None,
+                      comment: str = "#") -> tuple[np.ndarray, np.ndarray]:
+    """Rows of numbers separated by whitespace or commas (no header).
+
+    Returns
+    -------
+    (values (N, n_cols) float64, line number (N,) of each row)
+
+    Raises
+    ------
+    BundleError
+        A row with too few fields, a field that is not a finite number, an empty file.
+    """
+    text = data.decode("utf-8", "replace")
+    rows, lines = [], []
+    width = None
+    for lineno, raw in enumerate(io.StringIO(text), start=1):
+        s = raw.strip()
+        if not s or s.startswith(comment) or s.startswith("%"):
+            continue
+        parts = s.replace(",", " ").split()
+        if len(parts) < min_cols:
+            raise BundleError(f"expected at least {min_cols} fields, got {len(parts)}", file=file, line=lineno,
+                              field=(names[len(parts)] if names and len(parts) < len(names) else None))
+        if width is None:
+            width = len(parts)
+        parts = parts[:max(min_cols, min(width, len(parts)))]
+        try:
+            vals = [float(p) for p in parts]
+        except ValueError:
+            for k, p in enumerate(parts):
+                try:
+                    float(p)
+                except ValueError:
+                    raise BundleError(f"'{p}' is not a number", file=file, line=lineno,
+                                      field=names[k] if names and k < len(names) else f"column {k + 1}") from None
+        if not all(np.isfinite(vals)):
+            k = int(np.flatnonzero(~np.isfinite(vals))[0])
+            raise BundleError(f"'{parts[k]}' is not a finite number", file=file, line=lineno,
+                              field=names[k] if names and k < len(names) else f"column {k + 1}")
+        if len(vals) < width:
+            vals += [np.nan] * (width - len(vals))
+        rows.append(vals[:width])
+        lines.append(lineno)
+    if not rows:
+        raise BundleError("file holds no data rows", file=file, line=1)
+    return np.array(rows, dtype=np.float64), np.array(lines, dtype=np.int64)
+
+
+def check_increasing(t: np.ndarray, where: np.ndarray, file: str, field: str = "time", unit: str = "line") -> None:
+    """Times must strictly increase; name the first sample that does not."""
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if len(bad):
+        k = int(bad[0]) + 1
+        what = "repeats" if t[k] == t[k - 1] else "goes backwards"
+        msg = f"time {what}: {t[k]:.6f} s after {t[k - 1]:.6f} s"
+        if unit == "line":
+            raise BundleError(msg, file=file, line=int(where[k]), field=field)
+        raise BundleError(f"{unit} {int(where[k])}: {msg}", file=file, field=field)
