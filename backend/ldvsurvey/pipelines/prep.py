@@ -38,10 +38,13 @@ class NavInputs:
     pos0: np.ndarray  # lat, lon (rad), h (m) of the IMU centre at the start
     noise: ImuNoise
     cache: dict = None  # solutions shared between stages of one pipeline run
+    warnings: list = None  # what the preparation had to assume (for the summary)
 
     def __post_init__(self):
         if self.cache is None:
             self.cache = {}
+        if self.warnings is None:
+            self.warnings = []
 
 
 def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
@@ -170,23 +173,59 @@ def nav_inputs(log: DriveLog) -> NavInputs:
                                  file="manifest.json", field="initial.static_s")
     still = [(a, b) for a, b in still if b > static_end + 1.0 or a > static_end]
     still = [(float(t[0]), static_end)] + [(max(a, static_end), b) for a, b in still]
-    pos0 = initial_position(log, t, static_end)
+    warnings = []
+    pos0 = initial_position(log, t, static_end, eta, warnings)
     return NavInputs(log=log, t_s=t, dtheta_rad=imu.dtheta_rad, dvel_mps=imu.dvel_mps, eta_rad=eta,
                      ldv_ok=ok, nu_f_mps=nu_f, nu_u_mps=nu_u, still=still, static_end_s=static_end,
                      pos0=pos0, noise=ImuNoise.from_manifest(m.imu))
 
 
-def initial_position(log: DriveLog, t, static_end) -> np.ndarray:
-    """Start position of the IMU centre: lat, lon (rad), h (m); the manifest's when given, else GNSS."""
+#: fix qualities from best to worst for the start position
+FIX_RANK = (4, 5, 2, 1)
+
+
+def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None) -> np.ndarray:
+    """Start position of the IMU centre: lat, lon (rad), h (m).
+
+    The manifest's ``initial`` position when given (authoritative). Otherwise the GNSS fixes of
+    the static period at the start, of the best fix quality present there (4, 5, 2, 1 in this
+    order), averaged, brought from the antenna to the IMU centre through the lever arm
+    (``gnss.lever_arm_m``, body RFU) and the coarse-aligned attitude of the static period.
+    Without a fix in the static period, the first fix of the best quality in the log is used with
+    a warning (the vehicle may have moved by then).
+    """
     m = log.manifest
     if m.initial.lat_deg is not None and m.initial.lon_deg is not None and m.initial.h_m is not None:
         return np.array([m.initial.lat_deg * RAD, m.initial.lon_deg * RAD, m.initial.h_m])
     g = log.gnss
-    if g is None or not np.any(g.fix > 0):
+    good = None if g is None else (g.fix > 0) & np.isfinite(g.lat_deg)
+    if g is None or not good.any():
         raise ParameterError("no start position: give manifest initial.lat_deg/lon_deg/h_m or a GNSS fix",
                              file="manifest.json", field="initial")
-    k = int(np.flatnonzero(g.fix > 0)[0])
-    return np.array([g.lat_deg[k] * RAD, g.lon_deg[k] * RAD, g.h_m[k] - m.gnss.lever_arm_m[2]])
+    in_static = good & (g.t_s >= t[0] - 0.5) & (g.t_s <= static_end)
+    pool = in_static if in_static.any() else good
+    best = next(q for q in FIX_RANK + tuple(np.unique(g.fix[pool])) if np.any(pool & (g.fix == q)))
+    k = np.flatnonzero(pool & (g.fix == best))
+    if not in_static.any():
+        k = k[:1]
+        if warnings is not None:
+            warnings.append(f"no GNSS fix during the static period: the start position is the first fix of "
+                            f"quality {best} at t={g.t_s[k[0]]:.1f} s")
+    lat = float(np.mean(g.lat_deg[k])) * RAD
+    lon = float(np.mean(g.lon_deg[k])) * RAD
+    h = float(np.mean(g.h_m[k]))
+    lever = np.asarray(m.gnss.lever_arm_m, float)
+    ks = t <= static_end
+    if np.count_nonzero(ks) >= 100:
+        imu = log.imu
+        cbs = None if eta is None else c_bs(eta[ks])
+        c_bn = coarse_align(imu.dtheta_rad[ks], imu.dvel_mps[ks], lat, c_bs=cbs,
+                            turntable_rad=None if eta is None else eta[ks])
+        lev_n = c_bn @ lever  # ENU
+    else:
+        lev_n = np.array([0.0, 0.0, lever[2]])
+    rm, rn = radii(lat)
+    return np.array([lat - lev_n[1] / (rm + h), lon - lev_n[0] / ((rn + h) * np.cos(lat)), h - lev_n[2]])
 
 
 def c_bs_of(inp: NavInputs, alpha_rad: float = 0.0, beta_rad: float = 0.0):

@@ -251,7 +251,7 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
     """Base tilt (if the IMU rotates), then the LDV calibration: given, automatic or nominal."""
     log = inp.log
     m = log.manifest
-    warnings = []
+    warnings = list(inp.warnings)
     est = None
     cbs = None
     if inp.eta_rad is not None:

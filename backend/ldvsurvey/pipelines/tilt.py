@@ -58,7 +58,7 @@ def run(logs, params, progress) -> PipelineResult:
                              "and imu.csv has no turntable_deg", file="imu.csv", field="turntable_deg")
     progress("fine alignment and turntable stops", 0.1)
     est, stops = tilt_stage(inp)
-    warnings = list(est.warnings)
+    warnings = list(inp.warnings) + list(est.warnings)
     sol, c_sn, c_bn, raw = compensated_attitude(inp, est, params, progress)
     osc = oscillation(inp, c_bn, raw)
     if osc is None:
