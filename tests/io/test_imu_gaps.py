@@ -13,6 +13,7 @@ from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.mech import mechanize
 from ldvsurvey.nav.sim import catalog
 from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.pipelines.prep import nav_inputs
 
 
 @pytest.fixture(scope="module")
@@ -82,8 +83,10 @@ def test_long_gap_is_refused_naming_file_line_and_time(drive):
     t, dth, dv = sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps
     keep = np.setdiff1d(np.arange(len(t)), np.arange(10000, 10050))
     f = _with_imu(files, t[keep], dth[keep], dv[keep])
-    with pytest.raises(BundleError) as ei:
-        parse_files(f)
+    log = parse_files(f)  # the bundle stays readable (its quality report shows the gap) ...
+    assert any("too long to bridge" in w for w in log.warnings)
+    with pytest.raises(BundleError) as ei:  # ... but nothing navigates across it
+        nav_inputs(log)
     e = ei.value
     lines = f["imu.csv"].decode().splitlines()
     assert e.file == "imu.csv" and e.field == "t"

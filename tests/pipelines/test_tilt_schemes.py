@@ -90,3 +90,19 @@ def test_no_rotation_falls_back_with_a_warning_and_height_still_runs():
     assert np.abs(err).max() < 3.0
     t = run_pipeline(get("tilt"), [log], {}).summary
     assert t["tilt_observable"] is False and any("not observable" in w for w in t["warnings"])
+
+
+def test_stops_later_in_the_log_make_the_tilt_observable():
+    """The turntable stays parked through the static period and turns 0/180/0 at a later stop."""
+    from ldvsurvey.nav.sim.motion import Drive, Motion
+
+    sc = catalog.height(minutes=10.0, length_m=4000.0, relief_m=5.0)
+    segs = [Static(120.0), Drive(1500.0, 12.0, 15.0), Static(110.0), Drive(3000.0, 12.0, 15.0)]
+    sc = dataclasses.replace(sc, segments=segs, static_s=120.0, alpha_rad=ALPHA, beta_rad=BETA, fix_schedule=[])
+    stop = [p for p in Motion(sc.road, segs, sc.t0_s).pieces if p[2] == "static"][1]
+    sim = simulate_with_table(sc, Stops(stop[0] + 5.0, [0, 180, 0], [0.0, 40.0, 40.0]), seed=4)
+    log = parse_files(bundle_files(sim))
+    est, _ = tilt_stage(nav_inputs(log))
+    assert est.observable and est.pairs and all(a >= stop[0] - 1 for a, _ in est.pairs)
+    assert abs(est.alpha_rad - ALPHA) < 2e-5 and abs(est.beta_rad - BETA) < 2e-5
+    assert abs(est.alpha_rad - ALPHA) <= 3 * est.alpha_sigma_rad + 2e-6

@@ -23,11 +23,14 @@ silently across a gap, so :func:`regularize_imu` is applied where the IMU is par
   * the turntable angle is interpolated linearly.
 
   A warning names the number of gaps, the missing rows and their times.
-- **Long gaps** (more missing rows) are refused with a :class:`BundleError` naming ``imu.csv``,
-  the line after the gap and its time.
+- **Long gaps** (more missing rows) are left in place and listed; the bundle stays readable (its
+  quality report shows them), and every navigation refuses it through :func:`check_no_long_gaps`
+  with a :class:`BundleError` naming ``imu.csv``, the line after the gap and its times.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -41,6 +44,29 @@ MAX_BRIDGE_ROWS = 5
 GAP_FACTOR = 1.5
 
 INCREMENT_COLUMNS = ("dtheta_x", "dtheta_y", "dtheta_z", "dvel_x", "dvel_y", "dvel_z")
+
+
+@dataclass
+class LongGap:
+    """A gap in the IMU time tags too long to bridge: the line after it, the times around it (s)."""
+
+    line: int
+    t_before_s: float
+    t_after_s: float
+    missing_rows: int
+
+    def describe(self) -> str:
+        return (f"{self.t_after_s - self.t_before_s:.3f} s between t={self.t_before_s:.3f} s and "
+                f"t={self.t_after_s:.3f} s (line {self.line}, about {self.missing_rows} missing rows)")
+
+
+def check_no_long_gaps(long_gaps, file: str = "imu.csv") -> None:
+    """Raise a :class:`BundleError` naming the first gap too long to bridge (before integrating)."""
+    if long_gaps:
+        g = long_gaps[0]
+        raise BundleError(f"gap of {g.describe()} in the IMU time tags; at most {MAX_BRIDGE_ROWS} missing rows are "
+                          "bridged: the strapdown integration cannot cross it (cut the log at the gap)",
+                          file=file, line=g.line, field="t")
 
 
 def _reorder(cols: dict, lines: np.ndarray, file: str):
@@ -82,8 +108,10 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
 
     Returns
     -------
-    (cols, lines, warnings, n_bridged_rows) : the regular columns (inserted rows carry the line of
-        the row after their gap), the warnings, and how many rows were inserted.
+    (cols, lines, warnings, n_bridged_rows, long_gaps) : the regular columns (inserted rows carry
+        the line of the row after their gap), the warnings, how many rows were inserted, and the
+        gaps too long to bridge (left as they are: :func:`check_no_long_gaps` refuses them before
+        any integration, while the bundle itself stays readable for its quality report).
     """
     from ldvsurvey.io.csvtable import check_time
 
@@ -94,23 +122,26 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
     t = cols["t"]
     check_time(t, lines, file)
     if len(t) < 3:
-        return cols, lines, warnings, 0
+        return cols, lines, warnings, 0, []
     dt_nom, msg = nominal_interval(t, rate_hz)
     if msg:
         warnings.append(msg)
     dt = np.diff(t)
     gaps = np.flatnonzero(dt > GAP_FACTOR * dt_nom)
     if len(gaps) == 0:
-        return cols, lines, warnings, 0
+        return cols, lines, warnings, 0, []
     k_missing = np.rint(dt[gaps] / dt_nom).astype(int) - 1
     k_missing = np.maximum(k_missing, 1)
-    long_ = np.flatnonzero(k_missing > MAX_BRIDGE_ROWS)
-    if len(long_):
-        g = int(gaps[long_[0]])
-        raise BundleError(f"gap of {dt[g]:.3f} s in the IMU time tags between t={t[g]:.3f} s and t={t[g + 1]:.3f} s "
-                          f"(about {k_missing[long_[0]]} missing rows at {1 / dt_nom:.0f} Hz; at most "
-                          f"{MAX_BRIDGE_ROWS} are bridged): the strapdown integration cannot cross it",
-                          file=file, line=int(lines[g + 1]), field="t")
+    long_ = k_missing > MAX_BRIDGE_ROWS
+    long_gaps = [LongGap(int(lines[g + 1]), float(t[g]), float(t[g + 1]), int(k))
+                 for g, k in zip(gaps[long_], k_missing[long_])]
+    if long_gaps:
+        warnings.append(f"{file}: {len(long_gaps)} gap(s) in the IMU time tags too long to bridge (more than "
+                        f"{MAX_BRIDGE_ROWS} missing rows), the first {long_gaps[0].describe()}: navigation "
+                        "pipelines refuse this log")
+    gaps, k_missing = gaps[~long_], k_missing[~long_]
+    if len(gaps) == 0:
+        return cols, lines, warnings, 0, long_gaps
     dv = np.column_stack([cols[c] for c in ("dvel_x", "dvel_y", "dvel_z")])
     dv_norm = np.linalg.norm(dv, axis=1)
     n = len(t)
@@ -170,4 +201,4 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         how.append(f"{modes['accumulated']} whose next row accumulated the gap, split evenly over it")
     warnings.append(f"{file}: {len(times)} gap(s) in the IMU time tags bridged, {total} missing row(s) in all, "
                     f"after {listed}{more}; {'; '.join(how)}")
-    return out, new_lines, warnings, total
+    return out, new_lines, warnings, total, long_gaps

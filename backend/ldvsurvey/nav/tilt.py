@@ -16,7 +16,9 @@ so encoder jitter of a count or two is harmless.
 
 α, β are observable when η takes different values within one still interval (the *diversity*
 1 − |mean e^{iη}|² of the samples, 0 for one angle, 1 for two angles 180° apart or a full turn).
-Their 1-σ is the larger of (a) the leave-one-block-out jackknife spread (blocks of equal length
+A linear drift of the level over each interval is fitted beside (the vehicle settling, or the
+filter relevelling at a stop after a drive).
+The 1-σ of α, β is the larger of (a) the leave-one-block-out jackknife spread (blocks of equal length
 in each interval, so a correlated attitude error counts once per block) and (b) the filter's
 horizontal accelerometer-bias σ / g, which is the part of the level error fixed in the sensor
 frame and therefore inseparable from the tilt.
@@ -73,19 +75,13 @@ class TiltEstimate:
     beta_rad: float
     alpha_sigma_rad: float | None
     beta_sigma_rad: float | None
-    pairs: list = field(default_factory=list)  # [(t1, t2)] stops about 180° apart in one still interval
+    pairs: list = field(default_factory=list)  # [(t1, t2)] consecutive stops ~180° apart in one still interval
     observable: bool = True
     n_intervals: int = 0
     n_samples: int = 0
     diversity: float = 0.0
     rms_residual_rad: float | None = None
     warnings: list = field(default_factory=list)
-
-
-def _up_b(p):
-    """Unit up vector in b from (pitch, roll) (3-1-2 convention: third row of C_b^n)."""
-    th, ga = p
-    return np.array([-np.cos(th) * np.sin(ga), np.sin(th), np.cos(th) * np.cos(ga)])
 
 
 def diversity(eta_rad) -> float:
@@ -96,28 +92,36 @@ def diversity(eta_rad) -> float:
     return float(1.0 - abs(np.mean(np.exp(1j * eta))) ** 2)
 
 
+NG = 4  # parameters per interval: pitch, roll and their linear drift over the interval
+
+
 def _fit(groups, x0):
-    """Gauss-Newton fit of (α, β, (pitch, roll) per group) to u_s = C_b^s(η; α, β) u_b."""
+    """Gauss-Newton fit of (α, β, per interval pitch, roll and their linear drift) to
+    u_s = C_b^s(η; α, β) u_b(τ); τ ∈ [−1, 1] over each interval. The drift takes up a slowly
+    changing level of the vehicle or of the filter's solution (relevelling after a drive)."""
     x = np.array(x0, float)
     ng = len(groups)
+    npar = 2 + NG * ng
+    eps = 1e-7
     for _ in range(20):
         rows, res = [], []
         a, b = x[0], x[1]
-        for i, (eta, u_s) in enumerate(groups):
-            p = x[2 + 2 * i:4 + 2 * i]
-            ub = _up_b(p)
-            c = c_bs(eta, a, b)
-            r = u_s - c @ ub
-            eps = 1e-7
-            jac = np.zeros((len(eta), 3, 2 + 2 * ng))
-            jac[:, :, 0] = (c_bs(eta, a + eps, b) @ ub - c @ ub) / eps
-            jac[:, :, 1] = (c_bs(eta, a, b + eps) @ ub - c @ ub) / eps
-            for j in range(2):
+        for i, (eta, u_s, tau) in enumerate(groups):
+            p = x[2 + NG * i:2 + NG * (i + 1)]
+
+            def model(pp, aa=a, bb=b):
+                return np.einsum("kij,kj->ki", c_bs(eta, aa, bb), _up_b_series(pp, tau))
+
+            m0 = model(p)
+            jac = np.zeros((len(eta), 3, npar))
+            jac[:, :, 0] = (model(p, a + eps, b) - m0) / eps
+            jac[:, :, 1] = (model(p, a, b + eps) - m0) / eps
+            for j in range(NG):
                 dp = p.copy()
                 dp[j] += eps
-                jac[:, :, 2 + 2 * i + j] = (c @ _up_b(dp) - c @ ub) / eps
-            rows.append(jac.reshape(-1, 2 + 2 * ng))
-            res.append(r.reshape(-1))
+                jac[:, :, 2 + NG * i + j] = (model(dp) - m0) / eps
+            rows.append(jac.reshape(-1, npar))
+            res.append((u_s - m0).reshape(-1))
         jm = np.vstack(rows)
         rv = np.concatenate(res)
         dx, *_ = np.linalg.lstsq(jm, rv, rcond=None)
@@ -125,6 +129,13 @@ def _fit(groups, x0):
         if np.abs(dx).max() < 1e-12:
             break
     return x, jm, rv
+
+
+def _up_b_series(p, tau):
+    """Up vectors in b (K, 3) for pitch p0 + p2 τ and roll p1 + p3 τ."""
+    th = p[0] + p[2] * tau
+    ga = p[1] + p[3] * tau
+    return np.column_stack([-np.cos(th) * np.sin(ga), np.sin(th), np.cos(th) * np.cos(ga)])
 
 
 def estimate_tilt(t_s, c_sn, eta_rad, still: list[tuple[float, float]], *, trim_s: float = 1.0,
@@ -153,15 +164,17 @@ def estimate_tilt(t_s, c_sn, eta_rad, still: list[tuple[float, float]], *, trim_
         if len(k) < 10 or diversity(eta[k]) < MIN_DIVERSITY:
             continue
         gi = len(groups)
-        groups.append((eta[k], c_sn[k, 2, :]))
+        tau = 2.0 * (t[k] - t[k[0]]) / max(t[k[-1]] - t[k[0]], 1e-9) - 1.0
+        groups.append((eta[k], c_sn[k, 2, :], tau))
         nb = max(1, int((t[k[-1]] - t[k[0]]) // block_s))
         for part in np.array_split(np.arange(len(k)), nb):
             blocks.append((gi, part))
-    pairs = []
-    if stops:
-        for s1, s2 in zip(stops[:-1], stops[1:]):
-            same = any(a <= s1.t_start_s and s2.t_end_s <= b for a, b in still)
-            if same and abs(abs(s2.eta_rad - s1.eta_rad) % (2 * np.pi) - np.pi) < np.radians(5.0):
+    pairs = []  # consecutive stops about 180° apart within one still interval (for the record)
+    for a, b in still:
+        inside = [Stop(max(s.t_start_s, a), min(s.t_end_s, b), s.eta_rad) for s in stops or []]
+        inside = [s for s in inside if s.t_end_s - s.t_start_s >= 5.0]
+        for s1, s2 in zip(inside[:-1], inside[1:]):
+            if abs(abs(s2.eta_rad - s1.eta_rad) % (2 * np.pi) - np.pi) < np.radians(5.0):
                 pairs.append((s1.t_start_s, s2.t_end_s))
     n = sum(len(g[0]) for g in groups)
     div = (sum(len(g[0]) * diversity(g[0]) for g in groups) / n) if n else 0.0
@@ -171,9 +184,9 @@ def estimate_tilt(t_s, c_sn, eta_rad, still: list[tuple[float, float]], *, trim_
             "interval with stops at different encoder angles or a rotation); α = β = 0 is used, so the "
             "attitude keeps an oscillation of the size of the tilt"])
     x0 = [0.0, 0.0]
-    for e, u in groups:  # level of each interval from the mean up vector brought back to b
+    for e, u, _ in groups:  # level of each interval from the mean up vector brought back to b
         ub = np.mean(np.einsum("kji,kj->ki", c_bs(e), u), axis=0)
-        x0 += [np.arcsin(np.clip(ub[1], -1, 1)), np.arctan2(-ub[0], ub[2])]
+        x0 += [np.arcsin(np.clip(ub[1], -1, 1)), np.arctan2(-ub[0], ub[2]), 0.0, 0.0]
     x, jm, rv = _fit(groups, x0)
     # jackknife over blocks: leave one block out, refit
     est = []
@@ -181,14 +194,14 @@ def estimate_tilt(t_s, c_sn, eta_rad, still: list[tuple[float, float]], *, trim_
         for gi, part in blocks:
             sub = []
             xs = [x[0], x[1]]
-            for j, (e, u) in enumerate(groups):
+            for j, (e, u, tau) in enumerate(groups):
                 if j == gi:
                     keep = np.setdiff1d(np.arange(len(e)), part)
                     if len(keep) < 10 or diversity(e[keep]) < MIN_DIVERSITY:
                         continue
-                    e, u = e[keep], u[keep]
-                sub.append((e, u))
-                xs += list(x[2 + 2 * j:4 + 2 * j])
+                    e, u, tau = e[keep], u[keep], tau[keep]
+                sub.append((e, u, tau))
+                xs += list(x[2 + NG * j:2 + NG * (j + 1)])
             if sub:
                 est.append(_fit(sub, xs)[0][:2])
     if len(est) >= 3:

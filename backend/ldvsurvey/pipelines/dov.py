@@ -11,6 +11,7 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import parse_imu
 from ldvsurvey.io.gdf import parse_gdf
+from ldvsurvey.io.imutime import check_no_long_gaps
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_from_q, q_from_c
 from ldvsurvey.nav.dov import initial_misalignment, propagate
@@ -146,6 +147,7 @@ def run(logs, params, progress) -> PipelineResult:
         if not path.is_file():
             raise ParameterError("no such file", file=str(path), field="imu_nodov")
         imu2, _ = parse_imu(path.read_bytes(), log.manifest)
+        check_no_long_gaps(imu2.long_gaps, path.name)
         if len(imu2.t_s) != len(inp.t_s) or not np.allclose(imu2.t_s, inp.t_s):
             raise ParameterError("imu_nodov must have the same sample times as imu.csv", file=path.name, field="t")
         p_ref = _mechanize(inp.t_s, imu2.dtheta_rad, imu2.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot)

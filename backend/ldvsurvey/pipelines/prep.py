@@ -11,6 +11,7 @@ import numpy as np
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import DriveLog
+from ldvsurvey.io.imutime import check_no_long_gaps
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import radii
@@ -104,12 +105,16 @@ def _quiet(f_b, w_z, ref_idx, f_all=None, w_all=None):
 def _still_intervals(t, speed, ok, min_len_s=3.0, thresh=STILL_SPEED_MPS, f_b=None, w_z=None):
     """Intervals (s) where the vehicle stands still for at least ``min_len_s``.
 
-    Still where the usable LDV speed is below ``thresh``. Stretches where the LDV is unusable
+    Still where the usable LDV speed (1-s running mean) is below ``thresh``. Stretches where the LDV is unusable
     (samples below min_quality carry garbage, not zero) do not end a stop: a stretch next to a
     still LDV sample counts as still when the IMU shows neither acceleration nor turning in it
     (``f_b``, ``w_z`` from :func:`_body_signals`), since a vehicle cannot start or stop without.
     """
-    still = ok & (np.abs(speed) < thresh)
+    from scipy.ndimage import uniform_filter1d
+
+    # the 1-s running mean: LDV noise of a few cm/s must not chop a stop into slivers
+    w = max(1, int(round(1.0 / np.median(np.diff(t)))))
+    still = ok & (np.abs(uniform_filter1d(speed, w, mode="nearest")) < thresh)
     if f_b is not None:
         edges = np.flatnonzero(np.diff(np.r_[0, (~ok).astype(int), 0]))
         n = len(t)
@@ -152,6 +157,7 @@ def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0) -> fl
 def nav_inputs(log: DriveLog) -> NavInputs:
     """Prepare the navigation inputs of a bundle (detects still periods, finds the start position)."""
     imu = log.imu
+    check_no_long_gaps(imu.long_gaps)  # never integrate across a gap
     t = imu.t_s
     m = log.manifest
     eta = np.unwrap(np.radians(imu.turntable_deg)) if imu.turntable_deg is not None else None
