@@ -29,7 +29,8 @@ def _stops(sim):
 
 
 def _inject(sim, rng):
-    """Bursts of garbage below min_quality: at the very start, inside both stops, and while driving."""
+    """Bursts of garbage below min_quality: at the very start, inside both stops, and while driving;
+    and a few single spikes flagged good."""
     t, v, q = sim.ldv_t_s, sim.ldv_v_fwd, sim.ldv_quality
     (s0, e0), (s1, e1) = _stops(sim)
     bursts = [(s0, s0 + 12.0, "stale"), (s0 + 40.0, s0 + 43.0, "zeros"), (s0 + 80.0, s0 + 80.4, "spikes"),
@@ -43,6 +44,10 @@ def _inject(sim, rng):
             v[k] = rng.choice([-1.0, 1.0], k.sum()) * rng.uniform(2.0, 40.0, k.sum())
         else:  # a stale value from the drive, repeated
             v[k] = 11.7
+    # isolated spikes flagged good, in both stops
+    for tk in (s0 + 60.0, s1 + 10.0, s1 + 33.3):
+        i = int(np.argmin(np.abs(t - tk)))
+        v[i] = 25.0
     return sim
 
 

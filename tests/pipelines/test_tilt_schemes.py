@@ -2,7 +2,8 @@
 
 Acceptance: α, β within 2e-5 rad for every scheme that makes them observable, with a 1-σ that
 covers the error; a scheme that does not (the turntable never turns while still) falls back to
-α = β = 0 with a warning, and the other rotating-IMU pipelines still run.
+α = β = 0 with a warning, and the other rotating-IMU pipelines still run (the tilt pipeline itself
+refuses: it has no number to give).
 """
 
 import dataclasses
@@ -88,8 +89,11 @@ def test_no_rotation_falls_back_with_a_warning_and_height_still_runs():
     err = h["h_m"] - np.interp(h["t_s"], sim.imu.t_s, sim.imu.h_m)
     # α = β = 0 leaves a level error of |(α, β)| ≈ 7e-4 rad: about 0.7 mm per m driven (1.5 km out)
     assert np.abs(err).max() < 3.0
-    t = run_pipeline(get("tilt"), [log], {}).summary
-    assert t["tilt_observable"] is False and any("not observable" in w for w in t["warnings"])
+    # the tilt pipeline itself has no number to give: a clear error rather than a made-up zero
+    from ldvsurvey.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="no rotation of the turntable"):
+        run_pipeline(get("tilt"), [log], {})
 
 
 def test_stops_later_in_the_log_make_the_tilt_observable():

@@ -105,16 +105,17 @@ def _quiet(f_b, w_z, ref_idx, f_all=None, w_all=None):
 def _still_intervals(t, speed, ok, min_len_s=3.0, thresh=STILL_SPEED_MPS, f_b=None, w_z=None):
     """Intervals (s) where the vehicle stands still for at least ``min_len_s``.
 
-    Still where the usable LDV speed (1-s running mean) is below ``thresh``. Stretches where the LDV is unusable
+    Still where the usable LDV speed (1-s running median) is below ``thresh``. Stretches where the LDV is unusable
     (samples below min_quality carry garbage, not zero) do not end a stop: a stretch next to a
     still LDV sample counts as still when the IMU shows neither acceleration nor turning in it
     (``f_b``, ``w_z`` from :func:`_body_signals`), since a vehicle cannot start or stop without.
     """
-    from scipy.ndimage import uniform_filter1d
+    from scipy.ndimage import median_filter
 
-    # the 1-s running mean: LDV noise of a few cm/s must not chop a stop into slivers
+    # the 1-s running median: LDV noise of a few cm/s, and an isolated spike flagged good, must not
+    # chop a stop into slivers
     w = max(1, int(round(1.0 / np.median(np.diff(t)))))
-    still = ok & (np.abs(uniform_filter1d(speed, w, mode="nearest")) < thresh)
+    still = ok & (np.abs(median_filter(speed, size=w, mode="nearest")) < thresh)
     if f_b is not None:
         edges = np.flatnonzero(np.diff(np.r_[0, (~ok).astype(int), 0]))
         n = len(t)

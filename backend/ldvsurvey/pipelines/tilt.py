@@ -58,6 +58,9 @@ def run(logs, params, progress) -> PipelineResult:
                              "and imu.csv has no turntable_deg", file="imu.csv", field="turntable_deg")
     progress("fine alignment and turntable stops", 0.1)
     est, stops = tilt_stage(inp)
+    if not est.observable:  # the other pipelines go on with α = β = 0; this one has nothing to report
+        raise ParameterError("no rotation of the turntable while the vehicle stood still: " + est.warnings[0],
+                             file="imu.csv", field="turntable_deg")
     warnings = list(inp.warnings) + list(est.warnings)
     sol, c_sn, c_bn, raw = compensated_attitude(inp, est, params, progress)
     osc = oscillation(inp, c_bn, raw)
