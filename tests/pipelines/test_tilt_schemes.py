@@ -89,6 +89,9 @@ def test_no_rotation_falls_back_with_a_warning_and_height_still_runs():
     err = h["h_m"] - np.interp(h["t_s"], sim.imu.t_s, sim.imu.h_m)
     # α = β = 0 leaves a level error of |(α, β)| ≈ 7e-4 rad: about 0.7 mm per m driven (1.5 km out)
     assert np.abs(err).max() < 3.0
+    # every pipeline that goes on says so in its summary
+    cal = run_pipeline(get("calibrate"), [log], {}).summary
+    assert any("base tilt not observable" in w for w in cal["warnings"])
     # the tilt pipeline itself has no number to give: a clear error rather than a made-up zero
     from ldvsurvey.errors import ParameterError
 

@@ -12,6 +12,7 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.io.imutime import check_no_long_gaps
+from ldvsurvey.pipelines.base import warn
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import radii
@@ -182,6 +183,8 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     still = [(float(t[0]), static_end)] + [(max(a, static_end), b) for a, b in still]
     warnings = []
     pos0 = initial_position(log, t, static_end, eta, warnings)
+    for w in warnings:
+        warn(w)
     return NavInputs(log=log, t_s=t, dtheta_rad=imu.dtheta_rad, dvel_mps=imu.dvel_mps, eta_rad=eta,
                      ldv_ok=ok, nu_f_mps=nu_f, nu_u_mps=nu_u, still=still, static_end_s=static_end,
                      pos0=pos0, noise=ImuNoise.from_manifest(m.imu))

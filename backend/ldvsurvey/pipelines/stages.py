@@ -9,6 +9,7 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
+from ldvsurvey.pipelines.base import warn
 from ldvsurvey.pipelines.prep import NavInputs, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate, pipeline_cfg
 
 RAD = np.pi / 180.0
@@ -64,6 +65,8 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
         est2 = _tilt_from(inp, sol, inp.still, stops_all)
         if est2.observable or est is None:
             est, stops = est2, stops_all
+    for w in est.warnings:
+        warn(w)
     inp.cache[key] = (est, stops)
     return est, stops
 
