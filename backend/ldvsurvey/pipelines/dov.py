@@ -115,6 +115,10 @@ def run(logs, params, progress) -> PipelineResult:
         raise ParameterError("the DOV pipeline needs GNSS for the reference trajectory (no gnss.nmea)",
                              file="gnss.nmea")
     warnings += inp.warnings
+    if inp.c_bn0 is not None:
+        raise ParameterError("the DOV pipeline's free-inertial mechanizations need a static period at the start "
+                             "(the log begins on the move): give manifest initial.static_s for a log that has one",
+                             file="manifest.json", field="initial.static_s")
     rot = None
     if inp.eta_rad is not None:  # a rotating IMU: C_b^s from the encoder and the base tilt
         progress("base tilt of the rotating IMU", 0.03)
