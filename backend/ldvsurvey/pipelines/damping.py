@@ -51,7 +51,7 @@ def run(logs, params, progress) -> PipelineResult:
     if m.ldv.kind != "water":
         raise ParameterError(f"damping needs a water-track LDV: the manifest says ldv.kind '{m.ldv.kind}'",
                              file="manifest.json", field="ldv.kind")
-    if m.initial.static_s is None:
+    if not m.initial.static_s:  # absent, or 0 (a log that starts under way)
         raise ParameterError("a vessel log needs manifest initial.static_s (the moored period): the water LDV "
                              "cannot tell when the vessel stands still", file="manifest.json",
                              field="initial.static_s")

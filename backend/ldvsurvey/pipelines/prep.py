@@ -87,8 +87,8 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     static_s = m.initial.static_s
     start = None
     warnings = []
-    if static_s is None:
-        static_end = detect_static_start(t, f_b, w_z, nu_f, ok)
+    if static_s is None or static_s == 0:  # not given: detect; 0: the log starts on the move
+        static_end = detect_static_start(t, f_b, w_z, nu_f, ok) if static_s is None else float(t[0])
         if static_end - t[0] < 30.0:  # no static start: align on the move (or say what is missing)
             start = moving_start(log, t, eta, nu_f, ok)
             static_end = float(t[0])
