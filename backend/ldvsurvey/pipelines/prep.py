@@ -170,6 +170,7 @@ DOV_NOISE_MGAL = 1.0
 #: (Coriolis and mounting neglected), heading from a GNSS course over 1 s; velocity from the LDV
 MOVING_ATT_SIGMA0_RAD = (0.3 * RAD, 0.3 * RAD, 3.0 * RAD)
 MOVING_VEL_SIGMA0_MPS = 0.3
+MOVING_POS_SIGMA0_M = 3.0  #: a single-point fix carried back along the road
 
 
 def pipeline_cfg(**kw) -> FilterConfig:
@@ -188,7 +189,8 @@ def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssA
     v0 = np.zeros(3)
     if inp.v0_n is not None:  # aligned on the move: a coarser start
         v0 = inp.v0_n
-        cfg = dataclasses.replace(cfg, att_sigma0_rad=MOVING_ATT_SIGMA0_RAD, vel_sigma0_mps=MOVING_VEL_SIGMA0_MPS)
+        cfg = dataclasses.replace(cfg, att_sigma0_rad=MOVING_ATT_SIGMA0_RAD, vel_sigma0_mps=MOVING_VEL_SIGMA0_MPS,
+                                  pos_sigma0_m=max(cfg.pos_sigma0_m, MOVING_POS_SIGMA0_M))
     return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q0, v0, inp.pos0, inp.noise, cfg,
                       c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth)
 

@@ -154,29 +154,48 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
     return np.array([lat - lev_n[1] / (rm + h), lon - lev_n[0] / ((rn + h) * np.cos(lat)), h - lev_n[2]])
 
 
+#: baseline (s) of the GNSS course at the start, by fix quality: long enough for the fix noise
+#: (1-σ white part 1 cm … 0.2 m) to stay below ~0.1° at 10 m/s, short enough for the road's curvature
+COURSE_BASELINE_S = {4: 1.0, 5: 2.0, 2: 3.0, 1: 5.0}
+
+
 def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     """Start state of a log that begins on the move: C_b^n, v^n (m/s) and the IMU-centre position
     (lat, lon rad, h m) at the first IMU sample, or a ParameterError naming what is missing.
 
-    Heading from the GNSS course over ground (the first good fixes, quality 4, 5 or 2, while
-    faster than 2 m/s), level from the specific force less the LDV-measured acceleration (see
-    :func:`ldvsurvey.nav.align.align_in_motion`), velocity from the LDV speed through the
-    nominal mounting, position from the fixes interpolated to the start and the lever arm.
+    Heading from the GNSS course over ground between two fixes of the best quality present in the
+    first 30 s (quality 4, 5, 2, then 1; a baseline of :data:`COURSE_BASELINE_S`, the vehicle
+    faster than 2 m/s), carried back to the start with the body's turn rate from the gyros; level
+    from the specific force less the LDV-measured acceleration over the first second (see
+    :func:`ldvsurvey.nav.align.align_in_motion`); velocity from the LDV speed through the nominal
+    mounting; position from the first of those fixes less the lever arm and the distance driven
+    since the start (straight line at the start velocity).
     """
     from ldvsurvey.nav.align import align_in_motion
     from ldvsurvey.nav.errmodel import c_db
 
     m = log.manifest
     g = log.gnss
-    what = ("the log has no static period at the start (manifest initial.static_s not given and the IMU or "
-            "the LDV shows motion within 30 s), and an alignment on the move needs ")
+    what = ("the log has no static period at the start (manifest initial.static_s not given or 0, and the IMU "
+            "or the LDV shows motion within 30 s), and an alignment on the move needs ")
     if g is None:
         raise ParameterError(what + "GNSS fixes (no gnss.nmea)", file="gnss.nmea", field="initial.static_s")
-    good = np.flatnonzero(np.isin(g.fix, (4, 5, 2)) & np.isfinite(g.lat_deg) & (g.t_s <= t[0] + 30.0))
-    if len(good) < 2 or g.t_s[good[1]] - g.t_s[good[0]] > 5.0:
-        raise ParameterError(what + "two good GNSS fixes (quality 4, 5 or 2) within the first 30 s",
+    early = np.isfinite(g.lat_deg) & (g.t_s >= t[0] - 0.5) & (g.t_s <= t[0] + 30.0)
+    pair = None
+    for q in (4, 5, 2, 1):
+        idx = np.flatnonzero(early & (g.fix == q))
+        for i in idx:
+            later = idx[(g.t_s[idx] >= g.t_s[i] + COURSE_BASELINE_S[q] - 0.01)
+                        & (g.t_s[idx] <= g.t_s[i] + COURSE_BASELINE_S[q] + 1.01)]
+            if len(later):
+                pair = (int(i), int(later[0]))
+                break
+        if pair:
+            break
+    if pair is None:
+        raise ParameterError(what + "two GNSS fixes of one quality a few seconds apart within the first 30 s",
                              file="gnss.nmea", field="fix_quality")
-    k = good[:2]
+    k = np.array(pair)
     lat, lon, h = np.radians(g.lat_deg[k]), np.radians(g.lon_deg[k]), g.h_m[k]
     rm, rn = radii(lat[0])
     de = (lon[1] - lon[0]) * (rn + h[0]) * np.cos(lat[0])
@@ -187,21 +206,32 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
                              "course over ground)", file="gnss.nmea", field="initial.static_s")
     course = float(np.arctan2(de, dn))
     kw = t <= t[0] + window_s
-    if np.count_nonzero(kw) < 10 or not ok[kw].all():
+    use = kw & ok
+    if np.count_nonzero(use) < 0.5 * np.count_nonzero(kw) or np.count_nonzero(use) < 10:
         raise ParameterError(what + "a usable LDV speed during the first second", file="ldv.csv",
                              field="initial.static_s")
     nom = m.ldv.nominal
     cdb = c_db(nom.pitch_deg * RAD, nom.heading_deg * RAD)
-    v = nu_f[kw] / nom.scale
-    slope, v0 = np.polyfit(t[kw] - t[0], v, 1)
+    slope, v0 = np.polyfit(t[use] - t[0], nu_f[use] / nom.scale, 1)
     dur = float(t[kw][-1] - t[0]) + float(np.median(np.diff(t)))
+    # the body's turn between the start and the middle of the course baseline (ψ̇ ≈ −ω_up)
+    t_mid = 0.5 * (g.t_s[k[0]] + g.t_s[k[1]])
+    kt = t <= t_mid
+    dth_z = log.imu.dtheta_rad[kt, 2].copy()
+    if eta is not None:
+        dth_z -= np.diff(eta[kt], prepend=eta[0])
     cbs = None if eta is None else c_bs(eta[kw])
-    c_bn = align_in_motion(log.imu.dtheta_rad[kw], log.imu.dvel_mps[kw], dur, float(np.mean(v)), float(slope),
-                           course, cdb, c_bs=cbs, turntable_rad=None if eta is None else eta[kw])
+    c_bn = align_in_motion(log.imu.dtheta_rad[kw], log.imu.dvel_mps[kw], dur, float(v0 + slope * dur / 2),
+                           float(slope), course, cdb, c_bs=cbs, turntable_rad=None if eta is None else eta[kw])
+    from ldvsurvey.nav.attitude import c_bn_from_euler, euler_from_c_bn
+
+    p0, r0, h_mid = euler_from_c_bn(c_bn)
+    turn = float(np.sum(dth_z)) * np.cos(p0) * np.cos(r0)  # about the up axis, over (t0, t_mid]
+    c_bn = c_bn_from_euler(p0, r0, h_mid + turn)
     v_n = c_bn @ (cdb @ np.array([0.0, v0, 0.0]))
-    # antenna at the start: linear in time through the first two fixes, then the lever arm
-    w = (t[0] - g.t_s[k[0]]) / dt_g
-    lat0, lon0, h0 = (a[0] + w * (a[1] - a[0]) for a in (lat, lon, h))
     lev_n = c_bn @ np.asarray(m.gnss.lever_arm_m, float)
-    pos0 = np.array([lat0 - lev_n[1] / (rm + h0), lon0 - lev_n[0] / ((rn + h0) * np.cos(lat0)), h0 - lev_n[2]])
+    back = v_n * (g.t_s[k[0]] - t[0])  # driven from the start to the first fix (straight line)
+    pos0 = np.array([lat[0] - (lev_n[1] + back[1]) / (rm + h[0]),
+                     lon[0] - (lev_n[0] + back[0]) / ((rn + h[0]) * np.cos(lat[0])),
+                     h[0] - lev_n[2] - back[2]])
     return c_bn, v_n, pos0
