@@ -81,7 +81,7 @@ def test_a_row_that_accumulated_the_gap_is_split_evenly(drive):
 def test_long_gap_is_refused_naming_file_line_and_time(drive):
     sim, files = drive
     t, dth, dv = sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps
-    keep = np.setdiff1d(np.arange(len(t)), np.arange(10000, 10050))
+    keep = np.setdiff1d(np.arange(len(t)), np.arange(10000, 10050))  # 0.5 s
     f = _with_imu(files, t[keep], dth[keep], dv[keep])
     log = parse_files(f)  # the bundle stays readable (its quality report shows the gap) ...
     assert any("too long to bridge" in w for w in log.warnings)
@@ -98,6 +98,7 @@ def test_time_tag_jitter_is_not_a_gap(drive):
     sim, files = drive
     rng = np.random.default_rng(1)
     t = sim.imu.t_s + rng.uniform(-2e-3, 2e-3, len(sim.imu.t_s))  # ±2 ms at 100 Hz
+    t[[3000, 7000, 11000]] += 3.5e-3  # and a few tags off by 5.5 ms: one interval 1.6 Δt long
     log = parse_files(_with_imu(files, t, sim.dtheta_rad, sim.dvel_mps))
     assert log.imu.bridged_rows == 0 and not any("gap" in x for x in log.warnings)
     np.testing.assert_array_equal(log.imu.dvel_mps, sim.dvel_mps)
