@@ -45,3 +45,47 @@ def coarse_align(dtheta_rad, dvel_mps, lat_rad: float, c_bs=None, turntable_rad=
     f_n = np.array([0.0, 0.0, 1.0])
     w_n = np.array([0.0, OMEGA_IE * np.cos(lat_rad), OMEGA_IE * np.sin(lat_rad)])
     return _triad(f_n, w_n) @ _triad(f_b, w_b).T
+
+
+def align_in_motion(dtheta_rad, dvel_mps, duration_s: float, v_fwd_mps: float, a_fwd_mps2: float,
+                    course_rad: float, c_db_mount, c_bs=None, turntable_rad=None):
+    """Coarse C_b^n of a vehicle already moving, from a short stretch (about a second).
+
+    The level comes from the mean specific force with the vehicle's own acceleration removed:
+    f^b = a^b − g^b, with a^b = C_d^b [0, v̇, 0] + ω_ib^b × v^b and v^b = C_d^b [0, v, 0] (the LDV
+    speed and its rate along the travel axis d, which the LDV mounting C_d^b ties to the body).
+    The heading turns the body's travel direction onto the course over ground (from GNSS).
+    Neglected: the Coriolis and transport terms (2 ω_ie v ≈ 2e-3 m/s² at 15 m/s, a level error
+    ≈ 2e-4 rad) and side-slip: the fine alignment is the filter's.
+
+    Parameters
+    ----------
+    dtheta_rad, dvel_mps : (K, 3) increments of the stretch in the sensor frame.
+    duration_s : length of the stretch (s). v_fwd_mps, a_fwd_mps2 : mean travel speed and its rate.
+    course_rad : course over ground (clockwise from north). c_db_mount : (3, 3) C_d^b.
+    c_bs, turntable_rad : as in :func:`coarse_align` for a rotating IMU.
+
+    Returns
+    -------
+    c_bn : (3, 3) body attitude C_b^n.
+    """
+    from ldvsurvey.nav.attitude import c_bn_from_euler
+
+    dth = np.asarray(dtheta_rad, float)
+    dv = np.asarray(dvel_mps, float)
+    if c_bs is not None:
+        dth = np.einsum("kji,kj->ki", c_bs, dth)
+        dv = np.einsum("kji,kj->ki", c_bs, dv)
+        if turntable_rad is not None:
+            dth[:, 2] -= np.diff(np.unwrap(turntable_rad), prepend=turntable_rad[0])
+    f_b = dv.sum(axis=0) / duration_s
+    w_b = dth.sum(axis=0) / duration_s
+    fwd_b = c_db_mount @ np.array([0.0, 1.0, 0.0])
+    a_b = a_fwd_mps2 * fwd_b + np.cross(w_b, v_fwd_mps * fwd_b)
+    up_b = f_b - a_b
+    up_b /= np.linalg.norm(up_b)
+    pitch = np.arcsin(np.clip(up_b[1], -1.0, 1.0))
+    roll = np.arctan2(-up_b[0], up_b[2])
+    v_n0 = c_bn_from_euler(pitch, roll, 0.0) @ fwd_b
+    heading = course_rad - np.arctan2(v_n0[0], v_n0[1])
+    return c_bn_from_euler(pitch, roll, heading)

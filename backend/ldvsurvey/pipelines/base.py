@@ -7,6 +7,7 @@ keys (``pipeline``, ``inputs``, ``parameters``, ``software_version``, ...).
 
 from __future__ import annotations
 
+import contextvars
 import datetime as dt
 import hashlib
 import io
@@ -21,6 +22,18 @@ import numpy as np
 
 from ldvsurvey import FORMAT_VERSION, __version__
 from ldvsurvey.errors import ParameterError
+
+
+#: warnings raised by shared stages (preparation, base tilt) during one pipeline run; every
+#: pipeline's summary gets them, whether or not the pipeline passes them on itself
+_RUN_WARNINGS: contextvars.ContextVar = contextvars.ContextVar("ldvsurvey_run_warnings", default=None)
+
+
+def warn(message: str) -> None:
+    """Record a warning for the summary of the pipeline run in progress (no-op outside a run)."""
+    bucket = _RUN_WARNINGS.get()
+    if bucket is not None and message not in bucket:
+        bucket.append(message)
 
 
 class Cancelled(Exception):
@@ -156,7 +169,12 @@ def run_pipeline(pipe: Pipeline, logs: list, params: dict, progress: Progress | 
         raise ParameterError(f"'{pipe.name}' takes exactly one bundle, got {len(logs)}", field="BUNDLE")
     started = dt.datetime.now(dt.timezone.utc)
     t0 = time.perf_counter()
-    result = pipe.func(logs, values, progress)
+    token = _RUN_WARNINGS.set([])
+    try:
+        result = pipe.func(logs, values, progress)
+        staged = list(_RUN_WARNINGS.get())
+    finally:
+        _RUN_WARNINGS.reset(token)
     inputs = []
     for log in logs:
         for name, data in sorted(log.files.items()):
@@ -165,6 +183,7 @@ def run_pipeline(pipe: Pipeline, logs: list, params: dict, progress: Progress | 
     for log in logs:
         warnings += list(log.warnings)
     warnings += result.warnings
+    warnings += [w for w in staged if w not in warnings]
     common = {"pipeline": pipe.name, "format_version": FORMAT_VERSION, "inputs": inputs,
               "parameters": values, "software_version": __version__,
               "started_at": started.isoformat(timespec="seconds"),

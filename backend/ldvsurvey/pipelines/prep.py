@@ -5,12 +5,17 @@ Shared by the pipelines. Knows the bundle model and the numerical core, nothing 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import DriveLog
+from ldvsurvey.io.imutime import check_no_long_gaps
+from ldvsurvey.pipelines.base import warn
+from ldvsurvey.pipelines.start import (_body_signals, _still_intervals, detect_static_start, initial_position,
+                                      moving_start)
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import radii
@@ -38,10 +43,15 @@ class NavInputs:
     pos0: np.ndarray  # lat, lon (rad), h (m) of the IMU centre at the start
     noise: ImuNoise
     cache: dict = None  # solutions shared between stages of one pipeline run
+    warnings: list = None  # what the preparation had to assume (for the summary)
+    c_bn0: np.ndarray | None = None  # C_b^n at the start when aligned on the move (no static start)
+    v0_n: np.ndarray | None = None  # velocity (ENU, m/s) at the start when aligned on the move
 
     def __post_init__(self):
         if self.cache is None:
             self.cache = {}
+        if self.warnings is None:
+            self.warnings = []
 
 
 def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
@@ -64,52 +74,44 @@ def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
     return ok, nu_f, nu_u
 
 
-def _still_intervals(t, speed, ok, min_len_s=3.0, thresh=0.03):
-    """Intervals (s) where the LDV speed stays below ``thresh`` m/s for at least ``min_len_s``."""
-    still = ok & (np.abs(speed) < thresh)
-    out = []
-    edges = np.flatnonzero(np.diff(np.r_[0, still.astype(int), 0]))
-    for a, b in zip(edges[::2], edges[1::2]):
-        if t[b - 1] - t[a] >= min_len_s:
-            out.append((float(t[a]) + 0.5, float(t[b - 1]) - 0.5))
-    return out
-
-
 def nav_inputs(log: DriveLog) -> NavInputs:
     """Prepare the navigation inputs of a bundle (detects still periods, finds the start position)."""
     imu = log.imu
+    check_no_long_gaps(imu.long_gaps)  # never integrate across a gap
     t = imu.t_s
     m = log.manifest
     eta = np.unwrap(np.radians(imu.turntable_deg)) if imu.turntable_deg is not None else None
     ok, nu_f, nu_u = _interp_ldv(log, t)
-    still = _still_intervals(t, nu_f, ok)
+    f_b, w_z = _body_signals(t, imu.dtheta_rad, imu.dvel_mps, eta)
+    still = _still_intervals(t, nu_f, ok, f_b=f_b, w_z=w_z)
     static_s = m.initial.static_s
-    if static_s is None:
-        first = still[0] if still and still[0][0] <= t[0] + 5.0 else None
-        if first is None:
-            raise ParameterError("no static period at the start (manifest initial.static_s not given and the "
-                                 "LDV shows motion from the start)", field="initial.static_s")
-        static_end = first[1]
+    start = None
+    warnings = []
+    if static_s is None or static_s == 0:  # not given: detect; 0: the log starts on the move
+        static_end = detect_static_start(t, f_b, w_z, nu_f, ok) if static_s is None else float(t[0])
+        if static_end - t[0] < 30.0:  # no static start: align on the move (or say what is missing)
+            start = moving_start(log, t, eta, nu_f, ok)
+            static_end = float(t[0])
+            warnings.append(f"no static period at the start (the IMU or the LDV shows motion from "
+                            f"t={t[0]:.2f} s): coarse alignment on the move from the GNSS course and the LDV "
+                            "speed, then the filter; expect the first minutes to be less accurate")
     else:
         static_end = float(t[0] + static_s)
         if static_s < 30.0:
             raise ParameterError("the static period is shorter than 30 s: too short to align",
                                  file="manifest.json", field="initial.static_s")
-        still = [(a, b) for a, b in still if b > static_end + 1.0 or a > static_end]
+    still = [(a, b) for a, b in still if b > static_end + 1.0 or a > static_end]
+    if start is None:
         still = [(float(t[0]), static_end)] + [(max(a, static_end), b) for a, b in still]
-    # start position: manifest, else the first GNSS fix
-    if m.initial.lat_deg is not None and m.initial.lon_deg is not None and m.initial.h_m is not None:
-        pos0 = np.array([m.initial.lat_deg * RAD, m.initial.lon_deg * RAD, m.initial.h_m])
+        pos0 = initial_position(log, t, static_end, eta, warnings)
     else:
-        g = log.gnss
-        if g is None or not np.any(g.fix > 0):
-            raise ParameterError("no start position: give manifest initial.lat_deg/lon_deg/h_m or a GNSS fix",
-                                 file="manifest.json", field="initial")
-        k = int(np.flatnonzero(g.fix > 0)[0])
-        pos0 = np.array([g.lat_deg[k] * RAD, g.lon_deg[k] * RAD, g.h_m[k] - m.gnss.lever_arm_m[2]])
+        pos0 = initial_position(log, t, static_end, eta, warnings, moving=start)
+    for w in warnings:
+        warn(w)
     return NavInputs(log=log, t_s=t, dtheta_rad=imu.dtheta_rad, dvel_mps=imu.dvel_mps, eta_rad=eta,
                      ldv_ok=ok, nu_f_mps=nu_f, nu_u_mps=nu_u, still=still, static_end_s=static_end,
-                     pos0=pos0, noise=ImuNoise.from_manifest(m.imu))
+                     pos0=pos0, noise=ImuNoise.from_manifest(m.imu), warnings=warnings,
+                     c_bn0=None if start is None else start[0], v0_n=None if start is None else start[1])
 
 
 def c_bs_of(inp: NavInputs, alpha_rad: float = 0.0, beta_rad: float = 0.0):
@@ -120,7 +122,9 @@ def c_bs_of(inp: NavInputs, alpha_rad: float = 0.0, beta_rad: float = 0.0):
 
 
 def initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
-    """Coarse alignment over the static period: C_s^n at the start of the log."""
+    """Coarse alignment over the static period (or on the move): C_s^n at the start of the log."""
+    if inp.c_bn0 is not None:
+        return inp.c_bn0 if cbs is None else inp.c_bn0 @ cbs[0].T
     k = inp.t_s <= inp.static_end_s
     if k.sum() < 100:
         raise ParameterError("the static period holds fewer than 100 IMU samples", field="initial.static_s")
@@ -162,6 +166,13 @@ GRAVITY_NOISE_MGAL = 10.0
 DOV_NOISE_MGAL = 1.0
 
 
+#: initial σ of an alignment on the move: level from the specific force less the LDV acceleration
+#: (Coriolis and mounting neglected), heading from a GNSS course over 1 s; velocity from the LDV
+MOVING_ATT_SIGMA0_RAD = (0.3 * RAD, 0.3 * RAD, 3.0 * RAD)
+MOVING_VEL_SIGMA0_MPS = 0.3
+MOVING_POS_SIGMA0_M = 3.0  #: a single-point fix carried back along the road
+
+
 def pipeline_cfg(**kw) -> FilterConfig:
     """The filter configuration the pipelines use (coarse-alignment σ, unmodelled gravity)."""
     base = dict(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD), gravity_noise_mgal=GRAVITY_NOISE_MGAL,
@@ -175,7 +186,12 @@ def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssA
     """Coarse alignment then the filter (ZUPT in still periods) with the given aids."""
     q0 = q_from_c(initial_attitude(inp, cbs))
     cfg = cfg or pipeline_cfg()
-    return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q0, np.zeros(3), inp.pos0, inp.noise, cfg,
+    v0 = np.zeros(3)
+    if inp.v0_n is not None:  # aligned on the move: a coarser start
+        v0 = inp.v0_n
+        cfg = dataclasses.replace(cfg, att_sigma0_rad=MOVING_ATT_SIGMA0_RAD, vel_sigma0_mps=MOVING_VEL_SIGMA0_MPS,
+                                  pos_sigma0_m=max(cfg.pos_sigma0_m, MOVING_POS_SIGMA0_M))
+    return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q0, v0, inp.pos0, inp.noise, cfg,
                       c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth)
 
 
