@@ -130,6 +130,14 @@ class NavSolution:
     epoch_index: np.ndarray = None  # (M+1,) sample index of each epoch (−1: before the first sample)
     epoch_bias: np.ndarray = None  # (M+1, 6) gyro (rad/s) and accel (m/s²) bias estimates
     epoch_cov: np.ndarray | None = None  # (M+1, n, n) when keep_cov
+    #: up component of the specific force (m/s²) over each IMU interval (t_{k−1}, t_k], from the very
+    #: mechanization step the velocity integrates (C_s^n Δv with rotation/sculling and n-frame rotation
+    #: corrections, accelerometer-bias estimate removed; smoothed attitude/bias when ``smoothed``), / Δt
+    f_u_mps2: np.ndarray | None = None
+    #: (C_s^n b̂_a)_U, m/s²: the accelerometer-bias correction removed from f_u_mps2 (add it back for raw f_U)
+    f_u_bias_mps2: np.ndarray | None = None
+    #: time tags of f_u_mps2: interval mid-times (t_{k−1} + t_k)/2, s
+    f_t_s: np.ndarray | None = None
 
     def c_bn(self) -> np.ndarray:
         """Body attitude C_b^n at every sample (C_s^n C_b^s for a rotating IMU)."""
@@ -216,14 +224,14 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
-    (q, v, p, phis, pplus, dts, dxs, par, bias, nis, rej) = kfloop.forward(
+    (q, v, p, f_n, f_b, phis, pplus, dts, dxs, par, bias, nis, rej) = kfloop.forward(
         t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr,
         np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), xi, eta, dg,
         decim, p0, qd, zupt, cfg.zupt_sigma_mps, ldv_ok, nu_f, nu_u, par0, l_ldv,
         np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0)
     if smooth:
         xs, ps = kfloop.rts(phis, pplus, dts, dxs, qd)
-        q, v, p = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p)
+        q, v, p, f_n, f_b = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f_n, f_b)
     else:
         xs, ps = np.zeros_like(dxs), pplus
     sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", ps), 0.0))
@@ -250,4 +258,6 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
                        epoch_t_s=ep_t, epoch_sigma=sig_ep, normalized_innovations=nis,
                        rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},
                        epoch_index=np.arange(m + 1) * decim - 1, epoch_bias=ep_bias,
-                       epoch_cov=ps if keep_cov else None)
+                       epoch_cov=ps if keep_cov else None,
+                       f_u_mps2=np.ascontiguousarray(f_n[:, 2]), f_u_bias_mps2=f_b,
+                       f_t_s=t - 0.5 * np.diff(t, prepend=2 * t[0] - t[1]))

@@ -81,6 +81,8 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
     q_out = np.empty((n_s, 4))
     v_out = np.empty((n_s, 3))
     p_out = np.empty((n_s, 3))
+    f_out = np.empty((n_s, 3))  # mean specific force in n over each interval, as integrated
+    fb_out = np.empty(n_s)  # its up component of the accelerometer-bias correction (C_s^n b̂_a)_U
     phis = np.empty((m + 1, n, n))
     pplus = np.empty((m + 1, n, n))
     dts = np.zeros(m + 1)
@@ -142,7 +144,9 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         q, v, pos = q_new, v_new, p_new
         dth_prev, dv_prev = a_th, a_dv
         fsum += f_n * dt
+        f_out[k] = f_n
         c_sn = q_to_c(q)
+        fb_out[k] = c_sn[2, 0] * b_a[0] + c_sn[2, 1] * b_a[1] + c_sn[2, 2] * b_a[2]
         c_bn = c_sn @ c_bs[k] if rotating else c_sn
         if ldv_ok[k]:
             vd1 = nu_f[k] * par[0]
@@ -268,7 +272,7 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         q_out[k] = q
         v_out[k] = v
         p_out[k] = pos
-    return q_out, v_out, p_out, phis, pplus, dts, dxs, par_out, bias_out, nis, rejected
+    return q_out, v_out, p_out, f_out, fb_out, phis, pplus, dts, dxs, par_out, bias_out, nis, rejected
 
 
 @nb.njit(cache=True)
@@ -296,25 +300,31 @@ def rts(phis, pplus, dts, dxs, qd):
 
 
 @nb.njit(cache=True)
-def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p):
+def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f, fb):
     """Correct the forward nominal at every sample with the smoothed error interpolated in time
-    from x_s(j−1) to x_s(j) + dx_j (the post-update sample of epoch j takes x_s(j))."""
+    from x_s(j−1) to x_s(j) + dx_j (the post-update sample of epoch j takes x_s(j)).
+
+    The specific force f (n frame, per interval) gets the same attitude correction,
+    f ← (I + [φ×]) f, and the smoothed accelerometer-bias correction, f ← f − C_s^n δ∇;
+    ``fb`` (the up component of C_s^n b̂_a) gets + (C_s^n δ∇)_U."""
     n_s = len(t)
     q2 = np.empty_like(q)
     v2 = np.empty_like(v)
     p2 = np.empty_like(p)
-    x = np.zeros(9)
+    f2 = np.empty_like(f)
+    fb2 = np.empty_like(fb)
+    x = np.zeros(15)
     for k in range(n_s):
         if k < m * decim:
             j = k // decim + 1
             if (k + 1) % decim == 0:
-                x[:] = xs[j, :9]
+                x[:] = xs[j, :15]
             else:
                 ta, tb = ep_t[j - 1], ep_t[j]
                 w = (t[k] - ta) / (tb - ta) if tb > ta else 1.0
-                x[:] = (1.0 - w) * xs[j - 1, :9] + w * (xs[j, :9] + dxs[j, :9])
+                x[:] = (1.0 - w) * xs[j - 1, :15] + w * (xs[j, :15] + dxs[j, :15])
         else:
-            x[:] = xs[m, :9]
+            x[:] = xs[m, :15]
         qc = qmul(q_rotvec(x[0:3]), q[k])
         q2[k] = qc / np.sqrt(np.sum(qc * qc))
         v2[k] = v[k] - x[3:6]
@@ -322,4 +332,8 @@ def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p):
         p2[k, 0] = p[k, 0] - x[7] / (rm + p[k, 2])
         p2[k, 1] = p[k, 1] - x[6] / ((rn + p[k, 2]) * np.cos(p[k, 0]))
         p2[k, 2] = p[k, 2] - x[8]
-    return q2, v2, p2
+        c = q_to_c(q2[k])
+        da = c @ x[12:15]
+        f2[k] = f[k] + cross(x[0:3], f[k]) - da
+        fb2[k] = fb[k] + da[2]
+    return q2, v2, p2, f2, fb2
