@@ -30,7 +30,7 @@ def squat_sim():
 @pytest.fixture(scope="module")
 def squat_results(squat_sim):
     sim, log = squat_sim
-    return {name: run_pipeline(get(name), [log], {}) for name in ("calibrate", "height")}
+    return {name: run_pipeline(get(name), [log], {"dov": "none"}) for name in ("calibrate", "height")}
 
 
 def test_calibration_finds_stance_and_compliance(squat_sim, squat_results):

@@ -4,18 +4,20 @@ from __future__ import annotations
 
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.prep import c_bs_of, nav_inputs
+from ldvsurvey.pipelines.plumb import apply_dov, dov_params
 from ldvsurvey.pipelines.stages import RAD, calibration_stage, tilt_stage
 
 PARAMS = [
     Param("calibration_window", "floats", None, "t0,t1 in s of the stretch to use (default: the longest "
           "good-GNSS moving stretch)"),
-]
+] + dov_params("egm2008")
 
 
 def run(logs, params, progress) -> PipelineResult:
     log = logs[0]
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    dov_info, warnings = apply_dov(inp, params, progress)
     window = params["calibration_window"]
     if window is not None and len(window) != 2:
         from ldvsurvey.errors import ParameterError
@@ -39,9 +41,8 @@ def run(logs, params, progress) -> PipelineResult:
         "fix_qualities": list(cal.fixes),
         "segment_t_s": list(cal.window_s), "method": "kalman filter with LDV states: travel direction (pitch, heading, pitch compliance "
                   "per m/s² of forward acceleration) and scale; closed form beside",
-        "closed_form": cal.closed_form, **extra,
+        "closed_form": cal.closed_form, "dov": dov_info, **extra,
     }
-    warnings = []
     if inp.nu_u_mps is not None:
         s["ldv_scale_up"] = cal.scale_up
         s["ldv_scale_up_sigma"] = cal.sigma["scale_up"]

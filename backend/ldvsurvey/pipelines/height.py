@@ -13,9 +13,10 @@ import numpy as np
 from ldvsurvey.nav.filter import forward_accel_mps2
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
+from ldvsurvey.pipelines.plumb import apply_dov, dov_params
 from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_body_velocity, ldv_setup
 
-PARAMS = calibration_params() + [
+PARAMS = calibration_params() + dov_params("egm2008") + [
     Param("initial_h_m", "float", None, "height of the IMU centre at the start (default: manifest, else GNSS)"),
     Param("output_rate_hz", "float", 100.0, "rate of height.csv"),
 ]
@@ -47,8 +48,9 @@ def run(logs, params, progress) -> PipelineResult:
     m = log.manifest
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    dov_info, warnings = apply_dov(inp, params, progress)
     setup = ldv_setup(inp, params, progress)
-    warnings = list(setup.warnings)
+    warnings += setup.warnings
     est, pitch, heading, scale, scale_up = setup.tilt, setup.pitch_rad, setup.heading_rad, setup.scale, setup.scale_up
     progress("navigation (INS/LDV, no GNSS)", 0.5)
     aid = ldv_aid_of(inp, setup)
@@ -77,7 +79,7 @@ def run(logs, params, progress) -> PipelineResult:
     c_l_raw = attitude_at(sol_raw, t_l) if est is not None else c_l
     h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l)
     # GNSS reference (fix 4 or 2) at the IMU centre
-    summary = {"calibration": setup.info, "aiding": "ldv", "tilt_compensated": est is not None}
+    summary = {"calibration": setup.info, "aiding": "ldv", "tilt_compensated": est is not None, "dov": dov_info}
     if est is not None:
         summary.update({"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad})
     h_gnss_col = np.full(len(t_l), np.nan)

@@ -38,6 +38,8 @@ class NavInputs:
     pos0: np.ndarray  # lat, lon (rad), h (m) of the IMU centre at the start
     noise: ImuNoise
     cache: dict = None  # solutions shared between stages of one pipeline run
+    #: (xi_rad, eta_rad, dg_mps2) per IMU sample for the mechanization's gravity (None: normal gravity)
+    gravity: tuple | None = None
 
     def __post_init__(self):
         if self.cache is None:
@@ -173,10 +175,16 @@ def pipeline_cfg(**kw) -> FilterConfig:
 def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssAid | None = None,
              cfg: FilterConfig | None = None, smooth: bool = True, zupt: bool = True) -> NavSolution:
     """Coarse alignment then the filter (ZUPT in still periods) with the given aids."""
-    q0 = q_from_c(initial_attitude(inp, cbs))
+    c0 = initial_attitude(inp, cbs)
+    if inp.gravity is not None:  # the static alignment levels to the plumb line: refer it to the normal
+        from ldvsurvey.nav.attitude import skew
+        from ldvsurvey.nav.dov import initial_misalignment
+
+        c0 = (np.eye(3) + skew(initial_misalignment(inp.gravity[0][0], inp.gravity[1][0], inp.pos0[0]))) @ c0
     cfg = cfg or pipeline_cfg()
-    return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q0, np.zeros(3), inp.pos0, inp.noise, cfg,
-                      c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth)
+    return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q_from_c(c0), np.zeros(3), inp.pos0, inp.noise, cfg,
+                      c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth,
+                      gravity=inp.gravity)
 
 
 def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:
