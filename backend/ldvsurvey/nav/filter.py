@@ -153,6 +153,26 @@ class NavSolution:
         return c if self.c_bs is None else c @ self.c_bs
 
 
+def ldv_spikes(v_mps, ok, threshold_mps: float = 0.3, half_width: int = 4) -> np.ndarray:
+    """Samples flagged usable whose speed jumps away from its neighbours: |v − median of the
+    2·half_width+1 usable samples around it| > threshold (0.3 m/s: a car cannot change speed by
+    that much within a few LDV samples, and it is > 10σ of the LDV noise). Returns a bool mask.
+
+    Samples below min_quality (``ok`` False) carry garbage and take no part in the median.
+    """
+    from scipy.ndimage import median_filter
+
+    v = np.asarray(v_mps, float)
+    ok = np.asarray(ok, bool)
+    out = np.zeros(len(v), bool)
+    idx = np.flatnonzero(ok & np.isfinite(v))
+    if len(idx) < 2 * half_width + 1:
+        return out
+    med = median_filter(v[idx], size=2 * half_width + 1, mode="nearest")
+    out[idx] = np.abs(v[idx] - med) > threshold_mps
+    return out
+
+
 def forward_accel_mps2(t_s, nu_f_mps, ok, window_s: float = 0.5) -> np.ndarray:
     """Forward acceleration (m/s²) along the travel from the LDV speed: the usable samples bridged
     linearly, a centred moving average over ``window_s``, then the central difference over ``window_s``.

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ldvsurvey.nav.filter import forward_accel_mps2
+from ldvsurvey.nav.filter import forward_accel_mps2, ldv_spikes
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
 from ldvsurvey.pipelines.plumb import apply_dov, dov_params
@@ -23,14 +23,19 @@ PARAMS = calibration_params() + dov_params("egm2008") + [
 
 
 def integrate_height(t_l, c_bn_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0,
-                     pitch_k=0.0, accel_fwd=None):
+                     pitch_k=0.0, accel_fwd=None, v_u_bridge=None):
     """Height (m) of the IMU centre at the LDV times by trapezoidal integration of V_U.
 
     The travel direction the LDV sees is pitched by ``pitch + pitch_k · accel_fwd`` (rad; accel_fwd in
-    m/s² at the LDV times, the vehicle's squat and dive)."""
+    m/s² at the LDV times, the vehicle's squat and dive). Unusable LDV samples (below min_quality or
+    spikes) are bridged with ``v_u_bridge`` (m/s, the LDV-aided INS's vertical velocity at the LDV
+    times) when given, else linearly."""
     v_b = ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up, pitch_k, accel_fwd)
     v_u = np.einsum("kj,kj->k", c_bn_l[:, 2, :], v_b)
-    v_u = np.interp(t_l, t_l[ok], v_u[ok])  # bridge samples below min_quality
+    if v_u_bridge is not None:
+        v_u = np.where(ok, v_u, v_u_bridge)
+    else:
+        v_u = np.interp(t_l, t_l[ok], v_u[ok])  # bridge samples below min_quality
     h = h0 + np.concatenate([[0.0], np.cumsum(0.5 * (v_u[1:] + v_u[:-1]) * np.diff(t_l))])
     lev_u = c_bn_l[:, 2, :] @ np.asarray(lever, float)
     return h + lev_u[0] - lev_u
@@ -66,6 +71,7 @@ def run(logs, params, progress) -> PipelineResult:
     ok = np.ones(len(t_l), bool)
     if ldv.quality is not None and m.ldv.min_quality is not None:
         ok = ldv.quality >= m.ldv.min_quality
+    ok &= ~ldv_spikes(ldv.v_fwd_mps, ok)  # spikes flagged good (the same screen as the filter's input)
     inside = (t_l >= inp.t_s[0]) & (t_l <= inp.t_s[-1])
     t_l, ok = t_l[inside], ok[inside]
     nu_f = ldv.v_fwd_mps[inside]
@@ -75,9 +81,13 @@ def run(logs, params, progress) -> PipelineResult:
     c_l = attitude_at(sol, t_l, c_bn)
     pk = setup.pitch_k_rad_per_mps2
     a_l = forward_accel_mps2(t_l, nu_f / scale, ok) if pk else None
-    h = integrate_height(t_l, c_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l)
+    # LDV gaps are bridged by the INS's vertical velocity (smoothed, LDV-aided) at the IMU centre
+    vu_ins = np.interp(t_l, sol.t_s, sol.v_n[:, 2])
+    h = integrate_height(t_l, c_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l, vu_ins)
     c_l_raw = attitude_at(sol_raw, t_l) if est is not None else c_l
-    h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l)
+    vu_raw = np.interp(t_l, sol_raw.t_s, sol_raw.v_n[:, 2])
+    h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l,
+                             vu_raw)
     # GNSS reference (fix 4 or 2) at the IMU centre
     summary = {"calibration": setup.info, "aiding": "ldv", "tilt_compensated": est is not None, "dov": dov_info}
     if est is not None:

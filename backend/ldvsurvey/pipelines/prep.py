@@ -14,7 +14,7 @@ from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, run_filter
+from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, ldv_spikes, run_filter
 
 RAD = np.pi / 180.0
 #: fix quality -> 1-σ (horizontal, vertical) in m assumed for a survey receiver
@@ -53,6 +53,7 @@ def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
     mq = log.manifest.ldv.min_quality
     if ldv.quality is not None and mq is not None:
         ok_l = ldv.quality >= mq
+    ok_l = ok_l & ~ldv_spikes(ldv.v_fwd_mps, ok_l)  # spikes flagged good
     tg, vf = t[ok_l], ldv.v_fwd_mps[ok_l]
     if len(tg) < 2:
         raise ParameterError("the LDV has fewer than two samples above min_quality", field="ldv.csv")
