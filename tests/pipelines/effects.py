@@ -108,10 +108,13 @@ def simulate_effects(sc, seed=1, squat_rad_per_mps2=0.0, gm_gyro_dph=0.0, gm_acc
     imu = _imu(m, t, eta0, phi0, squat_rad_per_mps2, field, table, sc.alpha_rad, sc.beta_rad)
     err = ImuErrors.draw(rng, sc.gyro_bias_dph, sc.accel_bias_ug, sc.gyro_arw_dprh, sc.accel_vrw_ug_rthz)
     dth, dv = err.apply(imu.dtheta_rad, imu.dvel_mps, dt, rng)
+    gm_g = gm_a = np.zeros((len(dth), 3))
     if gm_gyro_dph > 0:
-        dth = dth + _gm(rng, len(dth), dt, gm_gyro_dph * np.pi / 180 / 3600, gm_tau_s) * dt
+        gm_g = _gm(rng, len(dth), dt, gm_gyro_dph * np.pi / 180 / 3600, gm_tau_s)
+        dth = dth + gm_g * dt
     if gm_accel_ug > 0:
-        dv = dv + _gm(rng, len(dv), dt, gm_accel_ug * 9.80665e-6, gm_tau_s) * dt
+        gm_a = _gm(rng, len(dv), dt, gm_accel_ug * 9.80665e-6, gm_tau_s)
+        dv = dv + gm_a * dt
     # LDV: head fixed in the body along the stance travel direction, velocity component along its axis
     n_l = int(np.floor((m.t_end_s - sc.t0_s) * sc.ldv_rate_hz + 1e-9))
     t_l = sc.t0_s + np.arange(1, n_l + 1) / sc.ldv_rate_hz
@@ -147,4 +150,6 @@ def simulate_effects(sc, seed=1, squat_rad_per_mps2=0.0, gm_gyro_dph=0.0, gm_acc
     lat, lon, h, fix = gnss_fixes(m, t_g, sc.ldv.c_bt(), sc.gnss_lever_m, sc.fix_of_t, rng)
     sim = SimResult(sc, m, imu, err, dth, dv, t_l, vf, vu, quality, t_g, lat, lon, h, fix, None)
     sim.spikes = spikes
+    sim.gyro_bias_rps = err.gyro_bias_rps + gm_g  # (N, 3) true total biases, sensor frame
+    sim.accel_bias_mps2 = err.accel_bias_mps2 + gm_a
     return sim

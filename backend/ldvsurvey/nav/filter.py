@@ -32,15 +32,49 @@ class ImuNoise:
     accel_bias_ug: float = 50.0
     gyro_arw_dprh: float = 0.001
     accel_vrw_ug_rthz: float = 10.0
+    #: in-run bias instability: stationary σ of a first-order Gauss–Markov bias (deg/h, µg) and its
+    #: correlation time (s); None: the biases are random constants
+    gyro_bias_instability_dph: float | None = None
+    accel_bias_instability_ug: float | None = None
+    bias_correlation_s: float | None = None
 
     @classmethod
     def from_manifest(cls, imu) -> "ImuNoise":
+        """From the manifest's ``imu`` block, including the optional (spec-allowed extra) keys
+        ``gyro_bias_instability_dph``, ``accel_bias_instability_ug`` and ``bias_correlation_s``."""
+        from ldvsurvey.errors import ParameterError
+
         d = cls()
+        extra = {}
+        for key in ("gyro_bias_instability_dph", "accel_bias_instability_ug", "bias_correlation_s"):
+            val = getattr(imu, key, None)
+            if val is None:
+                continue
+            if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val < 0 \
+                    or (key == "bias_correlation_s" and val <= 0):
+                raise ParameterError(f"expected a non-negative number (positive for the correlation time), "
+                                     f"got {val!r}", file="manifest.json", field=f"imu.{key}")
+            extra[key] = float(val)
+        if extra and "bias_correlation_s" not in extra:
+            raise ParameterError("a bias instability needs its correlation time imu.bias_correlation_s",
+                                 file="manifest.json", field="imu.bias_correlation_s")
         return cls(gyro_bias_dph=imu.gyro_bias_dph if imu.gyro_bias_dph is not None else d.gyro_bias_dph,
                    accel_bias_ug=imu.accel_bias_ug if imu.accel_bias_ug is not None else d.accel_bias_ug,
                    gyro_arw_dprh=imu.gyro_arw_deg_per_rth if imu.gyro_arw_deg_per_rth is not None else d.gyro_arw_dprh,
                    accel_vrw_ug_rthz=(imu.accel_noise_ug_per_rthz if imu.accel_noise_ug_per_rthz is not None
-                                      else d.accel_vrw_ug_rthz))
+                                      else d.accel_vrw_ug_rthz), **extra)
+
+    def gauss_markov(self):
+        """(1/τ per bias state (6,), 1/s; driving PSD 2σ²/τ per bias state (6,)) of the instability."""
+        inv = np.zeros(6)
+        q = np.zeros(6)
+        tau = self.bias_correlation_s
+        if tau:
+            sg = (self.gyro_bias_instability_dph or 0.0) * DEG / 3600.0
+            sa = (self.accel_bias_instability_ug or 0.0) * 9.80665e-6
+            inv[:] = 1.0 / tau
+            q[:3], q[3:] = 2 * sg ** 2 / tau, 2 * sa ** 2 / tau
+        return inv, q
 
     @property
     def gyro_bias_rps(self) -> float:
@@ -215,9 +249,12 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     q_v = 2.0 * (cfg.gravity_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
     q_h = 2.0 * (cfg.dov_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
     rw = (cfg.bias_instability ** 2) / 3600.0
+    inv_gm, q_gm = noise.gauss_markov()
     qd = np.concatenate([np.full(3, noise.arw_psd), noise.vrw_psd + np.array([q_h, q_h, q_v]), np.zeros(3),
-                         np.full(3, rw * sg ** 2), np.full(3, rw * sa ** 2),
+                         np.full(3, rw * sg ** 2) + q_gm[:3], np.full(3, rw * sa ** 2) + q_gm[3:],
                          np.full(len(aug), 1e-14)])
+    inv_tau = np.zeros(n)
+    inv_tau[9:15] = inv_gm
     ep_t = np.concatenate([[t[0] - (t[1] - t[0])], t[decim - 1:m * decim:decim]])
     zupt = np.zeros(m + 1, dtype=np.bool_)
     for a, b in zupt_intervals:
@@ -257,7 +294,7 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     else:
         c_bs_arr = c_bs
     return (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float), a_f)
+            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float), a_f, inv_tau)
 
 
 def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cfg: FilterConfig | None = None,
@@ -277,7 +314,7 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     t = np.ascontiguousarray(t_s, dtype=float)
     n_s = len(t)
     (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-     g_t, g_pos, g_sig, l_g, c_bs_arr, a_f) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
+     g_t, g_pos, g_sig, l_g, c_bs_arr, a_f, inv_tau) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
@@ -285,7 +322,7 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
         t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr,
         np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), xi, eta, dg,
         decim, p0, qd, zupt, cfg.zupt_sigma_mps, ldv_ok, nu_f, nu_u, par0, l_ldv,
-        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0, a_f)
+        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0, a_f, inv_tau)
     if smooth:
         xs, ps = kfloop.rts(phis, pplus, dts, dxs, qd)
         q, v, p, f_n, f_b = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f_n, f_b)

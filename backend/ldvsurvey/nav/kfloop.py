@@ -75,7 +75,7 @@ def _scalar_update(x, P, h, z, r, gate):
 def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             decim, p0, qd, zupt_epoch, zupt_sigma,
             ldv_ok, nu_f, nu_u, ldv_par0, l_ldv, ldv_sigma, ldv_up, aug_idx,
-            g_t, g_pos, g_sig, l_gnss, gate, bias0, a_fwd):
+            g_t, g_pos, g_sig, l_gnss, gate, bias0, a_fwd, inv_tau):
     """Run the forward filter. See the Python wrapper :func:`ldvsurvey.nav.filter.run_filter`."""
     n_s = len(t)
     n = len(p0)
@@ -221,6 +221,8 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         t_epoch = t[k]
         F = np.zeros((n, n))
         F[:15, :15] = build_f(15, c_sn, fsum / T, v, pos[0], pos[2])[:15, :15]
+        for i in range(n):  # first-order Gauss–Markov states (bias instability): ẋ = −x/τ + w
+            F[i, i] -= inv_tau[i]
         Phi = discretize(F, T)
         P = Phi @ P @ Phi.T
         for i in range(n):
