@@ -12,6 +12,7 @@ from ldvsurvey import __version__
 from ldvsurvey.api.limits import BodySizeLimit
 from ldvsurvey.api.auth import RateLimiter, bootstrap_users
 from ldvsurvey.api.auth import router as auth_router
+from ldvsurvey.api.grids import router as grids_router
 from ldvsurvey.api.jobs import router as jobs_router
 from ldvsurvey.api.logs import router as logs_router
 from ldvsurvey.errors import InputError
@@ -48,6 +49,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(auth_router)
     app.include_router(logs_router)
     app.include_router(jobs_router)
+    app.include_router(grids_router)
 
     import plotly
 

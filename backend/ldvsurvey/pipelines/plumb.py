@@ -31,6 +31,7 @@ def dov_params(default: str) -> list[Param]:
               choices=("none", "egm2008", "grid")),
         Param("dov_grid", "paths", None, "ICGEM .gdf grids ξ,η (arcsec) and optionally Δg (mGal), comma separated "
               "(with dov=grid)"),
+        Param("dov_grid_id", "str", None, "id of grids uploaded with POST /api/grids (with dov=grid)"),
     ]
 
 
@@ -51,6 +52,19 @@ def load_grids(paths) -> DovGrid:
                                  field="dov_grid")
     return DovGrid(la, lo, xi, parsed[1][3], parsed[2][3] if len(parsed) > 2 else None,
                    source=", ".join(Path(p).name for p in paths))
+
+
+def _uploaded(grid_id: str) -> DovGrid:
+    from ldvsurvey.pipelines.dov import GRID_CACHE
+
+    cache = GRID_CACHE.get()
+    if cache is None:
+        raise ParameterError("uploaded grids are available to jobs run by the server only; give dov_grid files",
+                             field="dov_grid_id")
+    grid = cache.get("upload:" + str(grid_id)) if str(grid_id).isalnum() else None
+    if grid is None:
+        raise ParameterError(f"no uploaded grid with id {grid_id!r}", field="dov_grid_id")
+    return grid
 
 
 def _egm(lat_deg, lon_deg, progress) -> DovGrid:
@@ -92,7 +106,7 @@ def apply_dov(inp: NavInputs, params: dict, progress) -> tuple[dict, list[str]]:
     with v from the GNSS track.
     """
     mode = params.get("dov") or "none"
-    paths = params.get("dov_grid")
+    paths = params.get("dov_grid") or params.get("dov_grid_id")
     if mode == "none":
         if paths:
             raise ParameterError("dov_grid is given but dov=none; set dov=grid to use it", field="dov")
@@ -101,8 +115,11 @@ def apply_dov(inp: NavInputs, params: dict, progress) -> tuple[dict, list[str]]:
     lat, lon, warn = _track(inp)
     if mode == "grid":
         if not paths:
-            raise ParameterError("dov=grid needs dov_grid=xi.gdf,eta.gdf[,dg.gdf]", field="dov_grid")
-        grid = load_grids(paths)
+            raise ParameterError("dov=grid needs dov_grid=xi.gdf,eta.gdf[,dg.gdf] (or dov_grid_id of an upload)",
+                                 field="dov_grid")
+        if params.get("dov_grid") and params.get("dov_grid_id"):
+            raise ParameterError("give dov_grid or dov_grid_id, not both", field="dov_grid_id")
+        grid = load_grids(paths) if params.get("dov_grid") else _uploaded(params["dov_grid_id"])
     else:
         if paths:
             raise ParameterError("dov_grid is given but dov=egm2008; set dov=grid to use it", field="dov")

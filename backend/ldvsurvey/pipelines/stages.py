@@ -155,6 +155,14 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     """
     log = inp.log
     (a, b), fixes = _choose_window(inp, window)
+    # the filter: a given window, else every good fix of the log (RTK fixed, float and differential,
+    # each weighted by its quality's σ) — all starts, stops and both directions of travel
+    if window is None:
+        kf_fixes = (4, 5, 2)
+        g_ok = np.isin(log.gnss.fix, kf_fixes) & np.isfinite(log.gnss.lat_deg)
+        kf_win = (float(log.gnss.t_s[g_ok][0]), float(log.gnss.t_s[g_ok][-1]))
+    else:
+        kf_fixes, kf_win = fixes, (a, b)
     nom = log.manifest.ldv.nominal
     up = inp.nu_u_mps is not None
     a_f = accel_fwd(inp)
@@ -164,14 +172,14 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     # the up-axis scale is observable only when the LDV up channel carries motion
     moving = inp.ldv_ok & (np.abs(inp.nu_f_mps) > 1.0)
     up_obs = up and moving.any() and float(np.sqrt(np.mean(inp.nu_u_mps[moving] ** 2))) > 0.05
-    win = (inp.t_s >= a) & (inp.t_s <= b)
+    win = (inp.t_s >= kf_win[0]) & (inp.t_s <= kf_win[1])
     # the compliance is observable when the window holds accelerations (≥ 0.3 m/s² for ≥ 10 s)
     k_obs = float(np.count_nonzero(win & inp.ldv_ok & (np.abs(a_f) > 0.3))) * np.median(np.diff(inp.t_s)) >= 10.0
     aug = ("scale", "pitch", "heading") + (("scale_up",) if up_obs else ()) + (("pitch_k",) if k_obs else ())
     cfg = pipeline_cfg(ldv_aug=aug)
     aid = ldv_aid(inp)
     aid.accel_fwd_mps2 = a_f
-    sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=fixes, window=(a, b)), cfg=cfg)
+    sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg)
     inp.cache["calibration_solution"] = sol
     p = sol.ldv_params
     pk, spk = p.get("pitch_k", (0.0, None)) if k_obs else (0.0, None)
@@ -179,13 +187,13 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
                       scale_up=p["scale_up"][0] if up_obs else log.manifest.ldv.nominal.scale,
                       sigma={"pitch": p["pitch"][1], "heading": p["heading"][1], "scale": p["scale"][1],
                              "scale_up": p["scale_up"][1] if up_obs else None, "pitch_k": spk},
-                      closed_form={}, window_s=(a, b), track={}, pitch_k_rad_per_mps2=pk, fixes=fixes)
+                      closed_form={}, window_s=kf_win, track={}, pitch_k_rad_per_mps2=pk, fixes=kf_fixes)
     # 2) closed form over the window with the filter's attitude: similarity fit of the horizontal
     # tracks, slope of the height residual (no compliance: it shows what a constant mounting gives)
     if progress:
         progress("calibration: closed form", 0.8)
     c_bn = sol.c_bn()
-    k = win
+    k = (inp.t_s >= a) & (inp.t_s <= b)
     t = inp.t_s[k]
     g = log.gnss
     gk = np.isin(g.fix, fixes) & (g.t_s >= a) & (g.t_s <= b) & np.isfinite(g.lat_deg)
