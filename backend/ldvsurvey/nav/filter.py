@@ -110,6 +110,9 @@ class FilterConfig:
     dov_noise_mgal: float = 0.0  #: unmodelled horizontal gravity (deflection of the vertical), σ
     gravity_corr_s: float = 60.0  #: their correlation time, for the PSD 2σ²τ
     bias_instability: float = 0.0  #: relative random walk of biases per √h (0 = constants)
+    #: prior σ of the z-gyro scale factor state (0: no state). With a rotating IMU the turntable's
+    #: turns (and the vehicle's) make it observable; unmodelled, 200 ppm × 180° is 2′ of heading
+    gyro_scale_z_sigma0: float = 0.0
     ldv_aug: tuple[str, ...] = ()  #: subset of AUG_NAMES to estimate
     #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad,
     #: pitch compliance k_η in rad per m/s² (0.01 ≈ 5.6° per g, twice the softest car suspension)
@@ -180,6 +183,8 @@ class NavSolution:
     f_u_bias_mps2: np.ndarray | None = None
     #: time tags of f_u_mps2: interval mid-times (t_{k−1} + t_k)/2, s
     f_t_s: np.ndarray | None = None
+    #: (estimate, 1-σ) of the z-gyro scale factor (dimensionless) when it is a state
+    gyro_scale_z: tuple | None = None
 
     def c_bn(self) -> np.ndarray:
         """Body attitude C_b^n at every sample (C_s^n C_b^s for a rotating IMU)."""
@@ -239,20 +244,24 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     aug_idx = np.full(len(AUG_NAMES), -1, dtype=np.int64)
     for i, a in enumerate(aug):
         aug_idx[AUG_NAMES.index(a)] = 15 + i
+    i_sz = -1
+    if cfg.gyro_scale_z_sigma0 > 0:  # the z-gyro scale factor, last state
+        i_sz = n
+        n += 1
     s_att = np.asarray(cfg.att_sigma0_rad, float)
     # bias priors never zero (a manifest may say 0): that would make P⁻ singular for the smoother
     sg = max(noise.gyro_bias_rps, 1e-4 * DEG / 3600.0)
     sa = max(noise.accel_bias_mps2, 1e-6 * 9.80665)
     p0 = np.concatenate([s_att ** 2, np.full(3, cfg.vel_sigma0_mps ** 2), np.full(3, cfg.pos_sigma0_m ** 2),
                          np.full(3, sg ** 2), np.full(3, sa ** 2),
-                         [cfg.ldv_aug_sigma0[a] ** 2 for a in aug]])
+                         [cfg.ldv_aug_sigma0[a] ** 2 for a in aug], [cfg.gyro_scale_z_sigma0 ** 2] * (i_sz >= 0)])
     q_v = 2.0 * (cfg.gravity_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
     q_h = 2.0 * (cfg.dov_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
     rw = (cfg.bias_instability ** 2) / 3600.0
     inv_gm, q_gm = noise.gauss_markov()
     qd = np.concatenate([np.full(3, noise.arw_psd), noise.vrw_psd + np.array([q_h, q_h, q_v]), np.zeros(3),
                          np.full(3, rw * sg ** 2) + q_gm[:3], np.full(3, rw * sa ** 2) + q_gm[3:],
-                         np.full(len(aug), 1e-14)])
+                         np.full(len(aug), 1e-14), [1e-16] * (i_sz >= 0)])
     inv_tau = np.zeros(n)
     inv_tau[9:15] = inv_gm
     ep_t = np.concatenate([[t[0] - (t[1] - t[0])], t[decim - 1:m * decim:decim]])
@@ -294,7 +303,7 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     else:
         c_bs_arr = c_bs
     return (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float), a_f, inv_tau)
+            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float), a_f, inv_tau, i_sz)
 
 
 def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cfg: FilterConfig | None = None,
@@ -314,15 +323,15 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     t = np.ascontiguousarray(t_s, dtype=float)
     n_s = len(t)
     (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-     g_t, g_pos, g_sig, l_g, c_bs_arr, a_f, inv_tau) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
+     g_t, g_pos, g_sig, l_g, c_bs_arr, a_f, inv_tau, i_sz) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
-    (q, v, p, f_n, f_b, phis, pplus, dts, dxs, par, bias, nis, rej) = kfloop.forward(
+    (q, v, p, f_n, f_b, phis, pplus, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(
         t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr,
         np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), xi, eta, dg,
         decim, p0, qd, zupt, cfg.zupt_sigma_mps, ldv_ok, nu_f, nu_u, par0, l_ldv,
-        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0, a_f, inv_tau)
+        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0, a_f, inv_tau, i_sz)
     if smooth:
         xs, ps = kfloop.rts(phis, pplus, dts, dxs, qd)
         q, v, p, f_n, f_b = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f_n, f_b)
@@ -354,4 +363,5 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
                        epoch_index=np.arange(m + 1) * decim - 1, epoch_bias=ep_bias,
                        epoch_cov=ps if keep_cov else None,
                        f_u_mps2=np.ascontiguousarray(f_n[:, 2]), f_u_bias_mps2=f_b,
-                       f_t_s=t - 0.5 * np.diff(t, prepend=2 * t[0] - t[1]))
+                       f_t_s=t - 0.5 * np.diff(t, prepend=2 * t[0] - t[1]),
+                       gyro_scale_z=None if i_sz < 0 else (float(sz[jb] + xs[jb, i_sz]), float(sig_ep[jb, i_sz])))

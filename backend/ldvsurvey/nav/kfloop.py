@@ -75,7 +75,7 @@ def _scalar_update(x, P, h, z, r, gate):
 def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             decim, p0, qd, zupt_epoch, zupt_sigma,
             ldv_ok, nu_f, nu_u, ldv_par0, l_ldv, ldv_sigma, ldv_up, aug_idx,
-            g_t, g_pos, g_sig, l_gnss, gate, bias0, a_fwd, inv_tau):
+            g_t, g_pos, g_sig, l_gnss, gate, bias0, a_fwd, inv_tau, i_sz):
     """Run the forward filter. See the Python wrapper :func:`ldvsurvey.nav.filter.run_filter`."""
     n_s = len(t)
     n = len(p0)
@@ -99,6 +99,9 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
     v_prev, pos_prev = v.copy(), pos.copy()
     dth_prev, dv_prev = dth[0].copy(), dvel[0].copy()
     b_g, b_a = bias0[:3].copy(), bias0[3:].copy()
+    s_z = 0.0  # z-gyro scale-factor estimate (state i_sz when ≥ 0)
+    wz_sum = 0.0
+    sz_out = np.zeros(m + 1)
     par = ldv_par0.copy()  # K_f, eta_L, phi_L, K_u
     P = np.diag(p0)
     pplus[0] = P
@@ -142,6 +145,9 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         ge = eta[k] if has_g else 0.0
         gd = dg[k] if has_g else 0.0
         a_th = dth[k] - b_g * dt
+        if i_sz >= 0:  # z-gyro scale factor: ω̃_z = (1 + s_z) ω_z
+            a_th[2] -= s_z * a_th[2]
+            wz_sum += a_th[2]
         a_dv = dvel[k] - b_a * dt
         q_new, v_new, p_new, f_n = mech_step(q, v, pos, v_prev, pos_prev, a_th, a_dv, dth_prev, dv_prev,
                                              dt, gx, ge, gd)
@@ -221,6 +227,9 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         t_epoch = t[k]
         F = np.zeros((n, n))
         F[:15, :15] = build_f(15, c_sn, fsum / T, v, pos[0], pos[2])[:15, :15]
+        if i_sz >= 0:  # φ̇ = −C_s^n δω^s, δω^s = [0, 0, δs_z ω_z]
+            for i in range(3):
+                F[i, i_sz] = -c_sn[i, 2] * wz_sum / T
         for i in range(n):  # first-order Gauss–Markov states (bias instability): ẋ = −x/τ + w
             F[i, i] -= inv_tau[i]
         Phi = discretize(F, T)
@@ -285,6 +294,10 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         par_out[j] = par
         bias_out[j, :3], bias_out[j, 3:] = b_g, b_a
         fsum[:] = 0.0
+        wz_sum = 0.0
+        if i_sz >= 0:
+            s_z += x[i_sz]
+            sz_out[j] = s_z
         lz[:] = 0.0
         lvl[:] = 0.0
         lvd[:] = 0.0
@@ -296,7 +309,7 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         q_out[k] = q
         v_out[k] = v
         p_out[k] = pos
-    return q_out, v_out, p_out, f_out, fb_out, phis, pplus, dts, dxs, par_out, bias_out, nis, rejected
+    return q_out, v_out, p_out, f_out, fb_out, phis, pplus, dts, dxs, par_out, bias_out, nis, rejected, sz_out
 
 
 @nb.njit(cache=True)

@@ -101,8 +101,11 @@ def run(logs, params, progress) -> PipelineResult:
         err = np.interp(g.t_s[ref], t_l, h) - h_ref[ref]
         err_raw = np.interp(g.t_s[ref], t_l, h_raw) - h_ref[ref]
         st, st_raw = error_stats(err), error_stats(err_raw)
+        st4 = error_stats(err[g.fix[ref] == 4])
         summary.update({"max_error_m": st["max"], "std_error_m": st["std"], "rms_error_m": st["rms"],
                         "n_reference": int(ref.sum()), "max_error_m_uncompensated": st_raw["max"],
+                        "max_error_m_fix4": st4["max"], "std_error_m_fix4": st4["std"],
+                        "n_reference_fix4": int(np.count_nonzero(g.fix[ref] == 4)),
                         "std_error_m_uncompensated": st_raw["std"], "rms_error_m_uncompensated": st_raw["rms"]})
         j = np.clip(np.searchsorted(t_l, g.t_s), 0, len(t_l) - 1)
         j0 = np.clip(j - 1, 0, len(t_l) - 1)

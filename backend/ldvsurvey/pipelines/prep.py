@@ -163,12 +163,14 @@ def ldv_aid(inp: NavInputs, scale=None, pitch_rad=None, heading_rad=None, scale_
 #: Without the vertical term, a few mGal of Δg bias the LDV pitch calibration by tens of arcseconds.
 GRAVITY_NOISE_MGAL = 10.0
 DOV_NOISE_MGAL = 1.0
+#: prior σ of the z-gyro scale factor the pipelines estimate (300 ppm, the top of tactical-grade specs)
+GYRO_SCALE_Z_SIGMA = 3e-4
 
 
 def pipeline_cfg(**kw) -> FilterConfig:
     """The filter configuration the pipelines use (coarse-alignment σ, unmodelled gravity)."""
     base = dict(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD), gravity_noise_mgal=GRAVITY_NOISE_MGAL,
-                dov_noise_mgal=DOV_NOISE_MGAL)
+                dov_noise_mgal=DOV_NOISE_MGAL, gyro_scale_z_sigma0=GYRO_SCALE_Z_SIGMA)
     base.update(kw)
     return FilterConfig(**base)
 
