@@ -180,7 +180,6 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     aid = ldv_aid(inp)
     aid.accel_fwd_mps2 = a_f
     sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg)
-    inp.cache["calibration_solution"] = sol
     p = sol.ldv_params
     pk, spk = p.get("pitch_k", (0.0, None)) if k_obs else (0.0, None)
     cal = Calibration(pitch_rad=p["pitch"][0], heading_rad=p["heading"][0], scale=p["scale"][0],
