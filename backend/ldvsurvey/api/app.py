@@ -16,6 +16,7 @@ from ldvsurvey.api.auth import router as auth_router
 from ldvsurvey.api.compare import router as compare_router
 from ldvsurvey.api.docs import mount_docs
 from ldvsurvey.api.imports import router as imports_router
+from ldvsurvey.api.grids import router as grids_router
 from ldvsurvey.api.jobs import router as jobs_router
 from ldvsurvey.api.logs import router as logs_router
 from ldvsurvey.api.people import router as people_router
@@ -78,6 +79,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(compare_router)
     mount_docs(app)
     app.include_router(imports_router)
+    app.include_router(grids_router)
 
     import plotly
 

@@ -117,7 +117,7 @@ def execute(job_id: int) -> str:
         if any(lg is None for lg in logs):
             raise InputError("a log of this job was deleted", field="log_ids")
         token = None
-        if pipeline_name == "dov":
+        if True:  # every pipeline may use DOV grids: the EGM2008 cache and the uploaded grids
             from ldvsurvey.pipelines.dov import GRID_CACHE
             from ldvsurvey.store.gridcache import DbGridCache
 

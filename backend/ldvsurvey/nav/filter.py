@@ -18,7 +18,7 @@ from ldvsurvey.nav.attitude import c_from_q
 from ldvsurvey.nav.earth import ARCSEC, MGAL
 
 DEG = np.pi / 180.0
-AUG_NAMES = ("scale", "pitch", "heading", "scale_up")
+AUG_NAMES = ("scale", "pitch", "heading", "scale_up", "pitch_k")
 
 
 @dataclass
@@ -32,15 +32,49 @@ class ImuNoise:
     accel_bias_ug: float = 50.0
     gyro_arw_dprh: float = 0.001
     accel_vrw_ug_rthz: float = 10.0
+    #: in-run bias instability: stationary σ of a first-order Gauss–Markov bias (deg/h, µg) and its
+    #: correlation time (s); None: the biases are random constants
+    gyro_bias_instability_dph: float | None = None
+    accel_bias_instability_ug: float | None = None
+    bias_correlation_s: float | None = None
 
     @classmethod
     def from_manifest(cls, imu) -> "ImuNoise":
+        """From the manifest's ``imu`` block, including the optional (spec-allowed extra) keys
+        ``gyro_bias_instability_dph``, ``accel_bias_instability_ug`` and ``bias_correlation_s``."""
+        from ldvsurvey.errors import ParameterError
+
         d = cls()
+        extra = {}
+        for key in ("gyro_bias_instability_dph", "accel_bias_instability_ug", "bias_correlation_s"):
+            val = getattr(imu, key, None)
+            if val is None:
+                continue
+            if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val < 0 \
+                    or (key == "bias_correlation_s" and val <= 0):
+                raise ParameterError(f"expected a non-negative number (positive for the correlation time), "
+                                     f"got {val!r}", file="manifest.json", field=f"imu.{key}")
+            extra[key] = float(val)
+        if extra and "bias_correlation_s" not in extra:
+            raise ParameterError("a bias instability needs its correlation time imu.bias_correlation_s",
+                                 file="manifest.json", field="imu.bias_correlation_s")
         return cls(gyro_bias_dph=imu.gyro_bias_dph if imu.gyro_bias_dph is not None else d.gyro_bias_dph,
                    accel_bias_ug=imu.accel_bias_ug if imu.accel_bias_ug is not None else d.accel_bias_ug,
                    gyro_arw_dprh=imu.gyro_arw_deg_per_rth if imu.gyro_arw_deg_per_rth is not None else d.gyro_arw_dprh,
                    accel_vrw_ug_rthz=(imu.accel_noise_ug_per_rthz if imu.accel_noise_ug_per_rthz is not None
-                                      else d.accel_vrw_ug_rthz))
+                                      else d.accel_vrw_ug_rthz), **extra)
+
+    def gauss_markov(self):
+        """(1/τ per bias state (6,), 1/s; driving PSD 2σ²/τ per bias state (6,)) of the instability."""
+        inv = np.zeros(6)
+        q = np.zeros(6)
+        tau = self.bias_correlation_s
+        if tau:
+            sg = (self.gyro_bias_instability_dph or 0.0) * DEG / 3600.0
+            sa = (self.accel_bias_instability_ug or 0.0) * 9.80665e-6
+            inv[:] = 1.0 / tau
+            q[:3], q[3:] = 2 * sg ** 2 / tau, 2 * sa ** 2 / tau
+        return inv, q
 
     @property
     def gyro_bias_rps(self) -> float:
@@ -76,15 +110,24 @@ class FilterConfig:
     dov_noise_mgal: float = 0.0  #: unmodelled horizontal gravity (deflection of the vertical), σ
     gravity_corr_s: float = 60.0  #: their correlation time, for the PSD 2σ²τ
     bias_instability: float = 0.0  #: relative random walk of biases per √h (0 = constants)
+    #: prior σ of the z-gyro scale factor state (0: no state). With a rotating IMU the turntable's
+    #: turns (and the vehicle's) make it observable; unmodelled, 200 ppm × 180° is 2′ of heading
+    gyro_scale_z_sigma0: float = 0.0
     ldv_aug: tuple[str, ...] = ()  #: subset of AUG_NAMES to estimate
-    #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad
+    #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad,
+    #: pitch compliance k_η in rad per m/s² (0.01 ≈ 5.6° per g, twice the softest car suspension)
     ldv_aug_sigma0: dict = field(default_factory=lambda: {"scale": 0.01, "pitch": 1 * DEG,
-                                                          "heading": 1 * DEG, "scale_up": 0.01})
+                                                          "heading": 1 * DEG, "scale_up": 0.01,
+                                                          "pitch_k": 0.01})
 
 
 @dataclass
 class LdvAid:
-    """LDV samples at the IMU times. nu_f/nu_u: measured speeds (m/s) along the head's forward/up axes."""
+    """LDV samples at the IMU times. nu_f/nu_u: measured speeds (m/s) along the head's forward/up axes.
+
+    The travel direction the LDV sees is pitched by pitch_rad + pitch_k_rad_per_mps2 · accel_fwd_mps2
+    (the vehicle's squat/dive under longitudinal acceleration; see :func:`forward_accel_mps2`).
+    """
 
     ok: np.ndarray  # (N,) bool
     nu_f_mps: np.ndarray
@@ -94,6 +137,8 @@ class LdvAid:
     heading_rad: float = 0.0
     scale_up: float = 1.0
     lever_arm_m: tuple = (0.0, 0.0, 0.0)
+    accel_fwd_mps2: np.ndarray | None = None  #: (N,) forward acceleration along the travel, m/s²
+    pitch_k_rad_per_mps2: float = 0.0  #: pitch compliance k_η, rad per m/s²
 
 
 @dataclass
@@ -130,6 +175,16 @@ class NavSolution:
     epoch_index: np.ndarray = None  # (M+1,) sample index of each epoch (−1: before the first sample)
     epoch_bias: np.ndarray = None  # (M+1, 6) gyro (rad/s) and accel (m/s²) bias estimates
     epoch_cov: np.ndarray | None = None  # (M+1, n, n) when keep_cov
+    #: up component of the specific force (m/s²) over each IMU interval (t_{k−1}, t_k], from the very
+    #: mechanization step the velocity integrates (C_s^n Δv with rotation/sculling and n-frame rotation
+    #: corrections, accelerometer-bias estimate removed; smoothed attitude/bias when ``smoothed``), / Δt
+    f_u_mps2: np.ndarray | None = None
+    #: (C_s^n b̂_a)_U, m/s²: the accelerometer-bias correction removed from f_u_mps2 (add it back for raw f_U)
+    f_u_bias_mps2: np.ndarray | None = None
+    #: time tags of f_u_mps2: interval mid-times (t_{k−1} + t_k)/2, s
+    f_t_s: np.ndarray | None = None
+    #: (estimate, 1-σ) of the z-gyro scale factor (dimensionless) when it is a state
+    gyro_scale_z: tuple | None = None
 
     def c_bn(self) -> np.ndarray:
         """Body attitude C_b^n at every sample (C_s^n C_b^s for a rotating IMU)."""
@@ -137,27 +192,78 @@ class NavSolution:
         return c if self.c_bs is None else c @ self.c_bs
 
 
+def ldv_spikes(v_mps, ok, threshold_mps: float = 0.3, half_width: int = 4) -> np.ndarray:
+    """Samples flagged usable whose speed jumps away from its neighbours: |v − median of the
+    2·half_width+1 usable samples around it| > threshold (0.3 m/s: a car cannot change speed by
+    that much within a few LDV samples, and it is > 10σ of the LDV noise). Returns a bool mask.
+
+    Samples below min_quality (``ok`` False) carry garbage and take no part in the median.
+    """
+    from scipy.ndimage import median_filter
+
+    v = np.asarray(v_mps, float)
+    ok = np.asarray(ok, bool)
+    out = np.zeros(len(v), bool)
+    idx = np.flatnonzero(ok & np.isfinite(v))
+    if len(idx) < 2 * half_width + 1:
+        return out
+    med = median_filter(v[idx], size=2 * half_width + 1, mode="nearest")
+    out[idx] = np.abs(v[idx] - med) > threshold_mps
+    return out
+
+
+def forward_accel_mps2(t_s, nu_f_mps, ok, window_s: float = 0.5) -> np.ndarray:
+    """Forward acceleration (m/s²) along the travel from the LDV speed: the usable samples bridged
+    linearly, a centred moving average over ``window_s``, then the central difference over ``window_s``.
+
+    Parameters
+    ----------
+    t_s : (N,) s. nu_f_mps : (N,) measured forward speed, m/s. ok : (N,) usable samples.
+    """
+    t = np.asarray(t_s, float)
+    good = np.asarray(ok, bool)
+    if good.sum() < 2:
+        return np.zeros(len(t))
+    v = np.interp(t, t[good], np.asarray(nu_f_mps, float)[good])
+    dt = float(np.median(np.diff(t)))
+    w = max(1, int(round(window_s / dt)))
+    c = np.concatenate([[0.0], np.cumsum(v)])
+    lo = np.clip(np.arange(len(t)) - w // 2, 0, len(t))
+    hi = np.clip(lo + w, 0, len(t))
+    vs = (c[hi] - c[lo]) / np.maximum(hi - lo, 1)
+    ia = np.clip(np.arange(len(t)) - w // 2, 0, len(t) - 1)
+    ib = np.clip(np.arange(len(t)) + w // 2, 0, len(t) - 1)
+    return (vs[ib] - vs[ia]) / np.maximum(t[ib] - t[ia], dt)
+
+
 def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gnss, c_bs):
     decim = max(1, int(round(1.0 / (cfg.rate_hz * np.median(np.diff(t))))))
     m = n_s // decim
     aug = [a for a in AUG_NAMES if a in cfg.ldv_aug]
     n = 15 + len(aug)
-    aug_idx = np.full(4, -1, dtype=np.int64)
+    aug_idx = np.full(len(AUG_NAMES), -1, dtype=np.int64)
     for i, a in enumerate(aug):
         aug_idx[AUG_NAMES.index(a)] = 15 + i
+    i_sz = -1
+    if cfg.gyro_scale_z_sigma0 > 0:  # the z-gyro scale factor, last state
+        i_sz = n
+        n += 1
     s_att = np.asarray(cfg.att_sigma0_rad, float)
     # bias priors never zero (a manifest may say 0): that would make P⁻ singular for the smoother
     sg = max(noise.gyro_bias_rps, 1e-4 * DEG / 3600.0)
     sa = max(noise.accel_bias_mps2, 1e-6 * 9.80665)
     p0 = np.concatenate([s_att ** 2, np.full(3, cfg.vel_sigma0_mps ** 2), np.full(3, cfg.pos_sigma0_m ** 2),
                          np.full(3, sg ** 2), np.full(3, sa ** 2),
-                         [cfg.ldv_aug_sigma0[a] ** 2 for a in aug]])
+                         [cfg.ldv_aug_sigma0[a] ** 2 for a in aug], [cfg.gyro_scale_z_sigma0 ** 2] * (i_sz >= 0)])
     q_v = 2.0 * (cfg.gravity_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
     q_h = 2.0 * (cfg.dov_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
     rw = (cfg.bias_instability ** 2) / 3600.0
+    inv_gm, q_gm = noise.gauss_markov()
     qd = np.concatenate([np.full(3, noise.arw_psd), noise.vrw_psd + np.array([q_h, q_h, q_v]), np.zeros(3),
-                         np.full(3, rw * sg ** 2), np.full(3, rw * sa ** 2),
-                         np.full(len(aug), 1e-14)])
+                         np.full(3, rw * sg ** 2) + q_gm[:3], np.full(3, rw * sa ** 2) + q_gm[3:],
+                         np.full(len(aug), 1e-14), [1e-16] * (i_sz >= 0)])
+    inv_tau = np.zeros(n)
+    inv_tau[9:15] = inv_gm
     ep_t = np.concatenate([[t[0] - (t[1] - t[0])], t[decim - 1:m * decim:decim]])
     zupt = np.zeros(m + 1, dtype=np.bool_)
     for a, b in zupt_intervals:
@@ -166,16 +272,21 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     if ldv is None:
         ldv_ok = np.zeros(n_s, dtype=np.bool_)
         nu_f = nu_u = np.zeros(n_s)
-        par0 = np.array([1.0, 0.0, 0.0, 1.0])
+        par0 = np.array([1.0, 0.0, 0.0, 1.0, 0.0])
         l_ldv = np.zeros(3)
         up = False
+        a_f = np.zeros(0)
     else:
         ldv_ok = np.ascontiguousarray(ldv.ok, dtype=np.bool_)
         nu_f = np.ascontiguousarray(ldv.nu_f_mps, dtype=float)
         up = ldv.nu_u_mps is not None
         nu_u = np.ascontiguousarray(ldv.nu_u_mps if up else np.zeros(n_s), dtype=float)
-        par0 = np.array([1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up], float)
+        par0 = np.array([1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up,
+                         ldv.pitch_k_rad_per_mps2], float)
         l_ldv = np.asarray(ldv.lever_arm_m, float)
+        a_f = np.zeros(0) if ldv.accel_fwd_mps2 is None else np.ascontiguousarray(ldv.accel_fwd_mps2, float)
+        if "pitch_k" in cfg.ldv_aug and len(a_f) == 0:
+            raise ValueError("the pitch-compliance state needs LdvAid.accel_fwd_mps2")
     if gnss is None:
         g_t = np.zeros(0)
         g_pos = np.zeros((0, 3))
@@ -192,7 +303,7 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     else:
         c_bs_arr = c_bs
     return (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float))
+            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float), a_f, inv_tau, i_sz)
 
 
 def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cfg: FilterConfig | None = None,
@@ -212,18 +323,18 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     t = np.ascontiguousarray(t_s, dtype=float)
     n_s = len(t)
     (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-     g_t, g_pos, g_sig, l_g, c_bs_arr) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
+     g_t, g_pos, g_sig, l_g, c_bs_arr, a_f, inv_tau, i_sz) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
-    (q, v, p, phis, pplus, dts, dxs, par, bias, nis, rej) = kfloop.forward(
+    (q, v, p, f_n, f_b, phis, pplus, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(
         t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr,
         np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), xi, eta, dg,
         decim, p0, qd, zupt, cfg.zupt_sigma_mps, ldv_ok, nu_f, nu_u, par0, l_ldv,
-        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0)
+        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0, a_f, inv_tau, i_sz)
     if smooth:
         xs, ps = kfloop.rts(phis, pplus, dts, dxs, qd)
-        q, v, p = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p)
+        q, v, p, f_n, f_b = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f_n, f_b)
     else:
         xs, ps = np.zeros_like(dxs), pplus
     sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", ps), 0.0))
@@ -250,4 +361,7 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
                        epoch_t_s=ep_t, epoch_sigma=sig_ep, normalized_innovations=nis,
                        rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},
                        epoch_index=np.arange(m + 1) * decim - 1, epoch_bias=ep_bias,
-                       epoch_cov=ps if keep_cov else None)
+                       epoch_cov=ps if keep_cov else None,
+                       f_u_mps2=np.ascontiguousarray(f_n[:, 2]), f_u_bias_mps2=f_b,
+                       f_t_s=t - 0.5 * np.diff(t, prepend=2 * t[0] - t[1]),
+                       gyro_scale_z=None if i_sz < 0 else (float(sz[jb] + xs[jb, i_sz]), float(sig_ep[jb, i_sz])))

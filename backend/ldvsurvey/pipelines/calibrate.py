@@ -4,18 +4,20 @@ from __future__ import annotations
 
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.prep import c_bs_of, nav_inputs
+from ldvsurvey.pipelines.plumb import apply_dov, dov_params
 from ldvsurvey.pipelines.stages import RAD, calibration_stage, tilt_stage
 
 PARAMS = [
     Param("calibration_window", "floats", None, "t0,t1 in s of the stretch to use (default: the longest "
           "good-GNSS moving stretch)"),
-]
+] + dov_params("egm2008")
 
 
 def run(logs, params, progress) -> PipelineResult:
     log = logs[0]
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    dov_info, warnings = apply_dov(inp, params, progress)
     window = params["calibration_window"]
     if window is not None and len(window) != 2:
         from ldvsurvey.errors import ParameterError
@@ -33,15 +35,21 @@ def run(logs, params, progress) -> PipelineResult:
         "ldv_pitch_deg": cal.pitch_rad / RAD, "ldv_pitch_deg_sigma": cal.sigma["pitch"] / RAD,
         "ldv_heading_deg": cal.heading_rad / RAD, "ldv_heading_deg_sigma": cal.sigma["heading"] / RAD,
         "ldv_scale": cal.scale, "ldv_scale_sigma": cal.sigma["scale"],
-        "segment_t_s": list(cal.window_s), "method": "kalman filter with LDV states (closed form beside)",
-        "closed_form": cal.closed_form, **extra,
+        "ldv_pitch_k_rad_per_mps2": cal.pitch_k_rad_per_mps2,
+        "ldv_pitch_k_rad_per_mps2_sigma": cal.sigma["pitch_k"],
+        "ldv_pitch_compliance_deg_per_g": cal.pitch_k_rad_per_mps2 / RAD * 9.80665,
+        "fix_qualities": list(cal.fixes),
+        "segment_t_s": list(cal.window_s), "method": "kalman filter with LDV states: travel direction (pitch, heading, pitch compliance "
+                  "per m/s² of forward acceleration) and scale; closed form beside",
+        "closed_form": cal.closed_form, "dov": dov_info, **extra,
     }
-    warnings = []
     if inp.nu_u_mps is not None:
         s["ldv_scale_up"] = cal.scale_up
         s["ldv_scale_up_sigma"] = cal.sigma["scale_up"]
         if cal.sigma["scale_up"] is None:
             warnings.append(cal.closed_form["note"])
+    if "note_compliance" in cal.closed_form:
+        warnings.append(cal.closed_form["note_compliance"])
     return PipelineResult(summary=s, tables={"calibration_track": cal.track}, warnings=warnings)
 
 

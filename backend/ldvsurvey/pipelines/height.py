@@ -10,23 +10,32 @@ from __future__ import annotations
 
 import numpy as np
 
-from ldvsurvey.nav.errmodel import c_db
+from ldvsurvey.nav.filter import forward_accel_mps2, ldv_spikes
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
-from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_setup
+from ldvsurvey.pipelines.plumb import apply_dov, dov_params
+from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_body_velocity, ldv_setup
 
-PARAMS = calibration_params() + [
+PARAMS = calibration_params() + dov_params("egm2008") + [
     Param("initial_h_m", "float", None, "height of the IMU centre at the start (default: manifest, else GNSS)"),
     Param("output_rate_hz", "float", 100.0, "rate of height.csv"),
 ]
 
 
-def integrate_height(t_l, c_bn_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0):
-    """Height (m) of the IMU centre at the LDV times by trapezoidal integration of V_U."""
-    vd = np.column_stack([np.zeros_like(nu_f), nu_f / scale, (nu_u / scale_up) if nu_u is not None else 0 * nu_f])
-    v_b = vd @ c_db(pitch, heading).T
+def integrate_height(t_l, c_bn_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0,
+                     pitch_k=0.0, accel_fwd=None, v_u_bridge=None):
+    """Height (m) of the IMU centre at the LDV times by trapezoidal integration of V_U.
+
+    The travel direction the LDV sees is pitched by ``pitch + pitch_k · accel_fwd`` (rad; accel_fwd in
+    m/s² at the LDV times, the vehicle's squat and dive). Unusable LDV samples (below min_quality or
+    spikes) are bridged with ``v_u_bridge`` (m/s, the LDV-aided INS's vertical velocity at the LDV
+    times) when given, else linearly."""
+    v_b = ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up, pitch_k, accel_fwd)
     v_u = np.einsum("kj,kj->k", c_bn_l[:, 2, :], v_b)
-    v_u = np.interp(t_l, t_l[ok], v_u[ok])  # bridge samples below min_quality
+    if v_u_bridge is not None:
+        v_u = np.where(ok, v_u, v_u_bridge)
+    else:
+        v_u = np.interp(t_l, t_l[ok], v_u[ok])  # bridge samples below min_quality
     h = h0 + np.concatenate([[0.0], np.cumsum(0.5 * (v_u[1:] + v_u[:-1]) * np.diff(t_l))])
     lev_u = c_bn_l[:, 2, :] @ np.asarray(lever, float)
     return h + lev_u[0] - lev_u
@@ -44,8 +53,9 @@ def run(logs, params, progress) -> PipelineResult:
     m = log.manifest
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    dov_info, warnings = apply_dov(inp, params, progress)
     setup = ldv_setup(inp, params, progress)
-    warnings = list(setup.warnings)
+    warnings += setup.warnings
     est, pitch, heading, scale, scale_up = setup.tilt, setup.pitch_rad, setup.heading_rad, setup.scale, setup.scale_up
     progress("navigation (INS/LDV, no GNSS)", 0.5)
     aid = ldv_aid_of(inp, setup)
@@ -61,6 +71,7 @@ def run(logs, params, progress) -> PipelineResult:
     ok = np.ones(len(t_l), bool)
     if ldv.quality is not None and m.ldv.min_quality is not None:
         ok = ldv.quality >= m.ldv.min_quality
+    ok &= ~ldv_spikes(ldv.v_fwd_mps, ok)  # spikes flagged good (the same screen as the filter's input)
     inside = (t_l >= inp.t_s[0]) & (t_l <= inp.t_s[-1])
     t_l, ok = t_l[inside], ok[inside]
     nu_f = ldv.v_fwd_mps[inside]
@@ -68,11 +79,17 @@ def run(logs, params, progress) -> PipelineResult:
     h0 = params["initial_h_m"] if params["initial_h_m"] is not None else float(inp.pos0[2])
     lever = m.ldv.lever_arm_m
     c_l = attitude_at(sol, t_l, c_bn)
-    h = integrate_height(t_l, c_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0)
+    pk = setup.pitch_k_rad_per_mps2
+    a_l = forward_accel_mps2(t_l, nu_f / scale, ok) if pk else None
+    # LDV gaps are bridged by the INS's vertical velocity (smoothed, LDV-aided) at the IMU centre
+    vu_ins = np.interp(t_l, sol.t_s, sol.v_n[:, 2])
+    h = integrate_height(t_l, c_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l, vu_ins)
     c_l_raw = attitude_at(sol_raw, t_l) if est is not None else c_l
-    h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0)
+    vu_raw = np.interp(t_l, sol_raw.t_s, sol_raw.v_n[:, 2])
+    h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l,
+                             vu_raw)
     # GNSS reference (fix 4 or 2) at the IMU centre
-    summary = {"calibration": setup.info, "aiding": "ldv", "tilt_compensated": est is not None}
+    summary = {"calibration": setup.info, "aiding": "ldv", "tilt_compensated": est is not None, "dov": dov_info}
     if est is not None:
         summary.update({"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad})
     h_gnss_col = np.full(len(t_l), np.nan)
@@ -84,8 +101,11 @@ def run(logs, params, progress) -> PipelineResult:
         err = np.interp(g.t_s[ref], t_l, h) - h_ref[ref]
         err_raw = np.interp(g.t_s[ref], t_l, h_raw) - h_ref[ref]
         st, st_raw = error_stats(err), error_stats(err_raw)
+        st4 = error_stats(err[g.fix[ref] == 4])
         summary.update({"max_error_m": st["max"], "std_error_m": st["std"], "rms_error_m": st["rms"],
                         "n_reference": int(ref.sum()), "max_error_m_uncompensated": st_raw["max"],
+                        "max_error_m_fix4": st4["max"], "std_error_m_fix4": st4["std"],
+                        "n_reference_fix4": int(np.count_nonzero(g.fix[ref] == 4)),
                         "std_error_m_uncompensated": st_raw["std"], "rms_error_m_uncompensated": st_raw["rms"]})
         j = np.clip(np.searchsorted(t_l, g.t_s), 0, len(t_l) - 1)
         j0 = np.clip(j - 1, 0, len(t_l) - 1)

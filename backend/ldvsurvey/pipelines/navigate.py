@@ -9,13 +9,14 @@ from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.prep import attitude_at, gnss_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.plumb import apply_dov, dov_params
 from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_setup
 
 PARAMS = [
     Param("aiding", "str", "ldv", "ldv, gnss or ldv+gnss", choices=("ldv", "gnss", "ldv+gnss")),
     Param("smooth", "bool", True, "run the RTS smoother after the forward filter"),
     Param("output_rate_hz", "float", 10.0, "rate of trajectory.csv"),
-] + calibration_params()
+] + calibration_params() + dov_params("none")
 
 DEG = 180.0 / np.pi
 
@@ -23,6 +24,9 @@ DEG = 180.0 / np.pi
 def run_navigation(log, params, progress):
     """The navigation solution and what was used (shared with the gravity pipeline)."""
     inp = nav_inputs(log)
+    # pipelines that share this function without the dov parameters keep normal gravity
+    dov_info, dov_warn = ({"source": "none"}, []) if "dov" not in params else apply_dov(inp, params, progress)
+    inp.cache["dov"] = (dov_info, dov_warn)
     aiding = params.get("aiding", "ldv")
     use_ldv = "ldv" in aiding
     use_gnss = "gnss" in aiding
@@ -84,7 +88,8 @@ def run(logs, params, progress) -> PipelineResult:
          "n_reference": n_ref, "rejected_measurements": sol.rejected,
          "gyro_bias_dph": (sol.gyro_bias_rps * DEG * 3600).tolist(),
          "accel_bias_ug": (sol.accel_bias_mps2 / 9.80665e-6).tolist()}
-    warnings = []
+    s["dov"], warnings = inp.cache["dov"]
+    warnings = list(warnings)
     if setup is not None:
         s["calibration"] = setup.info
         warnings += setup.warnings

@@ -19,7 +19,7 @@ from ldvsurvey.pipelines.start import (_body_signals, _still_intervals, detect_s
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, run_filter
+from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, ldv_spikes, run_filter
 
 RAD = np.pi / 180.0
 #: fix quality -> 1-σ (horizontal, vertical) in m assumed for a survey receiver
@@ -46,6 +46,8 @@ class NavInputs:
     warnings: list = None  # what the preparation had to assume (for the summary)
     c_bn0: np.ndarray | None = None  # C_b^n at the start when aligned on the move (no static start)
     v0_n: np.ndarray | None = None  # velocity (ENU, m/s) at the start when aligned on the move
+    #: (xi_rad, eta_rad, dg_mps2) per IMU sample for the mechanization's gravity (None: normal gravity)
+    gravity: tuple | None = None
 
     def __post_init__(self):
         if self.cache is None:
@@ -61,6 +63,7 @@ def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
     mq = log.manifest.ldv.min_quality
     if ldv.quality is not None and mq is not None:
         ok_l = ldv.quality >= mq
+    ok_l = ok_l & ~ldv_spikes(ldv.v_fwd_mps, ok_l)  # spikes flagged good
     tg, vf = t[ok_l], ldv.v_fwd_mps[ok_l]
     if len(tg) < 2:
         raise ParameterError("the LDV has fewer than two samples above min_quality", field="ldv.csv")
@@ -164,6 +167,8 @@ def ldv_aid(inp: NavInputs, scale=None, pitch_rad=None, heading_rad=None, scale_
 #: Without the vertical term, a few mGal of Δg bias the LDV pitch calibration by tens of arcseconds.
 GRAVITY_NOISE_MGAL = 10.0
 DOV_NOISE_MGAL = 1.0
+#: prior σ of the z-gyro scale factor the pipelines estimate (300 ppm, the top of tactical-grade specs)
+GYRO_SCALE_Z_SIGMA = 3e-4
 
 
 #: initial σ of an alignment on the move: level from the specific force less the LDV acceleration
@@ -176,7 +181,7 @@ MOVING_POS_SIGMA0_M = 3.0  #: a single-point fix carried back along the road
 def pipeline_cfg(**kw) -> FilterConfig:
     """The filter configuration the pipelines use (coarse-alignment σ, unmodelled gravity)."""
     base = dict(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD), gravity_noise_mgal=GRAVITY_NOISE_MGAL,
-                dov_noise_mgal=DOV_NOISE_MGAL)
+                dov_noise_mgal=DOV_NOISE_MGAL, gyro_scale_z_sigma0=GYRO_SCALE_Z_SIGMA)
     base.update(kw)
     return FilterConfig(**base)
 
@@ -184,15 +189,21 @@ def pipeline_cfg(**kw) -> FilterConfig:
 def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssAid | None = None,
              cfg: FilterConfig | None = None, smooth: bool = True, zupt: bool = True) -> NavSolution:
     """Coarse alignment then the filter (ZUPT in still periods) with the given aids."""
-    q0 = q_from_c(initial_attitude(inp, cbs))
+    c0 = initial_attitude(inp, cbs)
+    if inp.gravity is not None and inp.v0_n is None:  # a static alignment levels to the plumb line
+        from ldvsurvey.nav.attitude import skew
+        from ldvsurvey.nav.dov import initial_misalignment
+
+        c0 = (np.eye(3) + skew(initial_misalignment(inp.gravity[0][0], inp.gravity[1][0], inp.pos0[0]))) @ c0
     cfg = cfg or pipeline_cfg()
     v0 = np.zeros(3)
     if inp.v0_n is not None:  # aligned on the move: a coarser start
         v0 = inp.v0_n
         cfg = dataclasses.replace(cfg, att_sigma0_rad=MOVING_ATT_SIGMA0_RAD, vel_sigma0_mps=MOVING_VEL_SIGMA0_MPS,
                                   pos_sigma0_m=max(cfg.pos_sigma0_m, MOVING_POS_SIGMA0_M))
-    return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q0, v0, inp.pos0, inp.noise, cfg,
-                      c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth)
+    return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q_from_c(c0), v0, inp.pos0, inp.noise, cfg,
+                      c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth,
+                      gravity=inp.gravity)
 
 
 def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:
