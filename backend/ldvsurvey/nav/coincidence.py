@@ -26,6 +26,8 @@ class Coincidence:
     per_line_max: np.ndarray
     per_line_min: np.ndarray
     total: float
+    per_line_mean: np.ndarray = None  #: mean of δ_ij over the common points
+    per_line_std: np.ndarray = None  #: std of δ_ij about that mean (ddof 0)
 
 
 def internal_coincidence(values: np.ndarray, names=None, distance_m=None) -> Coincidence:
@@ -40,7 +42,7 @@ def internal_coincidence(values: np.ndarray, names=None, distance_m=None) -> Coi
     total = float(np.sqrt(np.sum(d ** 2) / (m * (n - 1))))
     return Coincidence(list(names or [f"L{i + 1}" for i in range(n)]),
                        np.arange(m, dtype=float) if distance_m is None else np.asarray(distance_m),
-                       g, mean, d, per, d.max(axis=1), d.min(axis=1), total)
+                       g, mean, d, per, d.max(axis=1), d.min(axis=1), total, d.mean(axis=1), d.std(axis=1))
 
 
 def along_track(ref_e, ref_n, e, n):
@@ -79,11 +81,14 @@ def common_points(lines: list[tuple[np.ndarray, np.ndarray]], spacing_m: float):
     return grid, np.array([np.interp(grid, s, v) for s, v in prepared])
 
 
-def crossovers(tracks: list[tuple[np.ndarray, np.ndarray, np.ndarray]]):
+def crossovers(tracks: list[tuple[np.ndarray, np.ndarray, np.ndarray]], min_angle_deg: float = 0.0):
     """Differences at the crossings of distinct lines.
 
-    ``tracks``: per line (e (m), n (m), value). Returns (list of (i, j, e, n, d)), ε or None.
+    ``tracks``: per line (e (m), n (m), value). Crossings at an angle below ``min_angle_deg``
+    (repeated passes weaving over the same road) are not crossovers and are skipped.
+    Returns (list of (i, j, e, n, d)), ε or None.
     """
+    sin_min = np.sin(np.radians(min_angle_deg))
     found = []
     for i in range(len(tracks)):
         for j in range(i + 1, len(tracks)):
@@ -99,7 +104,8 @@ def crossovers(tracks: list[tuple[np.ndarray, np.ndarray, np.ndarray]]):
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (qp[..., 0] * s[..., 1] - qp[..., 1] * s[..., 0]) / den
                 u = (qp[..., 0] * r[..., 1] - qp[..., 1] * r[..., 0]) / den
-            hit = (den != 0) & (t >= 0) & (t < 1) & (u >= 0) & (u < 1)
+            norm = np.hypot(r[..., 0], r[..., 1]) * np.hypot(s[..., 0], s[..., 1])
+            hit = (den != 0) & (t >= 0) & (t < 1) & (u >= 0) & (u < 1) & (np.abs(den) >= sin_min * norm)
             for a, b in zip(*np.nonzero(hit)):
                 ta, ub = t[a, b], u[a, b]
                 va = v1[a] + ta * (v1[a + 1] - v1[a])
