@@ -18,7 +18,7 @@ from ldvsurvey.nav.attitude import c_from_q
 from ldvsurvey.nav.earth import ARCSEC, MGAL
 
 DEG = np.pi / 180.0
-AUG_NAMES = ("scale", "pitch", "heading", "scale_up")
+AUG_NAMES = ("scale", "pitch", "heading", "scale_up", "pitch_k")
 
 
 @dataclass
@@ -77,14 +77,20 @@ class FilterConfig:
     gravity_corr_s: float = 60.0  #: their correlation time, for the PSD 2σ²τ
     bias_instability: float = 0.0  #: relative random walk of biases per √h (0 = constants)
     ldv_aug: tuple[str, ...] = ()  #: subset of AUG_NAMES to estimate
-    #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad
+    #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad,
+    #: pitch compliance k_η in rad per m/s² (0.01 ≈ 5.6° per g, twice the softest car suspension)
     ldv_aug_sigma0: dict = field(default_factory=lambda: {"scale": 0.01, "pitch": 1 * DEG,
-                                                          "heading": 1 * DEG, "scale_up": 0.01})
+                                                          "heading": 1 * DEG, "scale_up": 0.01,
+                                                          "pitch_k": 0.01})
 
 
 @dataclass
 class LdvAid:
-    """LDV samples at the IMU times. nu_f/nu_u: measured speeds (m/s) along the head's forward/up axes."""
+    """LDV samples at the IMU times. nu_f/nu_u: measured speeds (m/s) along the head's forward/up axes.
+
+    The travel direction the LDV sees is pitched by pitch_rad + pitch_k_rad_per_mps2 · accel_fwd_mps2
+    (the vehicle's squat/dive under longitudinal acceleration; see :func:`forward_accel_mps2`).
+    """
 
     ok: np.ndarray  # (N,) bool
     nu_f_mps: np.ndarray
@@ -94,6 +100,8 @@ class LdvAid:
     heading_rad: float = 0.0
     scale_up: float = 1.0
     lever_arm_m: tuple = (0.0, 0.0, 0.0)
+    accel_fwd_mps2: np.ndarray | None = None  #: (N,) forward acceleration along the travel, m/s²
+    pitch_k_rad_per_mps2: float = 0.0  #: pitch compliance k_η, rad per m/s²
 
 
 @dataclass
@@ -130,6 +138,14 @@ class NavSolution:
     epoch_index: np.ndarray = None  # (M+1,) sample index of each epoch (−1: before the first sample)
     epoch_bias: np.ndarray = None  # (M+1, 6) gyro (rad/s) and accel (m/s²) bias estimates
     epoch_cov: np.ndarray | None = None  # (M+1, n, n) when keep_cov
+    #: up component of the specific force (m/s²) over each IMU interval (t_{k−1}, t_k], from the very
+    #: mechanization step the velocity integrates (C_s^n Δv with rotation/sculling and n-frame rotation
+    #: corrections, accelerometer-bias estimate removed; smoothed attitude/bias when ``smoothed``), / Δt
+    f_u_mps2: np.ndarray | None = None
+    #: (C_s^n b̂_a)_U, m/s²: the accelerometer-bias correction removed from f_u_mps2 (add it back for raw f_U)
+    f_u_bias_mps2: np.ndarray | None = None
+    #: time tags of f_u_mps2: interval mid-times (t_{k−1} + t_k)/2, s
+    f_t_s: np.ndarray | None = None
 
     def c_bn(self) -> np.ndarray:
         """Body attitude C_b^n at every sample (C_s^n C_b^s for a rotating IMU)."""
@@ -137,12 +153,36 @@ class NavSolution:
         return c if self.c_bs is None else c @ self.c_bs
 
 
+def forward_accel_mps2(t_s, nu_f_mps, ok, window_s: float = 0.5) -> np.ndarray:
+    """Forward acceleration (m/s²) along the travel from the LDV speed: the usable samples bridged
+    linearly, a centred moving average over ``window_s``, then the central difference over ``window_s``.
+
+    Parameters
+    ----------
+    t_s : (N,) s. nu_f_mps : (N,) measured forward speed, m/s. ok : (N,) usable samples.
+    """
+    t = np.asarray(t_s, float)
+    good = np.asarray(ok, bool)
+    if good.sum() < 2:
+        return np.zeros(len(t))
+    v = np.interp(t, t[good], np.asarray(nu_f_mps, float)[good])
+    dt = float(np.median(np.diff(t)))
+    w = max(1, int(round(window_s / dt)))
+    c = np.concatenate([[0.0], np.cumsum(v)])
+    lo = np.clip(np.arange(len(t)) - w // 2, 0, len(t))
+    hi = np.clip(lo + w, 0, len(t))
+    vs = (c[hi] - c[lo]) / np.maximum(hi - lo, 1)
+    ia = np.clip(np.arange(len(t)) - w // 2, 0, len(t) - 1)
+    ib = np.clip(np.arange(len(t)) + w // 2, 0, len(t) - 1)
+    return (vs[ib] - vs[ia]) / np.maximum(t[ib] - t[ia], dt)
+
+
 def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gnss, c_bs):
     decim = max(1, int(round(1.0 / (cfg.rate_hz * np.median(np.diff(t))))))
     m = n_s // decim
     aug = [a for a in AUG_NAMES if a in cfg.ldv_aug]
     n = 15 + len(aug)
-    aug_idx = np.full(4, -1, dtype=np.int64)
+    aug_idx = np.full(len(AUG_NAMES), -1, dtype=np.int64)
     for i, a in enumerate(aug):
         aug_idx[AUG_NAMES.index(a)] = 15 + i
     s_att = np.asarray(cfg.att_sigma0_rad, float)
@@ -166,16 +206,21 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     if ldv is None:
         ldv_ok = np.zeros(n_s, dtype=np.bool_)
         nu_f = nu_u = np.zeros(n_s)
-        par0 = np.array([1.0, 0.0, 0.0, 1.0])
+        par0 = np.array([1.0, 0.0, 0.0, 1.0, 0.0])
         l_ldv = np.zeros(3)
         up = False
+        a_f = np.zeros(0)
     else:
         ldv_ok = np.ascontiguousarray(ldv.ok, dtype=np.bool_)
         nu_f = np.ascontiguousarray(ldv.nu_f_mps, dtype=float)
         up = ldv.nu_u_mps is not None
         nu_u = np.ascontiguousarray(ldv.nu_u_mps if up else np.zeros(n_s), dtype=float)
-        par0 = np.array([1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up], float)
+        par0 = np.array([1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up,
+                         ldv.pitch_k_rad_per_mps2], float)
         l_ldv = np.asarray(ldv.lever_arm_m, float)
+        a_f = np.zeros(0) if ldv.accel_fwd_mps2 is None else np.ascontiguousarray(ldv.accel_fwd_mps2, float)
+        if "pitch_k" in cfg.ldv_aug and len(a_f) == 0:
+            raise ValueError("the pitch-compliance state needs LdvAid.accel_fwd_mps2")
     if gnss is None:
         g_t = np.zeros(0)
         g_pos = np.zeros((0, 3))
@@ -192,7 +237,7 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     else:
         c_bs_arr = c_bs
     return (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float))
+            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float), a_f)
 
 
 def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cfg: FilterConfig | None = None,
@@ -212,18 +257,18 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     t = np.ascontiguousarray(t_s, dtype=float)
     n_s = len(t)
     (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-     g_t, g_pos, g_sig, l_g, c_bs_arr) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
+     g_t, g_pos, g_sig, l_g, c_bs_arr, a_f) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
-    (q, v, p, phis, pplus, dts, dxs, par, bias, nis, rej) = kfloop.forward(
+    (q, v, p, f_n, f_b, phis, pplus, dts, dxs, par, bias, nis, rej) = kfloop.forward(
         t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr,
         np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), xi, eta, dg,
         decim, p0, qd, zupt, cfg.zupt_sigma_mps, ldv_ok, nu_f, nu_u, par0, l_ldv,
-        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0)
+        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0, a_f)
     if smooth:
         xs, ps = kfloop.rts(phis, pplus, dts, dxs, qd)
-        q, v, p = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p)
+        q, v, p, f_n, f_b = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f_n, f_b)
     else:
         xs, ps = np.zeros_like(dxs), pplus
     sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", ps), 0.0))
@@ -250,4 +295,6 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
                        epoch_t_s=ep_t, epoch_sigma=sig_ep, normalized_innovations=nis,
                        rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},
                        epoch_index=np.arange(m + 1) * decim - 1, epoch_bias=ep_bias,
-                       epoch_cov=ps if keep_cov else None)
+                       epoch_cov=ps if keep_cov else None,
+                       f_u_mps2=np.ascontiguousarray(f_n[:, 2]), f_u_bias_mps2=f_b,
+                       f_t_s=t - 0.5 * np.diff(t, prepend=2 * t[0] - t[1]))

@@ -7,7 +7,9 @@ back and the error state reset. Stored per epoch for the smoother: Φ, P⁺, Δt
 feedback dx (see :mod:`ldvsurvey.nav.filter` for the smoothing algebra).
 
 Augmented LDV states (when enabled, in this order after the 15): δs_f, δη_L (rad), δφ_L (rad),
-δs_u, where s = 1/K is the factor applied to the measured speed (V_d = [0, s_f ν_f, s_u ν_u]).
+δs_u, δk_η (rad per m/s²), where s = 1/K is the factor applied to the measured speed
+(V_d = [0, s_f ν_f, s_u ν_u]) and the travel direction the LDV sees is pitched by
+η_L + k_η·a_f, a_f the forward acceleration (the body's squat and dive under acceleration).
 Inverse scales are estimated additively, so the feedback is linear like the smoother's algebra.
 """
 
@@ -73,7 +75,7 @@ def _scalar_update(x, P, h, z, r, gate):
 def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             decim, p0, qd, zupt_epoch, zupt_sigma,
             ldv_ok, nu_f, nu_u, ldv_par0, l_ldv, ldv_sigma, ldv_up, aug_idx,
-            g_t, g_pos, g_sig, l_gnss, gate, bias0):
+            g_t, g_pos, g_sig, l_gnss, gate, bias0, a_fwd):
     """Run the forward filter. See the Python wrapper :func:`ldvsurvey.nav.filter.run_filter`."""
     n_s = len(t)
     n = len(p0)
@@ -81,11 +83,13 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
     q_out = np.empty((n_s, 4))
     v_out = np.empty((n_s, 3))
     p_out = np.empty((n_s, 3))
+    f_out = np.empty((n_s, 3))  # mean specific force in n over each interval, as integrated
+    fb_out = np.empty(n_s)  # its up component of the accelerometer-bias correction (C_s^n b̂_a)_U
     phis = np.empty((m + 1, n, n))
     pplus = np.empty((m + 1, n, n))
     dts = np.zeros(m + 1)
     dxs = np.zeros((m + 1, n))
-    par_out = np.empty((m + 1, 4))
+    par_out = np.empty((m + 1, 5))
     bias_out = np.empty((m + 1, 6))
     nis = np.full((m + 1, 9), np.nan)  # normalized innovations: zupt(3), ldv(3), gnss(3)
     rejected = np.zeros(3, dtype=np.int64)
@@ -110,7 +114,10 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
     lvl = np.zeros(3)
     lvd = np.zeros(3)
     lnu = np.zeros(2)
+    lvda = np.zeros(3)  # Σ V^d a_f (the pitch-compliance column)
+    la = 0.0  # Σ a_f
     lc = np.zeros((3, 3))
+    use_k = len(a_fwd) > 0 and (aug_idx[4] >= 0 or par[4] != 0.0)
     ln = 0
     gi = 0
     n_g = len(g_t)
@@ -142,15 +149,28 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         q, v, pos = q_new, v_new, p_new
         dth_prev, dv_prev = a_th, a_dv
         fsum += f_n * dt
+        f_out[k] = f_n
         c_sn = q_to_c(q)
+        fb_out[k] = c_sn[2, 0] * b_a[0] + c_sn[2, 1] * b_a[1] + c_sn[2, 2] * b_a[2]
         c_bn = c_sn @ c_bs[k] if rotating else c_sn
         if ldv_ok[k]:
             vd1 = nu_f[k] * par[0]
             vd2 = (nu_u[k] * par[3]) if ldv_up else 0.0
             # V^b = C_d^b [0, vd1, vd2]; v_l = C_b^n V^b (scalars: no small-array allocations)
-            vb0 = cdb[0, 1] * vd1 + cdb[0, 2] * vd2
-            vb1 = cdb[1, 1] * vd1 + cdb[1, 2] * vd2
-            vb2 = cdb[2, 1] * vd1 + cdb[2, 2] * vd2
+            if use_k:  # C_d^b(η_L + k a, φ_L): forward and up columns
+                ak = a_fwd[k]
+                ee = par[1] + par[4] * ak
+                ce, se, cp, sp = np.cos(ee), np.sin(ee), np.cos(par[2]), np.sin(par[2])
+                vb0 = -sp * ce * vd1 + sp * se * vd2
+                vb1 = cp * ce * vd1 - cp * se * vd2
+                vb2 = se * vd1 + ce * vd2
+                lvda[1] += vd1 * ak
+                lvda[2] += vd2 * ak
+                la += ak
+            else:
+                vb0 = cdb[0, 1] * vd1 + cdb[0, 2] * vd2
+                vb1 = cdb[1, 1] * vd1 + cdb[1, 2] * vd2
+                vb2 = cdb[2, 1] * vd1 + cdb[2, 2] * vd2
             # body rate from the attitude change: antisymmetric part of C_prevᵀ C
             r21 = r12 = r02 = r20 = r10 = r01 = 0.0
             for i in range(3):
@@ -218,17 +238,19 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             v_l = lvl / ln
             vd = lvd / ln
             cb = lc / ln
-            cols = np.zeros((3, 4))
-            cols[:, 0] = -cb @ (cdb @ np.array([0.0, lnu[0] / ln, 0.0]))
-            cols[:, 1] = -cb @ (cdb @ cross(np.array([1.0, 0.0, 0.0]), vd))
-            cols[:, 2] = -cb @ cross(np.array([0.0, 0.0, 1.0]), cdb @ vd)
-            cols[:, 3] = -cb @ (cdb @ np.array([0.0, 0.0, lnu[1] / ln]))
+            ch = c_db(par[1] + par[4] * la / ln, par[2]) if use_k else cdb
+            cols = np.zeros((3, 5))
+            cols[:, 0] = -cb @ (ch @ np.array([0.0, lnu[0] / ln, 0.0]))
+            cols[:, 1] = -cb @ (ch @ cross(np.array([1.0, 0.0, 0.0]), vd))
+            cols[:, 2] = -cb @ cross(np.array([0.0, 0.0, 1.0]), ch @ vd)
+            cols[:, 3] = -cb @ (ch @ np.array([0.0, 0.0, lnu[1] / ln]))
+            cols[:, 4] = -cb @ (ch @ cross(np.array([1.0, 0.0, 0.0]), lvda / ln))
             hphi = -skew_nb(v_l)
             H = np.zeros((3, n))
             for i in range(3):
                 H[i, 0:3] = hphi[i]
                 H[i, 3 + i] = 1.0
-                for a in range(4):
+                for a in range(5):
                     if aug_idx[a] >= 0:
                         H[i, aug_idx[a]] = cols[i, a]
             _gated_rows(x, P, H, z, ldv_sigma ** 2 / ln, gate, 1, run, rejected, nis[j, 3:6])
@@ -252,6 +274,8 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             par[2] -= x[aug_idx[2]]
         if aug_idx[3] >= 0:
             par[3] -= x[aug_idx[3]]
+        if aug_idx[4] >= 0:
+            par[4] -= x[aug_idx[4]]
         cdb = c_db(par[1], par[2])
         c_bn_prev = q_to_c(q) @ c_bs[k] if rotating else q_to_c(q)
         dxs[j] = x
@@ -263,12 +287,14 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         lvl[:] = 0.0
         lvd[:] = 0.0
         lnu[:] = 0.0
+        lvda[:] = 0.0
+        la = 0.0
         lc[:, :] = 0.0
         ln = 0
         q_out[k] = q
         v_out[k] = v
         p_out[k] = pos
-    return q_out, v_out, p_out, phis, pplus, dts, dxs, par_out, bias_out, nis, rejected
+    return q_out, v_out, p_out, f_out, fb_out, phis, pplus, dts, dxs, par_out, bias_out, nis, rejected
 
 
 @nb.njit(cache=True)
@@ -296,25 +322,31 @@ def rts(phis, pplus, dts, dxs, qd):
 
 
 @nb.njit(cache=True)
-def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p):
+def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f, fb):
     """Correct the forward nominal at every sample with the smoothed error interpolated in time
-    from x_s(j−1) to x_s(j) + dx_j (the post-update sample of epoch j takes x_s(j))."""
+    from x_s(j−1) to x_s(j) + dx_j (the post-update sample of epoch j takes x_s(j)).
+
+    The specific force f (n frame, per interval) gets the same attitude correction,
+    f ← (I + [φ×]) f, and the smoothed accelerometer-bias correction, f ← f − C_s^n δ∇;
+    ``fb`` (the up component of C_s^n b̂_a) gets + (C_s^n δ∇)_U."""
     n_s = len(t)
     q2 = np.empty_like(q)
     v2 = np.empty_like(v)
     p2 = np.empty_like(p)
-    x = np.zeros(9)
+    f2 = np.empty_like(f)
+    fb2 = np.empty_like(fb)
+    x = np.zeros(15)
     for k in range(n_s):
         if k < m * decim:
             j = k // decim + 1
             if (k + 1) % decim == 0:
-                x[:] = xs[j, :9]
+                x[:] = xs[j, :15]
             else:
                 ta, tb = ep_t[j - 1], ep_t[j]
                 w = (t[k] - ta) / (tb - ta) if tb > ta else 1.0
-                x[:] = (1.0 - w) * xs[j - 1, :9] + w * (xs[j, :9] + dxs[j, :9])
+                x[:] = (1.0 - w) * xs[j - 1, :15] + w * (xs[j, :15] + dxs[j, :15])
         else:
-            x[:] = xs[m, :9]
+            x[:] = xs[m, :15]
         qc = qmul(q_rotvec(x[0:3]), q[k])
         q2[k] = qc / np.sqrt(np.sum(qc * qc))
         v2[k] = v[k] - x[3:6]
@@ -322,4 +354,8 @@ def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p):
         p2[k, 0] = p[k, 0] - x[7] / (rm + p[k, 2])
         p2[k, 1] = p[k, 1] - x[6] / ((rn + p[k, 2]) * np.cos(p[k, 0]))
         p2[k, 2] = p[k, 2] - x[8]
-    return q2, v2, p2
+        c = q_to_c(q2[k])
+        da = c @ x[12:15]
+        f2[k] = f[k] + cross(x[0:3], f[k]) - da
+        fb2[k] = fb[k] + da[2]
+    return q2, v2, p2, f2, fb2

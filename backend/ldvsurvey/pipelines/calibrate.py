@@ -33,7 +33,12 @@ def run(logs, params, progress) -> PipelineResult:
         "ldv_pitch_deg": cal.pitch_rad / RAD, "ldv_pitch_deg_sigma": cal.sigma["pitch"] / RAD,
         "ldv_heading_deg": cal.heading_rad / RAD, "ldv_heading_deg_sigma": cal.sigma["heading"] / RAD,
         "ldv_scale": cal.scale, "ldv_scale_sigma": cal.sigma["scale"],
-        "segment_t_s": list(cal.window_s), "method": "kalman filter with LDV states (closed form beside)",
+        "ldv_pitch_k_rad_per_mps2": cal.pitch_k_rad_per_mps2,
+        "ldv_pitch_k_rad_per_mps2_sigma": cal.sigma["pitch_k"],
+        "ldv_pitch_compliance_deg_per_g": cal.pitch_k_rad_per_mps2 / RAD * 9.80665,
+        "fix_qualities": list(cal.fixes),
+        "segment_t_s": list(cal.window_s), "method": "kalman filter with LDV states: travel direction (pitch, heading, pitch compliance "
+                  "per m/s² of forward acceleration) and scale; closed form beside",
         "closed_form": cal.closed_form, **extra,
     }
     warnings = []
@@ -42,6 +47,8 @@ def run(logs, params, progress) -> PipelineResult:
         s["ldv_scale_up_sigma"] = cal.sigma["scale_up"]
         if cal.sigma["scale_up"] is None:
             warnings.append(cal.closed_form["note"])
+    if "note_compliance" in cal.closed_form:
+        warnings.append(cal.closed_form["note_compliance"])
     return PipelineResult(summary=s, tables={"calibration_track": cal.track}, warnings=warnings)
 
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ldvsurvey.nav.errmodel import c_db
+from ldvsurvey.nav.filter import forward_accel_mps2
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
-from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_setup
+from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_body_velocity, ldv_setup
 
 PARAMS = calibration_params() + [
     Param("initial_h_m", "float", None, "height of the IMU centre at the start (default: manifest, else GNSS)"),
@@ -21,10 +21,13 @@ PARAMS = calibration_params() + [
 ]
 
 
-def integrate_height(t_l, c_bn_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0):
-    """Height (m) of the IMU centre at the LDV times by trapezoidal integration of V_U."""
-    vd = np.column_stack([np.zeros_like(nu_f), nu_f / scale, (nu_u / scale_up) if nu_u is not None else 0 * nu_f])
-    v_b = vd @ c_db(pitch, heading).T
+def integrate_height(t_l, c_bn_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0,
+                     pitch_k=0.0, accel_fwd=None):
+    """Height (m) of the IMU centre at the LDV times by trapezoidal integration of V_U.
+
+    The travel direction the LDV sees is pitched by ``pitch + pitch_k · accel_fwd`` (rad; accel_fwd in
+    m/s² at the LDV times, the vehicle's squat and dive)."""
+    v_b = ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up, pitch_k, accel_fwd)
     v_u = np.einsum("kj,kj->k", c_bn_l[:, 2, :], v_b)
     v_u = np.interp(t_l, t_l[ok], v_u[ok])  # bridge samples below min_quality
     h = h0 + np.concatenate([[0.0], np.cumsum(0.5 * (v_u[1:] + v_u[:-1]) * np.diff(t_l))])
@@ -68,9 +71,11 @@ def run(logs, params, progress) -> PipelineResult:
     h0 = params["initial_h_m"] if params["initial_h_m"] is not None else float(inp.pos0[2])
     lever = m.ldv.lever_arm_m
     c_l = attitude_at(sol, t_l, c_bn)
-    h = integrate_height(t_l, c_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0)
+    pk = setup.pitch_k_rad_per_mps2
+    a_l = forward_accel_mps2(t_l, nu_f / scale, ok) if pk else None
+    h = integrate_height(t_l, c_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l)
     c_l_raw = attitude_at(sol_raw, t_l) if est is not None else c_l
-    h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0)
+    h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l)
     # GNSS reference (fix 4 or 2) at the IMU centre
     summary = {"calibration": setup.info, "aiding": "ldv", "tilt_compensated": est is not None}
     if est is not None:

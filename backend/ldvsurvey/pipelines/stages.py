@@ -7,12 +7,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.nav.errmodel import c_db
+from ldvsurvey.nav.earth import radii
+from ldvsurvey.nav.filter import forward_accel_mps2
 from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
-from ldvsurvey.pipelines.prep import NavInputs, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate, pipeline_cfg
+from ldvsurvey.pipelines.prep import (NavInputs, attitude_at, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate,
+                                      pipeline_cfg)
 
 RAD = np.pi / 180.0
 ARCSEC = RAD / 3600.0
+G0 = 9.80665
 
 
 def static_part(inp: NavInputs) -> NavInputs:
@@ -51,7 +54,8 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
 
 @dataclass
 class Calibration:
-    """LDV mounting and scale: values (rad, –) with 1-σ, from the KF; closed-form values beside."""
+    """LDV mounting, compliance and scale: values (rad, rad per m/s², –) with 1-σ, from the KF;
+    closed-form values beside."""
 
     pitch_rad: float
     heading_rad: float
@@ -61,50 +65,79 @@ class Calibration:
     closed_form: dict
     window_s: tuple[float, float]
     track: dict  # calibration_track columns
+    pitch_k_rad_per_mps2: float = 0.0  #: pitch compliance: travel direction pitch per m/s² forward accel
+    fixes: tuple = (4, 2)  #: GNSS fix qualities used
+
+
+#: fix qualities for the calibration, best first: RTK fixed, then RTK float and differential
+GOOD_FIXES = ((4,), (4, 5, 2))
 
 
 def choose_window(inp: NavInputs, window=None, min_distance_m: float = 500.0) -> tuple[float, float]:
-    """The calibration stretch: given, or the longest good-GNSS (fix 4/2) moving stretch."""
+    """The calibration stretch: given, or the longest RTK-fixed (fix 4) moving stretch, else the
+    longest one of fix 4, 5 or 2."""
+    return _choose_window(inp, window, min_distance_m)[0]
+
+
+def _choose_window(inp: NavInputs, window=None, min_distance_m: float = 500.0):
     g = inp.log.gnss
     if g is None:
         raise ParameterError("calibration needs GNSS fixes (no gnss.nmea in the bundle)", file="gnss.nmea")
     t0, t1 = float(inp.t_s[0]), float(inp.t_s[-1])
-    good = np.isin(g.fix, (4, 2)) & np.isfinite(g.lat_deg)
     if window is not None:
         a, b = window
         if not (t0 <= a < b <= t1):
             raise ParameterError(f"calibration_window [{a}, {b}] s is not inside the log [{t0:.2f}, {t1:.2f}] s",
                                  field="calibration_window")
-        if np.count_nonzero(good & (g.t_s >= a) & (g.t_s <= b)) < 10:
-            raise ParameterError("fewer than 10 GNSS fixes of quality 4 or 2 in the calibration window",
-                                 field="calibration_window")
-        return float(a), float(b)
+        for fixes in GOOD_FIXES:
+            good = np.isin(g.fix, fixes) & np.isfinite(g.lat_deg)
+            if np.count_nonzero(good & (g.t_s >= a) & (g.t_s <= b)) >= 10:
+                return (float(a), float(b)), fixes
+        raise ParameterError("fewer than 10 GNSS fixes of quality 4, 5 or 2 in the calibration window",
+                             field="calibration_window")
     speed = np.interp(g.t_s, inp.t_s, np.abs(inp.nu_f_mps))
-    best, best_d = None, 0.0
-    idx = np.flatnonzero(good)
-    if len(idx) == 0:
-        raise ParameterError("no GNSS fix of quality 4 (RTK fixed) or 2 (differential) for the calibration",
-                             file="gnss.nmea", field="fix_quality")
-    runs = np.split(idx, np.flatnonzero(np.diff(g.t_s[idx]) > 2.5) + 1)
-    for r in runs:
-        mv = r[speed[r] > 1.0]
-        if len(mv) < 2:
-            continue
-        r = r[(r >= mv[0]) & (r <= mv[-1])]
-        e, n = local_metres(g.lat_deg[r[0]] * RAD, g.lon_deg[r[0]] * RAD, g.lat_deg[r] * RAD, g.lon_deg[r] * RAD)
-        d = float(np.sum(np.hypot(np.diff(e), np.diff(n))))
-        if d > best_d:
-            best, best_d = (float(g.t_s[r[0]]), float(g.t_s[r[-1]])), d
-    if best is None or best_d < min_distance_m:
-        raise ParameterError(f"no moving stretch with good GNSS (fix 4 or 2) of at least {min_distance_m:.0f} m "
-                             "for the calibration", file="gnss.nmea", field="fix_quality")
-    return best
+    for fixes in GOOD_FIXES:
+        good = np.isin(g.fix, fixes) & np.isfinite(g.lat_deg)
+        best, best_d = None, 0.0
+        idx = np.flatnonzero(good)
+        runs = np.split(idx, np.flatnonzero(np.diff(g.t_s[idx]) > 2.5) + 1) if len(idx) else []
+        for r in runs:
+            mv = r[speed[r] > 1.0]
+            if len(mv) < 2:
+                continue
+            r = r[(r >= mv[0]) & (r <= mv[-1])]
+            e, n = local_metres(g.lat_deg[r[0]] * RAD, g.lon_deg[r[0]] * RAD, g.lat_deg[r] * RAD,
+                                g.lon_deg[r] * RAD)
+            d = float(np.sum(np.hypot(np.diff(e), np.diff(n))))
+            if d > best_d:
+                best, best_d = (float(g.t_s[r[0]]), float(g.t_s[r[-1]])), d
+        if best is not None and best_d >= min_distance_m:
+            return best, fixes
+    raise ParameterError(f"no moving stretch with good GNSS (fix 4, 5 or 2) of at least {min_distance_m:.0f} m "
+                         "for the calibration", file="gnss.nmea", field="fix_quality")
 
 
-def _dead_reckon(t, c_bn, nu_f, nu_u, ok, scale, pitch, heading, scale_up):
+def ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up=1.0, pitch_k=0.0, accel_fwd=None):
+    """V^b (m/s, (N, 3)) = C_d^b(η_L + k_η a_f, φ_L) [0, ν_f/K, ν_u/K_u] (ν_u = 0 for a 1-D LDV)."""
+    nu_f = np.asarray(nu_f, float)
+    vd1 = nu_f / scale
+    vd2 = np.asarray(nu_u, float) / scale_up if nu_u is not None else np.zeros_like(nu_f)
+    eta = pitch + (pitch_k * np.asarray(accel_fwd, float) if accel_fwd is not None and pitch_k else 0.0)
+    ce, se, cp, sp = np.cos(eta), np.sin(eta), np.cos(heading), np.sin(heading)
+    return np.column_stack([-sp * ce * vd1 + sp * se * vd2, cp * ce * vd1 - cp * se * vd2, se * vd1 + ce * vd2])
+
+
+def accel_fwd(inp: NavInputs) -> np.ndarray:
+    """Forward acceleration along the travel (m/s²) at the IMU samples, from the LDV (once per run)."""
+    if "accel_fwd" not in inp.cache:
+        inp.cache["accel_fwd"] = forward_accel_mps2(inp.t_s, inp.nu_f_mps, inp.ldv_ok)
+    return inp.cache["accel_fwd"]
+
+
+def _dead_reckon(t, c_bn, nu_f, nu_u, ok, scale, pitch, heading, scale_up, pitch_k=0.0, a_f=None):
     """ENU positions (m) from LDV velocities through the attitude (trapezoid)."""
-    vd = np.column_stack([np.zeros_like(nu_f), nu_f / scale, (nu_u / scale_up) if nu_u is not None else 0 * nu_f])
-    v_n = np.einsum("kij,kj->ki", c_bn, vd @ c_db(pitch, heading).T)
+    v_n = np.einsum("kij,kj->ki", c_bn, ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up,
+                                                           pitch_k, a_f))
     v_n[~ok] = np.nan
     good = np.isfinite(v_n[:, 0])
     for i in range(3):  # bridge unusable LDV samples
@@ -114,32 +147,55 @@ def _dead_reckon(t, c_bn, nu_f, nu_u, ok, scale, pitch, heading, scale_up):
 
 
 def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibration:
-    """Closed-form dead-reckoning comparison and the refined Kalman estimate (η_L, φ_L, K)."""
+    """The Kalman estimate of the travel direction the LDV sees (η_L, φ_L, pitch compliance k_η)
+    and the scale K, with the closed-form dead-reckoning comparison beside.
+
+    One navigation: the filter with the LDV states augmented, LDV everywhere and GNSS (fix 4, else
+    4/5/2) in the window; its attitude also serves the closed form (no separate GNSS/INS run).
+    """
     log = inp.log
-    a, b = choose_window(inp, window)
+    (a, b), fixes = _choose_window(inp, window)
     nom = log.manifest.ldv.nominal
     up = inp.nu_u_mps is not None
-    # 1) attitude from a GNSS-aided INS (all good fixes), no LDV
+    a_f = accel_fwd(inp)
+    # 1) the filter with the LDV states augmented, GNSS only in the window
     if progress:
-        progress("calibration: GNSS/INS attitude", 0.1)
-    from ldvsurvey.pipelines.prep import gnss_ins
-
-    sol_g = gnss_ins(inp, cbs)
-    c_bn = sol_g.c_bn()
-    k = (inp.t_s >= a) & (inp.t_s <= b)
+        progress("calibration: Kalman filter with LDV states", 0.1)
+    # the up-axis scale is observable only when the LDV up channel carries motion
+    moving = inp.ldv_ok & (np.abs(inp.nu_f_mps) > 1.0)
+    up_obs = up and moving.any() and float(np.sqrt(np.mean(inp.nu_u_mps[moving] ** 2))) > 0.05
+    win = (inp.t_s >= a) & (inp.t_s <= b)
+    # the compliance is observable when the window holds accelerations (≥ 0.3 m/s² for ≥ 10 s)
+    k_obs = float(np.count_nonzero(win & inp.ldv_ok & (np.abs(a_f) > 0.3))) * np.median(np.diff(inp.t_s)) >= 10.0
+    aug = ("scale", "pitch", "heading") + (("scale_up",) if up_obs else ()) + (("pitch_k",) if k_obs else ())
+    cfg = pipeline_cfg(ldv_aug=aug)
+    aid = ldv_aid(inp)
+    aid.accel_fwd_mps2 = a_f
+    sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=fixes, window=(a, b)), cfg=cfg)
+    inp.cache["calibration_solution"] = sol
+    p = sol.ldv_params
+    pk, spk = p.get("pitch_k", (0.0, None)) if k_obs else (0.0, None)
+    cal = Calibration(pitch_rad=p["pitch"][0], heading_rad=p["heading"][0], scale=p["scale"][0],
+                      scale_up=p["scale_up"][0] if up_obs else log.manifest.ldv.nominal.scale,
+                      sigma={"pitch": p["pitch"][1], "heading": p["heading"][1], "scale": p["scale"][1],
+                             "scale_up": p["scale_up"][1] if up_obs else None, "pitch_k": spk},
+                      closed_form={}, window_s=(a, b), track={}, pitch_k_rad_per_mps2=pk, fixes=fixes)
+    # 2) closed form over the window with the filter's attitude: similarity fit of the horizontal
+    # tracks, slope of the height residual (no compliance: it shows what a constant mounting gives)
+    if progress:
+        progress("calibration: closed form", 0.8)
+    c_bn = sol.c_bn()
+    k = win
     t = inp.t_s[k]
     g = log.gnss
-    gk = np.isin(g.fix, (4, 2)) & (g.t_s >= a) & (g.t_s <= b) & np.isfinite(g.lat_deg)
+    gk = np.isin(g.fix, fixes) & (g.t_s >= a) & (g.t_s <= b) & np.isfinite(g.lat_deg)
     lev = np.asarray(log.manifest.gnss.lever_arm_m, float)
-    from ldvsurvey.pipelines.prep import attitude_at
-
-    c_fix = attitude_at(sol_g, g.t_s[gk], c_bn)
+    c_fix = attitude_at(sol, g.t_s[gk], c_bn)
     lev_n = c_fix @ lev
     lat_r, lon_r = g.lat_deg[gk] * RAD, g.lon_deg[gk] * RAD
     e, n = local_metres(lat_r[0], lon_r[0], lat_r, lon_r)
     gpos = np.column_stack([e - lev_n[:, 0], n - lev_n[:, 1], g.h_m[gk] - lev_n[:, 2]])
     gpos -= gpos[0]
-    # 2) closed form: similarity fit of the horizontal tracks, slope of the height residual
     pitch, heading, scale = nom.pitch_deg * RAD, nom.heading_deg * RAD, nom.scale
     nu_u = inp.nu_u_mps[k] if up else None
     for _ in range(3):
@@ -161,35 +217,22 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     rms_h = float(np.sqrt(np.mean(res2 ** 2)))
     span = float(np.sqrt(np.sum(d2 ** 2)))
     resid_v = res_h - np.polyval(np.polyfit(dist, res_h, 1), dist)
-    closed = {"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale,
-              "ldv_pitch_deg_sigma": float(np.std(resid_v) / np.sqrt(np.sum((dist - dist.mean()) ** 2)) / RAD),
-              "ldv_heading_deg_sigma": rms_h / span / RAD, "ldv_scale_sigma": rms_h / span * scale,
-              "n_fixes": int(len(dist))}
-    # 3) refined: the filter with the LDV states augmented, GNSS only in the window
-    if progress:
-        progress("calibration: Kalman filter with LDV states", 0.5)
-    # the up-axis scale is observable only when the LDV up channel carries motion
-    moving = inp.ldv_ok & (np.abs(inp.nu_f_mps) > 1.0)
-    up_obs = up and moving.any() and float(np.sqrt(np.mean(inp.nu_u_mps[moving] ** 2))) > 0.05
-    aug = ("scale", "pitch", "heading") + (("scale_up",) if up_obs else ())
-    cfg = pipeline_cfg(ldv_aug=aug)
-    sol = navigate(inp, cbs=cbs, ldv=ldv_aid(inp), gnss=gnss_aid(log, fixes=(4, 2), window=(a, b)), cfg=cfg)
-    p = sol.ldv_params
-    cal = Calibration(pitch_rad=p["pitch"][0], heading_rad=p["heading"][0], scale=p["scale"][0],
-                      scale_up=p["scale_up"][0] if up_obs else log.manifest.ldv.nominal.scale,
-                      sigma={"pitch": p["pitch"][1], "heading": p["heading"][1], "scale": p["scale"][1],
-                             "scale_up": p["scale_up"][1] if up_obs else None},
-                      closed_form=closed, window_s=(a, b), track={})
+    cal.closed_form = {"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale,
+                       "ldv_pitch_deg_sigma": float(np.std(resid_v) / np.sqrt(np.sum((dist - dist.mean()) ** 2))
+                                                    / RAD),
+                       "ldv_heading_deg_sigma": rms_h / span / RAD, "ldv_scale_sigma": rms_h / span * scale,
+                       "n_fixes": int(len(dist))}
     if up and not up_obs:
         cal.closed_form["note"] = ("up-axis scale not estimated: the LDV up channel shows no motion "
                                    "(rms < 0.05 m/s) in the window; the nominal scale is used")
-    # 4) the calibrated dead-reckoning track over the window, from the first fix
+    if not k_obs:
+        cal.closed_form["note_compliance"] = ("pitch compliance not estimated: the window holds less than 10 s "
+                                              "of acceleration above 0.3 m/s²; none is applied")
+    # 3) the calibrated dead-reckoning track over the window, from the first fix
     dr = _dead_reckon(t, c_bn[k], inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], cal.scale, cal.pitch_rad,
-                      cal.heading_rad, cal.scale_up)
+                      cal.heading_rad, cal.scale_up, cal.pitch_k_rad_per_mps2, a_f[k])
     t_first = g.t_s[gk][0]
     dr -= np.column_stack([np.interp(t_first, t, dr[:, i]) for i in range(3)])
-    from ldvsurvey.nav.earth import radii
-
     rm, rn = radii(lat_r[0])
     lat = lat_r[0] - lev_n[0, 1] / rm + dr[:, 1] / rm
     lon = lon_r[0] - lev_n[0, 0] / (rn * np.cos(lat_r[0])) + dr[:, 0] / (rn * np.cos(lat_r[0]))
@@ -211,12 +254,14 @@ def calibration_params():
         Param("ldv_pitch_deg", "float", None, "LDV mounting pitch η_L"),
         Param("ldv_heading_deg", "float", None, "LDV mounting heading φ_L"),
         Param("ldv_scale", "float", None, "LDV scale factor K"),
+        Param("ldv_pitch_k_rad_per_mps2", "float", None, "pitch compliance k_η: pitch of the travel direction "
+              "the LDV sees per m/s² of forward acceleration (squat/dive), rad per m/s²"),
     ]
 
 
 @dataclass
 class LdvSetup:
-    """Tilt (rotating IMU), LDV mounting and scale as used, and where they came from."""
+    """Tilt (rotating IMU), LDV mounting, compliance and scale as used, and where they came from."""
 
     cbs: np.ndarray | None
     tilt: TiltEstimate | None
@@ -226,6 +271,8 @@ class LdvSetup:
     scale_up: float
     info: dict
     warnings: list
+    pitch_k_rad_per_mps2: float = 0.0
+    accel_fwd_mps2: np.ndarray | None = None  #: at the IMU samples
 
 
 def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
@@ -239,32 +286,45 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
         progress("base tilt of the rotating IMU", 0.05)
         est, _ = tilt_stage(inp)
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
-    given = {k: params[k] for k in ("ldv_pitch_deg", "ldv_heading_deg", "ldv_scale") if params.get(k) is not None}
+    keys = ("ldv_pitch_deg", "ldv_heading_deg", "ldv_scale", "ldv_pitch_k_rad_per_mps2")
+    given = {k: params[k] for k in keys if params.get(k) is not None}
     info = {"source": "nominal"}
     pitch, heading, scale, scale_up = (m.ldv.nominal.pitch_deg * RAD, m.ldv.nominal.heading_deg * RAD,
                                        m.ldv.nominal.scale, 1.0)
-    if params.get("calibration", "auto") == "auto" and len(given) < 3:
+    pitch_k = 0.0
+    if params.get("calibration", "auto") == "auto" and not all(k in given for k in keys[:3]):
         if log.gnss is None:
             warnings.append("no GNSS: the LDV is used with its nominal mounting (no calibration)")
         else:
             progress("LDV calibration against GNSS", 0.15)
             cal = calibration_stage(inp, cbs, params.get("calibration_window"))
             pitch, heading, scale, scale_up = cal.pitch_rad, cal.heading_rad, cal.scale, cal.scale_up
-            info = {"source": "calibrate", "segment_t_s": list(cal.window_s)}
+            pitch_k = cal.pitch_k_rad_per_mps2
+            info = {"source": "calibrate", "segment_t_s": list(cal.window_s), "fix_qualities": list(cal.fixes),
+                    "sigma": {"ldv_pitch_deg": cal.sigma["pitch"] / RAD, "ldv_heading_deg": cal.sigma["heading"] / RAD,
+                              "ldv_scale": cal.sigma["scale"], "ldv_pitch_k_rad_per_mps2": cal.sigma["pitch_k"]}}
     if "ldv_pitch_deg" in given:
         pitch = given["ldv_pitch_deg"] * RAD
     if "ldv_heading_deg" in given:
         heading = given["ldv_heading_deg"] * RAD
     if "ldv_scale" in given:
         scale = given["ldv_scale"]
+    if "ldv_pitch_k_rad_per_mps2" in given:
+        pitch_k = given["ldv_pitch_k_rad_per_mps2"]
     if given:
         info["given"] = given
-    info.update({"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale})
+    info.update({"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale,
+                 "ldv_pitch_k_rad_per_mps2": pitch_k, "ldv_pitch_compliance_deg_per_g": pitch_k / RAD * G0})
     if inp.nu_u_mps is not None:
         info["ldv_scale_up"] = scale_up
-    return LdvSetup(cbs, est, pitch, heading, scale, scale_up, info, warnings)
+    return LdvSetup(cbs, est, pitch, heading, scale, scale_up, info, warnings, pitch_k,
+                    accel_fwd(inp) if pitch_k else None)
 
 
 def ldv_aid_of(inp: NavInputs, setup: LdvSetup):
-    return ldv_aid(inp, scale=setup.scale, pitch_rad=setup.pitch_rad, heading_rad=setup.heading_rad,
-                   scale_up=setup.scale_up)
+    aid = ldv_aid(inp, scale=setup.scale, pitch_rad=setup.pitch_rad, heading_rad=setup.heading_rad,
+                  scale_up=setup.scale_up)
+    if setup.pitch_k_rad_per_mps2:
+        aid.accel_fwd_mps2 = setup.accel_fwd_mps2 if setup.accel_fwd_mps2 is not None else accel_fwd(inp)
+        aid.pitch_k_rad_per_mps2 = setup.pitch_k_rad_per_mps2
+    return aid
