@@ -10,12 +10,10 @@ All inputs in SI units; outputs in m/s² unless the name says mGal.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 from scipy.signal import firwin, oaconvolve
 
 from ldvsurvey.nav.earth import MGAL, OMEGA_IE, normal_gravity, radii
-from ldvsurvey.nav.mech import mech_step
 
 G0 = 9.80665  #: m/s² per g (sensor specifications in µg)
 
@@ -72,52 +70,6 @@ def half_wavelength_resolution_m(speed_mps: float, length_s: float) -> float:
 
 def to_mgal(x):
     return np.asarray(x) / MGAL
-
-
-# ---------------------------------------------------------------------------------------------
-# vertical specific force from the navigation's own mechanization step
-
-
-@nb.njit(cache=True)
-def _specific_force_loop(t, q, v, pos, dth, dvel, b_g, b_a):
-    n = len(t)
-    f_n = np.full((n, 3), np.nan)
-    for k in range(2, n):
-        dt = t[k] - t[k - 1]
-        a_th = dth[k] - b_g * dt
-        a_dv = dvel[k] - b_a * dt
-        dtp = t[k - 1] - t[k - 2]
-        p_th = dth[k - 1] - b_g * dtp
-        p_dv = dvel[k - 1] - b_a * dtp
-        _, _, _, f = mech_step(q[k - 1], v[k - 1], pos[k - 1], v[k - 2], pos[k - 2], a_th, a_dv, p_th, p_dv,
-                               dt, 0.0, 0.0, 0.0)
-        f_n[k] = f
-    f_n[:2] = f_n[2]
-    return f_n
-
-
-def specific_force_n(t_s, q_sn, v_n, pos, dtheta_rad, dvel_mps, gyro_bias_rps=None, accel_bias_mps2=None):
-    """Mean specific force in n (ENU, m/s²) over each IMU interval, by the navigation's mechanization step.
-
-    Interval k runs from ``t_s[k-1]`` to ``t_s[k]``; the attitude at its start (``q_sn[k-1]``, the
-    C_s^n quaternion, e.g. the smoothed one) rotates the rotation- and sculling-corrected velocity
-    increment, then the navigation-frame rotation over the interval is applied, exactly as
-    :func:`ldvsurvey.nav.mech.mech_step`. (Rotating the increment with the mid-interval attitude
-    *and* adding ½Δθ×Δv counts the rotation correction twice: ½|ω||f| in error, +40 mGal at
-    0.05 rad/s and 2 m/s².) The first two intervals repeat the third.
-
-    Parameters
-    ----------
-    t_s : (N,) end times of the increments, s. q_sn (N, 4), v_n (N, 3) m/s, pos (N, 3) [lat rad, lon rad, h m]:
-        the navigation state at those times. dtheta_rad, dvel_mps : (N, 3) sensor-frame increments.
-    gyro_bias_rps, accel_bias_mps2 : (3,) sensor biases to remove (default none).
-    """
-    z = np.zeros(3)
-    return _specific_force_loop(np.ascontiguousarray(t_s, float), np.ascontiguousarray(q_sn, float),
-                                np.ascontiguousarray(v_n, float), np.ascontiguousarray(pos, float),
-                                np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float),
-                                z if gyro_bias_rps is None else np.asarray(gyro_bias_rps, float),
-                                z if accel_bias_mps2 is None else np.asarray(accel_bias_mps2, float))
 
 
 # ---------------------------------------------------------------------------------------------

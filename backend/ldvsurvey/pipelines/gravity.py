@@ -15,7 +15,7 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.gravity import MGAL, imu_gaps
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
-from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
+from ldvsurvey.pipelines.gravity_chains import bridged_log, gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_report import block, chain_difference, evaluate, floor_of
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.prep import gnss_aid, gnss_ins, navigate
@@ -111,6 +111,7 @@ def run(logs, params, progress) -> PipelineResult:
     nav_params = {**params, "aiding": "ldv", "smooth": True}
     for i, log in enumerate(logs):
         warnings += check_imu_gaps(log, params["max_imu_gap_s"])
+        log = bridged_log(log)
         progress(f"bundle {i + 1}/{len(logs)}: SINS/LDV navigation", 0.05 + 0.6 * i / len(logs))
         inp, setup, sol = run_navigation(log, nav_params, progress)
         warnings += setup.warnings

@@ -1,9 +1,9 @@
 """The two raw gravity chains of the ``gravity`` pipeline: SINS/2-D LDV and SINS/GNSS (methods §4).
 
-Both take f_U from the navigation's own mechanization step on the smoothed solution
-(:func:`ldvsurvey.nav.gravity.specific_force_n`), with the horizontal accelerometer biases the
-filter estimated removed (the vertical one is not separable from Δg without a base tie and stays).
-Rows missing from the IMU log are bridged at constant rate and reported.
+Both take f_U from the navigation's own mechanization step (``NavSolution.f_u_mps2``, smoothed),
+with the horizontal accelerometer biases the filter estimated removed (the vertical one is not
+separable from Δg without a base tie and stays).
+Rows missing from the IMU log are bridged at constant rate before the navigation and reported.
 
 SINS/LDV: v̇_U from the LDV vertical velocity (brought to the IMU centre) differenced over
 each IMU interval. Where the LDV is unusable (quality, dropouts, values far off the navigation
@@ -19,14 +19,17 @@ both sides of the subtraction see the very same differencing, so the FIR treats 
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
-from ldvsurvey.nav.errmodel import c_db
-from ldvsurvey.nav.gravity import (bridge_increments, bridge_velocity, disturbance_mps2, specific_force_n,
+from ldvsurvey.nav.attitude import c_from_q
+from ldvsurvey.nav.gravity import (bridge_increments, bridge_velocity, disturbance_mps2, imu_gaps,
                                    zero_phase_lowpass)
 from ldvsurvey.pipelines.prep import GNSS_SIGMA, attitude_at
+from ldvsurvey.pipelines.stages import accel_fwd, ldv_body_velocity
 
 
 #: GNSS fixes (each side) whose mean offset from the doubly integrated f_U ties a gap's bridge
@@ -38,21 +41,43 @@ LDV_EDGE_N = 50
 
 
 def vertical_force(inp, sol):
-    """f_n (N, 3) per IMU interval from the smoothed solution, with the IMU gaps bridged; and the gaps."""
-    dth, dv, gap_idx, gap_missing = bridge_increments(inp.t_s, inp.dtheta_rad, inp.dvel_mps)
-    b_a = np.array([sol.accel_bias_mps2[0], sol.accel_bias_mps2[1], 0.0])
-    f_n = specific_force_n(inp.t_s, sol.q_sn, sol.v_n, sol.pos, dth, dv, sol.gyro_bias_rps, b_a)
-    return f_n, {"t_s": inp.t_s[gap_idx], "missing": gap_missing}
+    """Up specific force (N,) per IMU interval of the navigation's own mechanization step, and the IMU gaps.
+
+    ``sol.f_u_mps2`` (smoothed with the attitude) with the bias correction added back, minus the
+    horizontal accelerometer biases only: the vertical bias is not separable from Δg without a
+    base tie and stays (a constant offset). Rows missing from the log must have been bridged
+    before the navigation (:func:`bridged_log`); they are reported here.
+    """
+    gap_idx, gap_missing, _ = imu_gaps(inp.t_s)
+    f_raw = sol.f_u_mps2 + sol.f_u_bias_mps2  # C_s^n Δv / Δt as mechanized, no bias removed
+    c_sn = c_from_q(sol.q_sn)
+    b = sol.accel_bias_mps2
+    f_u = f_raw - (c_sn[:, 2, 0] * b[0] + c_sn[:, 2, 1] * b[1])
+    return f_u, {"t_s": inp.t_s[gap_idx], "missing": gap_missing}
+
+
+def bridged_log(log):
+    """The log with the increments of rows that follow missing IMU rows scaled to their whole
+    interval (constant rate over the gap), so the navigation and f_U see no missing Δv."""
+    idx, _, _ = imu_gaps(log.imu.t_s)
+    if len(idx) == 0:
+        return log
+    dth, dv, _, _ = bridge_increments(log.imu.t_s, log.imu.dtheta_rad, log.imu.dvel_mps)
+    return dataclasses.replace(log, imu=dataclasses.replace(log.imu, dtheta_rad=dth, dvel_mps=dv))
 
 
 def ldv_velocity_imu(inp, sol, setup):
-    """LDV velocity (N, 3) ENU at the IMU centre (lever arm through the body rate), m/s."""
+    """LDV velocity (N, 3) ENU at the IMU centre (lever arm through the body rate), m/s.
+
+    The travel direction the LDV sees includes the calibrated pitch compliance (squat/dive)."""
     t = inp.t_s
     dt = np.diff(t)
     c_bn = sol.c_bn()
-    nu_u = inp.nu_u_mps if inp.nu_u_mps is not None else np.zeros_like(inp.nu_f_mps)
-    vd = np.column_stack([np.zeros_like(inp.nu_f_mps), inp.nu_f_mps / setup.scale, nu_u / setup.scale_up])
-    v_head = np.einsum("kij,kj->ki", c_bn, vd @ c_db(setup.pitch_rad, setup.heading_rad).T)
+    pk = getattr(setup, "pitch_k_rad_per_mps2", 0.0)
+    a_f = (setup.accel_fwd_mps2 if setup.accel_fwd_mps2 is not None else accel_fwd(inp)) if pk else None
+    v_b = ldv_body_velocity(inp.nu_f_mps, inp.nu_u_mps, setup.scale, setup.pitch_rad, setup.heading_rad,
+                            setup.scale_up, pk, a_f)
+    v_head = np.einsum("kij,kj->ki", c_bn, v_b)
     rel = np.einsum("kji,kjl->kil", c_bn[:-1], c_bn[1:])
     w = np.column_stack([rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0], rel[:, 1, 0] - rel[:, 0, 1]])
     w = np.vstack([w[:1], w]) / (2 * np.r_[dt[:1], dt])[:, None]
@@ -89,7 +114,7 @@ def ldv_chain(inp, sol, setup):
     """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times."""
     t = inp.t_s
     dt = np.diff(t)
-    f_n, imu_gaps = vertical_force(inp, sol)
+    f_u, gaps = vertical_force(inp, sol)
     v_imu = ldv_velocity_imu(inp, sol, setup)
     ok = inp.ldv_ok & np.all(np.isfinite(v_imu), axis=1)
     bad = screen_velocity(v_imu[:, 2], ok, sol.v_n[:, 2])
@@ -102,10 +127,10 @@ def ldv_chain(inp, sol, setup):
     lat = 0.5 * (sol.pos[1:, 0] + sol.pos[:-1, 0])
     lon = 0.5 * (sol.pos[1:, 1] + sol.pos[:-1, 1])
     h = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
-    dg = disturbance_mps2(f_n[1:, 2], vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
+    dg = disturbance_mps2(f_u[1:], vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
     return {"t_s": 0.5 * (t[1:] + t[:-1]), "dg": dg, "lat": lat, "lon": lon, "h": h,
             "speed": np.hypot(v_mid[:, 0], v_mid[:, 1]), "fs": 1.0 / np.median(dt), "bridged": bridged,
-            "screened": int(bad.sum()), "imu_gaps": imu_gaps, "ldv_noise_mps": noise, "kind": "ldv"}
+            "screened": int(bad.sum()), "imu_gaps": gaps, "ldv_noise_mps": noise, "kind": "ldv"}
 
 
 def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), k_sigma: float = 5.0):
@@ -131,13 +156,13 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), k_sigma: float = 5.0):
     tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
     if len(tg) < 20:
         raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")
-    f_n, imu_gaps = vertical_force(inp, sol)
+    f_u, gaps = vertical_force(inp, sol)
     dt = np.diff(t)
     lat_m = 0.5 * (sol.pos[1:, 0] + sol.pos[:-1, 0])
     h_m = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
     v_mid = 0.5 * (sol.v_n[1:] + sol.v_n[:-1])
     rm, rn = radii(lat_m)
-    acc = (f_n[1:, 2] - normal_gravity(lat_m, h_m) + (v_mid[:, 0] / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_m))
+    acc = (f_u[1:] - normal_gravity(lat_m, h_m) + (v_mid[:, 0] / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_m))
            * v_mid[:, 0] + v_mid[:, 1] ** 2 / (rm + h_m))
     w = np.concatenate([[0.0], np.cumsum(acc * dt)])  # ∫ (f_U − γ + Eötvös) dt at the IMU times
     s = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * dt)])  # and once more
@@ -169,5 +194,5 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), k_sigma: float = 5.0):
     return {"t_s": tc, "dg": dg, "lat": np.interp(tc, t, sol.pos[:, 0]), "lon": np.interp(tc, t, sol.pos[:, 1]),
             "h": np.interp(tc, t, sol.pos[:, 2]),
             "speed": np.interp(tc, t, np.hypot(sol.v_n[:, 0], sol.v_n[:, 1])), "fs": 1.0 / step,
-            "bridged": bridged, "screened": int((~good).sum()), "imu_gaps": imu_gaps,
+            "bridged": bridged, "screened": int((~good).sum()), "imu_gaps": gaps,
             "height_sigma_m": float(np.sqrt(np.mean(sig_v ** 2))), "kind": "gnss"}
