@@ -154,7 +154,7 @@ def run(logs, params, progress) -> PipelineResult:
     gres = ares = None
     if params["gnss_comparison"] and all(g is not None for g in gchains):
         try:
-            gres = evaluate(gchains, lines, fir_s, params["spacing_m"], trim_s)
+            gres = evaluate(gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False)
             summary["gnss_comparison"] = block(gres, fir_s, trim_s, "gnss", floor_of(logs[0], gchains[0], fir_s))
             summary["gnss_comparison"]["gnss_fixes"] = list(fixes)
             summary["gnss_comparison"]["screened_fixes"] = int(sum(g["screened"] for g in gchains))
@@ -163,7 +163,7 @@ def run(logs, params, progress) -> PipelineResult:
             warnings.append(f"SINS/GNSS comparison skipped: {exc}")
             gres = None
     if achains:
-        ares = evaluate(achains, lines, fir_s, params["spacing_m"], trim_s)
+        ares = evaluate(achains, lines, fir_s, params["spacing_m"], trim_s, strict=False)
         summary["gnss_aided"] = block(ares, fir_s, trim_s, "ldv+gnss", floor_of(logs[0], achains[0], fir_s))
         summary["gnss_aided"]["ldv_minus_gnss_aided"] = chain_difference(res, chains, ares, achains)
     progress("writing", 0.9)
@@ -210,12 +210,9 @@ def gravity_table(chains, res, rate_hz, extra):
             if ores is None:
                 continue
             f = ores["filtered"][ci]
-            ok = np.isfinite(f)
             tt = other[ci]["t_s"]
-            v = np.full(len(t), np.nan)
-            if ok.any():
-                v = np.interp(t, tt[ok], f[ok] / MGAL)
-                v[(t < tt[ok][0]) | (t > tt[ok][-1])] = np.nan
+            v = np.interp(t, tt, f / MGAL)  # NaN (withheld) samples stay NaN
+            v[(t < tt[0]) | (t > tt[-1])] = np.nan
             cols[key] += list(v)
     return {k: (np.array(v, dtype=float) if k != "line" else v) for k, v in cols.items()}
 

@@ -9,28 +9,62 @@ import numpy as np
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
-from ldvsurvey.nav.gravity import MGAL, half_wavelength_resolution_m, noise_floor_mgal, trim_line, zero_phase_lowpass
+from ldvsurvey.nav.gravity import (MGAL, half_wavelength_resolution_m, noise_floor_mgal, runs, trim_line,
+                                   zero_phase_lowpass)
 from ldvsurvey.pipelines.prep import local_metres
 
+#: filtered values are withheld where bridged samples take more than this share of the FIR's weight …
+MAX_BRIDGED_SHARE = 0.5
+#: … or where gaps longer than the FIR (detail the filter would resolve is missing) take more than this
+MAX_LONG_GAP_SHARE = 0.05
 #: crossings at a smaller angle are repeated passes over the same road, not crossovers
 CROSSOVER_MIN_ANGLE_DEG = 20.0
 
 
-def evaluate(chains, lines, fir_s, spacing_m, trim_s):
+def unsupported(bridged, fir_s, fs):
+    """Samples whose filtered value is mostly the bridge rather than data (see MAX_*_SHARE)."""
+    long = np.zeros(len(bridged), bool)
+    for a, b in runs(bridged):
+        if (b - a) / fs > fir_s:
+            long[a:b] = True
+    share = zero_phase_lowpass(bridged.astype(float), fir_s, fs)
+    share_long = zero_phase_lowpass(long.astype(float), fir_s, fs) if long.any() else np.zeros(len(bridged))
+    return ~((share <= MAX_BRIDGED_SHARE) & (share_long <= MAX_LONG_GAP_SHARE))
+
+
+def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True):
     """Filter each chain, cut and trim the lines, put them on common points, compute the statistics.
 
     ``chains``: raw chains (see :mod:`gravity_chains`), ``lines``: [(name, chain index, t0, t1)].
+    ``strict``: a line without data is an error (the main chain); otherwise (a comparison chain,
+    e.g. GNSS blocked on a whole line) the line is reported without figures.
     """
-    filtered = [zero_phase_lowpass(ch["dg"], fir_s, ch["fs"]) for ch in chains]
+    filtered = []
+    for ch in chains:
+        f = zero_phase_lowpass(ch["dg"], fir_s, ch["fs"])
+        ch["unsupported"] = unsupported(ch["bridged"], fir_s, ch["fs"])
+        f[ch["unsupported"]] = np.nan
+        filtered.append(f)
     ref = None
     per_line = []
     for name, ci, a, b in lines:
         ch = chains[ci]
         whole = (ch["t_s"] >= a) & (ch["t_s"] <= b)
         k = trim_line(ch["t_s"], a, b, trim_s) & np.isfinite(filtered[ci])
+        gaps = ch["imu_gaps"]
+        in_line = (gaps["t_s"] >= a) & (gaps["t_s"] <= b)
+        info = {"bridged_s": float(np.sum(ch["bridged"][whole]) / ch["fs"]),
+                "bridged_share": float(np.mean(ch["bridged"][whole])) if whole.any() else 0.0,
+                "imu_missing_rows": int(np.sum(gaps["missing"][in_line])),
+                "unsupported_s": float(np.sum(ch["unsupported"][whole]) / ch["fs"]),
+                "duration_s": float(b - a), "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s))}
         if k.sum() < 10:
-            raise ParameterError(f"line {name} [{a}, {b}] s holds no data after trimming {trim_s:g} s at each end",
-                                 field="lines" if trim_s == 0 else "line_end_trim_s")
+            if strict:
+                raise ParameterError(f"line {name} [{a}, {b}] s holds no data after trimming {trim_s:g} s at each "
+                                     "end", field="lines" if trim_s == 0 else "line_end_trim_s")
+            empty = np.zeros(0)
+            per_line.append((name, ci, k, empty, empty, empty, empty, {**info, "no_data": True}))
+            continue
         if ref is None:
             lat0, lon0 = ch["lat"][k][0], ch["lon"][k][0]
             e, n = local_metres(lat0, lon0, ch["lat"][k], ch["lon"][k])
@@ -38,22 +72,25 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s):
             ref = (lat0, lon0, e[::step], n[::step])
         e, n = local_metres(ref[0], ref[1], ch["lat"][k], ch["lon"][k])
         s, lateral = along_track(ref[2], ref[3], e, n)
-        gaps = ch["imu_gaps"]
-        in_line = (gaps["t_s"] >= a) & (gaps["t_s"] <= b)
-        info = {"bridged_s": float(np.sum(ch["bridged"][whole]) / ch["fs"]),
-                "bridged_share": float(np.mean(ch["bridged"][whole])) if whole.any() else 0.0,
-                "imu_missing_rows": int(np.sum(gaps["missing"][in_line])),
-                "duration_s": float(b - a), "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s))}
         per_line.append((name, ci, k, s, lateral, e, n, info))
-    repeated = all(np.median(p[4]) < 50.0 for p in per_line)
+    used = [p for p in per_line if len(p[3])]
+    if not used:
+        raise ValueError("no line holds data")
+    repeated = all(np.median(p[4]) < 50.0 for p in used)
     result = {"repeated": repeated, "filtered": filtered, "per_line": per_line}
-    if repeated and len(per_line) >= 2:
-        grid, vals = common_points([(p[3], filtered[p[1]][p[2]] / MGAL) for p in per_line], spacing_m)
-        result["coincidence"] = internal_coincidence(vals, [p[0] for p in per_line], grid)
+    if repeated and len(used) >= 2:
+        try:
+            grid, vals = common_points([(p[3], filtered[p[1]][p[2]] / MGAL) for p in used], spacing_m,
+                                       allow_holes=not strict)
+            result["coincidence"] = internal_coincidence(vals, [p[0] for p in used], grid)
+        except ValueError as exc:
+            if strict:
+                raise ParameterError(f"no coincidence: {exc}", field="lines") from None
+            result["coincidence_note"] = str(exc)
     step = max(1, int(round(chains[0]["fs"] * 2.0)))  # ~2 s along the tracks
-    tracks = [(p[5][::step], p[6][::step], filtered[p[1]][p[2]][::step] / MGAL) for p in per_line]
+    tracks = [(p[5][::step], p[6][::step], filtered[p[1]][p[2]][::step] / MGAL) for p in used]
     result["crossings"], result["crossover_mgal"] = crossovers(tracks, CROSSOVER_MIN_ANGLE_DEG)
-    speeds = np.concatenate([chains[p[1]]["speed"][p[2]] for p in per_line])
+    speeds = np.concatenate([chains[p[1]]["speed"][p[2]] for p in used])
     result["median_speed_mps"] = float(np.nanmedian(speeds))
     result["resolution_m"] = half_wavelength_resolution_m(result["median_speed_mps"], fir_s)
     return result
@@ -84,21 +121,22 @@ def block(res, fir_s, trim_s, aiding, floor):
            "line_ends": f"{trim_s:g} s trimmed at both ends of every line (FIR leakage of turnarounds, "
                         "acceleration and braking)" if trim_s > 0 else "lines not trimmed",
            "noise_floor": floor}
-    infos = {p[0]: p[7] for p in res["per_line"]}
     co = res.get("coincidence")
+    stats = {}
     if co is not None:
-        out["lines"] = [{"name": nm, "max_mgal": float(mx), "min_mgal": float(mn), "rms_mgal": float(r),
-                         "mean_mgal": float(me), "std_mgal": float(sd), **infos[nm]}
-                        for nm, mx, mn, r, me, sd in zip(co.names, co.per_line_max, co.per_line_min,
-                                                         co.per_line_rms, co.per_line_mean, co.per_line_std)]
-        out["total_mgal"] = co.total
-        out["common_length_m"] = float(co.distance_m[-1] - co.distance_m[0])
-        out["floor_ratio"] = co.total / floor["total_mgal"] if floor.get("total_mgal") else None
-    else:
-        out["lines"] = [{"name": p[0], "max_mgal": None, "min_mgal": None, "rms_mgal": None, **p[7]}
-                        for p in res["per_line"]]
-        out["total_mgal"] = None
-        out["floor_ratio"] = None
+        stats = {nm: {"max_mgal": float(mx), "min_mgal": float(mn), "rms_mgal": float(r), "mean_mgal": float(me),
+                      "std_mgal": float(sd)}
+                 for nm, mx, mn, r, me, sd in zip(co.names, co.per_line_max, co.per_line_min, co.per_line_rms,
+                                                  co.per_line_mean, co.per_line_std)}
+    none = {"max_mgal": None, "min_mgal": None, "rms_mgal": None, "mean_mgal": None, "std_mgal": None}
+    out["lines"] = [{"name": p[0], **stats.get(p[0], none), **p[7]} for p in res["per_line"]]
+    out["total_mgal"] = co.total if co is not None else None
+    out["n_lines_compared"] = len(co.names) if co is not None else 0
+    out["common_length_m"] = float(co.distance_m[-1] - co.distance_m[0]) if co is not None else None
+    out["common_points"] = int(len(co.distance_m)) if co is not None else 0
+    out["floor_ratio"] = co.total / floor["total_mgal"] if co is not None and floor.get("total_mgal") else None
+    if "coincidence_note" in res:
+        out["coincidence_note"] = res["coincidence_note"]
     out["crossover_mgal"] = res["crossover_mgal"]
     out["n_crossings"] = len(res["crossings"])
     out["bridged_s"] = float(sum(p[7]["bridged_s"] for p in res["per_line"]))
@@ -109,12 +147,15 @@ def chain_difference(res_a, chains_a, res_b, chains_b):
     """Per line: mean and RMS (mGal) of filtered chain A minus chain B at A's (trimmed) line samples."""
     out = []
     for pa, pb in zip(res_a["per_line"], res_b["per_line"]):
+        if not len(pa[3]) or not len(pb[3]):
+            out.append({"name": pa[0], "mean_mgal": None, "rms_mgal": None})
+            continue
         ta = chains_a[pa[1]]["t_s"][pa[2]]
         tb = chains_b[pb[1]]["t_s"]
         fb = res_b["filtered"][pb[1]]
-        ok = np.isfinite(fb)
-        d = (res_a["filtered"][pa[1]][pa[2]] - np.interp(ta, tb[ok], fb[ok])) / MGAL
+        d = (res_a["filtered"][pa[1]][pa[2]] - np.interp(ta, tb, fb)) / MGAL  # withheld (NaN) stay out
         d = d[np.isfinite(d)]
         out.append({"name": pa[0], "mean_mgal": float(np.mean(d)) if len(d) else None,
-                    "rms_mgal": float(np.sqrt(np.mean(d ** 2))) if len(d) else None})
+                    "rms_mgal": float(np.sqrt(np.mean(d ** 2))) if len(d) else None,
+                    "std_mgal": float(np.std(d)) if len(d) else None, "compared_s": len(d) / chains_a[pa[1]]["fs"]})
     return out
