@@ -13,6 +13,7 @@ import numpy as np
 
 from ldvsurvey.errors import BundleError, TooLargeError
 from ldvsurvey.io.csvtable import check_time, read_numeric_csv
+from ldvsurvey.io.imutime import regularize_imu
 from ldvsurvey.io.manifest import Manifest, parse_manifest
 from ldvsurvey.io.nmea import GnssData, parse_nmea
 
@@ -38,6 +39,8 @@ class ImuData:
     dvel_mps: np.ndarray
     turntable_deg: np.ndarray | None = None
     duplicated_rows: int = 0
+    bridged_rows: int = 0  #: rows inserted over short gaps in the time tags (see io.imutime)
+    long_gaps: list = field(default_factory=list)  #: io.imutime.LongGap: too long to bridge
 
 
 @dataclass
@@ -121,7 +124,8 @@ def parse_imu(data: bytes, manifest: Manifest) -> tuple[ImuData, list[str]]:
     tab = read_numeric_csv(data, file, IMU_COLUMNS, optional=["turntable_deg"])
     warnings = list(tab.warnings)
     cols, lines, dups = _drop_duplicate_rows(tab.columns, tab.line_of_row, file)
-    check_time(cols["t"], lines, file)
+    cols, lines, w, bridged, long_gaps = regularize_imu(cols, lines, manifest.imu.rate_hz, file)
+    warnings += w
     if manifest.imu.rotating and "turntable_deg" not in cols:
         raise BundleError("manifest says imu.rotating is true but the column is missing",
                           file=file, line=1, field="turntable_deg")
@@ -134,7 +138,7 @@ def parse_imu(data: bytes, manifest: Manifest) -> tuple[ImuData, list[str]]:
     imu = ImuData(t_s=cols["t"],
                   dtheta_rad=np.column_stack([cols["dtheta_x"], cols["dtheta_y"], cols["dtheta_z"]]),
                   dvel_mps=np.column_stack([cols["dvel_x"], cols["dvel_y"], cols["dvel_z"]]),
-                  turntable_deg=turn, duplicated_rows=dups)
+                  turntable_deg=turn, duplicated_rows=dups, bridged_rows=bridged, long_gaps=long_gaps)
     return imu, warnings
 
 

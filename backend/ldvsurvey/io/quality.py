@@ -38,6 +38,7 @@ def quality_report(log: DriveLog) -> dict:
     m = log.manifest
     imu = _stream(log.imu.t_s, m.imu.rate_hz)
     imu["duplicated_rows"] = log.imu.duplicated_rows
+    imu["bridged_rows"] = log.imu.bridged_rows  # rows inserted over short gaps (counted apart from "gaps")
     imu["rotating"] = bool(log.imu.turntable_deg is not None)
     ldv = _stream(log.ldv.t_s, m.ldv.rate_hz)
     ldv["duplicated_rows"] = log.ldv.duplicated_rows

@@ -36,8 +36,12 @@ def _update(x, P, h, z, r):
 
 @nb.njit(cache=True)
 def run_damping(t, dth, dvel, q0, v0, pos0, mode, period_s, zupt_end, ldv_ok, nu_f, s0, pitch_l, heading_l,
-                p0, qd, ldv_sigma, h_ref, vu_sigma, h_sigma, ds_every, gate):
-    """Forward filter; returns q (N,4), v (N,3), pos (N,3), inverse scale estimate per sample.
+                p0, qd, ldv_sigma, h_ref, vu_sigma, h_sigma, ds_every, gate, c_bs):
+    """Forward filter; returns q (N,4) of C_s^n, v (N,3), pos (N,3), inverse scale estimate per sample.
+
+    ``c_bs`` (N, 3, 3): C_b^s per sample (a rotating IMU; identity for a fixed one). The
+    mechanization and the biases live in the sensor frame s; the LDV is mounted on the body b,
+    so its velocity is brought to n through C_b^n = C_s^n C_b^s.
 
     Covariance epochs every ``period_s``; the delayed-state measurement compares residuals
     ``ds_every`` epochs apart (the baseline over which the current must stay constant); a velocity
@@ -84,7 +88,7 @@ def run_damping(t, dth, dvel, q0, v0, pos0, mode, period_s, zupt_end, ldv_ok, nu
         q, v, pos = q_new, v_new, p_new
         dth_prev, dv_prev = a_th, a_dv
         fsum += f_n * dt
-        c_bn = q_to_c(q)
+        c_bn = q_to_c(q) @ (c_bs[k] if c_bs.shape[0] > 1 else c_bs[0])
         if ldv_ok[k] and t[k] > zupt_end:
             vd = np.array([0.0, nu_f[k] * s_ldv, 0.0])
             v_l = c_bn @ (cdb @ vd)

@@ -1,17 +1,42 @@
 """Single-axis rotation INS: base-tilt estimation and compensation (methods §2, height paper eq. 12-19).
 
-C_s^n(η) = C_b^n C_b^s(η, α, β)ᵀ. With the vehicle still, two stops η1 and η2 = η1 + 180° give
-ΔC = C_s^n(η1) + C_s^n(η2) = C_b^n [[0,0,0],[0,0,0],[−2β, 2α, 2]], so α = ΔC_i2/ΔC_i3 and
-β = −ΔC_i1/ΔC_i3, best from the up row. Then C_b^n = C_s^n C_b^s(η, α, β) at every sample.
+C_b^s = R_y(β) R_x(α) R_z(η), C_s^n = C_b^n (C_b^s)ᵀ. While the vehicle stands still, C_b^n is
+constant and the up direction seen in the sensor frame is
+
+    u_s(t) = (C_s^n(t))ᵀ e_U = C_b^s(η(t), α, β) u_b,        u_b = (C_b^n)ᵀ e_U (constant).
+
+As η turns, the horizontal part of R_z(η) u_b circles the turntable axis while α, β stay a fixed
+offset of that axis from the sensor z-axis. The paper's stop-pair formula (α = ΔC_i2/ΔC_i3,
+β = −ΔC_i1/ΔC_i3 with ΔC = C_s^n(η1) + C_s^n(η1 + 180°)) is the special case of two stops;
+:func:`estimate_tilt` fits the exact model by least squares over every sample of every still
+interval (one u_b per interval, α and β shared), so any indexing scheme works: stops 180° apart
+(two- or four-position, in any order, unequal dwell), stops 90° apart, slow moves and continuous
+rotation at any rate (the modulation over η). The encoder angle of each sample enters the model,
+so encoder jitter of a count or two is harmless.
+
+α, β are observable when η takes different values within one still interval (the *diversity*
+1 − |mean e^{iη}|² of the samples, 0 for one angle, 1 for two angles 180° apart or a full turn).
+A linear drift of the level over each interval is fitted beside (the vehicle settling, or the
+filter relevelling at a stop after a drive).
+The 1-σ of α, β is the larger of (a) the leave-one-block-out jackknife spread (blocks of equal length
+in each interval, so a correlated attitude error counts once per block) and (b) the filter's
+horizontal accelerometer-bias σ / g, which is the part of the level error fixed in the sensor
+frame and therefore inseparable from the tilt.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-from ldvsurvey.nav.attitude import c_from_q, q_from_c
+from ldvsurvey.nav.attitude import c_bs
+
+#: an interval must hold at least this η diversity to contribute (see module docstring)
+MIN_DIVERSITY = 0.05
+#: encoder movement (rad) within a window that counts as turning (well above a few counts of jitter)
+STOP_TOL_RAD = np.radians(0.05)
 
 
 @dataclass
@@ -23,94 +48,202 @@ class Stop:
     eta_rad: float
 
 
-def find_stops(t_s, eta_rad, min_dwell_s: float = 5.0, tol_rad: float = 1e-4) -> list[Stop]:
-    """Stretches where the encoder angle stays constant for at least ``min_dwell_s``."""
+def find_stops(t_s, eta_rad, min_dwell_s: float = 5.0, tol_rad: float = STOP_TOL_RAD,
+               window_s: float = 1.0) -> list[Stop]:
+    """Stretches where the encoder angle stays within ``tol_rad`` over every ``window_s`` window for
+    at least ``min_dwell_s`` (encoder jitter of a few counts does not end a stop)."""
+    t = np.asarray(t_s, float)
     eta = np.asarray(eta_rad, float)
-    moving = np.abs(np.diff(eta, prepend=eta[0])) > tol_rad
-    still = ~moving
+    if len(t) < 2:
+        return []
+    w = max(3, int(round(window_s / np.median(np.diff(t)))) | 1)
+    rng = maximum_filter1d(eta, w, mode="nearest") - minimum_filter1d(eta, w, mode="nearest")
+    still = rng <= tol_rad
     edges = np.flatnonzero(np.diff(np.r_[0, still.astype(int), 0]))
     stops = []
     for a, b in zip(edges[::2], edges[1::2]):
-        if t_s[b - 1] - t_s[a] >= min_dwell_s:
-            stops.append(Stop(float(t_s[a]), float(t_s[b - 1]), float(np.median(eta[a:b]))))
+        if t[b - 1] - t[a] >= min_dwell_s:
+            stops.append(Stop(float(t[a]), float(t[b - 1]), float(np.median(eta[a:b]))))
     return stops
-
-
-def mean_attitude(c: np.ndarray) -> np.ndarray:
-    """Average of nearby rotation matrices (sign-aligned quaternion mean)."""
-    q = q_from_c(c)
-    q *= np.where(q @ q[0] < 0, -1.0, 1.0)[:, None]
-    m = q.mean(axis=0)
-    return c_from_q(m / np.linalg.norm(m))
-
-
-def tilt_from_pair(c_sn_1: np.ndarray, c_sn_2: np.ndarray) -> tuple[float, float]:
-    """(α, β) in rad from the sensor attitudes at two stops 180° apart (up row of ΔC)."""
-    dc = c_sn_1 + c_sn_2
-    i = int(np.argmax(np.abs(dc[:, 2])))
-    return float(dc[i, 1] / dc[i, 2]), float(-dc[i, 0] / dc[i, 2])
 
 
 @dataclass
 class TiltEstimate:
+    """α, β (rad) with 1-σ (rad); ``observable`` False means the fallback α = β = 0 (σ None)."""
+
     alpha_rad: float
     beta_rad: float
-    alpha_sigma_rad: float
-    beta_sigma_rad: float
-    pairs: list  # [(t1, t2, alpha, beta)]
+    alpha_sigma_rad: float | None
+    beta_sigma_rad: float | None
+    pairs: list = field(default_factory=list)  # [(t1, t2)] consecutive stops ~180° apart in one still interval
+    observable: bool = True
+    n_intervals: int = 0
+    n_samples: int = 0
+    diversity: float = 0.0
+    rms_residual_rad: float | None = None
+    warnings: list = field(default_factory=list)
 
 
-def estimate_tilt(t_s, c_sn, stops: list[Stop], still: list[tuple[float, float]], trim_s: float = 1.0,
-                  level_sigma_rad: float = 0.0) -> TiltEstimate | None:
-    """Pair consecutive stops 180° apart that lie in one still interval and average (α, β).
+def diversity(eta_rad) -> float:
+    """1 − |mean e^{iη}|²: 0 when η takes one value, 1 for two values 180° apart or a uniform turn."""
+    eta = np.asarray(eta_rad, float)
+    if len(eta) == 0:
+        return 0.0
+    return float(1.0 - abs(np.mean(np.exp(1j * eta))) ** 2)
+
+
+NG = 4  # parameters per interval: pitch, roll and their linear drift over the interval
+
+
+def _fit(groups, x0):
+    """Gauss-Newton fit of (α, β, per interval pitch, roll and their linear drift) to
+    u_s = C_b^s(η; α, β) u_b(τ); τ ∈ [−1, 1] over each interval. The drift takes up a slowly
+    changing level of the vehicle or of the filter's solution (relevelling after a drive)."""
+    x = np.array(x0, float)
+    ng = len(groups)
+    npar = 2 + NG * ng
+    eps = 1e-7
+    for _ in range(20):
+        rows, res = [], []
+        a, b = x[0], x[1]
+        for i, (eta, u_s, tau) in enumerate(groups):
+            p = x[2 + NG * i:2 + NG * (i + 1)]
+
+            def model(pp, aa=a, bb=b):
+                return np.einsum("kij,kj->ki", c_bs(eta, aa, bb), _up_b_series(pp, tau))
+
+            m0 = model(p)
+            jac = np.zeros((len(eta), 3, npar))
+            jac[:, :, 0] = (model(p, a + eps, b) - m0) / eps
+            jac[:, :, 1] = (model(p, a, b + eps) - m0) / eps
+            for j in range(NG):
+                dp = p.copy()
+                dp[j] += eps
+                jac[:, :, 2 + NG * i + j] = (model(dp) - m0) / eps
+            rows.append(jac.reshape(-1, npar))
+            res.append((u_s - m0).reshape(-1))
+        jm = np.vstack(rows)
+        rv = np.concatenate(res)
+        dx, *_ = np.linalg.lstsq(jm, rv, rcond=None)
+        x += dx
+        if np.abs(dx).max() < 1e-12:
+            break
+    return x, jm, rv
+
+
+def _up_b_series(p, tau):
+    """Up vectors in b (K, 3) for pitch p0 + p2 τ and roll p1 + p3 τ."""
+    th = p[0] + p[2] * tau
+    ga = p[1] + p[3] * tau
+    return np.column_stack([-np.cos(th) * np.sin(ga), np.sin(th), np.cos(th) * np.cos(ga)])
+
+
+def estimate_tilt(t_s, c_sn, eta_rad, still: list[tuple[float, float]], *, trim_s: float = 1.0,
+                  rate_hz: float = 10.0, block_s: float = 20.0, bias_sigma_rad: float = 0.0,
+                  stops: list[Stop] | None = None) -> TiltEstimate:
+    """Least-squares α, β over the still intervals (see the module docstring).
 
     Parameters
     ----------
-    c_sn : (N, 3, 3) sensor attitude C_s^n at the samples ``t_s`` (best: the smoothed solution).
-    level_sigma_rad : attitude σ of one stop, used for σ when there are too few pairs for a spread.
-    """
-    def inside_still(a, b):
-        return any(s <= a and b <= e for s, e in still)
+    t_s : (N,) s; c_sn : (N, 3, 3) sensor attitude C_s^n (best the smoothed ZUPT solution);
+    eta_rad : (N,) encoder angle; still : [(t0, t1)] s where the vehicle stands still.
+    trim_s : cut from both ends of each still interval; rate_hz : samples used per second.
+    block_s : jackknife block length (s); bias_sigma_rad : horizontal accelerometer-bias σ / g of
+        the filter (a floor of the 1-σ).
 
-    pairs = []
-    for s1, s2 in zip(stops[:-1], stops[1:]):
-        d = abs(s2.eta_rad - s1.eta_rad)
-        if abs(d - np.pi) > np.radians(1.0) or not inside_still(s1.t_start_s, s2.t_end_s):
+    Returns
+    -------
+    TiltEstimate; ``observable`` False (α = β = 0, a warning) when no interval turns enough.
+    """
+    t = np.asarray(t_s, float)
+    eta = np.asarray(eta_rad, float)
+    step = max(1, int(round(1.0 / (rate_hz * np.median(np.diff(t))))))
+    groups, blocks = [], []
+    for a, b in still:
+        k = np.flatnonzero((t >= a + trim_s) & (t <= b - trim_s))[::step]
+        if len(k) < 10 or diversity(eta[k]) < MIN_DIVERSITY:
             continue
-        cs = []
-        for s in (s1, s2):
-            k = (t_s >= s.t_start_s + trim_s) & (t_s <= s.t_end_s - trim_s)
-            if k.sum() < 10:
-                break
-            cs.append(mean_attitude(c_sn[k]))
-        if len(cs) == 2:
-            a, b = tilt_from_pair(*cs)
-            pairs.append((s1.t_start_s, s2.t_end_s, a, b))
-    if not pairs:
-        return None
-    ab = np.array([(p[2], p[3]) for p in pairs])
-    n = len(ab)
-    floor = level_sigma_rad / np.sqrt(2 * n)
-    spread = ab.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else np.zeros(2)
-    sig = np.maximum(spread, floor)
-    return TiltEstimate(float(ab[:, 0].mean()), float(ab[:, 1].mean()), float(sig[0]), float(sig[1]), pairs)
+        gi = len(groups)
+        tau = 2.0 * (t[k] - t[k[0]]) / max(t[k[-1]] - t[k[0]], 1e-9) - 1.0
+        groups.append((eta[k], c_sn[k, 2, :], tau))
+        nb = max(1, int((t[k[-1]] - t[k[0]]) // block_s))
+        for part in np.array_split(np.arange(len(k)), nb):
+            blocks.append((gi, part))
+    pairs = []  # consecutive stops about 180° apart within one still interval (for the record)
+    for a, b in still:
+        inside = [Stop(max(s.t_start_s, a), min(s.t_end_s, b), s.eta_rad) for s in stops or []]
+        inside = [s for s in inside if s.t_end_s - s.t_start_s >= 5.0]
+        for s1, s2 in zip(inside[:-1], inside[1:]):
+            if abs(abs(s2.eta_rad - s1.eta_rad) % (2 * np.pi) - np.pi) < np.radians(5.0):
+                pairs.append((s1.t_start_s, s2.t_end_s))
+    n = sum(len(g[0]) for g in groups)
+    div = (sum(len(g[0]) * diversity(g[0]) for g in groups) / n) if n else 0.0
+    if not groups:
+        return TiltEstimate(0.0, 0.0, None, None, pairs, observable=False, warnings=[
+            "base tilt not observable: the turntable did not turn while the vehicle stood still (no still "
+            "interval with stops at different encoder angles or a rotation); α = β = 0 is used, so the "
+            "attitude keeps an oscillation of the size of the tilt"])
+    x0 = [0.0, 0.0]
+    for e, u, _ in groups:  # level of each interval from the mean up vector brought back to b
+        ub = np.mean(np.einsum("kji,kj->ki", c_bs(e), u), axis=0)
+        x0 += [np.arcsin(np.clip(ub[1], -1, 1)), np.arctan2(-ub[0], ub[2]), 0.0, 0.0]
+    x, jm, rv = _fit(groups, x0)
+    # jackknife over blocks: leave one block out, refit
+    est = []
+    if len(blocks) >= 3:
+        for gi, part in blocks:
+            sub = []
+            xs = [x[0], x[1]]
+            for j, (e, u, tau) in enumerate(groups):
+                if j == gi:
+                    keep = np.setdiff1d(np.arange(len(e)), part)
+                    if len(keep) < 10 or diversity(e[keep]) < MIN_DIVERSITY:
+                        continue
+                    e, u, tau = e[keep], u[keep], tau[keep]
+                sub.append((e, u, tau))
+                xs += list(x[2 + NG * j:2 + NG * (j + 1)])
+            if sub:
+                est.append(_fit(sub, xs)[0][:2])
+    if len(est) >= 3:
+        est = np.array(est)
+        m = len(est)
+        jk = np.sqrt((m - 1) / m * np.sum((est - est.mean(axis=0)) ** 2, axis=0))
+    else:  # formal σ with one independent error per interval
+        dof = max(1, len(rv) - jm.shape[1])
+        s2 = float(rv @ rv) / dof * (len(rv) / (3 * len(groups)))
+        cov = s2 * np.linalg.pinv(jm.T @ jm)
+        jk = np.sqrt(np.diag(cov)[:2])
+    sig = np.maximum(jk, bias_sigma_rad)
+    return TiltEstimate(float(x[0]), float(x[1]), float(sig[0]), float(sig[1]), pairs, observable=True,
+                        n_intervals=len(groups), n_samples=n, diversity=div,
+                        rms_residual_rad=float(np.sqrt(np.mean(rv ** 2))))
 
 
-def oscillation_per_cycle(t_s, values, stops: list[Stop], still: list[tuple[float, float]]):
-    """Peak-to-peak of ``values`` within each full rotation cycle lying in a still interval.
+def oscillation_per_cycle(t_s, values, eta_rad, still: list[tuple[float, float]]):
+    """Peak-to-peak of ``values`` within each full turntable cycle lying in a still interval.
 
-    A cycle runs from a stop to the next stop at the same encoder angle. Returns the list of
-    peak-to-peak values (same unit as ``values``).
+    A cycle runs from a time to the next time the encoder comes back to the same angle after
+    having turned at least 180° away (a stop scheme) or after a full turn (continuous rotation).
+    Returns the list of peak-to-peak values (same unit as ``values``).
     """
+    t = np.asarray(t_s, float)
+    eta = np.asarray(eta_rad, float)
     out = []
-    for i, s in enumerate(stops):
-        nxt = next((o for o in stops[i + 1:] if abs(o.eta_rad - s.eta_rad) < np.radians(1.0)), None)
-        if nxt is None:
+    for a, b in still:
+        k = np.flatnonzero((t >= a) & (t <= b))
+        if len(k) < 10:
             continue
-        a, b = s.t_start_s, nxt.t_start_s
-        if not any(st <= a and b <= en for st, en in still):
-            continue
-        k = (t_s >= a) & (t_s < b)
-        if k.sum() > 10:
-            out.append(float(np.ptp(values[k])))
+        i = 0
+        while i < len(k):
+            e0 = eta[k[i]]
+            d = eta[k[i:]] - e0
+            far = np.flatnonzero(np.abs(np.mod(d + np.pi, 2 * np.pi) - np.pi) > np.radians(170.0))
+            if not len(far):
+                break
+            back = np.flatnonzero((np.abs(np.mod(d[far[0]:] + np.pi, 2 * np.pi) - np.pi) < np.radians(1.0)))
+            if not len(back):
+                break
+            j = i + far[0] + back[0]
+            out.append(float(np.ptp(values[k[i:j + 1]])))
+            i = j + 1
     return out

@@ -10,7 +10,8 @@ from ldvsurvey.nav.damping import MODES, run_damping
 from ldvsurvey.nav.earth import enu_offset_m
 from ldvsurvey.nav.filter import DEG
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
-from ldvsurvey.pipelines.prep import initial_attitude, nav_inputs
+from ldvsurvey.pipelines.prep import c_bs_of, initial_attitude, nav_inputs
+from ldvsurvey.pipelines.stages import tilt_stage
 
 PARAMS = [
     Param("period_s", "float", 1.0, "covariance and conventional update period of the filters (s)"),
@@ -56,8 +57,17 @@ def run(logs, params, progress) -> PipelineResult:
                              field="initial.static_s")
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    warnings = list(inp.warnings)
     tg, glat, glon, gh, gv = _reference(log, inp.t_s)
-    q0 = q_from_c(initial_attitude(inp, None))
+    if inp.eta_rad is not None:  # a rotating IMU: C_b^s from the encoder and the base tilt
+        progress("base tilt of the rotating IMU", 0.05)
+        est, _ = tilt_stage(inp)
+        warnings += est.warnings
+        cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
+    else:
+        cbs = None
+    q0 = q_from_c(initial_attitude(inp, cbs))  # C_s^n at the start
+    cbs_arr = np.ascontiguousarray(np.eye(3)[None] if cbs is None else cbs)
     noise = inp.noise
     p0 = np.concatenate([np.array([0.05, 0.05, 2.0]) * DEG, np.full(3, 0.05), np.full(3, 1.0),
                          np.full(3, max(noise.gyro_bias_rps, 1e-9)), np.full(3, max(noise.accel_bias_mps2, 1e-5)),
@@ -73,12 +83,13 @@ def run(logs, params, progress) -> PipelineResult:
                                  nom.pitch_deg * DEG, nom.heading_deg * DEG, p0, qd, params["ldv_sigma_mps"],
                                  float(inp.pos0[2]), 0.05, 0.5,
                                  max(1, int(round(params["delayed_baseline_s"] / params["period_s"]))),
-                                 params["delayed_gate_sigma"])
+                                 params["delayed_gate_sigma"], cbs_arr)
         # errors against GNSS (antenna → IMU centre) at the fixes after the moored period
         use = tg > inp.static_end_s
         from ldvsurvey.nav.attitude import c_from_q
 
-        c_fix = c_from_q(np.column_stack([np.interp(tg[use], inp.t_s, q[:, j]) for j in range(4)]))
+        j = np.clip(np.searchsorted(inp.t_s, tg[use]), 0, len(inp.t_s) - 1)  # sample at (or after) each fix
+        c_fix = c_from_q(q[j]) if cbs is None else c_from_q(q[j]) @ cbs[j]  # C_b^n
         lev = c_fix @ lever
         lat = np.interp(tg[use], inp.t_s, p[:, 0])
         lon = np.interp(tg[use], inp.t_s, p[:, 1])
@@ -108,7 +119,9 @@ def run(logs, params, progress) -> PipelineResult:
         for key, col in (("dn", "north_error_m"), ("de", "east_error_m"), ("dvn", "north_velocity_error_mps"),
                          ("dve", "east_velocity_error_mps")):
             cols[f"{name}_{col}"] = r[key][::step]
-    return PipelineResult(summary=summary, tables={"damping": cols})
+    if cbs is not None:
+        summary["tilt"] = {"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad, "observable": est.observable}
+    return PipelineResult(summary=summary, tables={"damping": cols}, warnings=warnings)
 
 
 PIPELINE = Pipeline("damping", run, PARAMS, "Water-velocity horizontal damping of SINS (delayed-state filter)")

@@ -11,6 +11,7 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import parse_imu
 from ldvsurvey.io.gdf import parse_gdf
+from ldvsurvey.io.imutime import check_no_long_gaps
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_from_q, q_from_c
 from ldvsurvey.nav.dov import initial_misalignment, propagate
@@ -18,7 +19,8 @@ from ldvsurvey.nav.dovgrid import DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import OMEGA_IE, enu_offset_m, normal_gravity, radii
 from ldvsurvey.nav.mech import mechanize
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
-from ldvsurvey.pipelines.prep import gnss_ins, nav_inputs
+from ldvsurvey.pipelines.prep import c_bs_of, gnss_ins, nav_inputs
+from ldvsurvey.pipelines.stages import tilt_stage
 
 #: a grid cache the caller may provide (the store's database cache); get(key) -> DovGrid | None, put(key, grid)
 GRID_CACHE: contextvars.ContextVar = contextvars.ContextVar("dov_grid_cache", default=None)
@@ -83,10 +85,18 @@ def _f_n_w_in(sol, inp):
     return f_n, w_in
 
 
-def _mechanize(t, dth, dv, k_static, lat0, pos0, h_ref, gravity=None, dov0=None):
+def _mechanize(t, dth, dv, k_static, lat0, pos0, h_ref, gravity=None, dov0=None, rot=None):
     """Pure INS from a coarse alignment (levelled to the plumb line, or to the normal when the
-    DOV at the start is known), height held to the reference."""
-    c0 = coarse_align(dth[k_static], dv[k_static], lat0)
+    DOV at the start is known), height held to the reference.
+
+    ``rot`` = (C_b^s per sample, encoder angle per sample) for a rotating IMU: the alignment
+    removes the turntable motion and the mechanization starts from C_s^n = C_b^n (C_b^s)ᵀ."""
+    if rot is None:
+        c0 = coarse_align(dth[k_static], dv[k_static], lat0)
+    else:
+        cbs, turn = rot
+        c0 = coarse_align(dth[k_static], dv[k_static], lat0, c_bs=cbs[k_static],
+                          turntable_rad=turn[k_static]) @ cbs[0].T
     if dov0 is not None:  # the alignment knows the deflection: undo the plumb-line levelling
         phi0 = initial_misalignment(dov0[0], dov0[1], lat0)
         from ldvsurvey.nav.attitude import skew
@@ -104,8 +114,15 @@ def run(logs, params, progress) -> PipelineResult:
     if log.gnss is None:
         raise ParameterError("the DOV pipeline needs GNSS for the reference trajectory (no gnss.nmea)",
                              file="gnss.nmea")
+    warnings += inp.warnings
+    rot = None
+    if inp.eta_rad is not None:  # a rotating IMU: C_b^s from the encoder and the base tilt
+        progress("base tilt of the rotating IMU", 0.03)
+        est, _ = tilt_stage(inp)
+        warnings += est.warnings
+        rot = (c_bs_of(inp, est.alpha_rad, est.beta_rad), inp.eta_rad)
     progress("reference trajectory (GNSS/INS)", 0.04)
-    ref = gnss_ins(inp)
+    ref = gnss_ins(inp, None if rot is None else rot[0])
     lat_deg, lon_deg = np.degrees(ref.pos[:, 0]), np.degrees(ref.pos[:, 1])
     grid = _grid(params, lat_deg, lon_deg, progress)
     method = "linear" if params["interpolation"] == "bilinear" else "cubic"
@@ -124,29 +141,34 @@ def run(logs, params, progress) -> PipelineResult:
     k_static = inp.t_s <= inp.static_end_s
     h_ref = (ref.pos[:, 2], ref.v_n[:, 2])
     pos0 = ref.pos[0].copy()
-    p_unc = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref)
+    p_unc = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot)
     if params["imu_nodov"]:
         path = Path(params["imu_nodov"])
         if not path.is_file():
             raise ParameterError("no such file", file=str(path), field="imu_nodov")
         imu2, _ = parse_imu(path.read_bytes(), log.manifest)
+        check_no_long_gaps(imu2.long_gaps, path.name)
         if len(imu2.t_s) != len(inp.t_s) or not np.allclose(imu2.t_s, inp.t_s):
             raise ParameterError("imu_nodov must have the same sample times as imu.csv", file=path.name, field="t")
-        p_ref = _mechanize(inp.t_s, imu2.dtheta_rad, imu2.dvel_mps, k_static, lat[0], pos0, h_ref)
+        p_ref = _mechanize(inp.t_s, imu2.dtheta_rad, imu2.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot)
         theo_kind = "two IMU files (with and without DOV)"
     else:
-        p_ref = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref,
+        p_ref = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot,
                            gravity=(xi, eta, np.zeros_like(xi)), dov0=(xi[0], eta[0]))
         theo_kind = "uncompensated vs compensated mechanization (no imu_nodov given)"
         warnings.append("theoretical error from compensated vs uncompensated mechanization: give imu_nodov "
                         "for two independent mechanizations")
+    # how far the free-inertial mechanization strays from the GNSS/INS reference (its alignment and
+    # sensor errors, not the DOV): the scale against which the DOV-induced errors are read
+    drift = enu_offset_m(ref.pos[:, 0], ref.pos[:, 1], ref.pos[:, 2], p_unc[:, 0], p_unc[:, 1], ref.pos[:, 2])
+    ins_drift_m = float(np.max(np.hypot(drift[:, 0], drift[:, 1])))
     d = enu_offset_m(p_ref[:, 0], p_ref[:, 1], p_ref[:, 2], p_unc[:, 0], p_unc[:, 1], p_ref[:, 2])
     out["theoretical"] = (inp.t_s, d[:, 1], d[:, 0])
     # compensation study: residual of a compensated INS against the exactly compensated one
     comp = []
     if params["compensation"]:
         exact = (xi, eta, np.zeros_like(xi))
-        p_exact = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref,
+        p_exact = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot,
                              gravity=exact, dov0=(xi[0], eta[0]))
         steps, updates = params["compensation_steps_arcmin"], params["compensation_updates_s"]
         for i, st in enumerate(steps):
@@ -157,7 +179,7 @@ def run(logs, params, progress) -> PipelineResult:
                 k = np.floor((inp.t_s - inp.t_s[0]) / u).astype(int)
                 first = np.r_[0, np.flatnonzero(np.diff(k)) + 1]
                 held = np.repeat(first, np.diff(np.r_[first, len(k)]))
-                p_c = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref,
+                p_c = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot,
                                  gravity=(xs[held], es[held], np.zeros_like(xs)), dov0=(xs[0], es[0]))
                 r = enu_offset_m(p_exact[:, 0], p_exact[:, 1], p_exact[:, 2], p_c[:, 0], p_c[:, 1], p_exact[:, 2])
                 comp.append({"grid_step_arcmin": st, "update_s": u,
@@ -181,6 +203,7 @@ def run(logs, params, progress) -> PipelineResult:
     s = {"max_north_error_m": {k: v["max_north_m"] for k, v in maxima.items()},
          "max_east_error_m": {k: v["max_east_m"] for k, v in maxima.items()},
          "methods": maxima, "compensation": comp, "dov_source": grid.source,
+         "mechanization_vs_reference_max_m": ins_drift_m, "rotating_imu": rot is not None,
          "initial_misalignment_arcsec": (np.degrees(phi0) * 3600).tolist(),
          "xi_range_arcsec": [float(cols["xi_arcsec"].min()), float(cols["xi_arcsec"].max())],
          "eta_range_arcsec": [float(cols["eta_arcsec"].min()), float(cols["eta_arcsec"].max())]}

@@ -28,27 +28,46 @@ def static_part(inp: NavInputs) -> NavInputs:
                      pos0=inp.pos0, noise=inp.noise)
 
 
-def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
-    """Estimate (α, β) from the stops 180° apart during the static period.
+def _tilt_from(inp: NavInputs, sol, still, stops) -> TiltEstimate:
+    from ldvsurvey.nav.attitude import c_from_q
 
-    The sensor attitude comes from the smoothed zero-velocity filter over the static period,
-    which also calibrates the horizontal accelerometer biases (the rotation makes them observable).
+    c_sn = c_from_q(sol.q_sn)
+    bias_sig = 0.0
+    if sol.epoch_sigma is not None and sol.epoch_sigma.shape[1] >= 15:
+        bias_sig = float(np.median(sol.epoch_sigma[:, 12:14])) / 9.8
+    return estimate_tilt(inp.t_s, c_sn, inp.eta_rad, still, bias_sigma_rad=bias_sig, stops=stops)
+
+
+def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
+    """Estimate (α, β) from every still stretch in which the turntable turns (methods §2).
+
+    First the static period at the start (smoothed zero-velocity filter, which also calibrates the
+    horizontal accelerometer biases: the rotation makes them observable). When the turntable does
+    not turn enough there, the whole log is navigated (zero-velocity updates where still, nominal
+    LDV aiding) and every later still interval with turntable motion is used. When nothing makes
+    the tilt observable, α = β = 0 is returned with ``observable`` False and a warning in
+    ``warnings``: the caller goes on (the attitude then keeps an oscillation of the tilt's size).
     """
     if inp.eta_rad is None:
         raise ParameterError("the IMU does not rotate (manifest imu.rotating is false, no turntable_deg)",
                              file="imu.csv", field="turntable_deg")
+    key = ("tilt_stage",)
+    if key in inp.cache:
+        return inp.cache[key]
     st = static_part(inp)
     stops = find_stops(st.t_s, st.eta_rad)
-    if len({round(np.degrees(s.eta_rad) % 360) for s in stops}) < 2:
-        raise ParameterError("no rotation of the turntable during the static period: the tilt needs stops "
-                             "180° apart while the vehicle stands still", file="imu.csv", field="turntable_deg")
-    sol = navigate(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True)
-    c_sn = sol.c_bn() @ np.swapaxes(c_bs_of(st), -1, -2)  # back to C_s^n
-    level = float(np.median(sol.sigma[:, :2]))
-    est = estimate_tilt(st.t_s, c_sn, stops, st.still, level_sigma_rad=level)
-    if est is None:
-        raise ParameterError("no pair of turntable stops 180° apart while the vehicle stands still",
-                             file="imu.csv", field="turntable_deg")
+    est = None
+    if len(st.t_s) >= 100:
+        sol = navigate(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True)
+        est = _tilt_from(st, sol, st.still, stops)
+    later = [(a, b) for a, b in inp.still if a >= inp.static_end_s - 1e-6]
+    if (est is None or not est.observable) and later:
+        stops_all = find_stops(inp.t_s, inp.eta_rad)
+        sol = navigate(inp, cbs=c_bs_of(inp), ldv=ldv_aid(inp), cfg=pipeline_cfg(), smooth=True)
+        est2 = _tilt_from(inp, sol, inp.still, stops_all)
+        if est2.observable or est is None:
+            est, stops = est2, stops_all
+    inp.cache[key] = (est, stops)
     return est, stops
 
 
@@ -279,12 +298,13 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
     """Base tilt (if the IMU rotates), then the LDV calibration: given, automatic or nominal."""
     log = inp.log
     m = log.manifest
-    warnings = []
+    warnings = list(inp.warnings)
     est = None
     cbs = None
     if inp.eta_rad is not None:
         progress("base tilt of the rotating IMU", 0.05)
         est, _ = tilt_stage(inp)
+        warnings += est.warnings
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
     keys = ("ldv_pitch_deg", "ldv_heading_deg", "ldv_scale", "ldv_pitch_k_rad_per_mps2")
     given = {k: params[k] for k in keys if params.get(k) is not None}

@@ -9,7 +9,7 @@ from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.tilt import oscillation_per_cycle
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.prep import c_bs_of, ldv_aid, nav_inputs, navigate
-from ldvsurvey.pipelines.stages import RAD, static_part, tilt_stage
+from ldvsurvey.pipelines.stages import RAD, tilt_stage
 
 PARAMS = [
     Param("output_rate_hz", "float", 10.0, "rate of attitude.csv"),
@@ -33,20 +33,20 @@ def compensated_attitude(inp, est, params, progress, frac=0.4):
     return sol, c_sn, c_bn, raw
 
 
-def oscillation(inp, stops, c_bn, raw):
-    """Mean per-cycle peak-to-peak pitch and roll (rad), before and after, over the static period."""
-    st = static_part(inp)
-    k = inp.t_s <= inp.static_end_s
-    out = {}
-    for name, c in (("before", raw[k]), ("after", c_bn[k])):
-        p, r, _ = euler_from_c_bn(c)
-        pp = oscillation_per_cycle(st.t_s, p, stops, st.still)
-        rr = oscillation_per_cycle(st.t_s, r, stops, st.still)
-        if not pp:
-            raise ParameterError("no full rotation cycle during the static period to measure the oscillation",
-                                 file="imu.csv", field="turntable_deg")
-        out[name] = (float(np.mean(pp)), float(np.mean(rr)), len(pp))
-    return out
+def oscillation(inp, c_bn, raw):
+    """Mean per-cycle peak-to-peak pitch and roll (rad), before and after compensation, over the
+    static period (else every still interval); None when no full turntable cycle lies in one."""
+    for still in ([(inp.t_s[0] - 1.0, inp.static_end_s)], inp.still):
+        out = {}
+        for name, c in (("before", raw), ("after", c_bn)):
+            p, r, _ = euler_from_c_bn(c)
+            pp = oscillation_per_cycle(inp.t_s, p, inp.eta_rad, still)
+            rr = oscillation_per_cycle(inp.t_s, r, inp.eta_rad, still)
+            if pp:
+                out[name] = (float(np.mean(pp)), float(np.mean(rr)), len(pp))
+        if len(out) == 2:
+            return out
+    return None
 
 
 def run(logs, params, progress) -> PipelineResult:
@@ -56,10 +56,14 @@ def run(logs, params, progress) -> PipelineResult:
     if inp.eta_rad is None:
         raise ParameterError("tilt compensation needs a rotating IMU: the manifest says imu.rotating is false "
                              "and imu.csv has no turntable_deg", file="imu.csv", field="turntable_deg")
-    progress("fine alignment and stop pairs", 0.1)
+    progress("fine alignment and turntable stops", 0.1)
     est, stops = tilt_stage(inp)
+    warnings = list(inp.warnings) + list(est.warnings)
     sol, c_sn, c_bn, raw = compensated_attitude(inp, est, params, progress)
-    osc = oscillation(inp, stops, c_bn, raw)
+    osc = oscillation(inp, c_bn, raw)
+    if osc is None:
+        warnings.append("no full turntable cycle while the vehicle stood still: the attitude oscillation "
+                        "before and after compensation is not reported")
     progress("writing", 0.9)
     step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(inp.t_s))))))
     sl = slice(step - 1, None, step)
@@ -69,11 +73,16 @@ def run(logs, params, progress) -> PipelineResult:
              "pitch_raw_deg": np.degrees(p0), "roll_raw_deg": np.degrees(r0), "pitch_deg": np.degrees(p1),
              "roll_deg": np.degrees(r1), "heading_deg": np.degrees(h1)}
     s = {"alpha_rad": est.alpha_rad, "alpha_rad_sigma": est.alpha_sigma_rad, "beta_rad": est.beta_rad,
-         "beta_rad_sigma": est.beta_sigma_rad, "n_pairs": len(est.pairs),
-         "pitch_oscillation_before_rad": osc["before"][0], "pitch_oscillation_after_rad": osc["after"][0],
-         "roll_oscillation_before_rad": osc["before"][1], "roll_oscillation_after_rad": osc["after"][1],
-         "n_cycles": osc["after"][2], "aiding": "ldv"}
-    return PipelineResult(summary=s, tables={"attitude": table})
+         "beta_rad_sigma": est.beta_sigma_rad, "tilt_observable": est.observable, "n_pairs": len(est.pairs),
+         "n_still_intervals": est.n_intervals, "turntable_diversity": est.diversity,
+         "rms_residual_rad": est.rms_residual_rad,
+         "method": "least squares of the up direction over the turntable angle in still intervals",
+         "aiding": "ldv"}
+    for key, i in (("pitch", 0), ("roll", 1)):
+        s[f"{key}_oscillation_before_rad"] = osc["before"][i] if osc else None
+        s[f"{key}_oscillation_after_rad"] = osc["after"][i] if osc else None
+    s["n_cycles"] = osc["after"][2] if osc else 0
+    return PipelineResult(summary=s, tables={"attitude": table}, warnings=warnings)
 
 
 PIPELINE = Pipeline("tilt", run, PARAMS, "Base-tilt compensation of a single-axis rotation INS")
