@@ -76,33 +76,6 @@ def to_mgal(x):
 # gaps
 
 
-def imu_gaps(t_s, tol: float = 1.5):
-    """Rows after which IMU samples are missing.
-
-    Returns (index k of each row whose interval t[k−1]..t[k] is longer than ``tol`` nominal
-    intervals, number of rows missing there, nominal interval in s).
-    """
-    dt = np.diff(np.asarray(t_s, float))
-    dt0 = float(np.median(dt))
-    k = np.flatnonzero(dt > tol * dt0)
-    return k + 1, np.rint(dt[k] / dt0).astype(int) - 1, dt0
-
-
-def bridge_increments(t_s, dtheta_rad, dvel_mps, tol: float = 1.5):
-    """Increments of rows that follow missing rows, scaled to span the whole interval.
-
-    A row's increment covers its own nominal interval; where rows are missing the interval
-    t[k−1]..t[k] is longer, and the missing part is bridged with the same mean rate (constant
-    angular rate and specific force over the gap). Returns copies and the gap index/count.
-    """
-    idx, missing, _ = imu_gaps(t_s, tol)
-    dth = np.array(dtheta_rad, float, copy=True)
-    dv = np.array(dvel_mps, float, copy=True)
-    dth[idx] *= (missing + 1)[:, None]
-    dv[idx] *= (missing + 1)[:, None]
-    return dth, dv, idx, missing
-
-
 def runs(mask):
     """(start, stop) index pairs of the True runs of a boolean array."""
     e = np.flatnonzero(np.diff(np.r_[0, np.asarray(mask, int), 0]))

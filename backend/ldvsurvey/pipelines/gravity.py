@@ -1,8 +1,8 @@
 """``gravity``: strapdown gravity from SINS/2-D LDV, repeated-line internal coincidence, SINS/GNSS beside.
 
 The raw chains are in :mod:`ldvsurvey.pipelines.gravity_chains` (f_U from the navigation's own
-mechanization step, LDV and GNSS gaps bridged so they cost only their own samples, IMU gaps
-bridged and reported). Here: the zero-phase Blackman FIR, the lines trimmed at their ends (the
+mechanization step, LDV and GNSS gaps bridged so they cost only their own samples). Rows missing
+from imu.csv are bridged (or refused) when the log is read; the summary reports them. Here: the zero-phase Blackman FIR, the lines trimmed at their ends (the
 FIR would otherwise mix the turnaround and the acceleration into them), the coincidence on common
 along-track points with per-line statistics, crossovers, and the white-noise floor of the
 coincidence from the sensors' noise and the FIR's noise gain, printed beside the measured figure.
@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.nav.gravity import MGAL, imu_gaps
+from ldvsurvey.nav.gravity import MGAL
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
-from ldvsurvey.pipelines.gravity_chains import bridged_log, gnss_chain, ldv_chain
+from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_report import block, chain_difference, evaluate, floor_of
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.prep import gnss_aid, gnss_ins, navigate
@@ -32,8 +32,6 @@ PARAMS = [
     Param("gnss_aided", "bool", False, "also compute the LDV gravity on an LDV+GNSS navigation and show both"),
     Param("line_end_trim_s", "float", None, "time trimmed at both ends of every line (default: half the FIR "
           "length, the filter's main lobe); 0 keeps the whole line"),
-    Param("max_imu_gap_s", "float", 0.1, "longest run of missing IMU rows bridged at constant rate; longer "
-          "gaps are refused"),
 ] + calibration_params()
 
 
@@ -80,21 +78,14 @@ def parse_fixes(text):
     return out
 
 
-def check_imu_gaps(log, max_gap_s):
-    """Refuse IMU gaps longer than ``max_gap_s``; describe the shorter ones (they are bridged)."""
-    idx, missing, dt0 = imu_gaps(log.imu.t_s)
-    if len(idx) == 0:
-        return []
-    t = log.imu.t_s
-    long = missing * dt0 > max_gap_s + 1e-9
-    if long.any():
-        j = int(np.flatnonzero(long)[0])
-        raise ParameterError(f"{missing[j]} IMU rows missing before t = {t[idx[j]]:.3f} s "
-                             f"({missing[j] * dt0:.3f} s, longer than max_imu_gap_s = {max_gap_s:g} s): "
-                             "gravity cannot bridge it", file="imu.csv", field="t")
-    j = int(np.argmax(missing))
-    return [f"imu.csv: {len(idx)} gap(s), {int(missing.sum())} row(s) missing in all, bridged at constant rate "
-            f"(longest {missing[j]} row(s) before t = {t[idx[j]]:.3f} s)"]
+def imu_gap_report(logs):
+    """What the reader did about rows missing from imu.csv (bridged short gaps; long ones are refused
+    by the navigation before any gravity is computed)."""
+    rows = int(sum(getattr(log.imu, "bridged_rows", 0) for log in logs))
+    notes = [w for log in logs for w in log.warnings if w.startswith("imu.csv") and "gap" in w]
+    return {"bridged_rows": rows, "notes": notes,
+            "handling": "rows missing from imu.csv bridged on an even grid when the log was read "
+                        "(increments split or interpolated over the gap); longer gaps refused"}
 
 
 def run(logs, params, progress) -> PipelineResult:
@@ -104,14 +95,10 @@ def run(logs, params, progress) -> PipelineResult:
     trim_s = fir_s / 2 if params["line_end_trim_s"] is None else params["line_end_trim_s"]
     if not trim_s >= 0:
         raise ParameterError("must be zero or positive", field="line_end_trim_s")
-    if not params["max_imu_gap_s"] >= 0:
-        raise ParameterError("must be zero or positive", field="max_imu_gap_s")
     fixes = parse_fixes(params["gnss_fixes"])
     chains, gchains, achains, lines, warnings = [], [], [], [], []
     nav_params = {**params, "aiding": "ldv", "smooth": True}
     for i, log in enumerate(logs):
-        warnings += check_imu_gaps(log, params["max_imu_gap_s"])
-        log = bridged_log(log)
         progress(f"bundle {i + 1}/{len(logs)}: SINS/LDV navigation", 0.05 + 0.6 * i / len(logs))
         inp, setup, sol = run_navigation(log, nav_params, progress)
         warnings += setup.warnings
@@ -148,9 +135,7 @@ def run(logs, params, progress) -> PipelineResult:
     res = evaluate(chains, lines, fir_s, params["spacing_m"], trim_s)
     summary = block(res, fir_s, trim_s, "ldv", floor_of(logs[0], chains[0], fir_s))
     summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
-    summary["imu_gaps"] = {"n_gaps": int(sum(len(c["imu_gaps"]["t_s"]) for c in chains)),
-                           "missing_rows": int(sum(c["imu_gaps"]["missing"].sum() for c in chains)),
-                           "handling": "bridged at constant rate"}
+    summary["imu_gaps"] = imu_gap_report(logs)
     gres = ares = None
     if params["gnss_comparison"] and all(g is not None for g in gchains):
         try:

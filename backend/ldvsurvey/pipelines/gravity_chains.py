@@ -3,7 +3,7 @@
 Both take f_U from the navigation's own mechanization step (``NavSolution.f_u_mps2``, smoothed),
 with the horizontal accelerometer biases the filter estimated removed (the vertical one is not
 separable from Δg without a base tie and stays).
-Rows missing from the IMU log are bridged at constant rate before the navigation and reported.
+Rows missing from the IMU log are bridged when it is read (io.imutime) and reported.
 
 SINS/LDV: v̇_U from the LDV vertical velocity (brought to the IMU centre) differenced over
 each IMU interval. Where the LDV is unusable (quality, dropouts, values far off the navigation
@@ -19,15 +19,12 @@ both sides of the subtraction see the very same differencing, so the FIR treats 
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.attitude import c_from_q
-from ldvsurvey.nav.gravity import (bridge_increments, bridge_velocity, disturbance_mps2, imu_gaps,
-                                   zero_phase_lowpass)
+from ldvsurvey.nav.gravity import bridge_velocity, disturbance_mps2, zero_phase_lowpass
 from ldvsurvey.pipelines.prep import GNSS_SIGMA, attitude_at
 from ldvsurvey.pipelines.stages import accel_fwd, ldv_body_velocity
 
@@ -45,25 +42,14 @@ def vertical_force(inp, sol):
 
     ``sol.f_u_mps2`` (smoothed with the attitude) with the bias correction added back, minus the
     horizontal accelerometer biases only: the vertical bias is not separable from Δg without a
-    base tie and stays (a constant offset). Rows missing from the log must have been bridged
-    before the navigation (:func:`bridged_log`); they are reported here.
+    base tie and stays (a constant offset). Rows missing from ``imu.csv`` were bridged when the
+    log was read (:mod:`ldvsurvey.io.imutime`); the pipeline reports how many.
     """
-    gap_idx, gap_missing, _ = imu_gaps(inp.t_s)
     f_raw = sol.f_u_mps2 + sol.f_u_bias_mps2  # C_s^n Δv / Δt as mechanized, no bias removed
     c_sn = c_from_q(sol.q_sn)
     b = sol.accel_bias_mps2
     f_u = f_raw - (c_sn[:, 2, 0] * b[0] + c_sn[:, 2, 1] * b[1])
-    return f_u, {"t_s": inp.t_s[gap_idx], "missing": gap_missing}
-
-
-def bridged_log(log):
-    """The log with the increments of rows that follow missing IMU rows scaled to their whole
-    interval (constant rate over the gap), so the navigation and f_U see no missing Δv."""
-    idx, _, _ = imu_gaps(log.imu.t_s)
-    if len(idx) == 0:
-        return log
-    dth, dv, _, _ = bridge_increments(log.imu.t_s, log.imu.dtheta_rad, log.imu.dvel_mps)
-    return dataclasses.replace(log, imu=dataclasses.replace(log.imu, dtheta_rad=dth, dvel_mps=dv))
+    return f_u
 
 
 def ldv_velocity_imu(inp, sol, setup):
@@ -114,7 +100,7 @@ def ldv_chain(inp, sol, setup):
     """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times."""
     t = inp.t_s
     dt = np.diff(t)
-    f_u, gaps = vertical_force(inp, sol)
+    f_u = vertical_force(inp, sol)
     v_imu = ldv_velocity_imu(inp, sol, setup)
     ok = inp.ldv_ok & np.all(np.isfinite(v_imu), axis=1)
     bad = screen_velocity(v_imu[:, 2], ok, sol.v_n[:, 2])
@@ -130,7 +116,7 @@ def ldv_chain(inp, sol, setup):
     dg = disturbance_mps2(f_u[1:], vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
     return {"t_s": 0.5 * (t[1:] + t[:-1]), "dg": dg, "lat": lat, "lon": lon, "h": h,
             "speed": np.hypot(v_mid[:, 0], v_mid[:, 1]), "fs": 1.0 / np.median(dt), "bridged": bridged,
-            "screened": int(bad.sum()), "imu_gaps": gaps, "ldv_noise_mps": noise, "kind": "ldv"}
+            "screened": int(bad.sum()), "ldv_noise_mps": noise, "kind": "ldv"}
 
 
 def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), k_sigma: float = 5.0):
@@ -156,7 +142,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), k_sigma: float = 5.0):
     tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
     if len(tg) < 20:
         raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")
-    f_u, gaps = vertical_force(inp, sol)
+    f_u = vertical_force(inp, sol)
     dt = np.diff(t)
     lat_m = 0.5 * (sol.pos[1:, 0] + sol.pos[:-1, 0])
     h_m = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
@@ -194,5 +180,5 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), k_sigma: float = 5.0):
     return {"t_s": tc, "dg": dg, "lat": np.interp(tc, t, sol.pos[:, 0]), "lon": np.interp(tc, t, sol.pos[:, 1]),
             "h": np.interp(tc, t, sol.pos[:, 2]),
             "speed": np.interp(tc, t, np.hypot(sol.v_n[:, 0], sol.v_n[:, 1])), "fs": 1.0 / step,
-            "bridged": bridged, "screened": int((~good).sum()), "imu_gaps": gaps,
+            "bridged": bridged, "screened": int((~good).sum()),
             "height_sigma_m": float(np.sqrt(np.mean(sig_v ** 2))), "kind": "gnss"}

@@ -51,11 +51,8 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True):
         ch = chains[ci]
         whole = (ch["t_s"] >= a) & (ch["t_s"] <= b)
         k = trim_line(ch["t_s"], a, b, trim_s) & np.isfinite(filtered[ci])
-        gaps = ch["imu_gaps"]
-        in_line = (gaps["t_s"] >= a) & (gaps["t_s"] <= b)
         info = {"bridged_s": float(np.sum(ch["bridged"][whole]) / ch["fs"]),
                 "bridged_share": float(np.mean(ch["bridged"][whole])) if whole.any() else 0.0,
-                "imu_missing_rows": int(np.sum(gaps["missing"][in_line])),
                 "unsupported_s": float(np.sum(ch["unsupported"][whole]) / ch["fs"]),
                 "duration_s": float(b - a), "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s))}
         if k.sum() < 10:
