@@ -9,21 +9,45 @@ from ldvsurvey.errors import ParameterError
 
 def write_demo(directory: str | Path, scenario: str = "height", seed: int = 1,
                duration_s: float | None = None) -> list[Path]:
-    """Write a simulated bundle to ``directory`` (the four files) and its truth to ``directory/truth``."""
-    from ldvsurvey.io.writers import write_bundle
-    from ldvsurvey.nav.sim.catalog import SCENARIOS, by_name
-    from ldvsurvey.nav.sim.scenario import bundle_files, simulate, truth_files
+    """Write a simulated bundle to ``directory`` (the four files), its truth to ``directory/truth``
+    and, when the scenario has a gravity field with deflections, the ICGEM grids ``xi.gdf``,
+    ``eta.gdf`` (arcsec) and ``dg.gdf`` (mGal) to ``directory/grids``."""
+    import inspect
+
+    from ldvsurvey.nav.sim.catalog import REALISTIC, SCENARIOS, by_name
 
     if scenario not in SCENARIOS:
         raise ParameterError(f"unknown scenario '{scenario}' (known: {', '.join(sorted(SCENARIOS))})",
                              field="--scenario")
-    kw = {"minutes": duration_s / 60.0} if duration_s else {}
+    kw = {}
+    if duration_s:
+        if "minutes" not in inspect.signature(SCENARIOS[scenario]).parameters:
+            raise ParameterError(f"scenario '{scenario}' has a fixed length (no --duration-s)", field="--duration-s")
+        kw["minutes"] = duration_s / 60.0
+    if scenario in REALISTIC:
+        kw["seed"] = seed
     sc = by_name(scenario, **kw)
+    return write_scenario(sc, directory, seed=seed)
+
+
+def write_scenario(sc, directory: str | Path, seed: int | None = None) -> list[Path]:
+    """Simulate a scenario and write bundle, truth and (if any) DOV grids under ``directory``.
+
+    Returns the paths written: the bundle folder, ``truth/`` and, if written, ``grids/``.
+    """
+    from ldvsurvey.io.writers import write_bundle
+    from ldvsurvey.nav.sim.scenario import bundle_files, grid_files, simulate, truth_files
+
     sim = simulate(sc, seed=seed, with_nodov=sc.gravity_field is not None)
     out = Path(directory)
     write_bundle(bundle_files(sim), out)
     write_bundle(truth_files(sim), out / "truth")
-    return [out, out / "truth"]
+    paths = [out, out / "truth"]
+    grids = grid_files(sim)
+    if grids:
+        write_bundle(grids, out / "grids")
+        paths.append(out / "grids")
+    return paths
 
 
 DEMO = (("height", "height"), ("gravity", "gravity"))  # (scenario, pipeline run on it)

@@ -167,3 +167,79 @@ def by_name(name: str, **kw) -> Scenario:
         return SCENARIOS[name](**kw)
     except KeyError:
         raise KeyError(f"unknown scenario '{name}' (known: {', '.join(sorted(SCENARIOS))})") from None
+
+
+# --- the realistic family: the same drives with the effects real drives have -------------------------
+
+def _split_effects(seed: int, effects, kw: dict):
+    """Effect overrides (keys named like effects) out of ``kw``; returns (Effects, remaining kw)."""
+    from ldvsurvey.nav.sim.effects import Effects, effect_names
+
+    over = {k: kw.pop(k) for k in list(kw) if k in effect_names()}
+    if effects is None:
+        eff = Effects.realistic(seed, **over)
+    else:
+        eff = effects.with_(**over) if over else effects
+    return eff, kw
+
+
+def _realistic(sc: Scenario, eff, seed: int) -> Scenario:
+    """Attach the effects: a moving start drops the initial static period and starts the log at
+    cruising speed; the GNSS effect
+    moves the antenna to its real lever arm."""
+    from ldvsurvey.nav.sim.motion import Static as _Static
+
+    sc.effects = eff
+    sc.seed = seed
+    sc.name = "realistic-" + sc.name
+    if eff.moving_start is not None and sc.segments and isinstance(sc.segments[0], _Static):
+        sc.segments = sc.segments[1:]
+        sc.static_s = 0.0
+        ramp = getattr(sc.segments[0], "ramp_s", 0.0)
+        sc.lead_s = ramp + 10.0  # the log starts 10 s after the vehicle reached its speed
+    if eff.gnss is not None:
+        sc.gnss_lever_m = tuple(eff.gnss.lever_arm_m)
+    return sc
+
+
+def realistic_height(seed: int = 1, effects=None, minutes: float = 40.0, **kw) -> Scenario:
+    """The height drive (40 min, rotating IMU, 1-D LDV, 2 × 10 km out and back, 35 m relief)
+    with every real-drive effect (see ``effects.py``); ``kw`` may switch effects by name
+    (``gnss=False``, ``turntable=TurntableSpec(scheme="2pos")``) or set scenario fields."""
+    eff, kw = _split_effects(seed, effects, kw)
+    return _realistic(height(minutes=minutes, **kw), eff, seed)
+
+
+def realistic_gravity(seed: int = 1, effects=None, n_lines: int = 6, **kw) -> Scenario:
+    """The gravimetry survey (six repeated 11-km lines, fixed IMU, 2-D LDV, accelerometer white
+    noise 5 µg/√Hz) with every real-drive effect; the point-mass field replaces the sinusoids."""
+    eff, kw = _split_effects(seed, effects, kw)
+    kw.setdefault("accel_vrw_ug_rthz", 5.0)
+    sc = gravity(n_lines=n_lines, **kw)
+    if eff.gravity_field is not None:
+        sc.gravity_field = None  # built from the effect's one potential at simulation time
+    return _realistic(sc, eff, seed)
+
+
+def realistic_drive(seed: int = 1, effects=None, minutes: float = 40.0, **kw) -> Scenario:
+    """The navigation drive (winding road with grades, fixed IMU, 2-D LDV) with every effect."""
+    eff, kw = _split_effects(seed, effects, kw)
+    kw.setdefault("fix_schedule", [])
+    return _realistic(drive(minutes=minutes, **kw), eff, seed)
+
+
+def realistic_vessel(seed: int = 1, effects=None, hours: float = 3.0, **kw) -> Scenario:
+    """The damping vessel with the effects that apply afloat: IMU errors and timing, one gravity
+    field, GNSS effects (its own lever arm kept), LDV dropouts; no vehicle body attitude."""
+    explicit = "body_attitude" in kw
+    eff, kw = _split_effects(seed, effects, kw)
+    if effects is None and not explicit:
+        eff = eff.with_(body_attitude=False)
+    sc = _realistic(vessel(hours=hours, **kw), eff, seed)
+    sc.gnss_lever_m = tuple(kw.get("gnss_lever_m", (0.0, -1.0, 4.0)))
+    return sc
+
+
+REALISTIC = {"realistic-height": realistic_height, "realistic-gravity": realistic_gravity,
+             "realistic-drive": realistic_drive, "realistic-vessel": realistic_vessel}
+SCENARIOS.update(REALISTIC)

@@ -44,10 +44,19 @@ class ImuTruth:
 
 def rates(motion: Motion, t, c_bt: np.ndarray, field: GravityField | None = None,
           turntable: Turntable | None = None, alpha_rad: float = 0.0, beta_rad: float = 0.0):
-    """ω_is^s (rad/s), f^s (m/s²) and the truth at times t."""
+    """ω_is^s (rad/s), f^s (m/s²) and the truth at times t.
+
+    ``c_bt``: constant C_b^t (3, 3), or a callable ``c_bt(t, truth) -> (C_b^t (N,3,3), ω_tb^b (N,3))``
+    for a body whose attitude over the travel direction varies (see ``body.py``).
+    """
     tr = motion.truth(t)
-    c_bn = tr["c_tn"] @ c_bt
-    w_nb_b = tr["w_nt_t"] @ c_bt  # C_t^b ω = (C_b^t)ᵀ ω, row-vector form
+    if callable(c_bt):
+        cbt, w_tb_b = c_bt(tr["t_s"], tr)
+        c_bn = tr["c_tn"] @ cbt
+        w_nb_b = np.einsum("kji,kj->ki", cbt, tr["w_nt_t"]) + w_tb_b
+    else:
+        c_bn = tr["c_tn"] @ c_bt
+        w_nb_b = tr["w_nt_t"] @ c_bt  # C_t^b ω = (C_b^t)ᵀ ω, row-vector form
     lat, lon, h, v_n = tr["lat_rad"], tr["lon_rad"], tr["h_m"], tr["v_n"]
     if field is not None:
         xi, eta, dg = field(lat, lon, h)
@@ -69,7 +78,7 @@ def rates(motion: Motion, t, c_bt: np.ndarray, field: GravityField | None = None
     return w_s, f_s, tr, c_bn, f_n, w_nb_b, eta_t
 
 
-def simulate_imu(motion: Motion, t_s: np.ndarray, c_bt: np.ndarray, field: GravityField | None = None,
+def simulate_imu(motion: Motion, t_s: np.ndarray, c_bt, field: GravityField | None = None,
                  turntable: Turntable | None = None, alpha_rad: float = 0.0, beta_rad: float = 0.0,
                  chunk: int = 20000) -> ImuTruth:
     """Ideal increments over (t_{k−1}, t_k] for k = 1..N, given the N+1 times ``t_s``.
@@ -77,7 +86,7 @@ def simulate_imu(motion: Motion, t_s: np.ndarray, c_bt: np.ndarray, field: Gravi
     Parameters
     ----------
     c_bt : (3, 3) C_b^t, body to travel frame (the mounting of the IMU body on the vehicle
-        travel direction; identity when the LDV is perfectly aligned).
+        travel direction; identity when the LDV is perfectly aligned), or a callable (see ``rates``).
     """
     n = len(t_s) - 1
     dth = np.empty((n, 3))

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ldvsurvey.nav.attitude import euler_from_c_bn
+from ldvsurvey.nav.sim.effects import Effects
 from ldvsurvey.nav.sim.imu import GravityField, ImuTruth, simulate_imu
 from ldvsurvey.nav.sim.motion import Motion, Turntable
 from ldvsurvey.nav.sim.road import Road
@@ -55,6 +56,9 @@ class Scenario:
     s0_m: float = 0.0  #: arc length of the road where the vehicle starts
     heading_offset0_rad: float = 0.0  #: initial heading relative to the road (a vessel turning onto it)
     current_from_s: float = 0.0  #: the current acts from here on (a moored vessel casting off)
+    effects: Effects = field(default_factory=Effects.ideal)  #: real-drive effects (all off: ideal)
+    seed: int = 1  #: sensor-noise seed used when ``simulate`` is not given one
+    lead_s: float = 0.0  #: the motion starts this long before t0_s (a log that starts on the move)
 
     def fix_of_t(self, t):
         fix = np.full(len(t), 4)
@@ -81,35 +85,84 @@ class SimResult:
     gnss_h_m: np.ndarray
     gnss_fix: np.ndarray
     imu_nodov: tuple | None = None  # (dtheta, dvel) of the same drive without the DOV
+    extras: dict = field(default_factory=dict)  #: truth of the effects (see ``effect_truth``)
+    body: object | None = None  #: the BodyModel when the body-attitude effect is on
 
 
 OPTICS = {"wavelength_nm": 1064.0, "beam_angle_deg": 10.0, "surface_angle_deg": 30.0, "refractive_index": 1.00027}
 
 
-def simulate(sc: Scenario, seed: int = 1, with_nodov: bool = False) -> SimResult:
-    """Simulate all sensors of a scenario."""
+def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) -> SimResult:
+    """Simulate all sensors of a scenario (``seed`` defaults to ``sc.seed``).
+
+    The effects of ``sc.effects`` draw from their own generator, so the ideal scenarios (all
+    effects off) give exactly the sensor data they always gave.
+    """
+    seed = sc.seed if seed is None else seed
     rng = np.random.default_rng(seed)
-    motion = Motion(sc.road, sc.segments, sc.t0_s, dt_s=1.0 / sc.imu_rate_hz, s0_m=sc.s0_m,
-                    heading_offset0_rad=sc.heading_offset0_rad, current_n_mps=sc.current_n_mps,
-                    current_from_s=sc.current_from_s)
+    eff = sc.effects
+    erng = np.random.default_rng([eff.seed, seed, 99])
+    extras: dict = {}
     dt = 1.0 / sc.imu_rate_hz
+    lead = round(sc.lead_s / dt) * dt
+    motion = Motion(sc.road, sc.segments, sc.t0_s - lead, dt_s=1.0 / sc.imu_rate_hz, s0_m=sc.s0_m,
+                    heading_offset0_rad=sc.heading_offset0_rad, current_n_mps=sc.current_n_mps,
+                    current_from_s=sc.current_from_s + lead)
     n = int(round((motion.t_end_s - sc.t0_s) / dt))
     t = sc.t0_s + np.arange(n + 1) * dt
     c_bt = sc.ldv.c_bt()
-    table = Turntable(sc.t0_s, dwell_s=sc.turntable_dwell_s, dt_s=dt) if sc.rotating else None
-    imu = simulate_imu(motion, t, c_bt, sc.gravity_field, table, sc.alpha_rad, sc.beta_rad)
+    body = None
+    if eff.body_attitude is not None:
+        from ldvsurvey.nav.sim.body import BodyModel
+
+        body = c_bt = BodyModel(eff.body_attitude, motion, sc.ldv.pitch_rad, sc.ldv.heading_rad, erng)
+    field = sc.gravity_field
+    if eff.gravity_field is not None and field is None:
+        from ldvsurvey.nav.sim.pointmass import build_field
+
+        tr = motion.truth(np.linspace(sc.t0_s, motion.t_end_s, 2001))
+        field = build_field(eff.gravity_field, tr["lat_rad"], tr["lon_rad"], tr["h_m"])
+    extras["gravity_field"] = field
+    table = None
+    if sc.rotating and eff.turntable is not None:
+        from ldvsurvey.nav.sim.turntable import ScheduledTurntable
+
+        table = ScheduledTurntable(eff.turntable, sc.t0_s, motion.t_end_s, dt, erng)
+        extras["turntable"] = table
+    elif sc.rotating:
+        table = Turntable(sc.t0_s, dwell_s=sc.turntable_dwell_s, dt_s=dt)
+    imu = simulate_imu(motion, t, c_bt, field, table, sc.alpha_rad, sc.beta_rad)
     nodov = None
-    if with_nodov and sc.gravity_field is not None:
+    if with_nodov and field is not None:
         def dg_only(lat, lon, h):
-            _, _, dg = sc.gravity_field(lat, lon, h)
+            _, _, dg = field(lat, lon, h)
             return 0.0 * lat, 0.0 * lat, dg
         ref = simulate_imu(motion, t, c_bt, dg_only, table, sc.alpha_rad, sc.beta_rad)
+    ideal_dth, ideal_dv = imu.dtheta_rad, imu.dvel_mps
+    if eff.imu_errors is not None:
+        from ldvsurvey.nav.sim.imuerrors import apply_imu_errors
+
+        ideal_dth, ideal_dv, extras["imu_errors"] = apply_imu_errors(
+            imu.dtheta_rad, imu.dvel_mps, dt, eff.imu_errors, sc.gyro_bias_dph, sc.accel_bias_ug, erng)
     err = ImuErrors.draw(rng, sc.gyro_bias_dph, sc.accel_bias_ug, sc.gyro_arw_dprh, sc.accel_vrw_ug_rthz)
     state = rng.bit_generator.state
-    dth, dv = err.apply(imu.dtheta_rad, imu.dvel_mps, dt, rng)
-    if with_nodov and sc.gravity_field is not None:  # identical sensor noise in both files
+    dth, dv = err.apply(ideal_dth, ideal_dv, dt, rng)
+    if with_nodov and field is not None:  # identical sensor errors in both files
         rng.bit_generator.state = state
-        nodov = err.apply(ref.dtheta_rad, ref.dvel_mps, dt, rng)
+        r_dth, r_dv = ref.dtheta_rad, ref.dvel_mps
+        if "imu_errors" in extras:
+            x = extras["imu_errors"]
+            r_dth = r_dth @ x["m_gyro"].T + x["gyro_gm_rps"] * dt
+            r_dv = r_dv @ x["m_accel"].T + x["accel_gm_mps2"] * dt
+        nodov = err.apply(r_dth, r_dv, dt, rng)
+    if eff.imu_timing is not None:
+        from ldvsurvey.nav.sim.imuerrors import timing
+
+        extras["imu_keep"], extras["imu_t_written"] = timing(imu.t_s, dt, eff.imu_timing, erng)
+    if table is not None and eff.turntable is not None:
+        from ldvsurvey.nav.sim.turntable import encoder_reading
+
+        extras["encoder_deg"] = encoder_reading(imu.eta_rad, eff.turntable, erng)
     # LDV
     n_l = int(np.floor((motion.t_end_s - sc.t0_s) * sc.ldv_rate_hz + 1e-9))
     t_l = sc.t0_s + np.arange(1, n_l + 1) / sc.ldv_rate_hz
@@ -119,16 +172,31 @@ def simulate(sc: Scenario, seed: int = 1, with_nodov: bool = False) -> SimResult
 
         frac = smooth_step((t_l - motion.current_t0) / motion.current_ramp)[0]
         current = frac[:, None] * np.asarray(sc.current_n_mps, float)
-    vf, vu = ldv_measure(motion, t_l, sc.ldv, rng, current_n=current)
+    vf, vu = ldv_measure(motion, t_l, sc.ldv, rng, current_n=current, body=body)
     quality = rng.integers(150, 400, len(t_l)).astype(float)
     bad = rng.random(len(t_l)) < sc.ldv_dropout_share
     quality[bad] = rng.integers(10, 90, bad.sum())
     vf[bad] += rng.normal(0, 2.0, bad.sum())
     vu[bad] += rng.normal(0, 2.0, bad.sum())
+    if eff.ldv_dropouts is not None:
+        from ldvsurvey.nav.sim.ldvfaults import apply_dropouts
+
+        static_end = sc.t0_s + (sc.segments[0].duration_s if sc.static_s > 0 else 0.0)
+        vf, vu, quality, bursts, spikes = apply_dropouts(t_l, vf, vu, quality, eff.ldv_dropouts, static_end, erng)
+        extras["ldv_bursts"], extras["ldv_spikes_t"] = bursts, spikes
     # GNSS at whole seconds
     t_g = np.arange(np.ceil(sc.t0_s), np.floor(motion.t_end_s) + 1e-9, 1.0)
-    lat, lon, h, fix = gnss_fixes(motion, t_g, c_bt, sc.gnss_lever_m, sc.fix_of_t, rng)
-    return SimResult(sc, motion, imu, err, dth, dv, t_l, vf, vu, quality, t_g, lat, lon, h, fix, nodov)
+    fix_of_t, extra = sc.fix_of_t, None
+    if eff.gnss is not None:
+        from ldvsurvey.nav.sim.gnsseffects import fix_with_events, gnss_events, multipath_offsets
+
+        ev = gnss_events(eff.gnss, sc.t0_s, motion.t_end_s, erng)
+        fix_of_t = fix_with_events(sc.fix_of_t, ev)
+        extra = multipath_offsets(t_g, fix_of_t(t_g), ev)
+        extras["gnss_events"] = ev
+    lat, lon, h, fix = gnss_fixes(motion, t_g, c_bt, sc.gnss_lever_m, fix_of_t, rng, extra_enu_m=extra)
+    return SimResult(sc, motion, imu, err, dth, dv, t_l, vf, vu, quality, t_g, lat, lon, h, fix, nodov,
+                     extras=extras, body=body)
 
 
 def manifest(sim: SimResult) -> dict:
@@ -163,6 +231,13 @@ def bundle_files(sim: SimResult) -> dict[str, bytes]:
 
     sc = sim.scenario
     turn = np.mod(np.degrees(sim.imu.eta_rad), 360.0) if sc.rotating else None
+    if "encoder_deg" in sim.extras:
+        turn = sim.extras["encoder_deg"]
+    t_imu, dth, dv = sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps
+    if "imu_keep" in sim.extras:  # dropped rows and jittered time tags
+        keep = sim.extras["imu_keep"]
+        t_imu, dth, dv = sim.extras["imu_t_written"][keep], dth[keep], dv[keep]
+        turn = turn[keep] if turn is not None else None
     v_up = sim.ldv_v_up if sc.ldv.kind == "2d" else None
     if sc.ldv_fd:
         per_mps = 1.0 / fd_to_v_fwd(np.array([1.0]), LdvOptics(**OPTICS))[0]
@@ -172,7 +247,7 @@ def bundle_files(sim: SimResult) -> dict[str, bytes]:
         ldv = ldv_csv(sim.ldv_t_s, v_fwd_mps=sim.ldv_v_fwd, v_up_mps=v_up, quality=sim.ldv_quality)
     return {
         "manifest.json": manifest_json(manifest(sim)),
-        "imu.csv": imu_csv(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, turn,
+        "imu.csv": imu_csv(t_imu, dth, dv, turn,
                            comment="ldv-drive-log/1 IMU increments over (t_prev, t], sensor frame s"),
         "ldv.csv": ldv,
         "gnss.nmea": nmea_text(sim.gnss_t_s, sim.gnss_lat_deg, sim.gnss_lon_deg, sim.gnss_h_m, sim.gnss_fix,
@@ -200,6 +275,10 @@ def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:
         "gyro_bias_rps": sim.errors.gyro_bias_rps.tolist(), "accel_bias_mps2": sim.errors.accel_bias_mps2.tolist(),
         "created": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
     }
+    if sc.effects.on():
+        more_cols, more_meta = effect_truth(sim, sl)
+        cols.update(more_cols)
+        meta.update(more_meta)
     out = {"truth.csv": csv_bytes(cols, comment="simulation truth at the IMU centre"),
            "truth.json": (json.dumps(meta, indent=2) + "\n").encode()}
     if sim.imu_nodov is not None:
@@ -207,3 +286,108 @@ def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:
                                        np.mod(np.degrees(im.eta_rad), 360.0) if im.eta_rad is not None else None,
                                        comment="the same drive without the deflection of the vertical")
     return out
+
+
+def effective_travel_direction(sim: SimResult, t_s) -> tuple[np.ndarray, np.ndarray]:
+    """Pitch and heading (rad) of the travel direction in IMU-body axes at times ``t_s``, in the LDV
+    mounting convention: what an LDV calibration sees (equal to the mounting without body attitude)."""
+    from ldvsurvey.nav.sim.body import travel_direction
+
+    t = np.atleast_1d(np.asarray(t_s, float))
+    if sim.body is None:
+        return np.full(len(t), sim.scenario.ldv.pitch_rad), np.full(len(t), sim.scenario.ldv.heading_rad)
+    return travel_direction(sim.body(t, sim.motion.truth(t))[0])
+
+
+def mean_travel_direction(sim: SimResult, t_from_s: float | None = None, t_to_s: float | None = None,
+                          min_speed_mps: float = 2.0) -> dict:
+    """Mean effective LDV pitch/heading (rad) over the moving samples (speed ≥ ``min_speed_mps``)
+    of [t_from_s, t_to_s] (default: the whole drive), sampled at 10 Hz, with their std."""
+    a = sim.scenario.t0_s if t_from_s is None else t_from_s
+    b = sim.motion.t_end_s if t_to_s is None else t_to_s
+    t = np.arange(a, b, 0.1)
+    moving = sim.motion.truth(t)["speed_mps"] >= min_speed_mps
+    if not moving.any():  # a log that never moves: no travel direction
+        return {"pitch_rad": None, "heading_rad": None, "pitch_std_rad": None, "heading_std_rad": None,
+                "t_from_s": float(a), "t_to_s": float(b), "n_samples": 0}
+    p, h = effective_travel_direction(sim, t[moving])
+    return {"pitch_rad": float(np.mean(p)), "heading_rad": float(np.mean(h)), "pitch_std_rad": float(np.std(p)),
+            "heading_std_rad": float(np.std(h)), "t_from_s": float(a), "t_to_s": float(b),
+            "n_samples": int(moving.sum())}
+
+
+def grid_files(sim: SimResult) -> dict[str, bytes]:
+    """ICGEM ``.gdf`` grids of the effect's gravity field over the survey area: ``xi.gdf``,
+    ``eta.gdf`` (arcsec) and ``dg.gdf`` (mGal) at the mean track height; empty without the effect."""
+    from ldvsurvey.io.gdf import write_gdf
+    from ldvsurvey.nav.sim.pointmass import PointMassField, grid_axes
+
+    field = sim.extras.get("gravity_field")
+    eff = sim.scenario.effects.gravity_field
+    if not isinstance(field, PointMassField) or eff is None:
+        return {}
+    lat, lon = grid_axes(sim.imu.lat_rad, sim.imu.lon_rad, eff.grid_step_arcmin)
+    h = float(np.mean(sim.imu.h_m))
+    xi, eta, dg = field.grids(lat, lon, h)
+    return {"xi.gdf": write_gdf(lat, lon, xi, "xi", "arcsec"),
+            "eta.gdf": write_gdf(lat, lon, eta, "eta", "arcsec"),
+            "dg.gdf": write_gdf(lat, lon, dg, "gravity_disturbance", "mGal")}
+
+
+def effect_truth(sim: SimResult, sl=slice(None)) -> tuple[dict, dict]:
+    """Truth of the effects: extra ``truth.csv`` columns at the IMU samples ``sl`` and ``truth.json`` keys.
+
+    Columns: ``dg_mgal``, ``xi_arcsec``, ``eta_arcsec`` (the field at the IMU), ``ldv_travel_pitch_deg``,
+    ``ldv_travel_heading_deg`` (effective travel direction in body axes, mounting convention),
+    ``body_pitch_deg``, ``body_roll_deg``, ``body_yaw_deg`` (body over travel direction),
+    ``gyro_gm_{x,y,z}_dph``, ``accel_gm_{x,y,z}_ug`` (bias instability, sensor axes).
+    """
+    from ldvsurvey.nav.earth import ARCSEC, MGAL
+
+    sc, im, x = sim.scenario, sim.imu, sim.extras
+    cols: dict = {}
+    meta: dict = {"effects": sc.effects.describe(), "effects_seed": sc.effects.seed}
+    t = im.t_s[sl]
+    field = x.get("gravity_field")
+    if sc.effects.gravity_field is not None and field is not None:
+        xi, eta, dg = field(im.lat_rad[sl], im.lon_rad[sl], im.h_m[sl])
+        cols.update(dg_mgal=dg / MGAL, xi_arcsec=xi / ARCSEC, eta_arcsec=eta / ARCSEC)
+        if hasattr(field, "masses"):
+            meta["gravity_field"] = {"model": "point masses, local ENU (m) around the origin",
+                                     "origin_lat_deg": float(np.degrees(field.lat0_rad)),
+                                     "origin_lon_deg": float(np.degrees(field.lon0_rad)),
+                                     "origin_h_m": field.h0_m, "masses_e_n_u_gm": field.masses.tolist()}
+    if sim.body is not None:
+        p, h = effective_travel_direction(sim, t)
+        bp, br, by = sim.body.angles(t)
+        cols.update(ldv_travel_pitch_deg=np.degrees(p), ldv_travel_heading_deg=np.degrees(h),
+                    body_pitch_deg=np.degrees(bp), body_roll_deg=np.degrees(br), body_yaw_deg=np.degrees(by))
+        b = sc.effects.body_attitude
+        meta["body_attitude"] = {"stance_pitch_rad": b.stance_pitch_rad, "crab_rad": b.crab_rad,
+                                 "squat_rad_per_mps2": b.squat_rad_per_g / 9.80665,
+                                 "roll_rad_per_mps2": b.roll_rad_per_g / 9.80665}
+    meta["ldv_effective"] = mean_travel_direction(sim)
+    if "imu_errors" in x:
+        e = x["imu_errors"]
+        for i, ax in enumerate("xyz"):
+            cols[f"gyro_gm_{ax}_dph"] = np.degrees(e["gyro_gm_rps"][sl, i]) * 3600.0
+        for i, ax in enumerate("xyz"):
+            cols[f"accel_gm_{ax}_ug"] = e["accel_gm_mps2"][sl, i] / 9.80665e-6
+        meta["imu_errors"] = {"gyro_matrix": e["m_gyro"].tolist(), "accel_matrix": e["m_accel"].tolist(),
+                              "gyro_gm_sigma_rps": e["gyro_gm_sigma_rps"],
+                              "accel_gm_sigma_mps2": e["accel_gm_sigma_mps2"],
+                              "gyro_tau_s": e["gyro_tau_s"], "accel_tau_s": e["accel_tau_s"]}
+    if "imu_keep" in x:
+        keep = x["imu_keep"]
+        meta["imu_dropped_t_s"] = im.t_s[~keep].tolist()
+        meta["imu_jitter_max_s"] = float(np.max(np.abs(x["imu_t_written"] - im.t_s)))
+    if "turntable" in x:
+        tt = x["turntable"]
+        meta["turntable"] = {"scheme": tt.spec.scheme, "stops": tt.stops()}
+    if "ldv_bursts" in x:
+        meta["ldv_bursts"] = x["ldv_bursts"]
+        meta["ldv_good_spikes_t_s"] = x["ldv_spikes_t"]
+    if "gnss_events" in x:
+        meta["gnss_events"] = x["gnss_events"]
+        meta["gnss_lever_m"] = list(sc.gnss_lever_m)
+    return cols, meta

@@ -72,27 +72,34 @@ class LdvSpecSim:
         return c_db(self.pitch_rad, self.heading_rad).T
 
 
-def ldv_measure(motion: Motion, t_s, spec: LdvSpecSim, rng, current_n=None):
+def ldv_measure(motion: Motion, t_s, spec: LdvSpecSim, rng, current_n=None, body=None):
     """Forward (and up) speeds along the head axes, (v_fwd, v_up) in m/s.
 
     ``current_n`` (N, 3) m/s: water velocity to subtract (water-track LDV).
+    ``body``: a :class:`~ldvsurvey.nav.sim.body.BodyModel` (the head frame then is fixed in the
+    body, no longer the travel frame).
     """
-    c_bt = spec.c_bt()
+    c_bt = spec.c_bt() if body is None else body
     _, _, tr, c_bn, _, w_nb_b, _ = rates(motion, np.asarray(t_s, float), c_bt)
     lever = np.asarray(spec.lever_arm_m, float)
     v_head = tr["v_n"] + np.einsum("kij,kj->ki", c_bn, np.cross(w_nb_b, lever))
     if current_n is not None:
         v_head = v_head - current_n
-    v_d = np.einsum("kji,kj->ki", tr["c_tn"], v_head)
+    c_dn = tr["c_tn"] if body is None else c_bn @ c_db(spec.pitch_rad, spec.heading_rad)
+    v_d = np.einsum("kji,kj->ki", c_dn, v_head)
     n = len(v_d)
     v_fwd = spec.scale * v_d[:, 1] + rng.normal(0, spec.noise_mps, n)
     v_up = spec.scale_up * v_d[:, 2] + rng.normal(0, spec.noise_mps, n)
     return v_fwd, v_up
 
 
-def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng, white_only: bool = False):
+def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng, white_only: bool = False,
+               extra_enu_m=None):
     """Antenna fixes (lat_deg, lon_deg, h_m ellipsoidal, fix) with fix-dependent errors
     (white plus Gauss-Markov, see FIX_SIGMA and FIX_WHITE).
+
+    ``c_bt``: constant C_b^t or a body model (see ``imu.rates``); the lever arm (body RFU, m)
+    is rotated by the true body attitude. ``extra_enu_m`` (N, 3): further errors (multipath jumps).
 
     ``fix_of_t(t) -> int array`` gives the fix quality (0 = no fix) at each time.
     ``white_only`` makes the whole error white (σ from FIX_SIGMA).
@@ -116,6 +123,8 @@ def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng, white_only
     for k in range(1, len(t)):
         gm[k] = phi[k] * gm[k - 1] + np.sqrt(1 - phi[k] ** 2) * drive[k]
     noise = wsig * rng.normal(0, 1, (len(t), 3)) + csig * gm
+    if extra_enu_m is not None:
+        noise = noise + extra_enu_m
     rm, rn = radii(tr["lat_rad"])
     e = lev[:, 0] + noise[:, 0]
     nn = lev[:, 1] + noise[:, 1]

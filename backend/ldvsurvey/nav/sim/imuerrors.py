@@ -1,0 +1,80 @@
+"""IMU errors real sensors have beyond constant bias and white noise (``imu_errors``, ``imu_timing``).
+
+Sensor-frame model of each increment over (t_{k−1}, t_k] (applied before the turn-on bias and
+white noise of :class:`~ldvsurvey.nav.sim.sensors.ImuErrors`)::
+
+    Δθ̃ = (I + S_g + N_g) Δθ + b_g,GM(t_k) Δt,    Δṽ = (I + S_a + N_a) Δv + b_a,GM(t_k) Δt
+
+S = diag(scale factors), 10–300 ppm per axis; N = non-orthogonality (off-diagonal, tens of µrad);
+b_GM a first-order Gauss–Markov bias instability per axis, b_k = φ b_{k−1} + σ√(1−φ²) w_k,
+φ = exp(−Δt/τ), started from its stationary distribution, σ a share (~30 %) of the manifest's
+bias, τ 10–60 min. The turn-on bias (constant for the run) stays the one of ``ImuErrors``.
+
+Timing (``imu_timing``): dropped rows, ~0.2 events a minute of 1–5 consecutive rows (their
+increments are lost: the next row still holds only its own interval); time-tag jitter of σ
+~50 µs with a share 1e-4 of rows off by up to 2 ms (|jitter| < 0.4 Δt keeps the order), the
+increments remaining those of the true intervals.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import lfilter
+
+from ldvsurvey.nav.sim.effects import ImuErrorSpec, ImuTiming
+
+G0 = 9.80665
+DEG = np.pi / 180.0
+
+
+def misalignment(scale_ppm, nonorth_urad) -> np.ndarray:
+    """I + S + N from three scale factors (ppm) and six off-diagonal terms (µrad, row-major)."""
+    m = np.eye(3) + np.diag(np.asarray(scale_ppm, float) * 1e-6)
+    off = [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)]
+    for (i, j), v in zip(off, nonorth_urad):
+        m[i, j] = v * 1e-6
+    return m
+
+
+def gauss_markov(n: int, dt_s: float, sigma, tau_s: float, rng) -> np.ndarray:
+    """(n, len(sigma)) stationary first-order Gauss–Markov sequences."""
+    sigma = np.atleast_1d(np.asarray(sigma, float))
+    phi = np.exp(-dt_s / tau_s)
+    out = np.empty((n, len(sigma)))
+    for j, s in enumerate(sigma):
+        w = rng.normal(0.0, s * np.sqrt(1 - phi ** 2), n)
+        x0 = rng.normal(0.0, s)
+        out[:, j] = lfilter([1.0], [1.0, -phi], w, zi=[phi * x0])[0]
+    return out
+
+
+def apply_imu_errors(dtheta, dvel, dt_s: float, spec: ImuErrorSpec, gyro_bias_dph: float, accel_bias_ug: float,
+                     rng) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Increments with scale, non-orthogonality and bias instability; and their truth."""
+    n = len(dtheta)
+    mg = misalignment(spec.gyro_scale_ppm, spec.gyro_nonorth_urad)
+    ma = misalignment(spec.accel_scale_ppm, spec.accel_nonorth_urad)
+    sg = spec.gyro_bi_frac * gyro_bias_dph * DEG / 3600.0
+    sa = spec.accel_bi_frac * accel_bias_ug * 1e-6 * G0
+    bg = gauss_markov(n, dt_s, [sg] * 3, spec.gyro_tau_s, rng)
+    ba = gauss_markov(n, dt_s, [sa] * 3, spec.accel_tau_s, rng)
+    dth = dtheta @ mg.T + bg * dt_s
+    dv = dvel @ ma.T + ba * dt_s
+    truth = dict(m_gyro=mg, m_accel=ma, gyro_gm_rps=bg, accel_gm_mps2=ba, gyro_gm_sigma_rps=sg,
+                 accel_gm_sigma_mps2=sa, gyro_tau_s=spec.gyro_tau_s, accel_tau_s=spec.accel_tau_s)
+    return dth, dv, truth
+
+
+def timing(t_s: np.ndarray, dt_s: float, spec: ImuTiming, rng) -> tuple[np.ndarray, np.ndarray]:
+    """(keep mask, written time tags) for rows at true times ``t_s``."""
+    n = len(t_s)
+    keep = np.ones(n, bool)
+    minutes = n * dt_s / 60.0
+    n_ev = rng.poisson(spec.drops_per_min * minutes)
+    for k in rng.integers(10, max(11, n - 10), n_ev):
+        keep[k:k + int(rng.integers(1, spec.drop_max_rows + 1))] = False
+    jit = rng.normal(0.0, spec.jitter_s, n)
+    big = rng.random(n) < spec.big_jitter_share
+    jit[big] = rng.uniform(-2e-3, 2e-3, big.sum())
+    jit = np.clip(jit, -0.4 * dt_s, 0.4 * dt_s)
+    return keep, t_s + jit
