@@ -16,6 +16,7 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.gravity import MGAL
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
+from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_report import block, chain_difference, evaluate, floor_of
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.prep import gnss_aid, gnss_ins, navigate
@@ -30,6 +31,8 @@ PARAMS = [
     Param("gnss_comparison", "bool", True, "also run the SINS/GNSS chain when GNSS is present"),
     Param("gnss_fixes", "str", "4", "GNSS fix qualities the SINS/GNSS chain uses (comma separated; 4 = RTK fixed)"),
     Param("gnss_aided", "bool", False, "also compute the LDV gravity on an LDV+GNSS navigation and show both"),
+    Param("drift_correction", "str", "stops", "vertical accelerometer drift: tied at repeated stops, or none",
+          choices=("stops", "none")),
     Param("line_end_trim_s", "float", None, "time trimmed at both ends of every line (default: half the FIR "
           "length, the filter's main lobe); 0 keeps the whole line"),
 ] + calibration_params()
@@ -103,6 +106,7 @@ def run(logs, params, progress) -> PipelineResult:
         inp, setup, sol = run_navigation(log, nav_params, progress)
         warnings += setup.warnings
         ch = ldv_chain(inp, sol, setup)
+        ch["still"] = inp.still
         if ch["screened"]:
             warnings.append(f"{ch['screened']} LDV sample(s) far off the navigation velocity treated as gaps")
         chains.append(ch)
@@ -111,7 +115,7 @@ def run(logs, params, progress) -> PipelineResult:
         if params["gnss_comparison"] and has_gnss:
             progress(f"bundle {i + 1}/{len(logs)}: SINS/GNSS chain", 0.05 + 0.6 * (i + 0.3) / len(logs))
             try:
-                gchains[-1] = gnss_chain(log, inp, gnss_ins(inp, setup.cbs), fir_s, fixes)
+                gchains[-1] = gnss_chain(log, inp, gnss_ins(inp, setup.cbs), fir_s, fixes, ref=sol)
             except ValueError as exc:
                 warnings.append(f"SINS/GNSS chain skipped for bundle {i + 1}: {exc}")
         if params["gnss_aided"]:
@@ -131,11 +135,25 @@ def run(logs, params, progress) -> PipelineResult:
     if len(lines) < 2:
         raise ParameterError("fewer than two survey lines: give manifest lines or --set lines=t0-t1,t0-t1",
                              field="lines")
-    progress("filtering and coincidence", 0.75)
+    progress("drift, filtering and coincidence", 0.75)
+    drift_reports = []
+    for i, ch in enumerate(chains):
+        rep = {"method": "none", "reason": "drift_correction=none"}
+        if params["drift_correction"] == "stops":
+            b, rep = drift_correction(ch, ch["still"], logs[i].manifest.imu.accel_noise_ug_per_rthz)
+            if b is not None:
+                ch["dg"] = ch["dg"] - b
+                for other in (gchains[i], achains[i] if achains else None):
+                    if other is not None:  # the same accelerometer: the same drift
+                        other["dg"] = other["dg"] - np.interp(other["t_s"], ch["t_s"], b)
+            else:
+                warnings.append(f"bundle {i + 1}: no accelerometer drift correction ({rep['reason']})")
+        drift_reports.append(rep)
     res = evaluate(chains, lines, fir_s, params["spacing_m"], trim_s)
     summary = block(res, fir_s, trim_s, "ldv", floor_of(logs[0], chains[0], fir_s))
     summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
     summary["imu_gaps"] = imu_gap_report(logs)
+    summary["drift_correction"] = drift_reports[0] if len(drift_reports) == 1 else drift_reports
     gres = ares = None
     if params["gnss_comparison"] and all(g is not None for g in gchains):
         try:

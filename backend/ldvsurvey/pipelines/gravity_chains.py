@@ -20,11 +20,11 @@ both sides of the subtraction see the very same differencing, so the FIR treats 
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
+from scipy.ndimage import median_filter, uniform_filter1d
 
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.attitude import c_from_q
-from ldvsurvey.nav.gravity import bridge_velocity, disturbance_mps2, zero_phase_lowpass
+from ldvsurvey.nav.gravity import bridge_velocity, disturbance_mps2, runs, zero_phase_lowpass
 from ldvsurvey.pipelines.prep import GNSS_SIGMA, attitude_at
 from ldvsurvey.pipelines.stages import accel_fwd, ldv_body_velocity
 
@@ -107,25 +107,32 @@ def ldv_chain(inp, sol, setup):
     noise = ldv_noise_estimate_mps(v_imu[:, 2], ok & ~bad)
     use = ok & ~bad
     v_u = bridge_velocity(v_imu[:, 2], use, sol.v_n[:, 2], edge_n=LDV_EDGE_N)
-    vdot_u = np.diff(v_u) / dt
+    # Increments per interval over the nominal interval: f_U·Δt_k is the mechanized increment
+    # whatever the time tag says, and Δv_U belongs to the same interval, so time-tag jitter
+    # (tens of µs, f_U = Δv/Δt off by ‰ per sample) cancels and the series telescopes.
+    dt0 = float(np.median(dt))
+    f_u = np.r_[f_u[:1], f_u[1:] * dt / dt0]
+    vdot_u = np.diff(v_u) / dt0
     bridged = ~(use[1:] & use[:-1])  # intervals touching a bridged sample
     v_mid = 0.5 * (sol.v_n[1:] + sol.v_n[:-1])
     lat = 0.5 * (sol.pos[1:, 0] + sol.pos[:-1, 0])
     lon = 0.5 * (sol.pos[1:, 1] + sol.pos[:-1, 1])
     h = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
     dg = disturbance_mps2(f_u[1:], vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
-    return {"t_s": 0.5 * (t[1:] + t[:-1]), "dg": dg, "lat": lat, "lon": lon, "h": h,
+    return {"t_s": 0.5 * (t[1:] + t[:-1]), "dg": dg, "dg_static": dg + vdot_u, "lat": lat, "lon": lon, "h": h,
             "speed": np.hypot(v_mid[:, 0], v_mid[:, 1]), "fs": 1.0 / np.median(dt), "bridged": bridged,
             "screened": int(bad.sum()), "ldv_noise_mps": noise, "kind": "ldv"}
 
 
-def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), k_sigma: float = 5.0):
+def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float = 4.0):
     """Raw δg (m/s²) on a regular grid at the GNSS rate from SINS/GNSS; dict like :func:`ldv_chain`.
 
     ``fir_s``: the FIR length, for the first pass that carries the disturbance across outages.
-    Uses the fixes of the given qualities; a fix whose IMU-centre height is off the solution's
-    by more than ``k_sigma`` times its quality's σ (plus 3 robust σ of all residuals) is dropped
-    (multipath). Raises ValueError when fewer than 20 fixes remain.
+    Uses the fixes of the given qualities. Multipath (height jumps of decimetres for seconds to a
+    minute in fixed solutions) is screened against ``ref`` (a solution without GNSS, e.g. the
+    SINS/LDV one; default ``sol``): a fix whose height residual departs from the residual's
+    running median (over ``fir_s``) by more than ``k_sigma`` robust σ (at least 3 σ of its fix
+    quality) is dropped and bridged. Raises ValueError when fewer than 20 fixes remain.
     """
     g = log.gnss
     t = inp.t_s
@@ -136,9 +143,14 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), k_sigma: float = 5.0):
     lever = np.asarray(log.manifest.gnss.lever_arm_m, float)
     h_g = g.h_m[keep] - (attitude_at(sol, tg) @ lever)[:, 2]
     sig_v = np.array([GNSS_SIGMA.get(int(f), (np.nan, 5.0))[1] for f in g.fix[keep]])
-    res = h_g - np.interp(tg, t, sol.pos[:, 2])
-    mad = 1.4826 * np.median(np.abs(res - np.median(res)))
-    good = np.abs(res - np.median(res)) <= k_sigma * sig_v + 3 * mad
+    ref = sol if ref is None else ref
+    res = h_g - np.interp(tg, t, ref.pos[:, 2])
+    step0 = float(np.median(np.diff(tg)))
+    win = max(3, int(round(fir_s / step0)) | 1)
+    slow = median_filter(res, size=win, mode="nearest")
+    rest = res - slow
+    mad = 1.4826 * np.median(np.abs(rest - np.median(rest)))
+    good = np.abs(rest) <= np.maximum(k_sigma * mad, 3.0 * sig_v)
     tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
     if len(tg) < 20:
         raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")
@@ -175,6 +187,11 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), k_sigma: float = 5.0):
         if not bridged.any():
             break
         g_prior = zero_phase_lowpass(dg, fir_s, 1.0 / step)
+        # inside outages longer than the filter nothing constrains the prior: take it straight
+        # across from the filtered values half a filter length outside the outage
+        for a, b in runs(bridged):
+            if (b - a) * step > fir_s:
+                g_prior[max(0, a - int(fir_s / 2 / step)):min(len(tc), b + int(fir_s / 2 / step))] = np.nan
         fin = np.isfinite(g_prior)
         g_prior = np.interp(tc, tc[fin], g_prior[fin])
     return {"t_s": tc, "dg": dg, "lat": np.interp(tc, t, sol.pos[:, 0]), "lon": np.interp(tc, t, sol.pos[:, 1]),
