@@ -31,8 +31,8 @@ PARAMS = [
     Param("gnss_comparison", "bool", True, "also run the SINS/GNSS chain when GNSS is present"),
     Param("gnss_fixes", "str", "4", "GNSS fix qualities the SINS/GNSS chain uses (comma separated; 4 = RTK fixed)"),
     Param("gnss_aided", "bool", False, "also compute the LDV gravity on an LDV+GNSS navigation and show both"),
-    Param("drift_correction", "str", "stops", "vertical accelerometer drift: tied at repeated stops, or none",
-          choices=("stops", "none")),
+    Param("drift_correction", "str", "auto", "vertical accelerometer drift tied at repeated stops: auto (where "
+          "significant against the stops' noise), stops (always) or none", choices=("auto", "stops", "none")),
     Param("line_end_trim_s", "float", None, "time trimmed at both ends of every line (default: half the FIR "
           "length, the filter's main lobe); 0 keeps the whole line"),
 ] + calibration_params()
@@ -139,14 +139,15 @@ def run(logs, params, progress) -> PipelineResult:
     drift_reports = []
     for i, ch in enumerate(chains):
         rep = {"method": "none", "reason": "drift_correction=none"}
-        if params["drift_correction"] == "stops":
-            b, rep = drift_correction(ch, ch["still"], logs[i].manifest.imu.accel_noise_ug_per_rthz)
+        if params["drift_correction"] != "none":
+            b, rep = drift_correction(ch, ch["still"], logs[i].manifest.imu.accel_noise_ug_per_rthz,
+                                      params["drift_correction"])
             if b is not None:
                 ch["dg"] = ch["dg"] - b
                 for other in (gchains[i], achains[i] if achains else None):
                     if other is not None:  # the same accelerometer: the same drift
                         other["dg"] = other["dg"] - np.interp(other["t_s"], ch["t_s"], b)
-            else:
+            elif "not applied" not in rep.get("reason", ""):
                 warnings.append(f"bundle {i + 1}: no accelerometer drift correction ({rep['reason']})")
         drift_reports.append(rep)
     res = evaluate(chains, lines, fir_s, params["spacing_m"], trim_s)

@@ -88,8 +88,16 @@ def estimate_drift(stops):
     return {"t_s": t, "drift": y - g[spot], "spot": spot, "n_spots": n_spot}
 
 
-def drift_correction(chain, still, noise_ug_rthz=None):
-    """Estimate the drift from the chain's stops; returns (drift at the chain's times in m/s², report)."""
+#: "auto" applies the tie only when the drift range exceeds this many σ of a stop-to-stop difference
+SIGNIFICANT_SIGMA = 4.0
+
+
+def drift_correction(chain, still, noise_ug_rthz=None, mode="auto"):
+    """Estimate the drift from the chain's stops; returns (drift at the chain's times in m/s², report).
+
+    ``mode`` "stops" always applies it; "auto" only when the drift range is significant against
+    the stops' own white noise (accelerometer density over each stop's duration): tying a
+    drift-free accelerometer to noisy stops would only add their noise to every line."""
     stops = stop_means(chain, still)
     est = estimate_drift(stops)
     if est is None:
@@ -99,6 +107,11 @@ def drift_correction(chain, still, noise_ug_rthz=None):
     if noise_ug_rthz:
         dur = np.array([s[4] for s in stops])
         sigma = float(np.sqrt(np.mean((noise_ug_rthz * 1e-6 * 9.80665) ** 2 / dur)) / MGAL)
+    rng_mgal = float(np.ptp(est["drift"]) / MGAL)
+    if mode == "auto" and sigma is not None and rng_mgal < SIGNIFICANT_SIGMA * np.sqrt(2.0) * sigma:
+        return None, {"method": "none", "n_stops": len(stops), "drift_range_mgal": rng_mgal, "stop_sigma_mgal": sigma,
+                      "reason": f"drift at the stops ({rng_mgal:.2f} mGal) within {SIGNIFICANT_SIGMA:g} σ of their "
+                                "noise: not applied"}
     report = {"method": "repeated stops", "n_stops": len(stops), "n_spots": int(est["n_spots"]),
               "drift_range_mgal": float(np.ptp(est["drift"]) / MGAL),
               "stop_sigma_mgal": sigma,

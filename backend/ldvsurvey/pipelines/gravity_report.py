@@ -15,8 +15,10 @@ from ldvsurvey.pipelines.prep import local_metres
 
 #: filtered values are withheld where bridged samples take more than this share of the FIR's weight …
 MAX_BRIDGED_SHARE = 0.5
-#: … or where gaps longer than the FIR (detail the filter would resolve is missing) take more than this
+#: … or where long gaps (detail the filter would resolve is missing) take more than this
 MAX_LONG_GAP_SHARE = 0.05
+#: a gap is long when it lasts more than this share of the FIR length
+LONG_GAP_FIR_SHARE = 0.5
 #: crossings at a smaller angle are repeated passes over the same road, not crossovers
 CROSSOVER_MIN_ANGLE_DEG = 20.0
 
@@ -25,7 +27,7 @@ def unsupported(bridged, fir_s, fs):
     """Samples whose filtered value is mostly the bridge rather than data (see MAX_*_SHARE)."""
     long = np.zeros(len(bridged), bool)
     for a, b in runs(bridged):
-        if (b - a) / fs > fir_s:
+        if (b - a) / fs > LONG_GAP_FIR_SHARE * fir_s:
             long[a:b] = True
     share = zero_phase_lowpass(bridged.astype(float), fir_s, fs)
     share_long = zero_phase_lowpass(long.astype(float), fir_s, fs) if long.any() else np.zeros(len(bridged))
