@@ -27,6 +27,7 @@ def _run(**effects):
     log = parse_files(bundle_files(sim))
     # no accelerometer drift in this drive (imu_errors off): the stop tie would only add its noise
     res = run_pipeline(get("gravity"), [log], {"fir_length_s": FIR_S, "gnss_aided": True, "drift_correction": "none"})
+    res.log = log
     return sim, res
 
 
@@ -134,3 +135,32 @@ def test_views_show_floor_and_chain_difference(with_dropouts, monkeypatch):
     fig = views._gravity_view(None, None, "gravity_compare_gnss", s, None, None, 500)
     names = [tr["name"] for tr in fig["data"]]
     assert sum("SINS/LDV − SINS/GNSS" in nm for nm in names) == len(s["lines"])
+
+
+def test_bad_gravity_parameters_are_named():
+    from ldvsurvey.errors import ParameterError
+    from ldvsurvey.pipelines.gravity import parse_fixes
+
+    assert parse_fixes("4,5") == (4, 5)
+    for bad in ("x", "3", ""):
+        with pytest.raises(ParameterError) as e:
+            parse_fixes(bad)
+        assert e.value.field == "gnss_fixes"
+
+
+def test_line_leveling_shifts_lines_by_their_mean_residual(with_dropouts):
+    _, res = with_dropouts
+    lev = run_pipeline(get("gravity"), [res.log], {"fir_length_s": FIR_S, "drift_correction": "none",
+                                                   "gnss_comparison": False, "line_leveling": "bias"})
+    s0, s1 = res.summary, lev.summary
+    offs = s1["line_leveling"]["offsets_mgal"]
+    assert sum(offs.values()) == pytest.approx(0.0, abs=1e-9)
+    for ln in s0["lines"]:  # the offsets are the unlevelled lines' mean residuals
+        assert offs[ln["name"]] == pytest.approx(ln["mean_mgal"], abs=1e-9)
+    assert all(abs(ln["mean_mgal"]) < 1e-9 for ln in s1["lines"])
+    assert s1["total_mgal"] < s0["total_mgal"]
+    # the levelled values in gravity.csv are the unlevelled ones minus the line's offset
+    g0, g1 = res.tables["gravity"], lev.tables["gravity"]
+    for name, o in offs.items():
+        k = np.array([x == name for x in g0["line"]])
+        np.testing.assert_allclose(g1["dg_mgal"][k], g0["dg_mgal"][k] - o, atol=1e-9)

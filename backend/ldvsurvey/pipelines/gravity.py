@@ -33,6 +33,8 @@ PARAMS = [
     Param("gnss_aided", "bool", False, "also compute the LDV gravity on an LDV+GNSS navigation and show both"),
     Param("drift_correction", "str", "auto", "vertical accelerometer drift tied at repeated stops: auto (where "
           "significant against the stops' noise), stops (always) or none", choices=("auto", "stops", "none")),
+    Param("line_leveling", "str", "none", "shift every line by its mean residual about the mean line "
+          "(bias) or not (none)", choices=("none", "bias")),
     Param("line_end_trim_s", "float", None, "time trimmed at both ends of every line (default: half the FIR "
           "length, the filter's main lobe); 0 keeps the whole line"),
 ] + calibration_params()
@@ -150,7 +152,7 @@ def run(logs, params, progress) -> PipelineResult:
             elif "not applied" not in rep.get("reason", ""):
                 warnings.append(f"bundle {i + 1}: no accelerometer drift correction ({rep['reason']})")
         drift_reports.append(rep)
-    res = evaluate(chains, lines, fir_s, params["spacing_m"], trim_s)
+    res = evaluate(chains, lines, fir_s, params["spacing_m"], trim_s, leveling=params["line_leveling"])
     summary = block(res, fir_s, trim_s, "ldv", floor_of(logs[0], chains[0], fir_s))
     summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
     summary["imu_gaps"] = imu_gap_report(logs)
@@ -158,7 +160,8 @@ def run(logs, params, progress) -> PipelineResult:
     gres = ares = None
     if params["gnss_comparison"] and all(g is not None for g in gchains):
         try:
-            gres = evaluate(gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False)
+            gres = evaluate(gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False,
+                            leveling=params["line_leveling"])
             summary["gnss_comparison"] = block(gres, fir_s, trim_s, "gnss", floor_of(logs[0], gchains[0], fir_s))
             summary["gnss_comparison"]["gnss_fixes"] = list(fixes)
             summary["gnss_comparison"]["screened_fixes"] = int(sum(g["screened"] for g in gchains))
@@ -167,7 +170,8 @@ def run(logs, params, progress) -> PipelineResult:
             warnings.append(f"SINS/GNSS comparison skipped: {exc}")
             gres = None
     if achains:
-        ares = evaluate(achains, lines, fir_s, params["spacing_m"], trim_s, strict=False)
+        ares = evaluate(achains, lines, fir_s, params["spacing_m"], trim_s, strict=False,
+                        leveling=params["line_leveling"])
         summary["gnss_aided"] = block(ares, fir_s, trim_s, "ldv+gnss", floor_of(logs[0], achains[0], fir_s))
         summary["gnss_aided"]["ldv_minus_gnss_aided"] = chain_difference(res, chains, ares, achains)
     progress("writing", 0.9)
