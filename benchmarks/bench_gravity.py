@@ -5,7 +5,7 @@
   resolution at the median speed;
 - the same drive with and without LDV dropouts (same seed) at 150 s;
 - the same drive without the accelerometer's in-run errors (scale, drift), to show what the
-  drift costs;
+  drift costs, and with the lines levelled;
 - wall time of a warm gravity run on a one-hour log.
 
 Writes a Plotly figure (``benchmarks/results/gravity_fir_sweep.html``), the table as JSON, and
@@ -182,6 +182,7 @@ def main(quick=False):
               f"{fmt(worst(r['gnss_truth_rms_mgal']))} mGal, resolution {r['resolution_m']:.0f} m, "
               f"drift tie {r['drift']}, {r['elapsed_s']:.1f} s")
     extra = {"all effects": next(r for r in rows if r["fir_length_s"] == 150.0)}
+    extra["all effects, lines levelled (line_leveling=bias)"] = run(sim, log, 150.0, line_leveling="bias")
     for name, eff in (("all effects but LDV dropouts", {"ldv_dropouts": None}),
                       ("all effects but the accelerometer's in-run errors", {"imu_errors": None})):
         s2, l2 = drive(**eff)
