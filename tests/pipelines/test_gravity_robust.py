@@ -3,7 +3,8 @@ IMU gaps are surfaced, the noise floor is printed, the chains agree, the views s
 
 Short version of the realistic six-line survey for the suite: three 4-km lines (25 min). The
 accelerometer's in-run errors (scale, non-orthogonality, bias drift) are switched off here (and
-with them the drift tie at stops) so the figures test the chain itself; the full drive with every effect is the benchmark's job
+with them the drift tie at stops) so the figures test the chain itself; the full drive with every
+effect is the benchmark's job
 (benchmarks/bench_gravity.py, docs/accuracy.md).
 """
 

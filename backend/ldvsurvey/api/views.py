@@ -116,7 +116,8 @@ def _gravity_view(session, job: Job, view: str, s: dict, x0, x1, n) -> dict:
             if "dg_gnss_aided_mgal" in g:
                 tr.append(_trace(g["distance_m"][k], g["dg_mgal"][k] - g["dg_gnss_aided_mgal"][k],
                                  f"{name}: LDV − LDV+GNSS navigation", x0, x1, n, line={"dash": "dot"}))
-        rms = [f"{d['name']} {d['rms_mgal']:.2f}" for d in gc.get("ldv_minus_gnss", []) if d.get("rms_mgal") is not None]
+        rms = [f"{d['name']} {d['rms_mgal']:.2f}" for d in gc.get("ldv_minus_gnss", [])
+               if d.get("rms_mgal") is not None]
         title = (f"SINS/LDV {_floor_text(s)} vs SINS/GNSS {_floor_text(gc)}; difference RMS per line (mGal): "
                  + (", ".join(rms) if rms else "none"))
         return _fig(tr, title, "along-track distance (m)", "δg difference (mGal)")

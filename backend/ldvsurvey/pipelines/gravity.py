@@ -2,10 +2,12 @@
 
 The raw chains are in :mod:`ldvsurvey.pipelines.gravity_chains` (f_U from the navigation's own
 mechanization step, LDV and GNSS gaps bridged so they cost only their own samples). Rows missing
-from imu.csv are bridged (or refused) when the log is read; the summary reports them. Here: the zero-phase Blackman FIR, the lines trimmed at their ends (the
-FIR would otherwise mix the turnaround and the acceleration into them), the coincidence on common
-along-track points with per-line statistics, crossovers, and the white-noise floor of the
-coincidence from the sensors' noise and the FIR's noise gain, printed beside the measured figure.
+from imu.csv are bridged (or refused) when the log is read; the summary reports them. Drift ties
+at repeated stops: :mod:`gravity_drift`. Filtering and statistics (:mod:`gravity_report`): the
+zero-phase Blackman FIR, the lines trimmed at their ends (the FIR would otherwise mix the
+turnaround and the acceleration into them), the coincidence on common along-track points with
+per-line statistics, crossovers, and the white-noise floor of the coincidence from the sensors'
+noise and the FIR's noise gain, printed beside the measured figure.
 """
 
 from __future__ import annotations

@@ -194,6 +194,12 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
                 g_prior[max(0, a - int(fir_s / 2 / step)):min(len(tc), b + int(fir_s / 2 / step))] = np.nan
         fin = np.isfinite(g_prior)
         g_prior = np.interp(tc, tc[fin], g_prior[fin])
+    # An outage longer than half the filter is a break, not a bridge: a tie across it would put
+    # the prior's error times its length onto its edges. The samples stay NaN (the FIR treats the
+    # break like a line end, and the values near it are withheld as unsupported).
+    for a, b in runs(bridged):
+        if (b - a) * step > 0.5 * fir_s:
+            dg[max(0, a - 1):b + 1] = np.nan
     return {"t_s": tc, "dg": dg, "lat": np.interp(tc, t, sol.pos[:, 0]), "lon": np.interp(tc, t, sol.pos[:, 1]),
             "h": np.interp(tc, t, sol.pos[:, 2]),
             "speed": np.interp(tc, t, np.hypot(sol.v_n[:, 0], sol.v_n[:, 1])), "fs": 1.0 / step,

@@ -16,7 +16,7 @@ from ldvsurvey.pipelines.prep import local_metres
 #: filtered values are withheld where bridged samples take more than this share of the FIR's weight …
 MAX_BRIDGED_SHARE = 0.5
 #: … or where long gaps (detail the filter would resolve is missing) take more than this
-MAX_LONG_GAP_SHARE = 0.05
+MAX_LONG_GAP_SHARE = 0.01
 #: a gap is long when it lasts more than this share of the FIR length
 LONG_GAP_FIR_SHARE = 0.5
 #: crossings at a smaller angle are repeated passes over the same road, not crossovers
