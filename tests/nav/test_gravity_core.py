@@ -94,3 +94,103 @@ def test_eotvos_sign_eastward_motion():
     eot = (ve / (rn + h) + 2 * OMEGA_IE * np.cos(lat)) * ve
     gam = normal_gravity(lat, h)
     assert disturbance_mps2(gam - eot, 0.0, ve, 0.0, lat, h) == pytest.approx(0.0, abs=1e-12)
+
+
+# --- f_U from the mechanization step, gaps, the noise floor -------------------------------------
+
+from ldvsurvey.nav.gravity import bridge_velocity, noise_floor_mgal  # noqa: E402
+
+
+def test_velocity_gaps_cost_only_their_own_samples():
+    """A drop-out bridged through a reference telescopes; NaN-ing it (the former chain) leaks."""
+    rng = np.random.default_rng(3)
+    fs, L = 100.0, 150.0
+    t = np.arange(0, 2000, 1 / fs)
+    dg_true = 1e-4 * np.sin(2 * np.pi * t / 600)  # 10 mGal
+    a_vehicle = 0.3 * np.sin(2 * np.pi * t / 37) + 0.2 * np.sin(2 * np.pi * t / 11)
+    v_true = np.cumsum(a_vehicle) / fs
+    v_meas = v_true + rng.normal(0, 0.01, len(t))
+    v_ref = v_true + 0.02 + 0.01 * np.sin(t / 50)  # a navigation velocity: smooth, slowly off
+    f_minus_g = a_vehicle + dg_true  # what the accelerometer adds beyond normal gravity
+    ok = np.ones(len(t), bool)
+    for a in rng.integers(20000, 180000, 40):  # 40 drop-outs of 0.2-3 s
+        ok[a:a + rng.integers(20, 300)] = False
+    v_meas_bad = np.where(ok, v_meas, rng.normal(0, 5, len(t)))  # garbage values inside
+
+    def gravity(v):
+        return zero_phase_lowpass(f_minus_g[1:] - np.diff(v) * fs, L, fs)
+
+    clean = gravity(v_meas)
+    bridged = gravity(bridge_velocity(v_meas_bad, ok, v_ref, edge_n=50))
+    nan_way = gravity(np.where(ok, v_meas, np.nan))
+    k = slice(int(2 * L * fs), -int(2 * L * fs))
+    truth = zero_phase_lowpass(dg_true[1:], L, fs)
+    rms = lambda x: np.sqrt(np.mean((x[k] - truth[k]) ** 2)) / MGAL  # noqa: E731
+    assert rms(bridged) < 1.3 * rms(clean) + 0.02
+    assert rms(nan_way) > 5 * rms(bridged)
+
+
+def test_bridge_ties_both_edges_and_keeps_data():
+    v = np.arange(10.0)
+    ok = np.ones(10, bool)
+    ok[4:7] = False
+    ref = np.full(10, 100.0)
+    out = bridge_velocity(v, ok, ref)
+    np.testing.assert_array_equal(out[ok], v[ok])
+    np.testing.assert_allclose(out[3:8], [3, 4, 5, 6, 7])  # offsets −97 … −93 interpolated
+    with pytest.raises(ValueError):
+        bridge_velocity(v, np.zeros(10, bool), ref)
+
+
+@pytest.mark.parametrize("length_s", [60.0, 200.0])
+def test_noise_floor_matches_monte_carlo(length_s):
+    """σ of white sensor noise after the zero-phase FIR, against simulated noise through the same FIR."""
+    rng = np.random.default_rng(7)
+    floor = noise_floor_mgal(length_s, accel_noise_ug_rthz=5.0, ldv_noise_mps=0.01, ldv_rate_hz=20.0,
+                             height_noise_m=0.02, gnss_rate_hz=1.0)
+    n_s = 400_000
+    fs = 10.0  # accelerometer: per-sample σ = N·√fs (the simulator's and the filter's convention)
+    acc = rng.normal(0, 5e-6 * 9.80665 * np.sqrt(fs), n_s)
+    v = rng.normal(0, 0.01, n_s)  # LDV at 20 Hz, differenced once
+    h = rng.normal(0, 0.02, n_s // 10)  # GNSS heights at 1 Hz, differenced twice
+    k = slice(int(3 * length_s * fs), -int(3 * length_s * fs))
+    got_acc = np.std(zero_phase_lowpass(acc, length_s, fs)[k]) / MGAL
+    got_ldv = np.std(zero_phase_lowpass(np.diff(v) * 20.0, length_s, 20.0)[k]) / MGAL
+    kg = slice(int(3 * length_s), -int(3 * length_s))
+    got_h = np.std(zero_phase_lowpass(np.diff(h, 2), length_s, 1.0)[kg]) / MGAL
+    assert got_acc == pytest.approx(floor["accel_mgal"], rel=0.08)
+    assert got_ldv == pytest.approx(floor["ldv_mgal"], rel=0.08)
+    assert got_h == pytest.approx(floor["gnss_height_mgal"], rel=0.15)
+    assert floor["total_mgal"] == pytest.approx(np.sqrt(floor["accel_mgal"] ** 2 + floor["ldv_mgal"] ** 2
+                                                        + floor["gnss_height_mgal"] ** 2))
+
+
+def test_noise_floor_of_the_issue_example():
+    """5 µg/√Hz through a 200-s Blackman FIR: 'roughly 0.3 mGal'; shorter filters pass more noise."""
+    f200 = noise_floor_mgal(200.0, 5.0)["accel_mgal"]
+    assert 0.3 <= f200 <= 0.45
+    assert noise_floor_mgal(60.0, 5.0)["accel_mgal"] > f200 > noise_floor_mgal(300.0, 5.0)["accel_mgal"]
+
+
+def test_crossovers_ignore_repeated_passes_over_one_road():
+    x = np.linspace(0, 2000, 401)
+    weave1 = (x, 2.0 * np.sin(x / 150.0), np.zeros(401))  # two passes a few metres apart, weaving
+    weave2 = (x, 2.0 * np.sin(x / 170.0 + 1.0), np.ones(401))
+    found, eps = crossovers([weave1, weave2], min_angle_deg=20.0)
+    assert found == [] and eps is None
+    assert len(crossovers([weave1, weave2])[0]) >= 2  # without the angle test: spurious "crossings"
+    cross = (np.full(21, 1000.0), np.linspace(-100, 100, 21), np.full(21, 0.4))
+    found, eps = crossovers([weave1, cross], min_angle_deg=20.0)
+    assert len(found) == 1 and found[0][4] == pytest.approx(-0.4)
+
+
+def test_per_line_mean_and_std_about_the_mean_line():
+    base = np.linspace(0, 5, 200)
+    offs = np.array([0.2, -0.2, 0.0])
+    wig = np.array([np.zeros(200), np.zeros(200), 0.1 * np.sin(np.arange(200))])
+    c = internal_coincidence(base + offs[:, None] + wig)
+    dev = c.residual
+    np.testing.assert_allclose(c.per_line_mean, dev.mean(axis=1))
+    np.testing.assert_allclose(c.per_line_mean, offs - offs.mean() + wig.mean(axis=1) - wig.mean(), atol=1e-12)
+    np.testing.assert_allclose(c.per_line_std, dev.std(axis=1))
+    assert c.per_line_std[2] == pytest.approx(np.std(wig[2] - wig.mean(axis=0)))

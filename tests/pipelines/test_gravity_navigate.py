@@ -35,7 +35,9 @@ def test_internal_coincidence_and_truth(gravity_sim, gravity_result):
     s = gravity_result.summary
     assert s["fir_length_s"] <= 200
     assert s["total_mgal"] <= 0.35, s["lines"]
-    assert len(s["lines"]) == 6 and s["common_length_m"] > 10_000
+    # lines trimmed by half the FIR length at each end (≈1.1 km at 15 m/s)
+    assert s["line_end_trim_s"] == 75.0
+    assert len(s["lines"]) == 6 and s["common_length_m"] > 8_000
     assert 500 < s["resolution_m"] < 2000  # half-wavelength beside the figure: v·L/2
     # against the true, equally filtered disturbance, after one constant offset
     g = gravity_result.tables["gravity"]
@@ -47,23 +49,38 @@ def test_internal_coincidence_and_truth(gravity_sim, gravity_result):
     tf = zero_phase_lowpass(true * MGAL, 150.0, 100.0) / MGAL
     e = g["dg_mgal"][on] - np.interp(g["t_s"][on], tm, tf)
     e = e[np.isfinite(e)]
-    assert len(e) > 4000
+    assert len(e) > 3000  # 6 lines × 583 s after trimming, at 1 Hz
     assert np.std(e) <= 0.5
     # the offset is the (unobservable) vertical accelerometer bias, nothing else
     bias_z_mgal = sim.errors.accel_bias_mps2[2] / MGAL  # δg includes +b_z
     assert np.mean(e) == pytest.approx(bias_z_mgal, abs=1.0)
 
 
-def test_sins_gnss_comparison_present_and_worse(gravity_result):
+def test_sins_gnss_comparison_present_and_close(gravity_sim, gravity_result):
+    """RTK fixes only, outages bridged or withheld: the SINS/GNSS chain agrees with the truth
+    within a few mGal where it reports, and it withholds the long outages (GNSS partly blocked)."""
+    sim, _, _ = gravity_sim
     s = gravity_result.summary
     g = s["gnss_comparison"]
     assert g["aiding"] == "gnss" and len(g["lines"]) == 6
-    assert g["total_mgal"] > s["total_mgal"]  # GNSS partly blocked, as in the paper
+    assert g["total_mgal"] > s["total_mgal"]
+    assert sum(ln["unsupported_s"] for ln in g["lines"]) > 100.0
+    t = gravity_result.tables["gravity"]
+    on = np.array([x != "" for x in t["line"]])
+    im = sim.imu
+    tm = 0.5 * (im.t_s[1:] + im.t_s[:-1])
+    true = sim.scenario.gravity_field.dg_mgal(0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]),
+                                              0.5 * (im.lon_rad[1:] + im.lon_rad[:-1]))
+    tf = zero_phase_lowpass(true * MGAL, 150.0, 100.0) / MGAL
+    e = t["dg_sins_gnss_mgal"][on] - np.interp(t["t_s"][on], tm, tf)
+    e = e[np.isfinite(e)]
+    assert len(e) > 1000
+    assert np.sqrt(np.mean((e - np.mean(e)) ** 2)) <= 3.0
 
 
 def test_tables_follow_the_spec(gravity_result):
     g = gravity_result.tables["gravity"]
-    assert list(g) == ["t_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal"]
+    assert list(g)[:8] == ["t_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal"]
     c = gravity_result.tables["coincidence"]
     assert list(c) == ["line", "distance_m", "dg_mgal", "mean_mgal", "residual_mgal"]
     np.testing.assert_allclose(np.asarray(c["dg_mgal"]) - np.asarray(c["mean_mgal"]), c["residual_mgal"])

@@ -68,6 +68,66 @@ def _fig(traces, title, xt, yt, **layout):
                                        "legend": {"orientation": "h", "y": -0.22}, **layout}}
 
 
+def _floor_text(block: dict) -> str:
+    """'±measured mGal (white-noise floor ±f mGal, ×ratio)' of a gravity summary block."""
+    tot = block.get("total_mgal")
+    fl = (block.get("noise_floor") or {}).get("total_mgal")
+    if tot is None:
+        return "no coincidence"
+    txt = f"±{tot:.3f} mGal"
+    if fl:
+        txt += f" (white-noise floor ±{fl:.3f} mGal, ×{tot / fl:.2f})"
+    return txt
+
+
+def _gravity_view(session, job: Job, view: str, s: dict, x0, x1, n) -> dict:
+    """The gravity views: lines on common points, residuals beside the noise floor, the chains' difference."""
+    if view in ("gravity_lines", "gravity_residuals"):
+        c = _csv(session, job, "coincidence.csv")
+        names = sorted(set(c["line"]))
+        tr = []
+        for name in names:
+            k = c["line"] == name
+            y = c["dg_mgal"][k] if view == "gravity_lines" else c["residual_mgal"][k]
+            tr.append(_trace(c["distance_m"][k], y, str(name), x0, x1, n))
+        if view == "gravity_lines":
+            k = c["line"] == names[0]
+            tr.append(_trace(c["distance_m"][k], c["mean_mgal"][k], "mean line", x0, x1, n,
+                             line={"width": 3, "color": "black"}))
+            return _fig(tr, f"Gravity disturbance on the repeated lines (FIR {s.get('fir_length_s')} s, "
+                            f"resolution {s.get('resolution_m', 0):.0f} m, line ends trimmed "
+                            f"{s.get('line_end_trim_s', 0):g} s)", "along-track distance (m)", "δg (mGal)")
+        fl = (s.get("noise_floor") or {}).get("total_mgal")
+        if fl:  # the ±1σ band white sensor noise alone would give
+            d = c["distance_m"][c["line"] == names[0]]
+            lo, hi = float(np.nanmin(d)), float(np.nanmax(d))
+            tr.append({"type": "scatter", "mode": "lines", "name": f"white-noise floor ±{fl:.3f} mGal",
+                       "x": [lo, hi, None, lo, hi], "y": [fl, fl, None, -fl, -fl],
+                       "line": {"dash": "dash", "color": "black"}})
+        return _fig(tr, f"Residuals about the mean line: {_floor_text(s)}", "along-track distance (m)",
+                    "residual (mGal)")
+    if view == "gravity_compare_gnss":
+        g = _csv(session, job, "gravity.csv")
+        on = g["line"] != ""
+        gc = s.get("gnss_comparison") or {}
+        tr = []
+        other = "dg_sins_gnss_mgal" if "dg_sins_gnss_mgal" in g else None
+        for name in sorted(set(g["line"][on])):
+            k = g["line"] == name
+            if other is not None:  # the two chains' difference along each line
+                tr.append(_trace(g["distance_m"][k], g["dg_mgal"][k] - g[other][k], f"{name}: SINS/LDV − SINS/GNSS",
+                                 x0, x1, n))
+            if "dg_gnss_aided_mgal" in g:
+                tr.append(_trace(g["distance_m"][k], g["dg_mgal"][k] - g["dg_gnss_aided_mgal"][k],
+                                 f"{name}: LDV − LDV+GNSS navigation", x0, x1, n, line={"dash": "dot"}))
+        rms = [f"{d['name']} {d['rms_mgal']:.2f}" for d in gc.get("ldv_minus_gnss", [])
+               if d.get("rms_mgal") is not None]
+        title = (f"SINS/LDV {_floor_text(s)} vs SINS/GNSS {_floor_text(gc)}; difference RMS per line (mGal): "
+                 + (", ".join(rms) if rms else "none"))
+        return _fig(tr, title, "along-track distance (m)", "δg difference (mGal)")
+    raise HTTPException(404, f"unknown view '{view}'")
+
+
 def build_view(session, job: Job, view: str, x0, x1, n) -> dict:
     if view not in VIEWS.get(job.pipeline, []):
         raise HTTPException(404, f"no view '{view}' for a {job.pipeline} job (views: {VIEWS.get(job.pipeline)})")
@@ -117,29 +177,8 @@ def build_view(session, job: Job, view: str, x0, x1, n) -> dict:
                            "x": ge[k].tolist(), "y": gn[k].tolist(), "marker": {"size": 4}})
         return _fig(tr, "Trajectory (local east/north from the start)", "east (m)", "north (m)",
                     yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1})
-    if view in ("gravity_lines", "gravity_residuals"):
-        c = _csv(session, job, "coincidence.csv")
-        tr = []
-        for name in sorted(set(c["line"])):
-            k = c["line"] == name
-            y = c["dg_mgal"][k] if view == "gravity_lines" else c["residual_mgal"][k]
-            tr.append(_trace(c["distance_m"][k], y, str(name), x0, x1, n))
-        if view == "gravity_lines":
-            k = c["line"] == sorted(set(c["line"]))[0]
-            tr.append(_trace(c["distance_m"][k], c["mean_mgal"][k], "mean line", x0, x1, n,
-                             line={"width": 3, "color": "black"}))
-            return _fig(tr, f"Gravity disturbance on the repeated lines (FIR {s.get('fir_length_s')} s, "
-                            f"resolution {s.get('resolution_m', 0):.0f} m)", "along-track distance (m)", "δg (mGal)")
-        return _fig(tr, f"Residuals about the mean line: total ±{s.get('total_mgal', float('nan')):.3f} mGal",
-                    "along-track distance (m)", "residual (mGal)")
-    if view == "gravity_compare_gnss":
-        g = _csv(session, job, "gravity.csv")
-        on = g["line"] != ""
-        tr = [_trace(g["t_s"][on], g["dg_mgal"][on], "SINS/LDV δg", x0, x1, n, mode="markers", marker={"size": 3})]
-        gc = s.get("gnss_comparison") or {}
-        title = (f"SINS/LDV ±{s.get('total_mgal', float('nan')):.2f} mGal vs SINS/GNSS "
-                 f"±{gc.get('total_mgal', float('nan')) if gc.get('total_mgal') is not None else float('nan'):.2f} mGal")
-        return _fig(tr, title, "t (s of day)", "δg (mGal)")
+    if view.startswith("gravity_"):
+        return _gravity_view(session, job, view, s, x0, x1, n)
     if view == "dov_deflection":
         d = _csv(session, job, "dov.csv")
         t = d["t_s"]

@@ -26,21 +26,41 @@ class Coincidence:
     per_line_max: np.ndarray
     per_line_min: np.ndarray
     total: float
+    per_line_mean: np.ndarray = None  #: mean of δ_ij over the common points
+    per_line_std: np.ndarray = None  #: std of δ_ij about that mean (ddof 0)
 
 
 def internal_coincidence(values: np.ndarray, names=None, distance_m=None) -> Coincidence:
-    """Internal coincidence of n ≥ 2 lines already on m common points ((n, m) array, any unit)."""
+    """Internal coincidence of n ≥ 2 lines already on m common points ((n, m) array, any unit).
+
+    NaN marks a point a line does not cover (a comparison chain with outages); then at each
+    point the mean line and the n/(n−1) factor use the n_j lines present there (points with
+    fewer than two are left out): ε² = Σ δ² / Σ_j (n_j − 1) and ε_i² = mean_j of n_j/(n_j − 1) δ_ij².
+    Without NaN these are the formulas of methods §4a exactly.
+    """
     g = np.asarray(values, dtype=float)
     n, m = g.shape
     if n < 2:
         raise ValueError("internal coincidence needs at least two lines")
-    mean = g.mean(axis=0)
+    have = np.isfinite(g)
+    nj = have.sum(axis=0)
+    if (nj >= 2).sum() < 2:
+        raise ValueError("fewer than two points are covered by two lines")
+    col = nj >= 2
+    if not col.all():
+        g, have, nj = g[:, col], have[:, col], nj[col]
+        distance_m = None if distance_m is None else np.asarray(distance_m)[col]
+    mean = np.nanmean(g, axis=0)
     d = g - mean
-    per = np.sqrt(n / (n - 1) * np.sum(d ** 2, axis=1) / m)
-    total = float(np.sqrt(np.sum(d ** 2) / (m * (n - 1))))
-    return Coincidence(list(names or [f"L{i + 1}" for i in range(n)]),
-                       np.arange(m, dtype=float) if distance_m is None else np.asarray(distance_m),
-                       g, mean, d, per, d.max(axis=1), d.min(axis=1), total)
+    d0 = np.where(have, d, 0.0)
+    per = np.sqrt(np.sum(nj / (nj - 1) * d0 ** 2, axis=1) / np.maximum(have.sum(axis=1), 1))
+    per[have.sum(axis=1) == 0] = np.nan
+    total = float(np.sqrt(np.sum(d0 ** 2) / np.sum(nj - 1)))
+    with np.errstate(invalid="ignore"):
+        return Coincidence(list(names or [f"L{i + 1}" for i in range(n)]),
+                           np.arange(g.shape[1], dtype=float) if distance_m is None else np.asarray(distance_m),
+                           g, mean, d, per, np.nanmax(d, axis=1), np.nanmin(d, axis=1), total,
+                           np.nanmean(d, axis=1), np.nanstd(d, axis=1))
 
 
 def along_track(ref_e, ref_n, e, n):
@@ -57,12 +77,17 @@ def along_track(ref_e, ref_n, e, n):
     return cum[j] + s, np.abs(((e - ref_e[j]) * dn - (n - ref_n[j]) * de) / ln)
 
 
-def common_points(lines: list[tuple[np.ndarray, np.ndarray]], spacing_m: float):
+def common_points(lines: list[tuple[np.ndarray, np.ndarray]], spacing_m: float, max_hole_m: float | None = None,
+                  allow_holes: bool = False):
     """Interpolate lines given as (along-track distance, value) onto common points.
 
     Returns (distance (m,), values (n, m)). Each line's distances are sorted (reversed lines)
-    and NaN values dropped; the common stretch is where all lines have data.
+    and NaN values dropped; the common stretch is where all lines have data. A point farther
+    than ``max_hole_m`` (default 3 spacings) from a line's nearest valid sample is a hole in
+    that line, never bridged by interpolation: it is left out for all lines, or, with
+    ``allow_holes``, set NaN in that line (points with fewer than two lines are left out).
     """
+    hole = 3.0 * spacing_m if max_hole_m is None else max_hole_m
     prepared = []
     for s, v in lines:
         ok = np.isfinite(v) & np.isfinite(s)
@@ -70,20 +95,36 @@ def common_points(lines: list[tuple[np.ndarray, np.ndarray]], spacing_m: float):
         order = np.argsort(s)
         s, v = s[order], v[order]
         keep = np.concatenate([[True], np.diff(s) > 0])
+        if keep.sum() < 2:
+            raise ValueError("a line holds fewer than two valid points")
         prepared.append((s[keep], v[keep]))
-    lo = max(s[0] for s, _ in prepared)
-    hi = min(s[-1] for s, _ in prepared)
+    if allow_holes:
+        lo, hi = min(s[0] for s, _ in prepared), max(s[-1] for s, _ in prepared)
+    else:
+        lo, hi = max(s[0] for s, _ in prepared), min(s[-1] for s, _ in prepared)
     if not hi > lo + spacing_m:
         raise ValueError("the lines share no common stretch")
     grid = np.arange(lo, hi + 1e-9, spacing_m)
-    return grid, np.array([np.interp(grid, s, v) for s, v in prepared])
+    vals = np.empty((len(prepared), len(grid)))
+    for i, (s, v) in enumerate(prepared):
+        j = np.clip(np.searchsorted(s, grid), 1, len(s) - 1)
+        near = np.minimum(np.abs(grid - s[j - 1]), np.abs(s[j] - grid)) <= hole
+        near &= (grid >= s[0]) & (grid <= s[-1])
+        vals[i] = np.where(near, np.interp(grid, s, v), np.nan)
+    keep = np.isfinite(vals).sum(axis=0) >= 2 if allow_holes else np.all(np.isfinite(vals), axis=0)
+    if keep.sum() < 2:
+        raise ValueError("the lines share no common stretch")
+    return grid[keep], vals[:, keep]
 
 
-def crossovers(tracks: list[tuple[np.ndarray, np.ndarray, np.ndarray]]):
+def crossovers(tracks: list[tuple[np.ndarray, np.ndarray, np.ndarray]], min_angle_deg: float = 0.0):
     """Differences at the crossings of distinct lines.
 
-    ``tracks``: per line (e (m), n (m), value). Returns (list of (i, j, e, n, d)), ε or None.
+    ``tracks``: per line (e (m), n (m), value). Crossings at an angle below ``min_angle_deg``
+    (repeated passes weaving over the same road) are not crossovers and are skipped.
+    Returns (list of (i, j, e, n, d)), ε or None.
     """
+    sin_min = np.sin(np.radians(min_angle_deg))
     found = []
     for i in range(len(tracks)):
         for j in range(i + 1, len(tracks)):
@@ -99,7 +140,8 @@ def crossovers(tracks: list[tuple[np.ndarray, np.ndarray, np.ndarray]]):
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (qp[..., 0] * s[..., 1] - qp[..., 1] * s[..., 0]) / den
                 u = (qp[..., 0] * r[..., 1] - qp[..., 1] * r[..., 0]) / den
-            hit = (den != 0) & (t >= 0) & (t < 1) & (u >= 0) & (u < 1)
+            norm = np.hypot(r[..., 0], r[..., 1]) * np.hypot(s[..., 0], s[..., 1])
+            hit = (den != 0) & (t >= 0) & (t < 1) & (u >= 0) & (u < 1) & (np.abs(den) >= sin_min * norm)
             for a, b in zip(*np.nonzero(hit)):
                 ta, ub = t[a, b], u[a, b]
                 va = v1[a] + ta * (v1[a + 1] - v1[a])

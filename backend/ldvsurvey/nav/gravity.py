@@ -15,6 +15,8 @@ from scipy.signal import firwin, oaconvolve
 
 from ldvsurvey.nav.earth import MGAL, OMEGA_IE, normal_gravity, radii
 
+G0 = 9.80665  #: m/s² per g (sensor specifications in µg)
+
 
 def disturbance_mps2(f_u, vdot_u, v_e, v_n, lat_rad, h_m):
     """Gravity disturbance δg (m/s²) from the up specific force and the vehicle motion.
@@ -68,3 +70,96 @@ def half_wavelength_resolution_m(speed_mps: float, length_s: float) -> float:
 
 def to_mgal(x):
     return np.asarray(x) / MGAL
+
+
+# ---------------------------------------------------------------------------------------------
+# gaps
+
+
+def runs(mask):
+    """(start, stop) index pairs of the True runs of a boolean array."""
+    e = np.flatnonzero(np.diff(np.r_[0, np.asarray(mask, int), 0]))
+    return list(zip(e[::2], e[1::2]))
+
+
+def bridge_velocity(v_mps, ok, v_ref_mps, edge_n: int = 1):
+    """Fill the gaps (``~ok``) of a series with a reference series tied to both gap ends.
+
+    Inside a gap: the reference (e.g. the smoothed navigation velocity) plus an offset varying
+    linearly from the left to the right edge's ``v − v_ref``, each taken as the mean over up to
+    ``edge_n`` valid samples next to the edge (so one noisy edge sample is not spread over the
+    whole gap). The bridged series is continuous with the data, so its difference quotient
+    still telescopes and a gap costs only its own samples. Gaps at either end take the offset
+    of their one edge. Works for any quantity (velocity through velocity, height through the
+    doubly integrated specific force, ...).
+    """
+    v = np.array(v_mps, float, copy=True)
+    ok = np.asarray(ok, bool) & np.isfinite(v)
+    if not ok.any():
+        raise ValueError("no valid sample to bridge from")
+    off = v - v_ref_mps
+    n = len(v)
+    segs = runs(~ok)
+    for i, (a, b) in enumerate(segs):
+        lo = segs[i - 1][1] if i > 0 else 0
+        hi = segs[i + 1][0] if i + 1 < len(segs) else n
+        oa = float(np.mean(off[max(lo, a - edge_n):a])) if a > 0 else None
+        ob = float(np.mean(off[b:min(hi, b + edge_n)])) if b < n else None
+        oa = ob if oa is None else oa
+        ob = oa if ob is None else ob
+        w = (np.arange(a, b) - (a - 1)) / (b - a + 1)
+        v[a:b] = v_ref_mps[a:b] + (1 - w) * oa + w * ob
+    return v
+
+
+# ---------------------------------------------------------------------------------------------
+# white-noise floor of a repeated-line coincidence
+
+
+def _response4(length_s: float, n_f: int = 1 << 16):
+    """Frequencies (Hz) and |H(f)|⁴ of the zero-phase (forward-backward) FIR, on a fine grid."""
+    fs = 50.0 / length_s  # any rate well above the cut-off 1/L gives the same continuous response
+    h = fir_taps(length_s, fs)
+    hf = np.fft.rfft(h, n_f)
+    f = np.fft.rfftfreq(n_f, 1.0 / fs)
+    return f, np.abs(hf) ** 4
+
+
+def noise_floor_mgal(length_s: float, accel_noise_ug_rthz: float | None = None, ldv_noise_mps: float | None = None,
+                     ldv_rate_hz: float | None = None, height_noise_m: float | None = None,
+                     gnss_rate_hz: float | None = None) -> dict:
+    """1-σ of white sensor noise after the zero-phase FIR: the floor of a repeated-line coincidence (mGal).
+
+    The per-line coincidence ε_i estimates the σ of one line's filtered δg (the n/(n−1) factor
+    undoes the mean line), so white noise alone gives ε = this σ:
+
+    - accelerometer, density N (µg/√Hz, per-sample σ = N·√f_s): σ² = N² ∫|H|⁴ df;
+    - LDV vertical velocity, white σ_v per sample at rate f_L, differenced once:
+      σ² = σ_v²/f_L ∫(2πf)²|H|⁴ df;
+    - GNSS height, white σ_h per epoch at rate f_G, differenced twice: σ² = σ_h²/f_G ∫(2πf)⁴|H|⁴ df.
+
+    Integrals run over all (two-sided) frequencies; |H|⁴ because the FIR runs forward and back.
+    Returns a dict of the components given and their root-sum-square ``total_mgal``.
+    """
+    f, h4 = _response4(length_s)
+    df = f[1] - f[0]
+    w = 2 * np.pi * f
+
+    def integral(p):
+        return 2.0 * np.sum(w ** p * h4) * df
+
+    out = {}
+    if accel_noise_ug_rthz:
+        out["accel_mgal"] = float(accel_noise_ug_rthz * 1e-6 * G0 * np.sqrt(integral(0)) / MGAL)
+    if ldv_noise_mps and ldv_rate_hz:
+        out["ldv_mgal"] = float(ldv_noise_mps * np.sqrt(integral(2) / ldv_rate_hz) / MGAL)
+    if height_noise_m and gnss_rate_hz:
+        out["gnss_height_mgal"] = float(height_noise_m * np.sqrt(integral(4) / gnss_rate_hz) / MGAL)
+    out["total_mgal"] = float(np.sqrt(sum(v ** 2 for v in out.values())))
+    return out
+
+
+def trim_line(t_s, t_start: float, t_end: float, trim_s: float):
+    """Mask of the samples of a line [t_start, t_end] with ``trim_s`` removed at both ends."""
+    t = np.asarray(t_s, float)
+    return (t >= t_start + trim_s) & (t <= t_end - trim_s)

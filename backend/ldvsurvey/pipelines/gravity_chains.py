@@ -1,0 +1,207 @@
+"""The two raw gravity chains of the ``gravity`` pipeline: SINS/2-D LDV and SINS/GNSS (methods §4).
+
+Both take f_U from the navigation's own mechanization step (``NavSolution.f_u_mps2``, smoothed),
+with the horizontal accelerometer biases the filter estimated removed (the vertical one is not
+separable from Δg without a base tie and stays).
+Rows missing from the IMU log are bridged when it is read (io.imutime) and reported.
+
+SINS/LDV: v̇_U from the LDV vertical velocity (brought to the IMU centre) differenced over
+each IMU interval. Where the LDV is unusable (quality, dropouts, values far off the navigation
+velocity) the velocity is bridged through the smoothed navigation velocity tied to both gap
+edges, so the difference quotient telescopes and a gap costs only its own samples.
+
+SINS/GNSS: the same f_U, normal gravity and Eötvös terms integrated twice (S) against the GNSS
+heights brought to the IMU centre with the lever arm, on the regular grid of the fixes. Where
+fixes are missing (outage, lower quality, multipath) the height is bridged through S tied to
+both gap edges, the height-domain twin of the LDV bridge. The second difference of S − h is δg:
+both sides of the subtraction see the very same differencing, so the FIR treats them alike.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import median_filter, uniform_filter1d
+
+from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
+from ldvsurvey.nav.attitude import c_from_q
+from ldvsurvey.nav.gravity import bridge_velocity, disturbance_mps2, runs, zero_phase_lowpass
+from ldvsurvey.pipelines.prep import GNSS_SIGMA, attitude_at
+from ldvsurvey.pipelines.stages import accel_fwd, ldv_body_velocity
+
+
+#: GNSS fixes (each side) whose mean offset from the doubly integrated f_U ties a gap's bridge
+GNSS_EDGE_N = 3
+#: passes of the outage bridge (each takes the previous pass's filtered δg as its prior)
+GNSS_BRIDGE_PASSES = 4
+#: LDV samples (each side) whose mean offset from the navigation velocity ties a gap's bridge
+LDV_EDGE_N = 50
+
+
+def vertical_force(inp, sol):
+    """Up specific force (N,) per IMU interval of the navigation's own mechanization step, and the IMU gaps.
+
+    ``sol.f_u_mps2`` (smoothed with the attitude) with the bias correction added back, minus the
+    horizontal accelerometer biases only: the vertical bias is not separable from Δg without a
+    base tie and stays (a constant offset). Rows missing from ``imu.csv`` were bridged when the
+    log was read (:mod:`ldvsurvey.io.imutime`); the pipeline reports how many.
+    """
+    f_raw = sol.f_u_mps2 + sol.f_u_bias_mps2  # C_s^n Δv / Δt as mechanized, no bias removed
+    c_sn = c_from_q(sol.q_sn)
+    b = sol.accel_bias_mps2
+    f_u = f_raw - (c_sn[:, 2, 0] * b[0] + c_sn[:, 2, 1] * b[1])
+    return f_u
+
+
+def ldv_velocity_imu(inp, sol, setup):
+    """LDV velocity (N, 3) ENU at the IMU centre (lever arm through the body rate), m/s.
+
+    The travel direction the LDV sees includes the calibrated pitch compliance (squat/dive)."""
+    t = inp.t_s
+    dt = np.diff(t)
+    c_bn = sol.c_bn()
+    pk = getattr(setup, "pitch_k_rad_per_mps2", 0.0)
+    a_f = (setup.accel_fwd_mps2 if setup.accel_fwd_mps2 is not None else accel_fwd(inp)) if pk else None
+    v_b = ldv_body_velocity(inp.nu_f_mps, inp.nu_u_mps, setup.scale, setup.pitch_rad, setup.heading_rad,
+                            setup.scale_up, pk, a_f)
+    v_head = np.einsum("kij,kj->ki", c_bn, v_b)
+    rel = np.einsum("kji,kjl->kil", c_bn[:-1], c_bn[1:])
+    w = np.column_stack([rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0], rel[:, 1, 0] - rel[:, 0, 1]])
+    w = np.vstack([w[:1], w]) / (2 * np.r_[dt[:1], dt])[:, None]
+    lever = np.asarray(inp.log.manifest.ldv.lever_arm_m, float)
+    return v_head - np.einsum("kij,kj->ki", c_bn, np.cross(w, lever))
+
+
+def screen_velocity(v_u, ok, v_ref, window: int = 201, k_sigma: float = 8.0, floor_mps: float = 0.05):
+    """Samples of ``v_u`` far off the reference after removing the slow difference (garbage values).
+
+    The slow part of v − v_ref (moving mean over ``window`` valid samples) is removed; what stays
+    is LDV noise. Flagged: |rest| > max(k σ, floor) with σ from the median absolute deviation.
+    """
+    r = np.where(ok, v_u - v_ref, 0.0)
+    w = uniform_filter1d(ok.astype(float), window)
+    slow = uniform_filter1d(r, window) / np.maximum(w, 1e-9)
+    rest = r - slow
+    if ok.sum() < 10:
+        return np.zeros_like(ok)
+    sig = 1.4826 * np.median(np.abs(rest[ok]))
+    return ok & (np.abs(rest) > max(k_sigma * sig, floor_mps))
+
+
+def ldv_noise_estimate_mps(v_u, ok):
+    """White noise σ (m/s) of a velocity series from its second differences (σ = std(Δ²v)/√6, robust)."""
+    good = ok[2:] & ok[1:-1] & ok[:-2]
+    d2 = np.diff(v_u, 2)[good]
+    if len(d2) < 100:
+        return None
+    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
+
+
+def ldv_chain(inp, sol, setup):
+    """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times."""
+    t = inp.t_s
+    dt = np.diff(t)
+    f_u = vertical_force(inp, sol)
+    v_imu = ldv_velocity_imu(inp, sol, setup)
+    ok = inp.ldv_ok & np.all(np.isfinite(v_imu), axis=1)
+    bad = screen_velocity(v_imu[:, 2], ok, sol.v_n[:, 2])
+    noise = ldv_noise_estimate_mps(v_imu[:, 2], ok & ~bad)
+    use = ok & ~bad
+    v_u = bridge_velocity(v_imu[:, 2], use, sol.v_n[:, 2], edge_n=LDV_EDGE_N)
+    # Increments per interval over the nominal interval: f_U·Δt_k is the mechanized increment
+    # whatever the time tag says, and Δv_U belongs to the same interval, so time-tag jitter
+    # (tens of µs, f_U = Δv/Δt off by ‰ per sample) cancels and the series telescopes.
+    dt0 = float(np.median(dt))
+    f_u = np.r_[f_u[:1], f_u[1:] * dt / dt0]
+    vdot_u = np.diff(v_u) / dt0
+    bridged = ~(use[1:] & use[:-1])  # intervals touching a bridged sample
+    v_mid = 0.5 * (sol.v_n[1:] + sol.v_n[:-1])
+    lat = 0.5 * (sol.pos[1:, 0] + sol.pos[:-1, 0])
+    lon = 0.5 * (sol.pos[1:, 1] + sol.pos[:-1, 1])
+    h = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
+    dg = disturbance_mps2(f_u[1:], vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
+    return {"t_s": 0.5 * (t[1:] + t[:-1]), "dg": dg, "dg_static": dg + vdot_u, "lat": lat, "lon": lon, "h": h,
+            "speed": np.hypot(v_mid[:, 0], v_mid[:, 1]), "fs": 1.0 / np.median(dt), "bridged": bridged,
+            "screened": int(bad.sum()), "ldv_noise_mps": noise, "kind": "ldv"}
+
+
+def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float = 4.0):
+    """Raw δg (m/s²) on a regular grid at the GNSS rate from SINS/GNSS; dict like :func:`ldv_chain`.
+
+    ``fir_s``: the FIR length, for the first pass that carries the disturbance across outages.
+    Uses the fixes of the given qualities. Multipath (height jumps of decimetres for seconds to a
+    minute in fixed solutions) is screened against ``ref`` (a solution without GNSS, e.g. the
+    SINS/LDV one; default ``sol``): a fix whose height residual departs from the residual's
+    running median (over ``fir_s``) by more than ``k_sigma`` robust σ (at least 3 σ of its fix
+    quality) is dropped and bridged. Raises ValueError when fewer than 20 fixes remain.
+    """
+    g = log.gnss
+    t = inp.t_s
+    keep = np.isin(g.fix, fixes) & np.isfinite(g.lat_deg) & np.isfinite(g.h_m) & (g.t_s > t[2]) & (g.t_s < t[-1])
+    if keep.sum() < 20:
+        raise ValueError(f"fewer than 20 GNSS fixes of quality {'/'.join(map(str, fixes))}")
+    tg = g.t_s[keep]
+    lever = np.asarray(log.manifest.gnss.lever_arm_m, float)
+    h_g = g.h_m[keep] - (attitude_at(sol, tg) @ lever)[:, 2]
+    sig_v = np.array([GNSS_SIGMA.get(int(f), (np.nan, 5.0))[1] for f in g.fix[keep]])
+    ref = sol if ref is None else ref
+    res = h_g - np.interp(tg, t, ref.pos[:, 2])
+    step0 = float(np.median(np.diff(tg)))
+    win = max(3, int(round(fir_s / step0)) | 1)
+    slow = median_filter(res, size=win, mode="nearest")
+    rest = res - slow
+    mad = 1.4826 * np.median(np.abs(rest - np.median(rest)))
+    good = np.abs(rest) <= np.maximum(k_sigma * mad, 3.0 * sig_v)
+    tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
+    if len(tg) < 20:
+        raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")
+    f_u = vertical_force(inp, sol)
+    dt = np.diff(t)
+    lat_m = 0.5 * (sol.pos[1:, 0] + sol.pos[:-1, 0])
+    h_m = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
+    v_mid = 0.5 * (sol.v_n[1:] + sol.v_n[:-1])
+    rm, rn = radii(lat_m)
+    acc = (f_u[1:] - normal_gravity(lat_m, h_m) + (v_mid[:, 0] / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_m))
+           * v_mid[:, 0] + v_mid[:, 1] ** 2 / (rm + h_m))
+    w = np.concatenate([[0.0], np.cumsum(acc * dt)])  # ∫ (f_U − γ + Eötvös) dt at the IMU times
+    s = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * dt)])  # and once more
+    # the fixes on a regular grid; the heights bridged through S tied to the gap edges
+    step = float(np.median(np.diff(tg)))
+    grid = tg[0] + step * np.arange(int(np.floor((tg[-1] - tg[0]) / step + 1e-6)) + 1)
+    j = np.rint((tg - tg[0]) / step).astype(int)
+    on = np.abs(tg - grid[j]) < 0.05 * step
+    h_grid = np.full(len(grid), np.nan)
+    h_grid[j[on]] = h_g[on] + (np.interp(grid[j[on]], t, s) - np.interp(tg[on], t, s))  # to the grid time
+    ok = np.isfinite(h_grid)
+    s_grid = np.interp(grid, t, s)
+    tc = grid[1:-1]
+    bridged = ~(ok[2:] & ok[1:-1] & ok[:-2])
+    # Bridge the heights through S minus a prior δg integrated twice (G), so that a gap keeps its
+    # share of the disturbance where it was instead of at its edges. The prior is the filtered
+    # result of the previous pass (first pass: none); a few passes make it self-consistent.
+    g_prior = np.zeros(len(tc))
+    for _ in range(GNSS_BRIDGE_PASSES):
+        gg = np.zeros(len(grid))
+        gg[2:] = np.cumsum(np.cumsum(g_prior) * step) * step
+        d = s_grid - bridge_velocity(h_grid, ok, s_grid - gg, edge_n=GNSS_EDGE_N)
+        dg = (d[2:] - 2 * d[1:-1] + d[:-2]) / step ** 2
+        if not bridged.any():
+            break
+        g_prior = zero_phase_lowpass(dg, fir_s, 1.0 / step)
+        # inside outages longer than the filter nothing constrains the prior: take it straight
+        # across from the filtered values half a filter length outside the outage
+        for a, b in runs(bridged):
+            if (b - a) * step > fir_s:
+                g_prior[max(0, a - int(fir_s / 2 / step)):min(len(tc), b + int(fir_s / 2 / step))] = np.nan
+        fin = np.isfinite(g_prior)
+        g_prior = np.interp(tc, tc[fin], g_prior[fin])
+    # An outage longer than half the filter is a break, not a bridge: a tie across it would put
+    # the prior's error times its length onto its edges. The samples stay NaN (the FIR treats the
+    # break like a line end, and the values near it are withheld as unsupported).
+    for a, b in runs(bridged):
+        if (b - a) * step > 0.5 * fir_s:
+            dg[max(0, a - 1):b + 1] = np.nan
+    return {"t_s": tc, "dg": dg, "lat": np.interp(tc, t, sol.pos[:, 0]), "lon": np.interp(tc, t, sol.pos[:, 1]),
+            "h": np.interp(tc, t, sol.pos[:, 2]),
+            "speed": np.interp(tc, t, np.hypot(sol.v_n[:, 0], sol.v_n[:, 1])), "fs": 1.0 / step,
+            "bridged": bridged, "screened": int((~good).sum()),
+            "height_sigma_m": float(np.sqrt(np.mean(sig_v ** 2))), "kind": "gnss"}

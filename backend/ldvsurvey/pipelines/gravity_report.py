@@ -1,0 +1,175 @@
+"""Filtering, line cutting and the statistics of the ``gravity`` pipeline (methods §4, §4a).
+
+Every figure in mGal; every line's statistics beside what gaps and trimming removed from it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ldvsurvey.errors import ParameterError
+from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
+from ldvsurvey.nav.gravity import (MGAL, half_wavelength_resolution_m, noise_floor_mgal, runs, trim_line,
+                                   zero_phase_lowpass)
+from ldvsurvey.pipelines.prep import local_metres
+
+#: filtered values are withheld where bridged samples take more than this share of the FIR's weight …
+MAX_BRIDGED_SHARE = 0.5
+#: … or where long gaps (detail the filter would resolve is missing) take more than this
+MAX_LONG_GAP_SHARE = 0.01
+#: a gap is long when it lasts more than this share of the FIR length
+LONG_GAP_FIR_SHARE = 0.5
+#: crossings at a smaller angle are repeated passes over the same road, not crossovers
+CROSSOVER_MIN_ANGLE_DEG = 20.0
+
+
+def unsupported(bridged, fir_s, fs):
+    """Samples whose filtered value is mostly the bridge rather than data (see MAX_*_SHARE)."""
+    long = np.zeros(len(bridged), bool)
+    for a, b in runs(bridged):
+        if (b - a) / fs > LONG_GAP_FIR_SHARE * fir_s:
+            long[a:b] = True
+    share = zero_phase_lowpass(bridged.astype(float), fir_s, fs)
+    share_long = zero_phase_lowpass(long.astype(float), fir_s, fs) if long.any() else np.zeros(len(bridged))
+    return ~((share <= MAX_BRIDGED_SHARE) & (share_long <= MAX_LONG_GAP_SHARE))
+
+
+def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="none"):
+    """Filter each chain, cut and trim the lines, put them on common points, compute the statistics.
+
+    ``chains``: raw chains (see :mod:`gravity_chains`), ``lines``: [(name, chain index, t0, t1)].
+    ``strict``: a line without data is an error (the main chain); otherwise (a comparison chain,
+    e.g. GNSS blocked on a whole line) the line is reported without figures.
+    ``leveling`` "bias": every line is shifted by its mean residual about the mean line (line
+    leveling: removes each line's share of a drift the stops could not tie; the shifts sum to zero,
+    so the level of the survey stays), and the coincidence is that of the levelled lines.
+    """
+    filtered = []
+    for ch in chains:
+        f = zero_phase_lowpass(ch["dg"], fir_s, ch["fs"])
+        ch["unsupported"] = unsupported(ch["bridged"], fir_s, ch["fs"])
+        f[ch["unsupported"]] = np.nan
+        filtered.append(f)
+    ref = None
+    per_line = []
+    for name, ci, a, b in lines:
+        ch = chains[ci]
+        whole = (ch["t_s"] >= a) & (ch["t_s"] <= b)
+        k = trim_line(ch["t_s"], a, b, trim_s) & np.isfinite(filtered[ci])
+        info = {"bridged_s": float(np.sum(ch["bridged"][whole]) / ch["fs"]),
+                "bridged_share": float(np.mean(ch["bridged"][whole])) if whole.any() else 0.0,
+                "unsupported_s": float(np.sum(ch["unsupported"][whole]) / ch["fs"]),
+                "duration_s": float(b - a), "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s))}
+        if k.sum() < 10:
+            if strict:
+                raise ParameterError(f"line {name} [{a}, {b}] s holds no data after trimming {trim_s:g} s at each "
+                                     "end", field="lines" if trim_s == 0 else "line_end_trim_s")
+            empty = np.zeros(0)
+            per_line.append((name, ci, k, empty, empty, empty, empty, {**info, "no_data": True}))
+            continue
+        if ref is None:
+            lat0, lon0 = ch["lat"][k][0], ch["lon"][k][0]
+            e, n = local_metres(lat0, lon0, ch["lat"][k], ch["lon"][k])
+            step = max(1, int(len(e) // 4000))
+            ref = (lat0, lon0, e[::step], n[::step])
+        e, n = local_metres(ref[0], ref[1], ch["lat"][k], ch["lon"][k])
+        s, lateral = along_track(ref[2], ref[3], e, n)
+        per_line.append((name, ci, k, s, lateral, e, n, info))
+    used = [p for p in per_line if len(p[3])]
+    lines_t = {name: (a, b) for name, _, a, b in lines}
+    if not used:
+        raise ValueError("no line holds data")
+    repeated = all(np.median(p[4]) < 50.0 for p in used)
+    result = {"repeated": repeated, "filtered": filtered, "per_line": per_line}
+    if repeated and len(used) >= 2:
+        try:
+            grid, vals = common_points([(p[3], filtered[p[1]][p[2]] / MGAL) for p in used], spacing_m,
+                                       allow_holes=not strict)
+            co = internal_coincidence(vals, [p[0] for p in used], grid)
+            if leveling == "bias":
+                result["line_offsets_mgal"] = {nm: float(o) for nm, o in zip(co.names, co.per_line_mean)}
+                for p, o in zip(used, co.per_line_mean):
+                    line_all = (chains[p[1]]["t_s"] >= lines_t[p[0]][0]) & (chains[p[1]]["t_s"] <= lines_t[p[0]][1])
+                    filtered[p[1]][line_all] -= o * MGAL
+                co = internal_coincidence(vals - co.per_line_mean[:, None], co.names, grid)
+            result["coincidence"] = co
+        except ValueError as exc:
+            if strict:
+                raise ParameterError(f"no coincidence: {exc}", field="lines") from None
+            result["coincidence_note"] = str(exc)
+    step = max(1, int(round(chains[0]["fs"] * 2.0)))  # ~2 s along the tracks
+    tracks = [(p[5][::step], p[6][::step], filtered[p[1]][p[2]][::step] / MGAL) for p in used]
+    result["crossings"], result["crossover_mgal"] = crossovers(tracks, CROSSOVER_MIN_ANGLE_DEG)
+    speeds = np.concatenate([chains[p[1]]["speed"][p[2]] for p in used])
+    result["median_speed_mps"] = float(np.nanmedian(speeds))
+    result["resolution_m"] = half_wavelength_resolution_m(result["median_speed_mps"], fir_s)
+    return result
+
+
+def floor_of(log, chain, fir_s):
+    """White-noise floor of the coincidence for one chain, with where each noise figure came from."""
+    acc = log.manifest.imu.accel_noise_ug_per_rthz
+    out = {"accel_noise_ug_rthz": acc, "accel_noise_source": "manifest" if acc else "not given"}
+    if chain["kind"] == "ldv":
+        ldv_sig = getattr(log.manifest.ldv, "noise_mps", None)
+        src = "manifest"
+        if not isinstance(ldv_sig, (int, float)) or not ldv_sig > 0:
+            ldv_sig, src = chain.get("ldv_noise_mps"), "estimated from the data (second differences)"
+        out.update(ldv_noise_mps=ldv_sig, ldv_noise_source=src, ldv_rate_hz=log.manifest.ldv.rate_hz)
+        out.update(noise_floor_mgal(fir_s, acc, ldv_sig, log.manifest.ldv.rate_hz))
+    else:
+        out.update(gnss_height_sigma_m=chain["height_sigma_m"], gnss_height_sigma_source="fix quality")
+        out.update(noise_floor_mgal(fir_s, acc, height_noise_m=chain["height_sigma_m"], gnss_rate_hz=chain["fs"]))
+    return out
+
+
+def block(res, fir_s, trim_s, aiding, floor):
+    """The summary block of one chain."""
+    out = {"fir_length_s": fir_s, "aiding": aiding, "resolution_m": res["resolution_m"],
+           "median_speed_mps": res["median_speed_mps"], "repeated_lines": res["repeated"],
+           "line_end_trim_s": trim_s,
+           "line_ends": f"{trim_s:g} s trimmed at both ends of every line (FIR leakage of turnarounds, "
+                        "acceleration and braking)" if trim_s > 0 else "lines not trimmed",
+           "noise_floor": floor}
+    co = res.get("coincidence")
+    stats = {}
+    if co is not None:
+        stats = {nm: {"max_mgal": float(mx), "min_mgal": float(mn), "rms_mgal": float(r), "mean_mgal": float(me),
+                      "std_mgal": float(sd)}
+                 for nm, mx, mn, r, me, sd in zip(co.names, co.per_line_max, co.per_line_min, co.per_line_rms,
+                                                  co.per_line_mean, co.per_line_std)}
+    none = {"max_mgal": None, "min_mgal": None, "rms_mgal": None, "mean_mgal": None, "std_mgal": None}
+    out["lines"] = [{"name": p[0], **stats.get(p[0], none), **p[7]} for p in res["per_line"]]
+    out["total_mgal"] = co.total if co is not None else None
+    out["n_lines_compared"] = len(co.names) if co is not None else 0
+    out["common_length_m"] = float(co.distance_m[-1] - co.distance_m[0]) if co is not None else None
+    out["common_points"] = int(len(co.distance_m)) if co is not None else 0
+    out["floor_ratio"] = co.total / floor["total_mgal"] if co is not None and floor.get("total_mgal") else None
+    if "line_offsets_mgal" in res:
+        out["line_leveling"] = {"method": "bias about the mean line", "offsets_mgal": res["line_offsets_mgal"],
+                                "note": "coincidence of the levelled lines; leveling uses one degree of freedom "
+                                        "per line, so it reads slightly below the white-noise floor's expectation"}
+    if "coincidence_note" in res:
+        out["coincidence_note"] = res["coincidence_note"]
+    out["crossover_mgal"] = res["crossover_mgal"]
+    out["n_crossings"] = len(res["crossings"])
+    out["bridged_s"] = float(sum(p[7]["bridged_s"] for p in res["per_line"]))
+    return out
+
+
+def chain_difference(res_a, chains_a, res_b, chains_b):
+    """Per line: mean and RMS (mGal) of filtered chain A minus chain B at A's (trimmed) line samples."""
+    out = []
+    for pa, pb in zip(res_a["per_line"], res_b["per_line"]):
+        if not len(pa[3]) or not len(pb[3]):
+            out.append({"name": pa[0], "mean_mgal": None, "rms_mgal": None})
+            continue
+        ta = chains_a[pa[1]]["t_s"][pa[2]]
+        tb = chains_b[pb[1]]["t_s"]
+        fb = res_b["filtered"][pb[1]]
+        d = (res_a["filtered"][pa[1]][pa[2]] - np.interp(ta, tb, fb)) / MGAL  # withheld (NaN) stay out
+        d = d[np.isfinite(d)]
+        out.append({"name": pa[0], "mean_mgal": float(np.mean(d)) if len(d) else None,
+                    "rms_mgal": float(np.sqrt(np.mean(d ** 2))) if len(d) else None,
+                    "std_mgal": float(np.std(d)) if len(d) else None, "compared_s": len(d) / chains_a[pa[1]]["fs"]})
+    return out
