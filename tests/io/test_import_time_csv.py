@@ -56,7 +56,6 @@ def test_log_across_midnight_and_the_gps_week_roll_over():
 
 
 def test_nmea_across_midnight_takes_the_date_from_rmc():
-    day = dt.date(2023, 3, 20)
     t = np.arange(86390.0, 86411.0)
     lines = []
     for k, tt in enumerate(t):

@@ -6,7 +6,6 @@ line, an INS/LDV height follows H = h − N, so without the deflection the heigh
 geoid change along the track (≈ 0.3 m here); with the user's .gdf grids it is back at the noise.
 """
 
-import json
 
 import numpy as np
 import pytest

@@ -294,5 +294,5 @@ def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:
 
 
 # the effects' truth lives in truth.py; re-exported here for one import place
-from ldvsurvey.nav.sim.truth import (effect_truth, effective_travel_direction, grid_files,  # noqa: E402
+from ldvsurvey.nav.sim.truth import (effect_truth, effective_travel_direction, grid_files,  # noqa: E402, F401
                                      mean_travel_direction)
