@@ -98,5 +98,5 @@ def test_admin_from_environment_sees_all(secured):
 def test_job_quota_per_user(secured):
     c, ha, hb, log_a, _ = secured
     codes = [c.post(f"/api/logs/{log_a}/jobs", headers=ha,
-                    json={"pipeline": "tilt", "parameters": {"output_rate_hz": 1}}).status_code for _ in range(4)]
+                    json={"pipeline": "height", "parameters": {"output_rate_hz": 1}}).status_code for _ in range(4)]
     assert 429 in codes  # at most 2 queued or running per user here

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from ldvsurvey.api.auth import Principal, check_job_quota, principal, visible_job, visible_log
 from ldvsurvey.api.deps import BodyId, JobId, LogId, get_session
 from ldvsurvey.errors import ParameterError
+from ldvsurvey.pipelines.base import LogFacts
 from ldvsurvey.store.models import Job, JobFile
 
 router = APIRouter(tags=["jobs"])
@@ -57,15 +58,40 @@ def job_detail(session: Session, j: Job) -> dict:
     return {**job_dict(j), "inputs": inputs, "warnings": warnings}
 
 
-@router.get("/api/pipelines", summary="Pipelines with their parameters and defaults")
-def list_pipelines() -> list[dict]:
+def log_facts(row) -> LogFacts:
+    """What the applicability checks know of a stored log (no samples read)."""
+    return LogFacts.of_manifest(row.manifest, row.t_start_s, row.t_end_s, row.has_gnss)
+
+
+def public_schema(model) -> dict:
+    """The JSON schema of a parameter model without the parameters naming server-side files."""
+    schema = model.model_json_schema()
+    schema["properties"] = {k: v for k, v in schema["properties"].items() if k not in SERVER_PATH_PARAMS}
+    return schema
+
+
+@router.get("/api/pipelines", summary="Pipelines with their parameters, defaults and JSON schema")
+def list_pipelines(log_id: int | None = Query(None, ge=1, le=2**31 - 1,
+                                              description="also say whether each pipeline applies to this log"),
+                   request: Request = None, session: Session = Depends(get_session)) -> list[dict]:
     from ldvsurvey.pipelines.registry import PIPELINES
 
-    return [{"name": p.name, "description": p.description, "multi_input": p.multi_input,
-             "parameters": [{"name": q.name, "kind": q.kind, "default": q.default, "help": q.help,
-                             "choices": list(q.choices) if q.choices else None}
-                            for q in p.params if q.name not in SERVER_PATH_PARAMS]}
-            for p in PIPELINES.values()]
+    facts = None
+    if log_id is not None:  # the list itself is public; a log's applicability needs the right to see it
+        facts = [log_facts(visible_log(session, principal(request, session), log_id))]
+    out = []
+    for p in PIPELINES.values():
+        item = {"name": p.name, "description": p.description, "multi_input": p.multi_input,
+                "parameters": [{"name": q.name, "kind": q.kind, "default": q.default, "help": q.help,
+                                "choices": list(q.choices) if q.choices else None}
+                               for q in p.params if q.name not in SERVER_PATH_PARAMS],
+                "schema": public_schema(p.model)}
+        if facts is not None:  # with the default parameters
+            reasons = p.applicable(facts, p.model())
+            item["applicable"] = not reasons
+            item["reasons"] = [f"{r.field}: {r.message}" for r in reasons]
+        out.append(item)
+    return out
 
 
 @router.post("/api/logs/{log_id}/jobs", status_code=201, summary="Start a pipeline on a log")
@@ -75,15 +101,15 @@ def start_job(log_id: LogId, req: JobRequest, request: Request, session: Session
     from ldvsurvey.pipelines.registry import get
 
     ids = [log_id] + [i for i in req.log_ids if i != log_id]
-    for i in ids:
-        visible_log(session, who, i)
+    rows = [visible_log(session, who, i) for i in ids]
     pipe = get(req.pipeline)
     bad = SERVER_PATH_PARAMS & set(req.parameters)
     if bad:
         raise ParameterError("names a file on the server: not accepted through the API", field=sorted(bad)[0])
     if len(ids) > 1 and not pipe.multi_input:
         raise ParameterError(f"'{pipe.name}' takes one log", field="log_ids")
-    values = pipe.resolve({k: v for k, v in req.parameters.items() if v is not None})
+    # types and bounds of every parameter, then whether the pipeline applies to these logs: 422 naming the field
+    values = pipe.check([log_facts(r) for r in rows], {k: v for k, v in req.parameters.items() if v is not None})
     check_job_quota(request, session, who)
     job = Job(pipeline=pipe.name, log_ids=ids, parameters={k: v for k, v in req.parameters.items() if v is not None},
               status="queued", stage="queued", progress=0.0, user_id=who.user.id if who.user else None)

@@ -17,8 +17,10 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated
 
 import numpy as np
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
 from ldvsurvey import FORMAT_VERSION, __version__
 from ldvsurvey.errors import ParameterError
@@ -58,51 +60,118 @@ class Progress:
             raise Cancelled("cancelled")
 
 
-@dataclass
-class Param:
-    """A pipeline parameter: name, type (float, int, bool, str, 'floats', 'paths'), default, help."""
+class Params(BaseModel):
+    """Base of every pipeline's parameter model: unknown keys refused, NaN/inf refused.
+
+    A pipeline module subclasses it with one field per parameter: type, default, bounds
+    (``gt``/``ge``/``le``...) and a description that states the unit. The same model parses the
+    API's JSON body, the CLI's ``--set KEY=VALUE`` strings and is served as JSON schema by
+    ``GET /api/pipelines``.
+    """
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+
+def _split(value):
+    """``"1,2.5"`` (a CLI or form string) into ``["1", "2.5"]``; lists pass through."""
+    if isinstance(value, str):
+        return [x.strip() for x in value.split(",") if x.strip()]
+    return value
+
+
+#: a list of numbers given as a JSON list or as ``"1,2,3"``
+Floats = Annotated[list[float], BeforeValidator(_split)]
+#: a list of server-side file paths given as a JSON list or as ``"a.gdf,b.gdf"``
+Paths = Annotated[list[str], BeforeValidator(_split)]
+
+
+def output_rate(default_hz: float, what: str):
+    """The ``output_rate_hz`` field every pipeline has: > 0 and at most 1 kHz (at most the IMU rate
+    of the log is checked by :func:`rate_within_imu`)."""
+    return Field(default_hz, gt=0.0, le=1000.0,
+                 description=f"rate of {what} in Hz (> 0, at most the IMU rate)")
+
+
+@dataclass(frozen=True)
+class LogFacts:
+    """What the applicability checks may know of a log without reading its samples."""
 
     name: str
-    kind: str
-    default: object
-    help: str
-    choices: tuple | None = None
+    platform: str  #: vehicle or vessel
+    ldv_kind: str  #: 1d, 2d or water
+    imu_rotating: bool
+    imu_rate_hz: float
+    t_start_s: float
+    t_end_s: float
+    has_gnss: bool
+    lines: tuple = ()  #: manifest survey lines as (name, t_start_s, t_end_s)
+    static_s: float | None = None  #: manifest initial.static_s
 
-    def parse(self, value):
-        if value is None:
-            return None
-        try:
-            if self.kind == "float":
-                v = float(value)
-                if not math.isfinite(v):
-                    raise ValueError
-                return v
-            if self.kind == "int":
-                return int(value)
-            if self.kind == "bool":
-                if isinstance(value, bool):
-                    return value
-                s = str(value).strip().lower()
-                if s in ("1", "true", "yes", "on"):
-                    return True
-                if s in ("0", "false", "no", "off"):
-                    return False
-                raise ValueError
-            if self.kind == "floats":
-                items = value if isinstance(value, (list, tuple)) else str(value).split(",")
-                out = [float(x) for x in items]
-                if not all(math.isfinite(x) for x in out):
-                    raise ValueError
-                return out
-            if self.kind == "paths":
-                items = value if isinstance(value, (list, tuple)) else str(value).split(",")
-                return [str(x).strip() for x in items if str(x).strip()]
-            v = str(value)
-        except (TypeError, ValueError):
-            raise ParameterError(f"expected {self.kind}, got {value!r}", field=self.name) from None
-        if self.choices and v not in self.choices:
-            raise ParameterError(f"must be one of {', '.join(self.choices)}, got {v!r}", field=self.name)
-        return v
+    @classmethod
+    def of_manifest(cls, m: dict, t_start_s: float, t_end_s: float, has_gnss: bool) -> LogFacts:
+        """From a manifest as JSON (``manifest.json`` or the store's copy) and the IMU time span."""
+        imu, ldv = m.get("imu") or {}, m.get("ldv") or {}
+        return cls(name=str(m.get("name", "")), platform=str(m.get("platform", "")),
+                   ldv_kind=str(ldv.get("kind", "")), imu_rotating=bool(imu.get("rotating", False)),
+                   imu_rate_hz=float(imu.get("rate_hz") or 0.0), t_start_s=float(t_start_s),
+                   t_end_s=float(t_end_s), has_gnss=bool(has_gnss),
+                   lines=tuple((ln.get("name"), float(ln["t_start"]), float(ln["t_end"]))
+                               for ln in m.get("lines") or []),
+                   static_s=(m.get("initial") or {}).get("static_s"))
+
+    @classmethod
+    def of_log(cls, log) -> LogFacts:
+        """From a parsed :class:`~ldvsurvey.io.drivelog.DriveLog`."""
+        return cls.of_manifest(log.manifest.model_dump(mode="json"), float(log.imu.t_s[0]),
+                               float(log.imu.t_s[-1]), log.gnss is not None)
+
+
+@dataclass(frozen=True)
+class Reason:
+    """Why a pipeline cannot run on the chosen logs with the chosen parameters."""
+
+    field: str
+    message: str
+
+
+def rate_within_imu(logs: list[LogFacts], rate_hz: float, field_name: str = "output_rate_hz") -> list[Reason]:
+    """An output rate above the IMU rate of a log would only repeat samples."""
+    return [Reason(field_name, f"{rate_hz:g} Hz is above the IMU rate of '{f.name}' ({f.imu_rate_hz:g} Hz)")
+            for f in logs if f.imu_rate_hz and rate_hz > f.imu_rate_hz]
+
+
+def window_inside(logs: list[LogFacts], window, field_name: str) -> list[Reason]:
+    """A ``t0,t1`` window (s) must lie inside every log's IMU time span."""
+    if window is None:
+        return []
+    a, b = window
+    return [Reason(field_name, f"[{a:g}, {b:g}] s is not inside the log '{f.name}' "
+                               f"[{f.t_start_s:.2f}, {f.t_end_s:.2f}] s")
+            for f in logs if not (f.t_start_s <= a < b <= f.t_end_s)]
+
+
+def needs_gnss(logs: list[LogFacts], why: str, field_name: str = "BUNDLE") -> list[Reason]:
+    return [Reason(field_name, f"{why}: log '{f.name}' has no gnss.nmea") for f in logs if not f.has_gnss]
+
+
+def _no_reasons(logs, params) -> list[Reason]:
+    return []
+
+
+def _error_of(exc: ValidationError) -> ParameterError:
+    """The first pydantic error as a :class:`ParameterError` naming the parameter."""
+    errs = exc.errors()
+    first = errs[0]
+    loc = [str(x) for x in first.get("loc", ()) if not isinstance(x, int)]
+    name = loc[0] if loc else "parameters"
+    if first.get("type") == "extra_forbidden":
+        msg = "unknown parameter"
+    else:
+        msg = first.get("msg", "invalid value")
+        if "input" in first and not isinstance(first["input"], dict):
+            msg += f", got {first['input']!r}"
+    more = f" (and {len(errs) - 1} more)" if len(errs) > 1 else ""
+    return ParameterError(msg + more, field=name)
 
 
 @dataclass
@@ -114,22 +183,84 @@ class PipelineResult:
     warnings: list[str] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class ParamInfo:
+    """One parameter as the docs and the old ``parameters`` list of ``GET /api/pipelines`` show it."""
+
+    name: str
+    kind: str  #: float, int, bool, str, floats or paths
+    default: object
+    help: str
+    choices: tuple | None = None
+
+
+def _kind(schema: dict) -> tuple[str, tuple | None]:
+    alts = schema.get("anyOf", [schema])
+    s = next((a for a in alts if a.get("type") != "null"), alts[0])
+    if "enum" in s:
+        return "str", tuple(s["enum"])
+    t = s.get("type")
+    if t == "array":
+        return ("floats" if (s.get("items") or {}).get("type") == "number" else "paths"), None
+    return {"number": "float", "integer": "int", "boolean": "bool"}.get(t, "str"), None
+
+
 @dataclass
 class Pipeline:
+    """A pipeline: its function, its parameter model and its applicability check.
+
+    ``applicable(logs: list[LogFacts], params: Params) -> list[Reason]`` says why the pipeline
+    cannot run on these logs with these (already validated) parameters; empty when it can.
+    """
+
     name: str
     func: Callable
-    params: list[Param]
+    model: type[Params]
     description: str
     multi_input: bool = False
+    applicable: Callable[[list[LogFacts], Params], list[Reason]] = _no_reasons
+    #: run by ``ldv-survey run`` before the pipeline (e.g. the dov pipeline's grid cache)
+    cli_setup: Callable[[], None] | None = None
+
+    @property
+    def params(self) -> list[ParamInfo]:
+        """The parameters in declaration order (derived from :attr:`model`)."""
+        props = self.model.model_json_schema()["properties"]
+        out = []
+        for name, f in self.model.model_fields.items():
+            kind, choices = _kind(props[name])
+            out.append(ParamInfo(name, kind, f.get_default(call_default_factory=True), f.description or "",
+                                 choices))
+        return out
+
+    def validate(self, given: dict) -> Params:
+        """The parameter model from ``given`` (JSON values or ``--set`` strings); a
+        :class:`ParameterError` naming the first bad or unknown key otherwise."""
+        try:
+            return self.model.model_validate(given)
+        except ValidationError as exc:
+            err = _error_of(exc)
+            if err.message.startswith("unknown parameter"):
+                err = ParameterError(f"unknown parameter for '{self.name}' (known: "
+                                     f"{', '.join(self.model.model_fields)})", field=err.field)
+            raise err from None
 
     def resolve(self, given: dict) -> dict:
-        """All parameter values, defaults included; unknown keys are an error."""
-        known = {p.name: p for p in self.params}
-        unknown = [k for k in given if k not in known]
-        if unknown:
-            raise ParameterError(f"unknown parameter for '{self.name}' (known: {', '.join(sorted(known))})",
-                                 field=unknown[0])
-        return {p.name: p.parse(given[p.name]) if p.name in given else p.default for p in self.params}
+        """All parameter values, defaults included, as the dict the pipeline function takes."""
+        return self.validate(given).model_dump()
+
+    def check(self, logs: list[LogFacts], given: dict) -> dict:
+        """:meth:`resolve` plus the applicability to ``logs``; the first reason raised as a
+        :class:`ParameterError` (all reasons in its message)."""
+        params = self.validate(given)
+        if not self.multi_input and len(logs) != 1:
+            raise ParameterError(f"'{self.name}' takes exactly one log, got {len(logs)}", field="log_ids")
+        reasons = self.applicable(logs, params)
+        if reasons:
+            raise ParameterError(f"'{self.name}' cannot run here: " + "; ".join(f"{r.field}: {r.message}"
+                                                                               for r in reasons),
+                                 field=reasons[0].field)
+        return params.model_dump()
 
 
 def parse_set_args(items: list[str]) -> dict:

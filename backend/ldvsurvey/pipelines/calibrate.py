@@ -2,15 +2,33 @@
 
 from __future__ import annotations
 
-from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
-from ldvsurvey.pipelines.prep import c_bs_of, nav_inputs
-from ldvsurvey.pipelines.plumb import apply_dov, dov_params
-from ldvsurvey.pipelines.stages import RAD, calibration_stage, tilt_stage
+from pydantic import Field, field_validator
 
-PARAMS = [
-    Param("calibration_window", "floats", None, "t0,t1 in s of the stretch to use (default: the longest "
-          "good-GNSS moving stretch)"),
-] + dov_params("egm2008")
+from ldvsurvey.pipelines.base import (Floats, LogFacts, Pipeline, PipelineResult, Reason, needs_gnss,
+                                      window_inside)
+from ldvsurvey.pipelines.prep import c_bs_of, nav_inputs
+from ldvsurvey.pipelines.plumb import DovParams, apply_dov
+from ldvsurvey.pipelines.stages import calibration_stage, tilt_stage, time_window
+from ldvsurvey.units import RAD_PER_DEG as RAD
+
+
+class CalibrateParams(DovParams):
+    """Parameters of ``calibrate``."""
+
+    calibration_window: Floats | None = Field(
+        None, description="t0,t1 in s (time of day, inside the log) of the stretch to use (default: the "
+        "longest good-GNSS moving stretch)")
+
+    @field_validator("calibration_window")
+    @classmethod
+    def _window(cls, v):
+        return time_window(v)
+
+
+def applicable(logs: list[LogFacts], params: CalibrateParams) -> list[Reason]:
+    """Calibration compares the LDV with GNSS: the log needs GNSS, the window must be inside it."""
+    return (needs_gnss(logs, "the calibration compares the LDV with GNSS")
+            + window_inside(logs, params.calibration_window, "calibration_window"))
 
 
 def run(logs, params, progress) -> PipelineResult:
@@ -53,4 +71,5 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=s, tables={"calibration_track": cal.track}, warnings=warnings)
 
 
-PIPELINE = Pipeline("calibrate", run, PARAMS, "LDV mounting angles and scale factor against GNSS")
+PIPELINE = Pipeline("calibrate", run, CalibrateParams, "LDV mounting angles and scale factor against GNSS",
+                    applicable=applicable)

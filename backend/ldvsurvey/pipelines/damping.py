@@ -3,24 +3,45 @@
 from __future__ import annotations
 
 import numpy as np
+from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.damping import MODES, run_damping
 from ldvsurvey.nav.earth import enu_offset_m
-from ldvsurvey.nav.filter import DEG
-from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.units import RAD_PER_DEG as DEG
+from ldvsurvey.pipelines.base import (LogFacts, Params, Pipeline, PipelineResult, Reason, needs_gnss, output_rate,
+                                      rate_within_imu)
 from ldvsurvey.pipelines.prep import c_bs_of, initial_attitude, nav_inputs
 from ldvsurvey.pipelines.stages import tilt_stage
 
-PARAMS = [
-    Param("period_s", "float", 1.0, "covariance and conventional update period of the filters (s)"),
-    Param("delayed_baseline_s", "float", 60.0, "time between the two residuals the delayed-state measurement "
-          "differences: the current must stay constant over it"),
-    Param("ldv_sigma_mps", "float", 0.05, "1-σ of one water-LDV sample"),
-    Param("delayed_gate_sigma", "float", 5.0, "gate on the delayed-state velocity change (a current change)"),
-    Param("output_rate_hz", "float", 1.0, "rate of damping.csv"),
-]
+class DampingParams(Params):
+    """Parameters of ``damping``."""
+
+    period_s: float = Field(1.0, gt=0.0, le=60.0, description="covariance and conventional update period of "
+                            "the filters in s (0 to 60 s)")
+    delayed_baseline_s: float = Field(60.0, gt=0.0, le=3600.0, description="time in s between the two "
+                                      "residuals the delayed-state measurement differences (0 to 3600 s)")
+    ldv_sigma_mps: float = Field(0.05, gt=0.0, le=10.0, description="1-σ of one water-LDV sample in m/s")
+    delayed_gate_sigma: float = Field(5.0, gt=0.0, le=100.0, description="gate on the delayed-state velocity "
+                                      "change (a current change), in σ")
+    output_rate_hz: float = output_rate(1.0, "damping.csv")
+
+
+def applicable(logs: list[LogFacts], params: DampingParams) -> list[Reason]:
+    """Damping is for a vessel with a water-track LDV, moored at the start, with a GNSS reference."""
+    out = []
+    for f in logs:
+        if f.platform != "vessel":
+            out.append(Reason("platform", f"damping is for vessels: log '{f.name}' is a {f.platform}"))
+        if f.ldv_kind != "water":
+            out.append(Reason("ldv.kind", f"damping needs a water-track LDV: log '{f.name}' has ldv.kind "
+                                          f"'{f.ldv_kind}'"))
+        if f.platform == "vessel" and not f.static_s:
+            out.append(Reason("initial.static_s", f"log '{f.name}' has no manifest initial.static_s (the "
+                                                  "moored period)"))
+    return (out + needs_gnss(logs, "the damping comparison needs a GNSS reference")
+            + rate_within_imu(logs, params.output_rate_hz))
 
 
 def _reference(log, t_s):
@@ -124,4 +145,5 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=summary, tables={"damping": cols}, warnings=warnings)
 
 
-PIPELINE = Pipeline("damping", run, PARAMS, "Water-velocity horizontal damping of SINS (delayed-state filter)")
+PIPELINE = Pipeline("damping", run, DampingParams, "Water-velocity horizontal damping of SINS (delayed-state filter)",
+                    applicable=applicable)

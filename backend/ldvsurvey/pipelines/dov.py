@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import contextvars
 from pathlib import Path
+from typing import Annotated, Literal
 
 import numpy as np
+from pydantic import Field, field_validator
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import parse_imu
@@ -18,27 +20,52 @@ from ldvsurvey.nav.dov import initial_misalignment, propagate
 from ldvsurvey.nav.dovgrid import DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import OMEGA_IE, enu_offset_m, normal_gravity, radii
 from ldvsurvey.nav.mech import mechanize
-from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.base import (Floats, LogFacts, Params, Paths, Pipeline, PipelineResult, Reason,
+                                      needs_gnss, output_rate, rate_within_imu)
 from ldvsurvey.pipelines.prep import c_bs_of, gnss_ins, nav_inputs
 from ldvsurvey.pipelines.stages import tilt_stage
 
 #: a grid cache the caller may provide (the store's database cache); get(key) -> DovGrid | None, put(key, grid)
 GRID_CACHE: contextvars.ContextVar = contextvars.ContextVar("dov_grid_cache", default=None)
 
-PARAMS = [
-    Param("dov_grid", "paths", None, "two ICGEM .gdf files: ξ then η (arcsec); default: built-in EGM2008"),
-    Param("grid_step_arcmin", "float", 1.0, "step of the EGM2008 grid"),
-    Param("degree", "int", 2190, "maximum degree of the EGM2008 synthesis"),
-    Param("interpolation", "str", "bilinear", "grid interpolation along the track", choices=("bilinear", "bicubic")),
-    Param("update_s", "float", 0.09, "error-update period of the direct and RK4 propagators"),
-    Param("propagation_model", "str", "full", "full: with the Coriolis coupling of the velocity errors; "
-          "paper: eq. 10 exactly (Coriolis neglected)", choices=("full", "paper")),
-    Param("imu_nodov", "str", None, "imu.csv-format file of the same drive without the DOV (simulation only)"),
-    Param("compensation", "bool", True, "run the grid-step × update-interval compensation study"),
-    Param("compensation_steps_arcmin", "floats", [1.0, 2.5, 5.0, 10.0], "grid steps of the study"),
-    Param("compensation_updates_s", "floats", [0.03, 0.15, 0.3, 3.0], "update intervals of the study"),
-    Param("output_rate_hz", "float", 1.0, "rate of dov.csv"),
-]
+class DovStudyParams(Params):
+    """Parameters of ``dov``."""
+
+    dov_grid: Paths | None = Field(None, description="two ICGEM .gdf files: ξ then η (arcsec); default: "
+                                   "built-in EGM2008 (server files, not accepted by the API)")
+    grid_step_arcmin: float = Field(1.0, gt=0.0, le=60.0, description="step of the EGM2008 grid in arcmin "
+                                    "(0 to 60′)")
+    degree: int = Field(2190, ge=2, le=2190, description="maximum degree of the EGM2008 synthesis (2 to 2190, "
+                        "the model's maximum)")
+    interpolation: Literal["bilinear", "bicubic"] = Field("bilinear", description="grid interpolation along "
+                                                          "the track")
+    update_s: float = Field(0.09, gt=0.0, le=60.0, description="error-update period in s of the direct and "
+                            "RK4 propagators (0 to 60 s)")
+    propagation_model: Literal["full", "paper"] = Field(
+        "full", description="full: with the Coriolis coupling of the velocity errors; paper: eq. 10 exactly "
+        "(Coriolis neglected)")
+    imu_nodov: str | None = Field(None, description="imu.csv-format file of the same drive without the DOV "
+                                  "(simulation only; server file, not accepted by the API)")
+    compensation: bool = Field(True, description="run the grid-step × update-interval compensation study")
+    compensation_steps_arcmin: Annotated[Floats, Field(min_length=1, max_length=20)] = Field(
+        [1.0, 2.5, 5.0, 10.0], description="grid steps of the study in arcmin (each 0 to 60′)")
+    compensation_updates_s: Annotated[Floats, Field(min_length=1, max_length=20)] = Field(
+        [0.03, 0.15, 0.3, 3.0], description="update intervals of the study in s (each 0 to 60 s)")
+    output_rate_hz: float = output_rate(1.0, "dov.csv")
+
+    @field_validator("compensation_steps_arcmin", "compensation_updates_s")
+    @classmethod
+    def _positive(cls, v):
+        if not all(0.0 < x <= 60.0 for x in v):
+            raise ValueError("every value must be > 0 and ≤ 60")
+        return v
+
+
+def applicable(logs: list[LogFacts], params: DovStudyParams) -> list[Reason]:
+    """The DOV study takes its reference trajectory from GNSS."""
+    return (needs_gnss(logs, "the DOV pipeline needs GNSS for the reference trajectory")
+            + rate_within_imu(logs, params.output_rate_hz))
+
 
 
 def _grid(params, lat_deg, lon_deg, progress) -> DovGrid:
@@ -214,4 +241,16 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=s, tables={"dov": cols}, warnings=warnings)
 
 
-PIPELINE = Pipeline("dov", run, PARAMS, "DOV-induced INS position error and its compensation")
+def cli_setup() -> None:
+    """Before a CLI run: synthesized grids are cached in the application's database."""
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.db import upgrade_head
+    from ldvsurvey.store.gridcache import DbGridCache
+
+    url = get_settings().resolved_database_url()
+    upgrade_head(url)
+    GRID_CACHE.set(DbGridCache(url))
+
+
+PIPELINE = Pipeline("dov", run, DovStudyParams, "DOV-induced INS position error and its compensation",
+                    applicable=applicable, cli_setup=cli_setup)

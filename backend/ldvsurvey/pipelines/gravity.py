@@ -12,34 +12,85 @@ noise and the FIR's noise gain, printed beside the measured figure.
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
+from pydantic import Field, field_validator
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.gravity import MGAL
-from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.base import (LogFacts, Pipeline, PipelineResult, Reason, needs_gnss, output_rate,
+                                      rate_within_imu, window_inside)
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_report import block, chain_difference, evaluate, floor_of
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.prep import gnss_aid, gnss_ins, navigate
-from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of
+from ldvsurvey.pipelines.stages import CalibrationParams, calibration_applicable, ldv_aid_of
 
-PARAMS = [
-    Param("fir_length_s", "float", 150.0, "FIR filter length L in s (cut-off 1/L Hz)"),
-    Param("lines", "str", None, "survey lines as t0-t1 pairs, comma separated (default: manifest lines, "
-          "else detected repeated passes)"),
-    Param("spacing_m", "float", 10.0, "spacing of the common along-track points"),
-    Param("output_rate_hz", "float", 1.0, "rate of gravity.csv"),
-    Param("gnss_comparison", "bool", True, "also run the SINS/GNSS chain when GNSS is present"),
-    Param("gnss_fixes", "str", "4", "GNSS fix qualities the SINS/GNSS chain uses (comma separated; 4 = RTK fixed)"),
-    Param("gnss_aided", "bool", False, "also compute the LDV gravity on an LDV+GNSS navigation and show both"),
-    Param("drift_correction", "str", "auto", "vertical accelerometer drift tied at repeated stops: auto (where "
-          "significant against the stops' noise), stops (always) or none", choices=("auto", "stops", "none")),
-    Param("line_leveling", "str", "none", "shift every line by its mean residual about the mean line "
-          "(bias) or not (none)", choices=("none", "bias")),
-    Param("line_end_trim_s", "float", None, "time trimmed at both ends of every line (default: half the FIR "
-          "length, the filter's main lobe); 0 keeps the whole line"),
-] + calibration_params()
+class GravityParams(CalibrationParams):
+    """Parameters of ``gravity``."""
+
+    fir_length_s: float = Field(150.0, ge=10.0, le=3600.0, description="FIR filter length L in s (cut-off "
+                                "1/L Hz; 10 to 3600 s)")
+    lines: str | None = Field(None, max_length=10000, description="survey lines as t0-t1 pairs in s, comma "
+                              "separated (default: manifest lines, else detected repeated passes)")
+    spacing_m: float = Field(10.0, gt=0.0, le=1000.0, description="spacing of the common along-track points "
+                             "in m (0 to 1000 m)")
+    output_rate_hz: float = output_rate(1.0, "gravity.csv")
+    gnss_comparison: bool = Field(True, description="also run the SINS/GNSS chain when GNSS is present")
+    gnss_fixes: str = Field("4", max_length=20, description="GNSS fix qualities the SINS/GNSS chain uses "
+                            "(comma separated; 4 = RTK fixed)")
+    gnss_aided: bool = Field(False, description="also compute the LDV gravity on an LDV+GNSS navigation and "
+                             "show both")
+    drift_correction: Literal["auto", "stops", "none"] = Field(
+        "auto", description="vertical accelerometer drift tied at repeated stops: auto (where significant "
+        "against the stops' noise), stops (always) or none")
+    line_leveling: Literal["none", "bias"] = Field(
+        "none", description="shift every line by its mean residual about the mean line (bias) or not (none)")
+    line_end_trim_s: float | None = Field(None, ge=0.0, le=3600.0, description="time in s trimmed at both "
+                                          "ends of every line (default: half the FIR length, the filter's "
+                                          "main lobe); 0 keeps the whole line")
+
+    @field_validator("lines")
+    @classmethod
+    def _lines(cls, v):
+        if v is not None:
+            try:
+                parse_lines(v)
+            except ParameterError as exc:
+                raise ValueError(exc.message) from None
+        return v
+
+    @field_validator("gnss_fixes")
+    @classmethod
+    def _fixes(cls, v):
+        try:
+            parse_fixes(v)
+        except ParameterError as exc:
+            raise ValueError(exc.message) from None
+        return v
+
+
+def applicable(logs: list[LogFacts], params: GravityParams) -> list[Reason]:
+    """Two survey lines at least (given, from the manifests, or detectable in a log without manifest
+    lines), given lines inside every log, GNSS where the LDV+GNSS navigation is asked for."""
+    out = calibration_applicable(logs, params) + rate_within_imu(logs, params.output_rate_hz)
+    if params.gnss_aided:
+        out += needs_gnss(logs, "gnss_aided needs GNSS", "gnss_aided")
+    if params.lines:
+        pairs = parse_lines(params.lines)
+        for nm, a, b in pairs:
+            out += window_inside(logs, (a, b), "lines")
+        n = len(pairs) * len(logs)
+    elif all(f.lines for f in logs):
+        n = sum(len(f.lines) for f in logs)
+    else:
+        n = 2  # a log without manifest lines: repeated passes are detected in the navigation
+    if n < 2:
+        out.append(Reason("lines", f"fewer than two survey lines ({n}) in the chosen log(s): give manifest "
+                                   "lines, lines=t0-t1,t0-t1 or a second log"))
+    return out
 
 
 def parse_lines(text):
@@ -227,5 +278,5 @@ def gravity_table(chains, res, rate_hz, extra):
     return {k: (np.array(v, dtype=float) if k != "line" else v) for k, v in cols.items()}
 
 
-PIPELINE = Pipeline("gravity", run, PARAMS, "Strapdown gravity, repeated-line coincidence, SINS/GNSS comparison",
-                    multi_input=True)
+PIPELINE = Pipeline("gravity", run, GravityParams, "Strapdown gravity, repeated-line coincidence, SINS/GNSS comparison",
+                    multi_input=True, applicable=applicable)

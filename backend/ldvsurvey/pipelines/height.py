@@ -9,17 +9,25 @@ Judged against GNSS ellipsoidal height at fix 4 or 2, brought from the antenna t
 from __future__ import annotations
 
 import numpy as np
+from pydantic import Field
 
 from ldvsurvey.nav.filter import forward_accel_mps2, ldv_spikes
-from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.base import LogFacts, Pipeline, PipelineResult, Reason, output_rate, rate_within_imu
 from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
-from ldvsurvey.pipelines.plumb import apply_dov, dov_params
-from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_body_velocity, ldv_setup
+from ldvsurvey.pipelines.plumb import DovParams, apply_dov
+from ldvsurvey.pipelines.stages import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_body_velocity, ldv_setup
 
-PARAMS = calibration_params() + dov_params("egm2008") + [
-    Param("initial_h_m", "float", None, "height of the IMU centre at the start (default: manifest, else GNSS)"),
-    Param("output_rate_hz", "float", 100.0, "rate of height.csv"),
-]
+class HeightParams(CalibrationParams, DovParams):
+    """Parameters of ``height``."""
+
+    initial_h_m: float | None = Field(None, ge=-1000.0, le=9000.0, description="height in m of the IMU "
+                                      "centre at the start (−1000 to 9000 m; default: manifest, else GNSS)")
+    output_rate_hz: float = output_rate(100.0, "height.csv")
+
+
+def applicable(logs: list[LogFacts], params: HeightParams) -> list[Reason]:
+    """A calibration window must lie inside the log; the output rate is at most the IMU rate."""
+    return calibration_applicable(logs, params) + rate_within_imu(logs, params.output_rate_hz)
 
 
 def integrate_height(t_l, c_bn_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0,
@@ -127,4 +135,5 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=summary, tables={"height": table}, warnings=warnings)
 
 
-PIPELINE = Pipeline("height", run, PARAMS, "Height from the 1-D LDV and the (tilt-compensated) INS attitude")
+PIPELINE = Pipeline("height", run, HeightParams, "Height from the 1-D LDV and the (tilt-compensated) INS attitude",
+                    applicable=applicable)

@@ -2,23 +2,35 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
+from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
-from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.base import LogFacts, Pipeline, PipelineResult, Reason, needs_gnss, output_rate, rate_within_imu
 from ldvsurvey.pipelines.prep import attitude_at, gnss_aid, nav_inputs, navigate
-from ldvsurvey.pipelines.plumb import apply_dov, dov_params
-from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of, ldv_setup
+from ldvsurvey.pipelines.plumb import DOV_HELP, DovChoice, DovParams, apply_dov
+from ldvsurvey.units import DEG_PER_RAD as DEG
+from ldvsurvey.pipelines.stages import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_setup
 
-PARAMS = [
-    Param("aiding", "str", "ldv", "ldv, gnss or ldv+gnss", choices=("ldv", "gnss", "ldv+gnss")),
-    Param("smooth", "bool", True, "run the RTS smoother after the forward filter"),
-    Param("output_rate_hz", "float", 10.0, "rate of trajectory.csv"),
-] + calibration_params() + dov_params("none")
 
-DEG = 180.0 / np.pi
+class NavigateParams(CalibrationParams, DovParams):
+    """Parameters of ``navigate`` (deflection of the vertical off by default)."""
+
+    aiding: Literal["ldv", "gnss", "ldv+gnss"] = Field("ldv", description="ldv, gnss or ldv+gnss")
+    smooth: bool = Field(True, description="run the RTS smoother after the forward filter")
+    output_rate_hz: float = output_rate(10.0, "trajectory.csv")
+    dov: DovChoice = Field("none", description=DOV_HELP)
+
+
+def applicable(logs: list[LogFacts], params: NavigateParams) -> list[Reason]:
+    """GNSS aiding needs GNSS; a calibration window must lie inside the log."""
+    gnss = needs_gnss(logs, "aiding includes gnss", "aiding") if "gnss" in params.aiding else []
+    return gnss + calibration_applicable(logs, params) + rate_within_imu(logs, params.output_rate_hz)
+
 
 
 def run_navigation(log, params, progress):
@@ -98,4 +110,5 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=s, tables={"trajectory": table}, warnings=warnings)
 
 
-PIPELINE = Pipeline("navigate", run, PARAMS, "SINS/LDV (and/or GNSS) navigation with RTS smoothing")
+PIPELINE = Pipeline("navigate", run, NavigateParams, "SINS/LDV (and/or GNSS) navigation with RTS smoothing",
+                    applicable=applicable)

@@ -9,14 +9,16 @@ Sources: the built-in EGM2008 synthesized on a 1′ grid around the track, or th
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
+from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.nav.dovgrid import ARCSEC, DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.pipelines.base import Param
+from ldvsurvey.pipelines.base import Params, Paths
 from ldvsurvey.pipelines.prep import NavInputs
 
 EGM_STEP_ARCMIN = 1.0
@@ -24,15 +26,19 @@ EGM_DEGREE = 2190
 _EGM_MEMO: dict = {}  # in-process memo of synthesized grids (the job runner adds a database cache)
 
 
-def dov_params(default: str) -> list[Param]:
-    return [
-        Param("dov", "str", default, "deflection of the vertical in the mechanization's gravity: none (normal "
-              "gravity, the INS levels to the plumb line), egm2008 (built-in model, 1′ grid) or grid (dov_grid)",
-              choices=("none", "egm2008", "grid")),
-        Param("dov_grid", "paths", None, "ICGEM .gdf grids ξ,η (arcsec) and optionally Δg (mGal), comma separated "
-              "(with dov=grid)"),
-        Param("dov_grid_id", "str", None, "id of grids uploaded with POST /api/grids (with dov=grid)"),
-    ]
+DovChoice = Literal["none", "egm2008", "grid"]
+DOV_HELP = ("deflection of the vertical in the mechanization's gravity: none (normal gravity, the INS levels "
+            "to the plumb line), egm2008 (built-in model, 1′ grid) or grid (dov_grid)")
+
+
+class DovParams(Params):
+    """The deflection-of-the-vertical parameters of the navigating pipelines (default: EGM2008)."""
+
+    dov: DovChoice = Field("egm2008", description=DOV_HELP)
+    dov_grid: Paths | None = Field(None, description="ICGEM .gdf grids ξ,η (arcsec) and optionally Δg (mGal), "
+                                   "comma separated (with dov=grid; server files, not accepted by the API)")
+    dov_grid_id: str | None = Field(None, max_length=200,
+                                    description="id of grids uploaded with POST /api/grids (with dov=grid)")
 
 
 def load_grids(paths) -> DovGrid:

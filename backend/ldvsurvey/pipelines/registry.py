@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.pipelines import calibrate, damping, dov, gravity, height, navigate, tilt
-from ldvsurvey.pipelines.base import Pipeline, parse_set_args, run_pipeline, write_result
+from ldvsurvey.pipelines.base import LogFacts, Pipeline, parse_set_args, run_pipeline, write_result
 
 PIPELINES: dict[str, Pipeline] = {p.name: p for p in (calibrate.PIPELINE, tilt.PIPELINE, height.PIPELINE,
                                                      navigate.PIPELINE, gravity.PIPELINE,
@@ -28,17 +28,11 @@ def run_pipeline_cli(name: str, bundles: list[str], out: str, sets: list[str]) -
 
     pipe = get(name)
     params = parse_set_args(sets)
-    pipe.resolve(params)  # unknown or malformed parameters fail before any work
+    pipe.validate(params)  # unknown, malformed or out-of-range parameters fail before any work
     logs = [load_bundle(b) for b in bundles]
-    if name == "dov":  # synthesized grids are cached in the application's database
-        from ldvsurvey.pipelines.dov import GRID_CACHE
-        from ldvsurvey.settings import get_settings
-        from ldvsurvey.store.db import upgrade_head
-        from ldvsurvey.store.gridcache import DbGridCache
-
-        url = get_settings().resolved_database_url()
-        upgrade_head(url)
-        GRID_CACHE.set(DbGridCache(url))
+    pipe.check([LogFacts.of_log(log) for log in logs], params)  # and a pipeline that cannot apply
+    if pipe.cli_setup is not None:
+        pipe.cli_setup()
 
     def report(stage, frac):
         print(f"[{frac * 100:5.1f} %] {stage}", file=sys.stderr)

@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
+from pydantic import Field, field_validator
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import forward_accel_mps2
 from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
-from ldvsurvey.pipelines.base import warn
+from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Reason, warn, window_inside
 from ldvsurvey.pipelines.prep import (NavInputs, attitude_at, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate,
                                       pipeline_cfg)
 
@@ -272,20 +274,40 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     return cal
 
 
-#: the parameters shared by every pipeline that navigates with a calibrated LDV
-def calibration_params():
-    from ldvsurvey.pipelines.base import Param
+class CalibrationParams(Params):
+    """The parameters shared by every pipeline that navigates with a calibrated LDV."""
 
-    return [
-        Param("calibration", "str", "auto", "auto: calibrate the LDV against GNSS in this log; nominal: use the "
-              "manifest's nominal mounting; given values of ldv_* always win", choices=("auto", "nominal")),
-        Param("calibration_window", "floats", None, "t0,t1 in s for the automatic calibration"),
-        Param("ldv_pitch_deg", "float", None, "LDV mounting pitch η_L"),
-        Param("ldv_heading_deg", "float", None, "LDV mounting heading φ_L"),
-        Param("ldv_scale", "float", None, "LDV scale factor K"),
-        Param("ldv_pitch_k_rad_per_mps2", "float", None, "pitch compliance k_η: pitch of the travel direction "
-              "the LDV sees per m/s² of forward acceleration (squat/dive), rad per m/s²"),
-    ]
+    calibration: Literal["auto", "nominal"] = Field(
+        "auto", description="auto: calibrate the LDV against GNSS in this log; nominal: use the manifest's "
+        "nominal mounting; given values of ldv_* always win")
+    calibration_window: Floats | None = Field(
+        None, description="t0,t1 in s (time of day, inside the log) for the automatic calibration")
+    ldv_pitch_deg: float | None = Field(None, ge=-45.0, le=45.0,
+                                        description="LDV mounting pitch η_L in degrees (|η_L| ≤ 45°)")
+    ldv_heading_deg: float | None = Field(None, ge=-360.0, le=360.0,
+                                          description="LDV mounting heading φ_L in degrees (−360° to 360°)")
+    ldv_scale: float | None = Field(None, ge=0.5, le=1.5, description="LDV scale factor K (dimensionless, "
+                                    "0.5 to 1.5: a calibration near 1)")
+    ldv_pitch_k_rad_per_mps2: float | None = Field(
+        None, ge=-0.02, le=0.02, description="pitch compliance k_η: pitch of the travel direction the LDV "
+        "sees per m/s² of forward acceleration (squat/dive), rad per m/s² (|k_η| ≤ 0.02, about 11° per g)")
+
+    @field_validator("calibration_window")
+    @classmethod
+    def _window(cls, v):
+        return time_window(v)
+
+
+def time_window(v):
+    """A ``t0,t1`` window in s: two finite numbers, t1 > t0."""
+    if v is not None and (len(v) != 2 or not v[1] > v[0]):
+        raise ValueError("expected two times t0,t1 in s with t1 > t0")
+    return v
+
+
+def calibration_applicable(logs: list[LogFacts], params) -> list[Reason]:
+    """The calibration window, when given, lies inside the log."""
+    return window_inside(logs, params.calibration_window, "calibration_window")
 
 
 @dataclass

@@ -3,20 +3,33 @@
 from __future__ import annotations
 
 import numpy as np
+from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.tilt import oscillation_per_cycle
-from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
+from ldvsurvey.pipelines.base import LogFacts, Params, Pipeline, PipelineResult, Reason, output_rate, rate_within_imu
 from ldvsurvey.pipelines.prep import c_bs_of, ldv_aid, nav_inputs, navigate
-from ldvsurvey.pipelines.stages import RAD, tilt_stage
+from ldvsurvey.pipelines.stages import tilt_stage
+from ldvsurvey.units import RAD_PER_DEG as RAD
 
-PARAMS = [
-    Param("output_rate_hz", "float", 10.0, "rate of attitude.csv"),
-    Param("ldv_pitch_deg", "float", None, "LDV mounting pitch for the aiding (default: manifest nominal)"),
-    Param("ldv_heading_deg", "float", None, "LDV mounting heading (default: manifest nominal)"),
-    Param("ldv_scale", "float", None, "LDV scale factor (default: manifest nominal)"),
-]
+class TiltParams(Params):
+    """Parameters of ``tilt``."""
+
+    output_rate_hz: float = output_rate(10.0, "attitude.csv")
+    ldv_pitch_deg: float | None = Field(None, ge=-45.0, le=45.0, description="LDV mounting pitch in degrees "
+                                        "for the aiding (|η_L| ≤ 45°; default: manifest nominal)")
+    ldv_heading_deg: float | None = Field(None, ge=-360.0, le=360.0, description="LDV mounting heading in "
+                                          "degrees (−360° to 360°; default: manifest nominal)")
+    ldv_scale: float | None = Field(None, ge=0.5, le=1.5, description="LDV scale factor (0.5 to 1.5; "
+                                    "default: manifest nominal)")
+
+
+def applicable(logs: list[LogFacts], params: TiltParams) -> list[Reason]:
+    """Base tilt is estimated from the turntable's rotation: only a rotating IMU has one."""
+    return ([Reason("imu.rotating", f"tilt compensation is for a rotating IMU: log '{f.name}' has a fixed "
+                                    "IMU (manifest imu.rotating is false)") for f in logs if not f.imu_rotating]
+            + rate_within_imu(logs, params.output_rate_hz))
 
 
 def compensated_attitude(inp, est, params, progress, frac=0.4):
@@ -88,4 +101,5 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=s, tables={"attitude": table}, warnings=warnings)
 
 
-PIPELINE = Pipeline("tilt", run, PARAMS, "Base-tilt compensation of a single-axis rotation INS")
+PIPELINE = Pipeline("tilt", run, TiltParams, "Base-tilt compensation of a single-axis rotation INS",
+                    applicable=applicable)
