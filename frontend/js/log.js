@@ -9,7 +9,9 @@ const stream = (name, s, notes) => html`<tr><td>${name}</td><td>${num(s.n)}</td>
   <td>${notes}</td></tr>`;
 
 export async function logPage(ctx, app, id) {
-  const [log, pipes] = await Promise.all([api(`/api/logs/${id}`), api("/api/pipelines")]);
+  const [log, pipes] = await Promise.all([api(`/api/logs/${id}`), api(`/api/pipelines?log_id=${id}`)]);
+  // offer only the pipelines that apply to this log; say why the others do not
+  const usable = pipes.filter((p) => p.applicable !== false), refused = pipes.filter((p) => p.applicable === false);
   if (!ctx.alive) return;
   const q = log.quality || {}, g = q.gnss;
   render(app, html`<h2>${log.name}</h2>
@@ -22,20 +24,21 @@ export async function logPage(ctx, app, id) {
     .join(", ")}; ${num(g.bad_checksum)} bad checksums`) : ""}
   </table>${(q.warnings || []).map((w) => html`<p class="badge warn">${w}</p>`)}
   ${g ? html`<div id="fixplot" class="plot short"></div>` : ""}</div>
-  <div class="card"><h3>Run a pipeline</h3><select id="pipe">${pipes.map((p) =>
+  <div class="card"><h3>Run a pipeline</h3><select id="pipe">${usable.map((p) =>
     html`<option value="${p.name}">${p.name} — ${p.description}</option>`)}</select>
-   <div id="params"></div><button id="start">Start</button> <span id="startmsg"></span></div>
+   <div id="params"></div><button id="start">Start</button> <span id="startmsg"></span>
+   ${refused.length ? html`<details id="notapplicable"><summary>Not for this log: ${refused.map((p) => p.name)
+    .join(", ")}</summary><ul>${refused.map((p) => html`<li data-na="${p.name}"><b>${p.name}</b>: ${p.reasons
+    .join("; ")}</li>`)}</ul></details>` : ""}</div>
   <div class="card"><h3>Jobs</h3><table id="jobs" class="jobs"><tbody></tbody></table></div>
   <p>Original files: ${log.files.map((f, i) => html`${i ? " · " : ""}<a
     href="/api/logs/${id}/files/${encodeURIComponent(f.name)}">${f.name}</a>`)}</p>`);
   if (g) fixPlot($("#fixplot"), g.fix_timeline);
   const sel = $("#pipe"), box = $("#params");
   const showParams = () => {
-    const p = pipes.find((x) => x.name === sel.value);
-    render(box, html`${p.parameters.map((a) => html`<label title="${a.help}">${a.name}
-      ${a.choices ? html`<select data-p="${a.name}">${a.choices.map((c) =>
-    html`<option ${c === a.default ? "selected" : ""}>${c}</option>`)}</select>`
-    : html`<input type="text" data-p="${a.name}" placeholder="${a.default ?? ""}" value="">`}</label>`)}
+    const p = usable.find((x) => x.name === sel.value);
+    if (!p) return render(box, html`<p>No pipeline applies to this log.</p>`);
+    render(box, html`${Object.entries(p.schema.properties).map(([name, s]) => paramInput(name, s))}
       ${p.multi_input ? html`<label>other log ids <input type="text" id="extra" placeholder="e.g. 3,4">
       </label>` : ""}`);
   };
@@ -56,6 +59,28 @@ export async function logPage(ctx, app, id) {
   });
   await refreshJobs(ctx, id);
   ctx.every(() => refreshJobs(ctx, id), 1000);
+}
+
+// One form field from a parameter's JSON schema (pydantic): a choice list for enums and booleans, a
+// number input with the model's bounds for numbers, text for lists ("1,2,3") and strings. Left empty,
+// the parameter is not sent and the server's default applies.
+function paramInput(name, schema) {
+  const s = (schema.anyOf || [schema]).find((a) => a.type !== "null") || schema;
+  const dflt = schema.default;
+  const label = (field) => html`<label title="${schema.description || ""}">${name} ${field}</label>`;
+  if (s.enum || s.type === "boolean") {
+    const opts = s.enum || [true, false];
+    return label(html`<select data-p="${name}">${opts.map((c) =>
+      html`<option value="${String(c)}" ${c === dflt ? "selected" : ""}>${String(c)}</option>`)}</select>`);
+  }
+  if (s.type === "number" || s.type === "integer") {
+    const lo = s.minimum ?? s.exclusiveMinimum, hi = s.maximum ?? s.exclusiveMaximum;
+    return label(html`<input type="number" data-p="${name}" step="${s.type === "integer" ? 1 : "any"}"
+      ${lo !== undefined ? html`min="${lo}"` : ""} ${hi !== undefined ? html`max="${hi}"` : ""}
+      placeholder="${dflt ?? ""}" value="">`);
+  }
+  const text = Array.isArray(dflt) ? dflt.join(",") : dflt ?? "";
+  return label(html`<input type="text" data-p="${name}" placeholder="${text}" value="">`);
 }
 
 async function refreshJobs(ctx, id) {
