@@ -16,8 +16,8 @@ import numpy as np
 from ldvsurvey.nav import kfloop
 from ldvsurvey.nav.attitude import c_from_q
 from ldvsurvey.nav.earth import ARCSEC, MGAL
+from ldvsurvey.units import RAD_PER_DEG
 
-DEG = np.pi / 180.0
 AUG_NAMES = ("scale", "pitch", "heading", "scale_up", "pitch_k")
 
 
@@ -70,7 +70,7 @@ class ImuNoise:
         q = np.zeros(6)
         tau = self.bias_correlation_s
         if tau:
-            sg = (self.gyro_bias_instability_dph or 0.0) * DEG / 3600.0
+            sg = (self.gyro_bias_instability_dph or 0.0) * RAD_PER_DEG / 3600.0
             sa = (self.accel_bias_instability_ug or 0.0) * 9.80665e-6
             inv[:] = 1.0 / tau
             q[:3], q[3:] = 2 * sg ** 2 / tau, 2 * sa ** 2 / tau
@@ -78,7 +78,7 @@ class ImuNoise:
 
     @property
     def gyro_bias_rps(self) -> float:
-        return self.gyro_bias_dph * DEG / 3600.0
+        return self.gyro_bias_dph * RAD_PER_DEG / 3600.0
 
     @property
     def accel_bias_mps2(self) -> float:
@@ -87,7 +87,7 @@ class ImuNoise:
     @property
     def arw_psd(self) -> float:
         """Angle random walk PSD, rad²/s."""
-        return (self.gyro_arw_dprh * DEG / 60.0) ** 2
+        return (self.gyro_arw_dprh * RAD_PER_DEG / 60.0) ** 2
 
     @property
     def vrw_psd(self) -> float:
@@ -100,7 +100,7 @@ class FilterConfig:
     """Tuning. Angles in rad, velocities in m/s, positions in m."""
 
     rate_hz: float = 10.0  #: filter epoch rate
-    att_sigma0_rad: tuple[float, float, float] = (20 * ARCSEC, 20 * ARCSEC, 0.5 * DEG)
+    att_sigma0_rad: tuple[float, float, float] = (20 * ARCSEC, 20 * ARCSEC, 0.5 * RAD_PER_DEG)
     vel_sigma0_mps: float = 0.05
     pos_sigma0_m: float = 1.0
     zupt_sigma_mps: float = 0.003
@@ -116,8 +116,8 @@ class FilterConfig:
     ldv_aug: tuple[str, ...] = ()  #: subset of AUG_NAMES to estimate
     #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad,
     #: pitch compliance k_η in rad per m/s² (0.01 ≈ 5.6° per g, twice the softest car suspension)
-    ldv_aug_sigma0: dict = field(default_factory=lambda: {"scale": 0.01, "pitch": 1 * DEG,
-                                                          "heading": 1 * DEG, "scale_up": 0.01,
+    ldv_aug_sigma0: dict = field(default_factory=lambda: {"scale": 0.01, "pitch": 1 * RAD_PER_DEG,
+                                                          "heading": 1 * RAD_PER_DEG, "scale_up": 0.01,
                                                           "pitch_k": 0.01})
 
 
@@ -250,7 +250,7 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
         n += 1
     s_att = np.asarray(cfg.att_sigma0_rad, float)
     # bias priors never zero (a manifest may say 0): that would make P⁻ singular for the smoother
-    sg = max(noise.gyro_bias_rps, 1e-4 * DEG / 3600.0)
+    sg = max(noise.gyro_bias_rps, 1e-4 * RAD_PER_DEG / 3600.0)
     sa = max(noise.accel_bias_mps2, 1e-6 * 9.80665)
     p0 = np.concatenate([s_att ** 2, np.full(3, cfg.vel_sigma0_mps ** 2), np.full(3, cfg.pos_sigma0_m ** 2),
                          np.full(3, sg ** 2), np.full(3, sa ** 2),

@@ -21,7 +21,7 @@ from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, ldv_spikes, run_filter
 
-RAD = np.pi / 180.0
+from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402
 #: fix quality -> 1-σ (horizontal, vertical) in m assumed for a survey receiver
 GNSS_SIGMA = {4: (0.03, 0.05), 5: (0.3, 0.5), 2: (1.0, 2.0), 1: (3.0, 5.0)}
 

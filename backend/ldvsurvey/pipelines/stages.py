@@ -16,9 +16,7 @@ from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Reason, warn, win
 from ldvsurvey.pipelines.prep import (NavInputs, attitude_at, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate,
                                       pipeline_cfg)
 
-RAD = np.pi / 180.0
-ARCSEC = RAD / 3600.0
-G0 = 9.80665
+from ldvsurvey.units import G0_MPS2 as G0, RAD_PER_DEG as RAD  # noqa: E402
 
 
 def static_part(inp: NavInputs) -> NavInputs:

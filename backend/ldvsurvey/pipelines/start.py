@@ -14,7 +14,7 @@ from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs
 from ldvsurvey.nav.earth import radii
 
-RAD = np.pi / 180.0
+from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402
 
 #: still: LDV speed below this (m/s)
 STILL_SPEED_MPS = 0.03

@@ -9,7 +9,7 @@ from ldvsurvey.nav.sim.road import Ramps, Road
 from ldvsurvey.nav.sim.scenario import Scenario
 from ldvsurvey.nav.sim.sensors import LdvSpecSim
 
-RAD = np.pi / 180.0
+from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402  (rad per degree)
 
 
 def drive(minutes: float = 40.0, speed_mps: float = 15.0, **kw) -> Scenario:

@@ -52,7 +52,7 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
-DEG = np.pi / 180.0
+from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)
 
 
 @dataclass(frozen=True)

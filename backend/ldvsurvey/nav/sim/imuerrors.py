@@ -24,7 +24,7 @@ from scipy.signal import lfilter
 from ldvsurvey.nav.sim.effects import ImuErrorSpec, ImuTiming
 
 G0 = 9.80665
-DEG = np.pi / 180.0
+from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)
 
 
 def misalignment(scale_ppm, nonorth_urad) -> np.ndarray:

@@ -18,7 +18,7 @@ from ldvsurvey.nav.sim.imu import rates
 from ldvsurvey.nav.sim.motion import Motion
 
 G0 = 9.80665
-DEG = np.pi / 180.0
+from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)
 
 #: fix quality -> total (horizontal σ, vertical σ) in m of the simulated receiver
 FIX_SIGMA = {4: (0.02, 0.03), 5: (0.15, 0.25), 2: (0.5, 0.9), 1: (2.0, 3.5)}
