@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import RectBivariateSpline, RegularGridInterpolator
 
-ARCSEC = np.pi / 180 / 3600
+from ldvsurvey.units import RAD_PER_ARCSEC as ARCSEC  # noqa: E402  (rad per arcsecond)
 
 
 @dataclass

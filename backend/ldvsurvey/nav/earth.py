@@ -18,8 +18,8 @@ GM = 3.986004418e14  #: m³/s²
 GAMMA_E = 9.7803253359  #: normal gravity at the equator, m/s²
 K_SOMIGLIANA = 0.00193185265241
 M_RATIO = OMEGA_IE ** 2 * A_M ** 2 * B_M / GM  #: m = ω² a² b / GM
-MGAL = 1e-5  #: 1 mGal in m/s²
-ARCSEC = np.pi / 180.0 / 3600.0  #: 1 arcsecond in rad
+from ldvsurvey.units import MPS2_PER_MGAL as MGAL  # noqa: E402, F401  (re-exported; 1 mGal in m/s²)
+from ldvsurvey.units import RAD_PER_ARCSEC as ARCSEC  # noqa: E402, F401  (re-exported; 1 arcsecond in rad)
 
 
 @nb.njit(cache=True)

@@ -27,7 +27,7 @@ from ldvsurvey.nav.attitude import c_bn_from_euler
 from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.nav.sim.effects import BodyAttitude
 
-G0 = 9.80665
+from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 H_S = 1e-4
 
 

@@ -23,7 +23,7 @@ from scipy.signal import lfilter
 
 from ldvsurvey.nav.sim.effects import ImuErrorSpec, ImuTiming
 
-G0 = 9.80665
+from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)
 
 

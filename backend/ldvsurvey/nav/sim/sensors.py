@@ -17,7 +17,7 @@ from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.nav.sim.imu import rates
 from ldvsurvey.nav.sim.motion import Motion
 
-G0 = 9.80665
+from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)
 
 #: fix quality -> total (horizontal σ, vertical σ) in m of the simulated receiver
