@@ -79,6 +79,15 @@ def _split(value):
     return value
 
 
+def _text(value):
+    """A number given where text is expected (``gnss_fixes=4``) is taken as its text, as before."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return str(value)
+    return value
+
+
+#: text that also accepts a bare number (``4`` for ``"4"``)
+Text = Annotated[str, BeforeValidator(_text)]
 #: a list of numbers given as a JSON list or as ``"1,2,3"``
 Floats = Annotated[list[float], BeforeValidator(_split)]
 #: a list of server-side file paths given as a JSON list or as ``"a.gdf,b.gdf"``

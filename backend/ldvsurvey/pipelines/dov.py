@@ -20,7 +20,7 @@ from ldvsurvey.nav.dov import initial_misalignment, propagate
 from ldvsurvey.nav.dovgrid import DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import OMEGA_IE, enu_offset_m, normal_gravity, radii
 from ldvsurvey.nav.mech import mechanize
-from ldvsurvey.pipelines.base import (Floats, LogFacts, Params, Paths, Pipeline, PipelineResult, Reason,
+from ldvsurvey.pipelines.base import (Floats, LogFacts, Params, Paths, Pipeline, PipelineResult, Reason, Text,
                                       needs_gnss, output_rate, rate_within_imu)
 from ldvsurvey.pipelines.prep import c_bs_of, gnss_ins, nav_inputs
 from ldvsurvey.pipelines.stages import tilt_stage
@@ -44,7 +44,7 @@ class DovStudyParams(Params):
     propagation_model: Literal["full", "paper"] = Field(
         "full", description="full: with the Coriolis coupling of the velocity errors; paper: eq. 10 exactly "
         "(Coriolis neglected)")
-    imu_nodov: str | None = Field(None, description="imu.csv-format file of the same drive without the DOV "
+    imu_nodov: Text | None = Field(None, description="imu.csv-format file of the same drive without the DOV "
                                   "(simulation only; server file, not accepted by the API)")
     compensation: bool = Field(True, description="run the grid-step × update-interval compensation study")
     compensation_steps_arcmin: Annotated[Floats, Field(min_length=1, max_length=20)] = Field(

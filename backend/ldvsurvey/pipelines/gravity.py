@@ -19,7 +19,7 @@ from pydantic import Field, field_validator
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.gravity import MGAL
-from ldvsurvey.pipelines.base import (LogFacts, Pipeline, PipelineResult, Reason, needs_gnss, output_rate,
+from ldvsurvey.pipelines.base import (LogFacts, Pipeline, PipelineResult, Reason, Text, needs_gnss, output_rate,
                                       rate_within_imu, window_inside)
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
@@ -33,13 +33,13 @@ class GravityParams(CalibrationParams):
 
     fir_length_s: float = Field(150.0, ge=10.0, le=3600.0, description="FIR filter length L in s (cut-off "
                                 "1/L Hz; 10 to 3600 s)")
-    lines: str | None = Field(None, max_length=10000, description="survey lines as t0-t1 pairs in s, comma "
+    lines: Text | None = Field(None, max_length=10000, description="survey lines as t0-t1 pairs in s, comma "
                               "separated (default: manifest lines, else detected repeated passes)")
     spacing_m: float = Field(10.0, gt=0.0, le=1000.0, description="spacing of the common along-track points "
                              "in m (0 to 1000 m)")
     output_rate_hz: float = output_rate(1.0, "gravity.csv")
     gnss_comparison: bool = Field(True, description="also run the SINS/GNSS chain when GNSS is present")
-    gnss_fixes: str = Field("4", max_length=20, description="GNSS fix qualities the SINS/GNSS chain uses "
+    gnss_fixes: Text = Field("4", max_length=20, description="GNSS fix qualities the SINS/GNSS chain uses "
                             "(comma separated; 4 = RTK fixed)")
     gnss_aided: bool = Field(False, description="also compute the LDV gravity on an LDV+GNSS navigation and "
                              "show both")

@@ -18,7 +18,7 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.nav.dovgrid import ARCSEC, DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.pipelines.base import Params, Paths
+from ldvsurvey.pipelines.base import Params, Paths, Text
 from ldvsurvey.pipelines.prep import NavInputs
 
 EGM_STEP_ARCMIN = 1.0
@@ -37,7 +37,7 @@ class DovParams(Params):
     dov: DovChoice = Field("egm2008", description=DOV_HELP)
     dov_grid: Paths | None = Field(None, description="ICGEM .gdf grids ξ,η (arcsec) and optionally Δg (mGal), "
                                    "comma separated (with dov=grid; server files, not accepted by the API)")
-    dov_grid_id: str | None = Field(None, max_length=200,
+    dov_grid_id: Text | None = Field(None, max_length=200,
                                     description="id of grids uploaded with POST /api/grids (with dov=grid)")
 
 
