@@ -143,8 +143,12 @@ class Reason:
     message: str
 
 
-def rate_within_imu(logs: list[LogFacts], rate_hz: float, field_name: str = "output_rate_hz") -> list[Reason]:
-    """An output rate above the IMU rate of a log would only repeat samples."""
+def rate_within_imu(logs: list[LogFacts], params: Params, field_name: str = "output_rate_hz") -> list[Reason]:
+    """A given output rate above the IMU rate of a log would only repeat samples (a default above
+    it is left to the pipeline, which writes every IMU epoch)."""
+    if field_name not in params.model_fields_set:
+        return []
+    rate_hz = getattr(params, field_name)
     return [Reason(field_name, f"{rate_hz:g} Hz is above the IMU rate of '{f.name}' ({f.imu_rate_hz:g} Hz)")
             for f in logs if f.imu_rate_hz and rate_hz > f.imu_rate_hz]
 

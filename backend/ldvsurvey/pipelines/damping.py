@@ -41,7 +41,7 @@ def applicable(logs: list[LogFacts], params: DampingParams) -> list[Reason]:
             out.append(Reason("initial.static_s", f"log '{f.name}' has no manifest initial.static_s (the "
                                                   "moored period)"))
     return (out + needs_gnss(logs, "the damping comparison needs a GNSS reference")
-            + rate_within_imu(logs, params.output_rate_hz))
+            + rate_within_imu(logs, params))
 
 
 def _reference(log, t_s):

@@ -64,7 +64,7 @@ class DovStudyParams(Params):
 def applicable(logs: list[LogFacts], params: DovStudyParams) -> list[Reason]:
     """The DOV study takes its reference trajectory from GNSS."""
     return (needs_gnss(logs, "the DOV pipeline needs GNSS for the reference trajectory")
-            + rate_within_imu(logs, params.output_rate_hz))
+            + rate_within_imu(logs, params))
 
 
 

@@ -75,7 +75,7 @@ class GravityParams(CalibrationParams):
 def applicable(logs: list[LogFacts], params: GravityParams) -> list[Reason]:
     """Two survey lines at least (given, from the manifests, or detectable in a log without manifest
     lines), given lines inside every log, GNSS where the LDV+GNSS navigation is asked for."""
-    out = calibration_applicable(logs, params) + rate_within_imu(logs, params.output_rate_hz)
+    out = calibration_applicable(logs, params) + rate_within_imu(logs, params)
     if params.gnss_aided:
         out += needs_gnss(logs, "gnss_aided needs GNSS", "gnss_aided")
     if params.lines:

@@ -27,7 +27,7 @@ class HeightParams(CalibrationParams, DovParams):
 
 def applicable(logs: list[LogFacts], params: HeightParams) -> list[Reason]:
     """A calibration window must lie inside the log; the output rate is at most the IMU rate."""
-    return calibration_applicable(logs, params) + rate_within_imu(logs, params.output_rate_hz)
+    return calibration_applicable(logs, params) + rate_within_imu(logs, params)
 
 
 def integrate_height(t_l, c_bn_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0,

@@ -29,7 +29,7 @@ class NavigateParams(CalibrationParams, DovParams):
 def applicable(logs: list[LogFacts], params: NavigateParams) -> list[Reason]:
     """GNSS aiding needs GNSS; a calibration window must lie inside the log."""
     gnss = needs_gnss(logs, "aiding includes gnss", "aiding") if "gnss" in params.aiding else []
-    return gnss + calibration_applicable(logs, params) + rate_within_imu(logs, params.output_rate_hz)
+    return gnss + calibration_applicable(logs, params) + rate_within_imu(logs, params)
 
 
 

@@ -29,7 +29,7 @@ def applicable(logs: list[LogFacts], params: TiltParams) -> list[Reason]:
     """Base tilt is estimated from the turntable's rotation: only a rotating IMU has one."""
     return ([Reason("imu.rotating", f"tilt compensation is for a rotating IMU: log '{f.name}' has a fixed "
                                     "IMU (manifest imu.rotating is false)") for f in logs if not f.imu_rotating]
-            + rate_within_imu(logs, params.output_rate_hz))
+            + rate_within_imu(logs, params))
 
 
 def compensated_attitude(inp, est, params, progress, frac=0.4):
