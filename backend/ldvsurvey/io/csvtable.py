@@ -143,6 +143,7 @@ def read_numeric_csv(data: bytes, file: str, required: list[str],
     columns: dict[str, np.ndarray] = {}
     for n in wanted:
         col = table.column(n)
+        table = table.drop_columns([n])  # its Arrow buffers go once copied: one column at a time in two copies
         if col.null_count:
             r = int(np.flatnonzero(np.asarray(col.is_null()))[0])
             raise BundleError("empty cell", file=file, line=int(line_of_row[r]), field=n)
@@ -153,6 +154,7 @@ def read_numeric_csv(data: bytes, file: str, required: list[str],
             raise BundleError(f"value {values[r]} is not a finite number", file=file,
                               line=int(line_of_row[r]), field=n)
         columns[n] = values
+        del col, bad
     ignored = [n for n in names if n not in wanted]
     warnings = [f"{file}: column '{n}' is not part of the format and was ignored" for n in ignored]
     return NumericTable(file=file, columns=columns, line_of_row=line_of_row, warnings=warnings)
