@@ -70,10 +70,11 @@ def _watch(pid: int, stop: threading.Event, killed: list) -> None:
 
 
 def _run(cmd: list[str], env: dict) -> tuple[float, float, int, str]:
-    """Wall time (s), peak RSS (MB), exit code (-9: stopped above MAX_RSS_MB) and stdout of one child."""
+    """Wall time (s), peak RSS (MB), exit code (-9: stopped above MAX_RSS_MB) and stdout of one child
+    (with the end of its stderr when it failed)."""
     t0 = time.perf_counter()
-    with tempfile.TemporaryFile() as out:
-        p = subprocess.Popen(cmd, env=env, stdout=out, stderr=subprocess.DEVNULL)
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        p = subprocess.Popen(cmd, env=env, stdout=out, stderr=err)
         stop, killed = threading.Event(), []
         watcher = threading.Thread(target=_watch, args=(p.pid, stop, killed), daemon=True)
         watcher.start()
@@ -83,6 +84,9 @@ def _run(cmd: list[str], env: dict) -> tuple[float, float, int, str]:
         p.returncode = os.waitstatus_to_exitcode(status)
         out.seek(0)
         text = out.read().decode(errors="replace")
+        if p.returncode != 0:
+            err.seek(0)
+            text += "\n" + err.read().decode(errors="replace")[-600:]
     return wall, ru.ru_maxrss / 1024.0, p.returncode, text
 
 
@@ -132,9 +136,9 @@ def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool) -> 
                     cmd = [py, "-m", "ldvsurvey.cli", "run", name, str(bundle), "--out", str(Path(tmp) / "out")]
                     for s in SETS.get(name, []):
                         cmd += ["--set", s]
-                    wall, rss, rc, _ = _run(cmd, _env(cache_dir))
+                    wall, rss, rc, text = _run(cmd, _env(cache_dir))
                 _put(rows, dict(hours=h, rate_hz=rate, what=name, mode=mode, ok=rc == 0, wall_s=wall, rss_mb=rss,
-                                log_h=log_h, s_per_h=wall / log_h))
+                                log_h=log_h, s_per_h=wall / log_h, error=text[-600:] if rc else ""))
         save(rows)
 
 
@@ -159,7 +163,9 @@ def write_doc(rows: list[dict]) -> None:
              "|---|---|---|---|---|---|---|"]
     for r in rows:
         if not r["ok"]:
-            wall = f"stopped above {MAX_RSS_MB / 1024:.0f} GB" if r["rss_mb"] >= MAX_RSS_MB else "failed"
+            last = [ln for ln in r.get("error", "").splitlines() if ln.strip()][-1:] or [""]
+            wall = f"stopped above {MAX_RSS_MB / 1024:.0f} GB" if r["rss_mb"] >= MAX_RSS_MB else \
+                f"failed: {last[0][:90].replace('|', '/')}"
             per_h = "–"
         elif r["what"] == "ingest":
             wall = f"{r['parse_s'] + r['store_s']:.2f} s (process {r['wall_s']:.1f} s)"
