@@ -115,7 +115,15 @@ def _put(rows: list[dict], row: dict) -> None:
           flush=True)
 
 
-def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool) -> None:
+def _best(cmd: list[str], env: dict, repeat: int) -> tuple[float, float, int, str, list[float]]:
+    """The fastest of ``repeat`` runs (the least disturbed by other load), and all wall times."""
+    runs = [_run(cmd, env) for _ in range(max(1, repeat))]
+    ok = [r for r in runs if r[2] == 0] or runs
+    best = min(ok, key=lambda r: r[0])
+    return (*best, [round(r[0], 2) for r in runs])
+
+
+def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool, repeat: int = 1) -> None:
     sys.path.insert(0, str(HERE))
     from simlogs import bundle_path
 
@@ -123,8 +131,9 @@ def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool) -> 
     py = sys.executable
     for h in hours:
         bundle = bundle_path(h, rate)
-        wall, rss, rc, text = _run([py, "-c", INGEST, str(bundle)], _env(None))
+        wall, rss, rc, text, walls = _best([py, "-c", INGEST, str(bundle)], _env(None), repeat)
         info = json.loads(text.strip().splitlines()[-1]) if rc == 0 else {}
+        info["walls_s"] = walls
         log_h = info.get("duration_s", h * 3600.0) / 3600.0
         _put(rows, dict(hours=h, rate_hz=rate, what="ingest", mode="warm", ok=rc == 0, wall_s=wall, rss_mb=rss,
                         log_h=log_h, s_per_h=(info.get("parse_s", 0) + info.get("store_s", 0)) / log_h, **info))
@@ -136,9 +145,9 @@ def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool) -> 
                     cmd = [py, "-m", "ldvsurvey.cli", "run", name, str(bundle), "--out", str(Path(tmp) / "out")]
                     for s in SETS.get(name, []):
                         cmd += ["--set", s]
-                    wall, rss, rc, text = _run(cmd, _env(cache_dir))
+                    wall, rss, rc, text, walls = _best(cmd, _env(cache_dir), repeat if mode == "warm" else 1)
                 _put(rows, dict(hours=h, rate_hz=rate, what=name, mode=mode, ok=rc == 0, wall_s=wall, rss_mb=rss,
-                                log_h=log_h, s_per_h=wall / log_h, error=text[-600:] if rc else ""))
+                                log_h=log_h, s_per_h=wall / log_h, error=text[-600:] if rc else "", walls_s=walls))
         save(rows)
 
 
@@ -209,12 +218,13 @@ def main() -> None:
     ap.add_argument("--rate", type=float, default=100.0, help="IMU rate of the simulated logs (Hz)")
     ap.add_argument("--pipelines", nargs="*", default=["navigate", "gravity", "calibrate"])
     ap.add_argument("--no-cold", action="store_true", help="skip the cold (empty cache) runs")
+    ap.add_argument("--repeat", type=int, default=1, help="warm runs per figure; the fastest is kept")
     ap.add_argument("--doc", action="store_true", help="write docs/performance.md and the plot")
     ap.add_argument("--max-rss-gb", type=float, default=MAX_RSS_MB / 1024, help="stop a child above this RSS")
     a = ap.parse_args()
     globals()["MAX_RSS_MB"] = a.max_rss_gb * 1024
     if a.hours:
-        bench(a.hours, a.rate, a.pipelines, cold=not a.no_cold)
+        bench(a.hours, a.rate, a.pipelines, cold=not a.no_cold, repeat=a.repeat)
     if a.doc:
         write_doc(load())
 
