@@ -26,3 +26,12 @@ if [ "$want_browser" = 1 ] && { [ ! -x /usr/bin/chromium ] || ! command -v docke
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium docker-compose >/dev/null
 fi
+
+# compile the numerical core once into numba's on-disk cache (in .venv unless LDVSURVEY_NUMBA_CACHE_DIR),
+# so the first job is as fast as the tenth; quick when this code was already warmed
+if .venv/bin/python -c "import sys; from ldvsurvey.pipelines.warmup import is_warm; sys.exit(0 if is_warm() else 1)"; then
+  :
+else
+  echo "compiling the numerical core (once per installation, about 2 minutes)..."
+  .venv/bin/ldv-survey warmup >/dev/null || echo "warning: ldv-survey warmup failed; the first job of each pipeline will compile" >&2
+fi

@@ -152,6 +152,24 @@ def _cmd_import(args) -> int:
     return 0
 
 
+def _cmd_warmup(args) -> int:
+    from ldvsurvey.pipelines.warmup import warmup
+
+    report = warmup(args.pipeline or None, variants=not args.no_variants,
+                    log=lambda line: print(line, file=sys.stderr, flush=True))
+    if args.json:
+        print(json.dumps(report.as_dict(), indent=2))
+    else:
+        print(f"numba cache {report.cache_dir}: {report.compiled} signature(s) compiled, "
+              f"{report.cache_hits} loaded from the cache, {report.elapsed_s:.1f} s")
+    for name in report.not_cached:
+        print(f"warning: {name} is compiled in every process (no cache=True)", file=sys.stderr)
+    missed = [r.pipeline for r in report.runs if not r.ok and not r.parameters]
+    for name in missed:
+        print(f"warning: pipeline '{name}' was not warmed: no tiny simulated log suits it", file=sys.stderr)
+    return 1 if missed else 0
+
+
 def _cmd_migrate(args) -> int:
     from ldvsurvey.settings import get_settings
     from ldvsurvey.store.db import upgrade_head
@@ -269,6 +287,13 @@ def build_parser() -> argparse.ArgumentParser:
                     help="what no recording holds: LDV kind and mounting, lever arms, platform, import options")
     im.add_argument("--out", required=True, metavar="BUNDLE.zip")
     im.set_defaults(func=_cmd_import)
+
+    w = sub.add_parser("warmup", help="compile the numerical core into the on-disk cache by running every "
+                                      "pipeline once on a tiny simulated log (scripts/setup.sh does this)")
+    w.add_argument("--pipeline", action="append", metavar="NAME", help="only this pipeline (repeatable)")
+    w.add_argument("--no-variants", action="store_true", help="skip the non-default choice parameters")
+    w.add_argument("--json", action="store_true", help="print the runs and the compile/cache counts as JSON")
+    w.set_defaults(func=_cmd_warmup)
 
     mg = sub.add_parser("migrate", help="bring the database (LDVSURVEY_DATABASE_URL) to the newest schema")
     mg.set_defaults(func=_cmd_migrate)

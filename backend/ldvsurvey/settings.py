@@ -38,6 +38,8 @@ class Settings(BaseSettings):
     trusted_proxies: str = ""  # comma-separated addresses/networks whose X-Forwarded-For is believed
     max_zip_members: int = 64  # a bundle has a handful of files
     security_headers: bool = True
+    # numba's compiled-code cache; read before numba is imported (see ldvsurvey.compilecache for the default)
+    numba_cache_dir: Path | None = None
 
     def resolved_database_url(self) -> str:
         """SQLAlchemy URL: ``LDVSURVEY_DATABASE_URL`` or ``sqlite:///<data_dir>/ldvsurvey.db``."""

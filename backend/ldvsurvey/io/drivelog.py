@@ -205,14 +205,16 @@ def parse_files(files: dict[str, bytes]) -> DriveLog:
     return DriveLog(manifest=manifest, imu=imu, ldv=ldv, gnss=gnss, files=files, warnings=warnings)
 
 
-def read_zip(data: bytes, max_unzipped_bytes: int, max_ratio: float = 200.0,
+def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0,
              name: str = "upload.zip") -> dict[str, bytes]:
     """Members of a bundle zip, refusing traversal, absolute paths and zip bombs.
 
+    ``data`` is the archive's bytes, or its path or an open binary file (then the compressed
+    archive is read from disk member by member, never held in memory whole).
     Files may sit at the top level or inside one common top folder.
     """
     try:
-        zf = zipfile.ZipFile(io.BytesIO(data))
+        zf = zipfile.ZipFile(io.BytesIO(data) if isinstance(data, (bytes, bytearray, memoryview)) else data)
         infos = zf.infolist()
     except (zipfile.BadZipFile, EOFError, ValueError) as exc:
         raise BundleError(f"not a readable zip archive (truncated or corrupt: {exc})", file=name) from None
@@ -257,7 +259,7 @@ def read_bundle_path(path: str | Path, max_unzipped_bytes: int = 4 << 30) -> dic
         raise BundleError("no such file or folder", file=str(p))
     if p.is_dir():
         return {f.name: f.read_bytes() for f in sorted(p.iterdir()) if f.is_file() and f.name in KNOWN_FILES}
-    return read_zip(p.read_bytes(), max_unzipped_bytes, name=p.name)
+    return read_zip(p, max_unzipped_bytes, name=p.name)
 
 
 def load_bundle(path: str | Path) -> DriveLog:

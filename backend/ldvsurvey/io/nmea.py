@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
-import pynmea2
 
 from ldvsurvey.errors import BundleError
 
@@ -45,32 +45,195 @@ class GnssData:
         return len(self.t_s)
 
 
-def _checksum_ok(body: str, given: str) -> bool:
-    acc = 0
-    for ch in body.encode("ascii", "replace"):
-        acc ^= ch
+_TIME = re.compile(r"\d{6}(\.\d*)?")
+_DM = re.compile(r"(\d+)(\d\d\.\d+)")
+_TALKER_GGA = re.compile(r"\w{2}GGA")
+
+
+def _checksums(bodies: list[str]) -> np.ndarray:
+    """XOR of the bytes of every sentence body (between ``$`` and ``*``), all at once."""
+    enc = [b.encode("ascii", "replace") for b in bodies]
+    lengths = np.fromiter((len(b) for b in enc), dtype=np.int64, count=len(enc))
+    out = np.zeros(len(enc), dtype=np.int64)
+    nonempty = lengths > 0
+    if nonempty.any():
+        arr = np.frombuffer(b"".join(enc), dtype=np.uint8)
+        starts = (np.cumsum(lengths) - lengths)[nonempty]
+        out[nonempty] = np.bitwise_xor.reduceat(arr, starts)
+    return out
+
+
+def _given_checksum(text: str) -> int:
     try:
-        return acc == int(given, 16)
+        return int(text, 16)
     except ValueError:
-        return False
+        return -1  # never equals an XOR of bytes
 
 
-def _num(value, line: int, name: str, *, allow_empty: bool = True) -> float:
-    if value in (None, ""):
+def _num(value: str, line: int, name: str, *, allow_empty: bool = True) -> float:
+    if value == "":
         if allow_empty:
             return math.nan
         raise BundleError("empty field", file=FILE, line=line, field=name)
     try:
         x = float(value)
-    except (TypeError, ValueError):
+    except ValueError:
         raise BundleError(f"'{value}' is not a number", file=FILE, line=line, field=name) from None
     if not math.isfinite(x):
         raise BundleError(f"'{value}' is not a finite number", file=FILE, line=line, field=name)
     return x
 
 
+def _time_of_day(value: str, line: int) -> float:
+    """``hhmmss[.ss]`` to seconds of the day (fraction kept to the microsecond)."""
+    if value == "":
+        raise BundleError("GGA without time", file=FILE, line=line, field="time")
+    if not _TIME.fullmatch(value):
+        raise BundleError(f"'{value}' is not a time hhmmss[.ss]", file=FILE, line=line, field="time")
+    hh, mm, ss = int(value[0:2]), int(value[2:4]), int(value[4:6])
+    if hh > 23 or mm > 59 or ss > 59:
+        raise BundleError(f"'{value}' is not a time of day", file=FILE, line=line, field="time")
+    frac = value[6:]
+    us = int(float(frac) * 1_000_000) if frac not in ("", ".") else 0
+    return hh * 3600 + mm * 60 + ss + us * 1e-6
+
+
+def _degrees(dm: str, hemi: str, line: int, name: str, hemispheres: str) -> float:
+    """NMEA ``(d)ddmm.mmmm`` plus hemisphere letter to signed degrees."""
+    if dm == "0":
+        deg = 0.0
+    else:
+        m = _DM.fullmatch(dm)
+        if not m:
+            raise BundleError(f"'{dm}' is not a coordinate (d)ddmm.mmmm", file=FILE, line=line, field=name)
+        deg = float(m.group(1)) + float(m.group(2)) / 60
+    if hemi not in hemispheres:
+        raise BundleError(f"hemisphere must be {'/'.join(hemispheres)}, got '{hemi}'", file=FILE, line=line,
+                          field=f"{name[:3]}_dir")
+    return -deg if hemi in "SW" else deg
+
+
+def _gga(body: str, lineno: int) -> tuple:
+    """One GGA sentence body to (time of day s, lat deg, lon deg, h m, fix, n_sat, hdop)."""
+    f = body.split(",")
+    if not _TALKER_GGA.fullmatch(f[0]) or "*" in body:
+        raise BundleError(f"GGA sentence could not be parsed: '{body[:40]}'", file=FILE, line=lineno)
+    if len(f) < 15:
+        f += [""] * (15 - len(f))
+    tod = _time_of_day(f[1], lineno)
+    fix = f[6]
+    if fix == "":
+        raise BundleError("empty field", file=FILE, line=lineno, field="fix_quality")
+    if not fix.isdigit():
+        raise BundleError(f"'{fix}' is not a fix quality (integer)", file=FILE, line=lineno, field="fix_quality")
+    fix = int(fix)
+    if fix > 0:
+        if not f[2] or not f[4]:
+            raise BundleError("fix quality > 0 but no position", file=FILE, line=lineno, field="latitude")
+        lat = _degrees(f[2], f[3], lineno, "latitude", "NS")
+        lon = _degrees(f[4], f[5], lineno, "longitude", "EW")
+        alt = _num(f[9], lineno, "altitude", allow_empty=False)
+        sep = _num(f[11], lineno, "geoid_separation")
+        h = alt + (0.0 if math.isnan(sep) else sep)
+    else:
+        lat = lon = h = math.nan
+    return tod, lat, lon, h, fix, _num(f[7], lineno, "num_sats"), _num(f[8], lineno, "hdop")
+
+
+_COL_TIME = re.compile(r"(?:\d{6}(?:\.\d*)?\n)*\d{6}(?:\.\d*)?")
+_COL_INT = re.compile(r"(?:\d+\n)*\d+")
+_COL_DM = re.compile(r"(?:\d{3,}\.\d+\n)*\d{3,}\.\d+")
+
+
+def _tof(col) -> np.ndarray:
+    """Decimal strings to float64 with Arrow's (correctly rounded) parser; ValueError if one is not a number."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    data = "".join(col).encode("ascii", "replace")  # built from buffers: pa.array(list) would import pandas
+    offsets = np.zeros(len(col) + 1, dtype=np.int32)
+    np.cumsum(np.fromiter(map(len, col), dtype=np.int32, count=len(col)), out=offsets[1:])
+    strings = pa.StringArray.from_buffers(len(col), pa.py_buffer(offsets), pa.py_buffer(data))
+    try:
+        x = pc.cast(strings, pa.float64())
+        if x.null_count:
+            raise ValueError("empty value")
+        # from the value buffer: Array.to_numpy would import pandas (a second's start-up)
+        return np.frombuffer(x.buffers()[1], dtype=np.float64, count=len(x), offset=8 * x.offset).copy()
+    except (pa.ArrowInvalid, pa.ArrowTypeError) as exc:
+        raise ValueError(str(exc)) from None
+
+
+def _floats(col, *, empty_ok: bool) -> np.ndarray:
+    """Strings to float64 (empty to NaN when allowed); ValueError on anything else than a finite number."""
+    if empty_ok:
+        empty = np.fromiter((v == "" for v in col), dtype=bool, count=len(col))
+        x = _tof(["nan" if v == "" else v for v in col])
+        if not np.isfinite(x[~empty]).all():
+            raise ValueError("not finite")
+        return x
+    x = _tof(col)
+    if not np.isfinite(x).all():
+        raise ValueError("not finite")
+    return x
+
+
+def _dm_degrees(col) -> np.ndarray:
+    """``(d)ddmm.mmmm`` strings (already checked) to degrees, as ``float(d) + float(mm.mmmm) / 60``."""
+    cut = [v.index(".") - 2 for v in col]
+    d = _tof([v[:k] for v, k in zip(col, cut)])
+    m = _tof([v[k:] for v, k in zip(col, cut)])
+    return d + m / 60
+
+
+def _gga_columns(bodies: list[str]) -> tuple | None:
+    """All GGA sentences at once, column by column; None when anything is unusual (then the
+    line-by-line path runs and names the exact line and field)."""
+    rows = [b.split(",") for b in bodies]
+    if any(len(r) != 15 for r in rows) or any("*" in b for b in bodies):
+        return None
+    cols = list(zip(*rows))
+    if not all(_TALKER_GGA.fullmatch(v) for v in set(cols[0])):
+        return None
+    t_col, fix_col = cols[1], cols[6]
+    if not _COL_TIME.fullmatch("\n".join(t_col)) or not _COL_INT.fullmatch("\n".join(fix_col)):
+        return None
+    whole = _tof([v[:6] for v in t_col]).astype(np.int64)
+    hh, mm, ss = whole // 10000, whole // 100 % 100, whole % 100
+    if (hh > 23).any() or (mm > 59).any() or (ss > 59).any():
+        return None
+    frac = _tof([v[6:] if len(v) > 7 else "0" for v in t_col])
+    tod = (hh * 3600 + mm * 60 + ss) + np.trunc(frac * 1_000_000).astype(np.int64) * 1e-6
+    fix = _tof(fix_col).astype(np.int64)
+    n = len(rows)
+    lat, lon, h = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    pos = np.flatnonzero(fix > 0)
+    try:
+        if len(pos):
+            pick = [rows[i] for i in pos.tolist()]
+            lat_s, ns, lon_s, ew, alt_s, sep_s = (list(c) for c in zip(*((r[2], r[3], r[4], r[5], r[9], r[11])
+                                                                          for r in pick)))
+            if (not _COL_DM.fullmatch("\n".join(lat_s)) or not _COL_DM.fullmatch("\n".join(lon_s))
+                    or not set(ns) <= {"N", "S"} or not set(ew) <= {"E", "W"}):
+                return None
+            sign_lat = np.where(np.array(ns) == "S", -1.0, 1.0)
+            sign_lon = np.where(np.array(ew) == "W", -1.0, 1.0)
+            sep = _floats(sep_s, empty_ok=True)
+            lat[pos] = sign_lat * _dm_degrees(lat_s)
+            lon[pos] = sign_lon * _dm_degrees(lon_s)
+            h[pos] = _floats(alt_s, empty_ok=False) + np.where(np.isnan(sep), 0.0, sep)
+        n_sat = _floats(cols[7], empty_ok=True)
+        hdop = _floats(cols[8], empty_ok=True)
+    except ValueError:
+        return None
+    return tod, lat, lon, h, fix, n_sat, hdop
+
+
 def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
     """Parse NMEA text. Bad checksums are skipped and counted; non-GGA sentences skipped.
+
+    The checksums of all sentences are computed at once (numpy); only GGA sentences are split
+    into fields. Every error names the file, the line and the field.
 
     Parameters
     ----------
@@ -88,75 +251,65 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
     if not data.strip():
         raise BundleError("file is empty", file=FILE, line=1)
     text = data.decode("ascii", "replace")
-    rows = []
-    bad_checksum = malformed = duplicates = 0
-    skipped: dict[str, int] = {}
-    k_day = None
-    prev_t = None
+    malformed = 0
+    cand_line, cand_body, cand_cks = [], [], []
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if not line:
             continue
-        if not line.startswith("$") or "*" not in line:
+        if line[0] != "$" or "*" not in line:
             malformed += 1
             continue
         body, _, cks = line[1:].rpartition("*")
-        if not _checksum_ok(body, cks.strip()[:2]):
-            bad_checksum += 1
-            continue
-        stype = body.split(",", 1)[0][-3:]
+        cand_line.append(lineno)
+        cand_body.append(body)
+        cand_cks.append(cks)
+    ok = _checksums(cand_body) == np.fromiter((_given_checksum(c.strip()[:2]) for c in cand_cks),
+                                              dtype=np.int64, count=len(cand_cks))
+    bad_checksum = int(len(ok) - np.count_nonzero(ok))
+    skipped: dict[str, int] = {}
+    gga_body, gga_line = [], []
+    for i in np.flatnonzero(ok).tolist():
+        body = cand_body[i]
+        head = body[:body.find(",")] if "," in body else body
+        stype = head[-3:]
         if stype != "GGA" or body.startswith("P"):
             skipped[stype] = skipped.get(stype, 0) + 1
             continue
-        try:
-            msg = pynmea2.parse(line, check=False)
-        except pynmea2.ParseError as exc:
-            raise BundleError(f"GGA sentence could not be parsed: {exc}", file=FILE, line=lineno) from None
-        ts = msg.timestamp
-        if ts is None or msg.data[0] == "":
-            raise BundleError("GGA without time", file=FILE, line=lineno, field="time")
-        tod = ts.hour * 3600 + ts.minute * 60 + ts.second + ts.microsecond * 1e-6
-        fix = int(_num(msg.gps_qual, lineno, "fix_quality", allow_empty=False))
-        if fix > 0:
-            try:
-                lat = float(msg.latitude)
-                lon = float(msg.longitude)
-            except (TypeError, ValueError):
-                raise BundleError("latitude/longitude are not numbers", file=FILE, line=lineno,
-                                  field="latitude") from None
-            if not msg.lat or not msg.lon:
-                raise BundleError("fix quality > 0 but no position", file=FILE, line=lineno,
-                                  field="latitude")
-            if msg.lat_dir not in ("N", "S") or msg.lon_dir not in ("E", "W"):
-                raise BundleError("hemisphere must be N/S and E/W", file=FILE, line=lineno,
-                                  field="lat_dir")
-            alt = _num(msg.altitude, lineno, "altitude", allow_empty=False)
-            sep = _num(msg.geo_sep, lineno, "geoid_separation")
-            if math.isnan(sep):
-                sep = 0.0
-            h = alt + sep
-        else:
-            lat = lon = h = math.nan
-        if k_day is None:
-            ref = t_ref_s if t_ref_s is not None else tod
-            k_day = round((ref - tod) / 86400.0)
-        t = tod + 86400.0 * k_day
-        if prev_t is not None and t < prev_t - 43200.0:  # passed midnight
-            k_day += 1
-            t += 86400.0
-        if prev_t is not None and t <= prev_t:
-            if t == prev_t:  # the same epoch again (e.g. GP and GN talkers): keep the first
-                duplicates += 1
-                continue
-            raise BundleError(f"GGA time goes backwards: {t:.2f} s after {prev_t:.2f} s",
-                              file=FILE, line=lineno, field="time")
-        prev_t = t
-        rows.append((t, lat, lon, h, fix, _num(msg.num_sats, lineno, "num_sats"),
-                     _num(msg.horizontal_dil, lineno, "hdop"), lineno))
+        gga_body.append(body)
+        gga_line.append(cand_line[i])
+    cols = _gga_columns(gga_body)
+    if cols is None:  # something unusual: line by line, so that an error names its line and field
+        cols = tuple(np.array(c) for c in zip(*(_gga(b, ln) for b, ln in zip(gga_body, gga_line)))) \
+            if gga_body else None
+    rows = []
+    duplicates = 0
+    if cols is not None:
+        tod = cols[0].tolist()
+        k_day = None
+        prev_t = None
+        for j, lineno in enumerate(gga_line):
+            if k_day is None:
+                ref = t_ref_s if t_ref_s is not None else tod[j]
+                k_day = round((ref - tod[j]) / 86400.0)
+            t = tod[j] + 86400.0 * k_day
+            if prev_t is not None and t < prev_t - 43200.0:  # passed midnight
+                k_day += 1
+                t += 86400.0
+            if prev_t is not None and t <= prev_t:
+                if t == prev_t:  # the same epoch again (e.g. GP and GN talkers): keep the first
+                    duplicates += 1
+                    continue
+                raise BundleError(f"GGA time goes backwards: {t:.2f} s after {prev_t:.2f} s",
+                                  file=FILE, line=lineno, field="time")
+            prev_t = t
+            rows.append((j, t))
     if not rows:
         raise BundleError(f"no valid GGA sentence ({bad_checksum} with bad checksum, "
                           f"{malformed} malformed lines)", file=FILE)
-    a = np.array(rows, dtype=np.float64)
+    keep = np.array([j for j, _ in rows], dtype=np.int64)
+    t_s = np.array([t for _, t in rows], dtype=np.float64)
+    _, lat, lon, h, fix, n_sat, hdop = (np.asarray(c)[keep] for c in cols)
     warnings = []
     if bad_checksum:
         warnings.append(f"{FILE}: {bad_checksum} sentence(s) with a bad checksum skipped")
@@ -164,9 +317,10 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
         warnings.append(f"{FILE}: {malformed} line(s) that are not NMEA sentences skipped")
     if duplicates:
         warnings.append(f"{FILE}: {duplicates} repeated GGA epoch(s) skipped")
-    return GnssData(t_s=a[:, 0], lat_deg=a[:, 1], lon_deg=a[:, 2], h_m=a[:, 3],
-                    fix=a[:, 4].astype(np.int16), n_sat=a[:, 5], hdop=a[:, 6],
-                    line_of_row=a[:, 7].astype(np.int64), bad_checksum=bad_checksum,
+    return GnssData(t_s=t_s, lat_deg=lat.astype(np.float64), lon_deg=lon.astype(np.float64),
+                    h_m=h.astype(np.float64), fix=fix.astype(np.int16), n_sat=n_sat.astype(np.float64),
+                    hdop=hdop.astype(np.float64), line_of_row=np.array(gga_line, dtype=np.int64)[keep],
+                    bad_checksum=bad_checksum,
                     malformed_lines=malformed, duplicate_epochs=duplicates,
                     skipped_sentences=skipped, warnings=warnings)
 

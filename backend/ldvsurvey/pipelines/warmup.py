@@ -1,0 +1,213 @@
+"""Warm the compiled-code cache: run every registered pipeline once on a tiny simulated log.
+
+``ldv-survey warmup`` (called by ``scripts/setup.sh``) and the huey worker at start call
+:func:`warmup`. Each pipeline of :data:`ldvsurvey.pipelines.registry.PIPELINES` is run on each
+of :data:`CANDIDATES` it accepts (a log it refuses with an input or parameter error is skipped),
+and on the first of them once more for every non-default choice of its choice parameters
+(e.g. ``aiding=gnss``), so the compiled code paths a job can reach are compiled and
+written to numba's on-disk cache (see :mod:`ldvsurvey.compilecache`). A new pipeline needs no
+change here unless no candidate log suits it.
+
+The logs are short (a few minutes at 100 Hz) and the run's results are discarded.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import sys
+import threading
+import time
+from pathlib import Path
+from dataclasses import dataclass, field
+
+from ldvsurvey.errors import InputError
+
+#: tiny simulated logs, tried in this order: (scenario name, scenario keyword arguments)
+CANDIDATES: tuple[tuple[str, dict], ...] = (
+    ("height", dict(minutes=8.0, length_m=1500.0)),  # static 300 s: a full turntable cycle for tilt
+    ("gravity", dict(n_lines=2, line_km=1.0)),
+    ("drive", dict(minutes=3.0, static_s=60.0)),
+    ("vessel", dict(hours=0.02)),
+    ("dov", dict(km=2.0, degree=360, step_arcmin=2.5)),
+)
+
+
+@dataclass
+class WarmupRun:
+    """One pipeline run of the warm-up."""
+
+    pipeline: str
+    scenario: str | None
+    parameters: dict
+    ok: bool
+    elapsed_s: float
+    error: str = ""
+
+
+@dataclass
+class WarmupReport:
+    """What the warm-up ran and what numba compiled (cache misses) or loaded (cache hits)."""
+
+    runs: list[WarmupRun] = field(default_factory=list)
+    compiled: int = 0  #: signatures compiled in this process (not found in the cache)
+    cache_hits: int = 0  #: signatures loaded from the on-disk cache
+    not_cached: list[str] = field(default_factory=list)  #: compiled functions without cache=True
+    cache_dir: str = ""
+    elapsed_s: float = 0.0
+
+    @property
+    def covered(self) -> set[str]:
+        return {r.pipeline for r in self.runs if r.ok}
+
+    def as_dict(self) -> dict:
+        return {"cache_dir": self.cache_dir, "compiled": self.compiled, "cache_hits": self.cache_hits,
+                "not_cached": self.not_cached, "elapsed_s": round(self.elapsed_s, 2),
+                "runs": [r.__dict__ for r in self.runs]}
+
+
+def dispatchers() -> list:
+    """Every numba dispatcher defined in a loaded ``ldvsurvey`` module."""
+    from numba.core.registry import CPUDispatcher
+
+    seen, out = set(), []
+    for name, mod in list(sys.modules.items()):
+        if not name.startswith("ldvsurvey") or mod is None:
+            continue
+        for obj in list(vars(mod).values()):
+            if isinstance(obj, CPUDispatcher) and id(obj) not in seen:
+                seen.add(id(obj))
+                out.append(obj)
+    return out
+
+
+def compile_stats() -> tuple[int, int, list[str]]:
+    """(signatures compiled, signatures loaded from cache, names compiled without cache=True)."""
+    compiled = hits = 0
+    uncached = []
+    for d in dispatchers():
+        st = d.stats
+        compiled += sum(st.cache_misses.values())
+        hits += sum(st.cache_hits.values())
+        if d.signatures and not d._cache.__class__.__name__.endswith("FunctionCache"):
+            uncached.append(f"{d.py_func.__module__}.{d.py_func.__qualname__}")
+    return compiled, hits, sorted(uncached)
+
+
+STAMP = "ldvsurvey-warmup.stamp"
+
+
+def fingerprint() -> str:
+    """Identity of the installed code: Python and numba versions and every ``ldvsurvey`` source file's
+    size and modification time (numba's own cache is invalidated by the same things)."""
+    import numba
+
+    import ldvsurvey
+
+    h = hashlib.sha256(f"{sys.version}|{numba.__version__}".encode())
+    root = Path(ldvsurvey.__file__).parent
+    for f in sorted(root.rglob("*.py")):
+        st = f.stat()
+        h.update(f"{f.relative_to(root)}|{st.st_size}|{st.st_mtime_ns}\n".encode())
+    return h.hexdigest()
+
+
+def is_warm() -> bool:
+    """True when a complete warm-up of this very code has filled the cache in use."""
+    from ldvsurvey.compilecache import cache_dir
+
+    stamp = cache_dir() / STAMP
+    try:
+        return stamp.read_text().strip() == fingerprint()
+    except OSError:
+        return False
+
+
+def start_background_warmup(log=None) -> threading.Thread | None:
+    """Warm the cache in a daemon thread unless :func:`is_warm` (the worker calls this at start).
+
+    Returns the thread, or None when the cache is already warm.
+    """
+    if is_warm():
+        return None
+    th = threading.Thread(target=warmup, kwargs={"log": log}, name="ldvsurvey-warmup", daemon=True)
+    th.start()
+    return th
+
+
+def _variants(pipe) -> list[dict]:
+    """The default parameters, then each non-default choice of every choice parameter."""
+    out = [{}]
+    for p in pipe.params:
+        if p.choices:
+            out += [{p.name: c} for c in p.choices if c != p.default]
+    return out
+
+
+def warmup(names: list[str] | None = None, variants: bool = True, log=None) -> WarmupReport:
+    """Run the pipelines ``names`` (default: all registered) on tiny simulated logs.
+
+    Parameters
+    ----------
+    names : list of str, optional
+        Pipelines to warm (default: every pipeline of the registry).
+    variants : bool
+        Also run each non-default choice of the choice parameters.
+    log : callable, optional
+        Called with one line of progress text per run.
+
+    Returns
+    -------
+    WarmupReport
+        Runs, and the numba signatures compiled and loaded from the cache in this process.
+    """
+    from ldvsurvey.compilecache import cache_dir
+    from ldvsurvey.io.drivelog import parse_files
+    from ldvsurvey.nav.sim import catalog
+    from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+    from ldvsurvey.pipelines.base import Progress, run_pipeline
+    from ldvsurvey.pipelines.registry import PIPELINES
+
+    t_start = time.perf_counter()
+    log = log or (lambda s: None)
+    report = WarmupReport(cache_dir=str(cache_dir()))
+    bundles: dict[str, list] = {}
+
+    def logs_of(scenario: str, kw: dict) -> list:
+        if scenario not in bundles:
+            bundles[scenario] = [parse_files(bundle_files(simulate(catalog.by_name(scenario, **kw), seed=1)))]
+        return bundles[scenario]
+
+    for name in names or list(PIPELINES):
+        pipe = PIPELINES[name]
+        accepted, errors = [], []
+        for scenario, kw in CANDIDATES:  # every log it accepts: 1-D, 2-D and water LDV, fixed and rotating IMU
+            t0 = time.perf_counter()
+            try:
+                run_pipeline(pipe, logs_of(scenario, kw), {}, Progress())
+            except InputError as exc:  # this log does not suit the pipeline
+                errors.append(f"{scenario}: {exc}")
+                continue
+            accepted.append(scenario)
+            report.runs.append(WarmupRun(name, scenario, {}, True, time.perf_counter() - t0))
+            log(f"{name} on a tiny '{scenario}' log: {time.perf_counter() - t0:.1f} s")
+        if not accepted:
+            report.runs.append(WarmupRun(name, None, {}, False, 0.0, "; ".join(errors)))
+            log(f"{name}: no tiny log suits it ({'; '.join(errors)})")
+            continue
+        for params in (_variants(pipe)[1:] if variants else []):
+            t0 = time.perf_counter()
+            try:
+                run_pipeline(pipe, bundles[accepted[0]], params, Progress())
+                ok, err = True, ""
+            except InputError as exc:  # e.g. aiding=gnss on a log without GNSS: nothing to compile
+                ok, err = False, str(exc)
+            report.runs.append(WarmupRun(name, accepted[0], params, ok, time.perf_counter() - t0, err))
+            log(f"{name} {params}: {'%.1f s' % (time.perf_counter() - t0) if ok else 'skipped: ' + err}")
+    report.compiled, report.cache_hits, report.not_cached = compile_stats()
+    report.elapsed_s = time.perf_counter() - t_start
+    if names is None and all(r.ok for r in report.runs if not r.parameters):
+        try:  # every pipeline warmed: later starts need not do it again
+            (Path(report.cache_dir) / STAMP).write_text(fingerprint() + "\n")
+        except OSError:
+            pass
+    return report
