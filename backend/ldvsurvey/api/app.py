@@ -110,6 +110,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.on_event("startup")
     def _start_consumer():
         consumer.start()
+        if settings.run_consumer:  # jobs run in this process: compile the numerical core before the first one
+            import logging
+
+            from ldvsurvey.pipelines.warmup import start_background_warmup
+
+            start_background_warmup(log=logging.getLogger("ldvsurvey.warmup").info)
 
     @app.on_event("shutdown")
     def _stop_consumer():
