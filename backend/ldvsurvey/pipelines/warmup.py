@@ -122,16 +122,25 @@ def is_warm() -> bool:
         return False
 
 
+_background: threading.Thread | None = None
+_background_lock = threading.Lock()
+
+
 def start_background_warmup(log=None) -> threading.Thread | None:
-    """Warm the cache in a daemon thread unless :func:`is_warm` (the worker calls this at start).
+    """Warm the cache in a daemon thread unless :func:`is_warm` (the worker and the API's in-process
+    consumer call this at start). At most one such thread runs per process, however many apps start.
 
     Returns the thread, or None when the cache is already warm.
     """
-    if is_warm():
-        return None
-    th = threading.Thread(target=warmup, kwargs={"log": log}, name="ldvsurvey-warmup", daemon=True)
-    th.start()
-    return th
+    global _background
+    with _background_lock:
+        if _background is not None and _background.is_alive():
+            return _background
+        if is_warm():
+            return None
+        _background = threading.Thread(target=warmup, kwargs={"log": log}, name="ldvsurvey-warmup", daemon=True)
+        _background.start()
+        return _background
 
 
 def _variants(pipe) -> list[dict]:
