@@ -9,7 +9,6 @@ Bounds are the issue's: tilt 2e-5 rad; LDV pitch and heading 10″, scale 1e-4, 
 
 import pathlib
 
-import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files

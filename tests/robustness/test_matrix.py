@@ -12,7 +12,6 @@ Scenario: 2 min static, ~1.2 km out and back (6 min in all), seed 5; ~10 s per c
 
 import functools
 
-import numpy as np
 import pytest
 
 from ldvsurvey.errors import ParameterError
