@@ -22,15 +22,29 @@ def test_normal_gravity_matches_boule(lat_deg, h_m):
     assert ours_mgal == pytest.approx(ref_mgal, abs=1e-6 + 1.5e-5 * h_m)
 
 
-def test_radii_from_ecef_geometry():
-    lat, lon, h = 34.3 * RAD, 109.1 * RAD, 500.0
-    rm, rn = earth.radii(lat)
-    d = 1e-7
-    p0 = earth.lla_to_ecef(lat, lon, h)
-    dn = np.linalg.norm(earth.lla_to_ecef(lat + d, lon, h) - p0) / d
-    de = np.linalg.norm(earth.lla_to_ecef(lat, lon + d, h) - p0) / d
-    assert dn == pytest.approx(rm + h, rel=1e-7)
-    assert de == pytest.approx((rn + h) * np.cos(lat), rel=1e-7)
+def test_radii_and_ecef_from_the_ellipse_geometry():
+    """WGS84 radii and ECEF against the meridian ellipse in its parametric (reduced-latitude) form,
+    x = a cos β, z = b sin β with tan φ = (a/b) tan β: the curvature radius of that ellipse is
+    M = (a² sin²β + b² cos²β)^{3/2} / (ab) and the normal meets the axis at N = x / cos φ. Also the
+    published values at the equator (b²/a, a) and the pole (a²/b). An independent route to the same
+    numbers: differentiating the code's own lla_to_ecef would only repeat its formulas."""
+    a = 6378137.0
+    f = 1 / 298.257223563
+    b = a * (1 - f)
+    for lat_deg in (0.0, 28.18, 34.3, 45.0, 61.7, 89.9):
+        lat = lat_deg * RAD
+        beta = np.arctan((b / a) * np.tan(lat))
+        m = (a ** 2 * np.sin(beta) ** 2 + b ** 2 * np.cos(beta) ** 2) ** 1.5 / (a * b)
+        n = a * np.cos(beta) / np.cos(lat)
+        rm, rn = earth.radii(lat)
+        assert rm == pytest.approx(m, rel=1e-12) and rn == pytest.approx(n, rel=1e-12)
+        h, lon = 500.0, 109.1 * RAD
+        rho, z = a * np.cos(beta) + h * np.cos(lat), b * np.sin(beta) + h * np.sin(lat)
+        np.testing.assert_allclose(earth.lla_to_ecef(lat, lon, h), [rho * np.cos(lon), rho * np.sin(lon), z],
+                                   rtol=0, atol=1e-6)
+    assert earth.radii(0.0)[0] == pytest.approx(6335439.327, abs=1e-3)
+    assert earth.radii(0.0)[1] == pytest.approx(6378137.000, abs=1e-3)
+    assert earth.radii(np.pi / 2)[0] == pytest.approx(6399593.626, abs=1e-3)
 
 
 def test_gravity_vector_components():

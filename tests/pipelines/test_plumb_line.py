@@ -98,7 +98,10 @@ def test_calibration_heading_needs_the_deflection(dov_case):
         err[mode] = (np.radians(s["ldv_heading_deg"]) - sim.scenario.ldv.heading_rad,
                      np.radians(s["ldv_heading_deg_sigma"]))
     assert abs(err["grid"][0]) <= min(10 * ARCSEC, 3 * err["grid"][1])
-    assert abs(err["none"][0]) > 3 * err["none"][1]
+    # without it the heading is off by about η tan L, beyond the acceptance; the residuals it leaves
+    # are time-correlated, so the (innovation-inflated) 1-σ grows to cover it rather than hide it
+    assert abs(err["none"][0]) > 10 * ARCSEC
+    assert abs(err["none"][0]) <= 3 * err["none"][1]
 
 
 def test_dov_grid_errors_name_file_and_field(dov_case, tmp_path, capsys):

@@ -60,6 +60,7 @@ def run(logs, params, progress) -> PipelineResult:
         "segment_t_s": list(cal.window_s), "method": "kalman filter with LDV states: travel direction (pitch, heading, pitch compliance "
                   "per m/s² of forward acceleration) and scale; closed form beside",
         "closed_form": cal.closed_form, "dov": dov_info, **extra,
+        "sigma_inflation": cal.sigma_inflation,
     }
     if inp.nu_u_mps is not None:
         s["ldv_scale_up"] = cal.scale_up

@@ -11,6 +11,7 @@ from pydantic import Field, field_validator
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import forward_accel_mps2
+from ldvsurvey.nav.innovations import variance_inflation
 from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
 from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Reason, warn, window_inside
 from ldvsurvey.pipelines.prep import (NavInputs, attitude_at, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate,
@@ -89,6 +90,9 @@ class Calibration:
     track: dict  # calibration_track columns
     pitch_k_rad_per_mps2: float = 0.0  #: pitch compliance: travel direction pitch per m/s² forward accel
     fixes: tuple = (4, 2)  #: GNSS fix qualities used
+    #: factors (≥ 1) applied to the filter's 1-σ for time-correlated GNSS residuals (horizontal:
+    #: heading, scale; vertical: pitch, compliance, up scale) with the innovation statistics
+    sigma_inflation: dict | None = None
 
 
 #: fix qualities for the calibration, best first: RTK fixed, then RTK float and differential
@@ -204,11 +208,22 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg)
     p = sol.ldv_params
     pk, spk = p.get("pitch_k", (0.0, None)) if k_obs else (0.0, None)
+    # GNSS errors are time-correlated (and unmodelled IMU errors show in the GNSS residuals the same
+    # way): the filter, which takes them as white, is over-confident by √(s²·τ) of its GNSS
+    # innovations (nav/innovations.py); horizontal residuals carry heading and scale, vertical pitch
+    inn = sol.normalized_innovations[:, 6:9]
+    infl = [variance_inflation(inn[:, i], gate=cfg.gate_sigma or np.inf) for i in range(3)]
+    f_h = np.sqrt(max(infl[0]["factor"], infl[1]["factor"]))
+    f_v = np.sqrt(infl[2]["factor"])
     cal = Calibration(pitch_rad=p["pitch"][0], heading_rad=p["heading"][0], scale=p["scale"][0],
                       scale_up=p["scale_up"][0] if up_obs else log.manifest.ldv.nominal.scale,
-                      sigma={"pitch": p["pitch"][1], "heading": p["heading"][1], "scale": p["scale"][1],
-                             "scale_up": p["scale_up"][1] if up_obs else None, "pitch_k": spk},
-                      closed_form={}, window_s=kf_win, track={}, pitch_k_rad_per_mps2=pk, fixes=kf_fixes)
+                      sigma={"pitch": p["pitch"][1] * f_v, "heading": p["heading"][1] * f_h,
+                             "scale": p["scale"][1] * f_h,
+                             "scale_up": p["scale_up"][1] * f_v if up_obs else None,
+                             "pitch_k": None if spk is None else spk * f_v},
+                      closed_form={}, window_s=kf_win, track={}, pitch_k_rad_per_mps2=pk, fixes=kf_fixes,
+                      sigma_inflation={"horizontal": float(f_h), "vertical": float(f_v),
+                                       "gnss_innovations": dict(zip("enu", infl))})
     # 2) closed form over the window with the filter's attitude: similarity fit of the horizontal
     # tracks, slope of the height residual (no compliance: it shows what a constant mounting gives)
     if progress:
@@ -352,7 +367,8 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
             pitch_k = cal.pitch_k_rad_per_mps2
             info = {"source": "calibrate", "segment_t_s": list(cal.window_s), "fix_qualities": list(cal.fixes),
                     "sigma": {"ldv_pitch_deg": cal.sigma["pitch"] / RAD, "ldv_heading_deg": cal.sigma["heading"] / RAD,
-                              "ldv_scale": cal.sigma["scale"], "ldv_pitch_k_rad_per_mps2": cal.sigma["pitch_k"]}}
+                              "ldv_scale": cal.sigma["scale"], "ldv_pitch_k_rad_per_mps2": cal.sigma["pitch_k"]},
+                    "sigma_inflation": cal.sigma_inflation}
     if "ldv_pitch_deg" in given:
         pitch = given["ldv_pitch_deg"] * RAD
     if "ldv_heading_deg" in given:

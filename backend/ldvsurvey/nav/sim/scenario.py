@@ -204,6 +204,11 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
                      extras=extras, body=body)
 
 
+#: correlation time the manifest states for the bias instability (s): the middle of the 10–60 min
+#: the effect draws from, as a datasheet would give it
+NOMINAL_BIAS_CORRELATION_S = 1800.0
+
+
 def manifest(sim: SimResult) -> dict:
     sc = sim.scenario
     m = {
@@ -223,6 +228,11 @@ def manifest(sim: SimResult) -> dict:
                     "h_m": float(sim.imu.h_m[0]), "static_s": sc.static_s},
         "simulated": {"software": "ldv-survey", "scenario": sc.name},
     }
+    e = sc.effects.imu_errors
+    if e is not None:  # what a datasheet states: the nominal instability and a typical correlation time
+        m["imu"].update(gyro_bias_instability_dph=e.gyro_bi_frac * sc.gyro_bias_dph,  # (not the drawn τ)
+                        accel_bias_instability_ug=e.accel_bi_frac * sc.accel_bias_ug,
+                        bias_correlation_s=NOMINAL_BIAS_CORRELATION_S)
     if sc.lines:
         m["lines"] = [{"name": n, "t_start": a, "t_end": b} for n, a, b in sc.lines]
     return m

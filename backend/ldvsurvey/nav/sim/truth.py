@@ -2,7 +2,8 @@
 
 The effective LDV travel direction (time series and means per drive, per line and overall), the
 gravity field along the track and its ``.gdf`` grids, the IMU's bias instability and error matrices,
-dropped rows, turntable stops, LDV bursts and GNSS events.
+dropped rows, turntable stops and the effective turntable tilt the gyros see, LDV bursts and
+GNSS events.
 """
 
 from __future__ import annotations
@@ -41,6 +42,29 @@ def mean_travel_direction(sim: SimResult, t_from_s: float | None = None, t_to_s:
     return {"pitch_rad": float(np.mean(p)), "heading_rad": float(np.mean(h)), "pitch_std_rad": float(np.std(p)),
             "heading_std_rad": float(np.std(h)), "t_from_s": float(a), "t_to_s": float(b),
             "n_samples": int(moving.sum())}
+
+
+def effective_tilt(sim: SimResult) -> dict:
+    """Turntable tilt (α, β) built into the simulation and the *effective* tilt the gyros see (rad).
+
+    The turntable axis is body z; in sensor axes it is the third column of C_b^s(η, α, β),
+    k_s = (−cos α sin β, sin α, cos α cos β). The rotation η̇ k_s reaches the output of a gyro triad
+    with scale factors and non-orthogonality through its matrix M_g = I + S_g + N_g (``imuerrors``),
+    so the gyros see the axis k' = M_g k_s. A tilt estimated from the rotation (and the one that
+    compensates the attitude) is therefore α_eff = asin(k'_y/|k'|), β_eff = atan2(−k'_x, k'_z),
+    to first order α + N_yz, β − N_xz. The accelerometers cannot tell a tilt from a bias fixed in
+    the sensor frame, so their non-orthogonality does not enter. Computed here from the
+    simulator's own parameters, never by the code under test. Without ``imu_errors`` the
+    effective tilt is the built-in one.
+    """
+    a, b = float(sim.scenario.alpha_rad), float(sim.scenario.beta_rad)
+    k = np.array([-np.cos(a) * np.sin(b), np.sin(a), np.cos(a) * np.cos(b)])
+    e = sim.extras.get("imu_errors")
+    m = np.asarray(e["m_gyro"], float) if e is not None else np.eye(3)
+    kp = m @ k
+    return {"alpha_rad": a, "beta_rad": b,
+            "alpha_eff_rad": float(np.arcsin(kp[1] / np.linalg.norm(kp))),
+            "beta_eff_rad": float(np.arctan2(-kp[0], kp[2]))}
 
 
 def grid_files(sim: SimResult) -> dict[str, bytes]:
@@ -120,6 +144,8 @@ def effect_truth(sim: SimResult, sl=slice(None)) -> tuple[dict, dict]:
         keep = x["imu_keep"]
         meta["imu_dropped_t_s"] = im.t_s[~keep].tolist()
         meta["imu_jitter_max_s"] = float(np.max(np.abs(x["imu_t_written"] - im.t_s)))
+    if sim.scenario.rotating:
+        meta["tilt"] = effective_tilt(sim)
     if "turntable" in x:
         tt = x["turntable"]
         meta["turntable"] = {"scheme": tt.spec.scheme, "stops": tt.stops()}

@@ -1,0 +1,190 @@
+"""Write the robustness accuracy table of docs/accuracy.md (between the ``robustness`` markers).
+
+Each pipeline (tilt, calibrate, height, navigate, dov) × (no effect / each simulator effect alone /
+every effect) on the rotating-IMU, 1-D LDV drive of ``catalog.realistic_height`` with a fixed
+seed, every figure against the simulator's truth and beside its physical floor (see
+``tests/robustness/matrix.py`` for the truths and floors); then the issue-13 acceptance on the
+40-minute drive with every effect on, over several seeds. The gravity section (written by
+benchmarks/bench_gravity.py) is left as it is.
+
+Run: PYTHONPATH=backend .venv/bin/python scripts/accuracy_table.py [--minutes 6,10] [--seeds 1,2,3]
+     [--no-acceptance] [--out docs/accuracy.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import sys
+import tempfile
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from tests.robustness.matrix import (
+    ARCSEC,
+    CONFIGS,
+    calibration_figures,
+    figures,
+    height_figures,
+    run_height_case,
+)
+
+BEGIN = "<!-- robustness:begin (written by scripts/accuracy_table.py) -->"
+END = "<!-- robustness:end -->"
+
+
+def _a(x):
+    return "–" if x is None else f"{x / ARCSEC:.2f}"
+
+
+def _w(err, floor, k=3.0):
+    """A mark for a figure beyond k floors (the robustness tests' bound)."""
+    return " ⚠" if abs(err) > k * floor else ""
+
+
+def matrix_rows(minutes: float, seed: int) -> list[str]:
+    rows = ["| effects | tilt α, β err (µrad) [1-σ; bound 20] | LDV pitch err (″) [1-σ; floor] | "
+            "LDV heading err (″) [1-σ; floor] | scale err (ppm) [1-σ; floor] | height std / max (m) [floor] | "
+            "navigation max horiz. (m) [floor] | DOV max err (″) [floor] | warnings / refusals |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for cfg in CONFIGS:
+        t0 = time.perf_counter()
+        case = run_height_case(cfg, seed=seed, minutes=minutes)
+        f = figures(case)
+        cells = []
+        t = f.get("tilt")
+        cells.append("crash" if t is None else f"{t['alpha_err_rad'] * 1e6:+.2f}, {t['beta_err_rad'] * 1e6:+.2f} "
+                     f"[{t['alpha_sigma_rad'] * 1e6:.2f}, {t['beta_sigma_rad'] * 1e6:.2f}]")
+        c = f.get("calibrate")
+        if c is None:
+            cells += ["crash"] * 3
+        else:
+            cells += [f"{_a(c['pitch_err_rad'])} [{_a(c['pitch_sigma_rad'])}; {_a(c['pitch_floor_rad'])}]"
+                      + _w(c['pitch_err_rad'], c['pitch_floor_rad']),
+                      f"{_a(c['heading_err_rad'])} [{_a(c['heading_sigma_rad'])}; {_a(c['heading_floor_rad'])}]"
+                      + _w(c['heading_err_rad'], c['heading_floor_rad']),
+                      f"{c['scale_err'] * 1e6:+.1f} [{c['scale_sigma'] * 1e6:.1f}; {c['scale_floor'] * 1e6:.1f}]"
+                      + _w(c['scale_err'], c['scale_floor'])]
+        h = f.get("height")
+        cells.append("crash" if h is None else f"{h['std_m']:.3f} / {h['max_m']:.3f} [{h['floor_m']:.3f}]"
+                     + _w(h['max_m'], h['floor_m']))
+        n = f.get("navigate")
+        cells.append("crash" if n is None else f"{n['max_horizontal_m']:.3f} [{n['floor_m']:.3f}]"
+                     + _w(n['max_horizontal_m'], n['floor_m']))
+        d = f.get("dov")
+        cells.append("no field" if d is None else
+                     f"{max(d['xi_max_err_arcsec'], d['eta_max_err_arcsec']):.3f} [{d['floor_arcsec']}]")
+        notes = []
+        for name in ("tilt", "calibrate", "height", "navigate", "dov"):
+            r = case[name]
+            if isinstance(r, Exception):
+                notes.append(f"{name}: refused ({type(r).__name__}, field {getattr(r, 'field', None)})")
+            elif r.warnings:
+                notes.append(f"{name}: {len(r.warnings)}")
+        cells.append("; ".join(notes) or "none")
+        rows.append(f"| {cfg} | " + " | ".join(cells) + " |")
+        print(f"{cfg}: {time.perf_counter() - t0:.0f} s", flush=True)
+    return rows
+
+
+def acceptance_rows(seeds) -> list[str]:
+    """The 40-minute drive, every effect on; DOV grids from the simulator's field used."""
+    from ldvsurvey.io.drivelog import parse_files
+    from ldvsurvey.nav.sim import catalog
+    from ldvsurvey.nav.sim import truth as TR
+    from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+    from ldvsurvey.pipelines.base import run_pipeline
+    from ldvsurvey.pipelines.registry import get
+
+    from tests.robustness.matrix import tilt_figures
+
+    rows = ["| seed | tilt α, β err (µrad) [1-σ] | LDV pitch err (″) [1-σ] | LDV heading err (″) [1-σ] | "
+            "scale err (ppm) [1-σ] | σ inflation h / v | height std / max vs truth (m) |",
+            "|---|---|---|---|---|---|---|"]
+    for seed in seeds:
+        t0 = time.perf_counter()
+        sim = simulate(catalog.realistic_height(seed=seed))
+        d = pathlib.Path(tempfile.mkdtemp(prefix="ldv-acc-"))
+        for n, b in TR.grid_files(sim).items():
+            (d / n).write_bytes(b)
+        params = {"dov": "grid", "dov_grid": f"{d / 'xi.gdf'},{d / 'eta.gdf'},{d / 'dg.gdf'}"}
+        log = parse_files(bundle_files(sim))
+        t = tilt_figures(sim, run_pipeline(get("tilt"), [log], {}))
+        rc = run_pipeline(get("calibrate"), [log], params)
+        c = calibration_figures(sim, rc)
+        h = height_figures(sim, run_pipeline(get("height"), [log], params), c)
+        infl = rc.summary.get("sigma_inflation") or {}
+        rows.append(f"| {seed} | {t['alpha_err_rad'] * 1e6:+.2f}, {t['beta_err_rad'] * 1e6:+.2f} "
+                    f"[{t['alpha_sigma_rad'] * 1e6:.2f}, {t['beta_sigma_rad'] * 1e6:.2f}] | "
+                    f"{_a(c['pitch_err_rad'])} [{_a(c['pitch_sigma_rad'])}] | "
+                    f"{_a(c['heading_err_rad'])} [{_a(c['heading_sigma_rad'])}] | "
+                    f"{c['scale_err'] * 1e6:+.1f} [{c['scale_sigma'] * 1e6:.1f}] | "
+                    f"{infl.get('horizontal', float('nan')):.2f} / {infl.get('vertical', float('nan')):.2f} | "
+                    f"{h['std_m']:.3f} / {h['max_m']:.3f} |")
+        print(f"acceptance seed {seed}: {time.perf_counter() - t0:.0f} s", flush=True)
+    return rows
+
+
+def section(minutes_list, seed, seeds) -> str:
+    out = [BEGIN, "## Robustness matrix (issue 13)", "",
+           f"`catalog.realistic_height(seed={seed})` shortened to a few minutes (2 min static, out and back, "
+           "rotating IMU 4-position, 1-D LDV), with no effect (`ideal`), each simulator effect alone, and every effect "
+           "(`all`; the start on the move is its own row). Errors against the simulator's truth: tilt against the "
+           "effective tilt the gyros see (`truth.effective_tilt`), LDV mounting against the mean effective travel "
+           "direction over the calibrated span, scale against K·cos δ, height and position against the true "
+           "trajectory, DOV against the point-mass field. Floors (1-σ, from the sensor specs): tilt bound 2e-5 rad "
+           "(acceptance); LDV direction/scale √2·σ_GNSS/L over the calibrated span L (RTK σ 0.02 m horizontal, "
+           "0.03 m vertical); height the pitch floor × distance + the vertical fix σ; navigation the gyrocompass "
+           "heading floor (gyro bias / Ω cos φ) and the scale floor × distance + the horizontal fix σ; DOV the grid "
+           "interpolation (0.5″). DOV grids from the simulator's field are given to the pipelines with `dov=grid` "
+           "when the field is on. Each cell: error [reported 1-σ; floor]; ⚠ marks a figure beyond 3 floors. The "
+           "tests in `tests/robustness/` assert every figure of the 6-minute drive within 3 floors; the longer "
+           "drive shows where the floors miss a term (see the notes under the table).", ""]
+    for minutes in minutes_list:
+        out += [f"#### {minutes:g}-minute drive", ""]
+        out += matrix_rows(minutes, seed)
+        out.append("")
+    out += ["Known gaps: the heading floor is the GNSS geometry alone; the INS heading the calibration is "
+            "referred to has its own observability (turns, accelerations) which it leaves out, so an ideal drive "
+            "can sit near 3 floors. With every effect on, the 10-minute drive's LDV pitch error exceeds its floor "
+            "and its (inflated) 1-σ: open, see issue 13.", ""]
+    if seeds:
+        out += ["", "### Acceptance: 40-minute drive, every effect on", "",
+                "`catalog.realistic_height(seed)` (40 min, 2 × 10 km, 35 m relief, rotating IMU, 1-D LDV), every "
+                "effect on (4-position sequential turntable with encoder jitter, IMU scale/non-orthogonality/"
+                "Gauss–Markov drift, dropped rows and jitter, LDV dropouts, body stance/squat/bounce, point-mass "
+                "DOV/Δg with the `.gdf` grids given, GNSS outages/degradations/multipath, real lever arm). Bounds "
+                "of issue 13: tilt 2e-5 rad; pitch and heading 10″, scale 100 ppm, each covered by its 1-σ; "
+                "height std 0.15 m, max 0.5 m. The 1-σ are the filter's, inflated by √(s²·τ) of its GNSS "
+                "innovations (time-correlated residuals, `nav/innovations.py`).", ""]
+        out += acceptance_rows(seeds)
+    out.append(END)
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--minutes", default="6,10", help="durations of the matrix drives (comma separated)")
+    ap.add_argument("--seed", type=int, default=5)
+    ap.add_argument("--seeds", default="1,2,3", help="seeds of the 40-minute acceptance runs")
+    ap.add_argument("--no-acceptance", action="store_true")
+    ap.add_argument("--out", default=str(ROOT / "docs" / "accuracy.md"))
+    a = ap.parse_args(argv)
+    seeds = [] if a.no_acceptance else [int(s) for s in a.seeds.split(",") if s]
+    text = section([float(m) for m in a.minutes.split(",")], a.seed, seeds)
+    path = pathlib.Path(a.out)
+    doc = path.read_text() if path.exists() else "# Accuracy\n"
+    if BEGIN in doc and END in doc:
+        head, rest = doc.split(BEGIN, 1)
+        tail = rest.split(END, 1)[1]
+        doc = head + text.rstrip("\n") + tail
+    else:
+        doc = doc.rstrip("\n") + "\n\n" + text
+    path.write_text(doc)
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
