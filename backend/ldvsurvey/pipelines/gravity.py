@@ -19,6 +19,7 @@ from ldvsurvey.nav.gravity import MGAL
 from ldvsurvey.pipelines.base import Param, Pipeline, PipelineResult
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
+from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
 from ldvsurvey.pipelines.gravity_report import block, chain_difference, evaluate, floor_of
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.prep import gnss_aid, gnss_ins, navigate
@@ -155,7 +156,9 @@ def run(logs, params, progress) -> PipelineResult:
                 warnings.append(f"bundle {i + 1}: no accelerometer drift correction ({rep['reason']})")
         drift_reports.append(rep)
     res = evaluate(chains, lines, fir_s, params["spacing_m"], trim_s, leveling=params["line_leveling"])
-    summary = block(res, fir_s, trim_s, "ldv", floor_of(logs[0], chains[0], fir_s))
+    drift = drift_floor(logs[0], chains[0], res, fir_s, params["spacing_m"],
+                        drift_reports[0].get("method") == "repeated stops", params["line_leveling"])
+    summary = block(res, fir_s, trim_s, "ldv", combine(floor_of(logs[0], chains[0], fir_s), drift))
     summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
     summary["imu_gaps"] = imu_gap_report(logs)
     summary["drift_correction"] = drift_reports[0] if len(drift_reports) == 1 else drift_reports

@@ -145,6 +145,8 @@ def block(res, fir_s, trim_s, aiding, floor):
     out["common_length_m"] = float(co.distance_m[-1] - co.distance_m[0]) if co is not None else None
     out["common_points"] = int(len(co.distance_m)) if co is not None else 0
     out["floor_ratio"] = co.total / floor["total_mgal"] if co is not None and floor.get("total_mgal") else None
+    comb = floor.get("combined_mgal")
+    out["combined_floor_ratio"] = co.total / comb if co is not None and comb else None
     if "line_offsets_mgal" in res:
         out["line_leveling"] = {"method": "bias about the mean line", "offsets_mgal": res["line_offsets_mgal"],
                                 "note": "coincidence of the levelled lines; leveling uses one degree of freedom "

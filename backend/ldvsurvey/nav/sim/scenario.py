@@ -223,6 +223,11 @@ def manifest(sim: SimResult) -> dict:
                     "h_m": float(sim.imu.h_m[0]), "static_s": sc.static_s},
         "simulated": {"software": "ldv-survey", "scenario": sc.name},
     }
+    ie = sim.extras.get("imu_errors")
+    if ie is not None:  # the in-run bias instability the simulated sensor has (spec-allowed extra keys)
+        m["imu"].update(gyro_bias_instability_dph=float(ie["gyro_gm_sigma_rps"] * 3600.0 * 180.0 / np.pi),
+                        accel_bias_instability_ug=float(ie["accel_gm_sigma_mps2"] / 9.80665e-6),
+                        bias_correlation_s=float(ie["accel_tau_s"]))
     if sc.lines:
         m["lines"] = [{"name": n, "t_start": a, "t_end": b} for n, a, b in sc.lines]
     return m
