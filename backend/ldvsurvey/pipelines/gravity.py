@@ -22,7 +22,7 @@ from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
 from ldvsurvey.pipelines.gravity_report import block, chain_difference, evaluate, floor_of
 from ldvsurvey.pipelines.navigate import run_navigation
-from ldvsurvey.pipelines.prep import gnss_aid, gnss_ins, navigate
+from ldvsurvey.pipelines.prep import gnss_aid, navigate
 from ldvsurvey.pipelines.stages import calibration_params, ldv_aid_of
 
 PARAMS = [
@@ -120,7 +120,9 @@ def run(logs, params, progress) -> PipelineResult:
         if params["gnss_comparison"] and has_gnss:
             progress(f"bundle {i + 1}/{len(logs)}: SINS/GNSS chain", 0.05 + 0.6 * (i + 0.3) / len(logs))
             try:
-                gchains[-1] = gnss_chain(log, inp, gnss_ins(inp, setup.cbs), fir_s, fixes, ref=sol)
+                # f_U, attitude and the Eötvös velocity of the SINS/LDV navigation: the chains then differ
+                # only in the vertical acceleration (LDV vs GNSS heights), and no third filter runs
+                gchains[-1] = gnss_chain(log, inp, sol, fir_s, fixes)
             except ValueError as exc:
                 warnings.append(f"SINS/GNSS chain skipped for bundle {i + 1}: {exc}")
         if params["gnss_aided"]:

@@ -10,7 +10,8 @@ each IMU interval. Where the LDV is unusable (quality, dropouts, values far off 
 velocity) the velocity is bridged through the smoothed navigation velocity tied to both gap
 edges, so the difference quotient telescopes and a gap costs only its own samples.
 
-SINS/GNSS: the same f_U, normal gravity and Eötvös terms integrated twice (S) against the GNSS
+SINS/GNSS: the same f_U (the pipeline passes the SINS/LDV navigation, so the two chains differ
+only in the vertical acceleration, LDV or GNSS heights), normal gravity and Eötvös terms integrated twice (S) against the GNSS
 heights brought to the IMU centre with the lever arm, on the regular grid of the fixes. Where
 fixes are missing (outage, lower quality, multipath) the height is bridged through S tied to
 both gap edges, the height-domain twin of the LDV bridge. The second difference of S − h is δg:
@@ -37,6 +38,15 @@ GNSS_BRIDGE_PASSES = 4
 LDV_EDGE_N = 50
 
 
+def _c_sn_c_bn(sol):
+    """(C_s^n, C_b^n) of every sample, computed once per solution (both chains use them)."""
+    cache = sol.__dict__.setdefault("_gravity_att", {})
+    if "c_sn" not in cache:
+        cache["c_sn"] = c_from_q(sol.q_sn)
+        cache["c_bn"] = cache["c_sn"] if sol.c_bs is None else cache["c_sn"] @ sol.c_bs
+    return cache["c_sn"], cache["c_bn"]
+
+
 def vertical_force(inp, sol):
     """Up specific force (N,) per IMU interval of the navigation's own mechanization step, and the IMU gaps.
 
@@ -46,7 +56,7 @@ def vertical_force(inp, sol):
     log was read (:mod:`ldvsurvey.io.imutime`); the pipeline reports how many.
     """
     f_raw = sol.f_u_mps2 + sol.f_u_bias_mps2  # C_s^n Δv / Δt as mechanized, no bias removed
-    c_sn = c_from_q(sol.q_sn)
+    c_sn = _c_sn_c_bn(sol)[0]
     b = sol.accel_bias_mps2
     f_u = f_raw - (c_sn[:, 2, 0] * b[0] + c_sn[:, 2, 1] * b[1])
     return f_u
@@ -58,7 +68,7 @@ def ldv_velocity_imu(inp, sol, setup):
     The travel direction the LDV sees includes the calibrated pitch compliance (squat/dive)."""
     t = inp.t_s
     dt = np.diff(t)
-    c_bn = sol.c_bn()
+    c_bn = _c_sn_c_bn(sol)[1]
     pk = getattr(setup, "pitch_k_rad_per_mps2", 0.0)
     a_f = (setup.accel_fwd_mps2 if setup.accel_fwd_mps2 is not None else accel_fwd(inp)) if pk else None
     v_b = ldv_body_velocity(inp.nu_f_mps, inp.nu_u_mps, setup.scale, setup.pitch_rad, setup.heading_rad,
@@ -159,7 +169,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         raise ValueError(f"fewer than 20 GNSS fixes of quality {'/'.join(map(str, fixes))}")
     tg = g.t_s[keep]
     lever = np.asarray(log.manifest.gnss.lever_arm_m, float)
-    h_g = g.h_m[keep] - (attitude_at(sol, tg) @ lever)[:, 2]
+    h_g = g.h_m[keep] - (attitude_at(sol, tg, _c_sn_c_bn(sol)[1]) @ lever)[:, 2]
     sig_v = np.array([GNSS_SIGMA.get(int(f), (np.nan, 5.0))[1] for f in g.fix[keep]])
     ref = sol if ref is None else ref
     res = h_g - np.interp(tg, t, ref.pos[:, 2])
