@@ -55,3 +55,18 @@ def test_no_instability_in_the_manifest_gives_no_drift_term():
     log, chain, res = _setup(5.0, 2000.0, 200.0)
     out = combine({"total_mgal": 0.3}, {"drift_mgal": 0.4})
     assert abs(out["combined_mgal"] - 0.5) < 1e-12
+
+
+def test_linear_leveling_removes_the_lines_differing_drift_and_keeps_what_they_share():
+    from ldvsurvey.pipelines.gravity_report import leveling_fit
+
+    rng = np.random.default_rng(4)
+    s = np.arange(0.0, 11000.0, 10.0)
+    signal = 20 * np.sin(s / 1500.0) + 0.002 * s  # Δg with a regional trend all lines share
+    a, b = rng.normal(0, 3, 5), rng.normal(0, 2e-4, 5)  # per-line drift: offset + slope (mGal, mGal/m)
+    vals = signal + a[:, None] + b[:, None] * s
+    adj = vals - leveling_fit(vals, s, "linear")
+    shared = a.mean() + b.mean() * s  # the drift common to all lines stays (datum defect of the adjustment)
+    assert np.max(np.abs(adj - (signal + shared))) < 1e-9
+    bias_only = vals - leveling_fit(vals, s, "bias")
+    assert np.max(np.abs(bias_only - (signal + shared))) > 0.5  # a bias cannot take out the slopes

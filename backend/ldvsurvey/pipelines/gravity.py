@@ -36,8 +36,9 @@ PARAMS = [
     Param("gnss_aided", "bool", False, "also compute the LDV gravity on an LDV+GNSS navigation and show both"),
     Param("drift_correction", "str", "auto", "vertical accelerometer drift tied at repeated stops: auto (where "
           "significant against the stops' noise), stops (always) or none", choices=("auto", "stops", "none")),
-    Param("line_leveling", "str", "none", "shift every line by its mean residual about the mean line "
-          "(bias) or not (none)", choices=("none", "bias")),
+    Param("line_leveling", "str", "none", "repeat-line adjustment about the mean line: every line shifted by "
+          "its mean residual (bias), by its least-squares linear drift along the line (linear), or not (none); "
+          "makes the internal coincidence optimistic", choices=("none", "bias", "linear")),
     Param("line_end_trim_s", "float", None, "time trimmed at both ends of every line (default: half the FIR "
           "length, the filter's main lobe); 0 keeps the whole line"),
 ] + calibration_params()

@@ -24,6 +24,7 @@ from ldvsurvey.nav.coincidence import common_points, internal_coincidence
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.nav.gravity import G0, zero_phase_lowpass
 from ldvsurvey.pipelines.gravity_drift import estimate_drift, stop_means
+from ldvsurvey.pipelines.gravity_report import leveling_fit
 
 #: Monte Carlo realisations (the spread of the estimate is ~1/√(2·N) relative: ~8 % at 80)
 N_REALISATIONS = 80
@@ -83,9 +84,9 @@ def drift_floor(log, chain, res, fir_s: float, spacing_m: float, tie_applied: bo
             grid, vals = common_points([(s, np.interp(tt, tg, f) / MGAL) for tt, s in line_t], spacing_m)
         except ValueError:
             return {"drift_mgal": None, "drift_source": "no common stretch"}
+        if leveling in ("bias", "linear"):
+            vals = vals - leveling_fit(vals, grid, leveling)
         co = internal_coincidence(vals)
-        if leveling == "bias":
-            co = internal_coincidence(vals - co.per_line_mean[:, None])
         tot.append(co.total)
     return {"drift_mgal": float(np.sqrt(np.mean(np.square(tot)))),
             "drift_mgal_spread": float(np.std(tot)),
