@@ -61,7 +61,9 @@ def drift_floor(log, chain, res, fir_s: float, spacing_m: float, tie_applied: bo
     used = [p for p in res["per_line"] if len(p[3]) and p[1] == 0]
     if len(used) < 2:
         return {"drift_mgal": None, "drift_source": "fewer than two lines in the first bundle"}
-    line_t = [(t[p[2]], p[3]) for p in used]
+    # the filtered drift is smooth at 1/L: the lines' samples thinned to ~the Monte Carlo rate
+    step = max(1, int(round(chain.get("fs", 1.0 / float(np.median(np.diff(t[:1000])))) / MC_RATE_HZ)))
+    line_t = [(t[p[2]][::step], p[3][::step]) for p in used]
     stops = stop_means(chain, chain["still"]) if tie_applied else []
     noise = (imu.accel_noise_ug_per_rthz or 0.0) * 1e-6 * G0
     rng = np.random.default_rng(seed)
