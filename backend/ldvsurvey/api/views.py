@@ -76,7 +76,12 @@ def _floor_text(block: dict) -> str:
         return "no coincidence"
     txt = f"±{tot:.3f} mGal"
     if fl:
-        txt += f" (white-noise floor ±{fl:.3f} mGal, ×{tot / fl:.2f})"
+        txt += f" (white-noise floor ±{fl:.3f} mGal, ×{tot / fl:.2f}"
+        nf = block.get("noise_floor") or {}
+        dr, comb = nf.get("drift_mgal"), nf.get("combined_mgal")
+        if dr is not None and comb:  # the manifest's accelerometer bias instability after the same processing
+            txt += f"; with the accelerometer drift ±{dr:.3f}: ±{comb:.3f} mGal, ×{tot / comb:.2f}"
+        txt += ")"
     return txt
 
 
@@ -104,6 +109,11 @@ def _gravity_view(session, job: Job, view: str, s: dict, x0, x1, n) -> dict:
             tr.append({"type": "scatter", "mode": "lines", "name": f"white-noise floor ±{fl:.3f} mGal",
                        "x": [lo, hi, None, lo, hi], "y": [fl, fl, None, -fl, -fl],
                        "line": {"dash": "dash", "color": "black"}})
+            comb = (s.get("noise_floor") or {}).get("combined_mgal")
+            if comb and (s.get("noise_floor") or {}).get("drift_mgal") is not None:
+                tr.append({"type": "scatter", "mode": "lines", "name": f"floor with the drift ±{comb:.3f} mGal",
+                           "x": [lo, hi, None, lo, hi], "y": [comb, comb, None, -comb, -comb],
+                           "line": {"dash": "dot", "color": "gray"}})
         return _fig(tr, f"Residuals about the mean line: {_floor_text(s)}", "along-track distance (m)",
                     "residual (mGal)")
     if view == "gravity_compare_gnss":

@@ -10,7 +10,8 @@ each IMU interval. Where the LDV is unusable (quality, dropouts, values far off 
 velocity) the velocity is bridged through the smoothed navigation velocity tied to both gap
 edges, so the difference quotient telescopes and a gap costs only its own samples.
 
-SINS/GNSS: the same f_U, normal gravity and Eötvös terms integrated twice (S) against the GNSS
+SINS/GNSS: the same f_U (the pipeline passes the SINS/LDV navigation, so the two chains differ
+only in the vertical acceleration, LDV or GNSS heights), normal gravity and Eötvös terms integrated twice (S) against the GNSS
 heights brought to the IMU centre with the lever arm, on the regular grid of the fixes. Where
 fixes are missing (outage, lower quality, multipath) the height is bridged through S tied to
 both gap edges, the height-domain twin of the LDV bridge. The second difference of S − h is δg:
@@ -37,6 +38,15 @@ GNSS_BRIDGE_PASSES = 4
 LDV_EDGE_N = 50
 
 
+def _c_sn_c_bn(sol):
+    """(C_s^n, C_b^n) of every sample, computed once per solution (both chains use them)."""
+    cache = sol.__dict__.setdefault("_gravity_att", {})
+    if "c_sn" not in cache:
+        cache["c_sn"] = c_from_q(sol.q_sn)
+        cache["c_bn"] = cache["c_sn"] if sol.c_bs is None else cache["c_sn"] @ sol.c_bs
+    return cache["c_sn"], cache["c_bn"]
+
+
 def vertical_force(inp, sol):
     """Up specific force (N,) per IMU interval of the navigation's own mechanization step, and the IMU gaps.
 
@@ -46,7 +56,7 @@ def vertical_force(inp, sol):
     log was read (:mod:`ldvsurvey.io.imutime`); the pipeline reports how many.
     """
     f_raw = sol.f_u_mps2 + sol.f_u_bias_mps2  # C_s^n Δv / Δt as mechanized, no bias removed
-    c_sn = c_from_q(sol.q_sn)
+    c_sn = _c_sn_c_bn(sol)[0]
     b = sol.accel_bias_mps2
     f_u = f_raw - (c_sn[:, 2, 0] * b[0] + c_sn[:, 2, 1] * b[1])
     return f_u
@@ -58,7 +68,7 @@ def ldv_velocity_imu(inp, sol, setup):
     The travel direction the LDV sees includes the calibrated pitch compliance (squat/dive)."""
     t = inp.t_s
     dt = np.diff(t)
-    c_bn = sol.c_bn()
+    c_bn = _c_sn_c_bn(sol)[1]
     pk = getattr(setup, "pitch_k_rad_per_mps2", 0.0)
     a_f = (setup.accel_fwd_mps2 if setup.accel_fwd_mps2 is not None else accel_fwd(inp)) if pk else None
     v_b = ldv_body_velocity(inp.nu_f_mps, inp.nu_u_mps, setup.scale, setup.pitch_rad, setup.heading_rad,
@@ -96,6 +106,28 @@ def ldv_noise_estimate_mps(v_u, ok):
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
 
 
+def nominal_interval_s(t_s) -> float:
+    """The IMU's nominal sampling interval (s): the mean interval (t_N − t_0)/(N − 1).
+
+    Time-tag jitter telescopes in the mean (error ~ σ_jitter/T), whereas the median of the
+    intervals is a noisy statistic of the jitter distribution: ~1e-7 s off at 100 Hz on an hour
+    of tags with 50-µs jitter, i.e. a relative 1e-5 error of every f_U·Δt/Δt0, 10 mGal on g."""
+    t = np.asarray(t_s, float)
+    return float((t[-1] - t[0]) / (len(t) - 1))
+
+
+def per_nominal_interval(f_u_mps2, t_s):
+    """f_U over the nominal interval: (f_U·Δt_k/Δt0 per interval (first kept), Δt0 in s).
+
+    f_U·Δt_k is the mechanized increment whatever the time tag says, and Δv_U belongs to the same
+    interval, so time-tag jitter (tens of µs, f_U = Δv/Δt off by ‰ per sample) cancels and the
+    series telescopes; Δt0 is :func:`nominal_interval_s` so that the sum of the increments over
+    the drive divided by its duration is the mean specific force (no Jensen/median bias)."""
+    dt = np.diff(np.asarray(t_s, float))
+    dt0 = nominal_interval_s(t_s)
+    return np.r_[f_u_mps2[:1], f_u_mps2[1:] * dt / dt0], dt0
+
+
 def ldv_chain(inp, sol, setup):
     """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times."""
     t = inp.t_s
@@ -107,11 +139,7 @@ def ldv_chain(inp, sol, setup):
     noise = ldv_noise_estimate_mps(v_imu[:, 2], ok & ~bad)
     use = ok & ~bad
     v_u = bridge_velocity(v_imu[:, 2], use, sol.v_n[:, 2], edge_n=LDV_EDGE_N)
-    # Increments per interval over the nominal interval: f_U·Δt_k is the mechanized increment
-    # whatever the time tag says, and Δv_U belongs to the same interval, so time-tag jitter
-    # (tens of µs, f_U = Δv/Δt off by ‰ per sample) cancels and the series telescopes.
-    dt0 = float(np.median(dt))
-    f_u = np.r_[f_u[:1], f_u[1:] * dt / dt0]
+    f_u, dt0 = per_nominal_interval(f_u, t)
     vdot_u = np.diff(v_u) / dt0
     bridged = ~(use[1:] & use[:-1])  # intervals touching a bridged sample
     v_mid = 0.5 * (sol.v_n[1:] + sol.v_n[:-1])
@@ -120,7 +148,7 @@ def ldv_chain(inp, sol, setup):
     h = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
     dg = disturbance_mps2(f_u[1:], vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
     return {"t_s": 0.5 * (t[1:] + t[:-1]), "dg": dg, "dg_static": dg + vdot_u, "lat": lat, "lon": lon, "h": h,
-            "speed": np.hypot(v_mid[:, 0], v_mid[:, 1]), "fs": 1.0 / np.median(dt), "bridged": bridged,
+            "speed": np.hypot(v_mid[:, 0], v_mid[:, 1]), "fs": 1.0 / dt0, "bridged": bridged,
             "screened": int(bad.sum()), "ldv_noise_mps": noise, "kind": "ldv"}
 
 
@@ -141,7 +169,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         raise ValueError(f"fewer than 20 GNSS fixes of quality {'/'.join(map(str, fixes))}")
     tg = g.t_s[keep]
     lever = np.asarray(log.manifest.gnss.lever_arm_m, float)
-    h_g = g.h_m[keep] - (attitude_at(sol, tg) @ lever)[:, 2]
+    h_g = g.h_m[keep] - (attitude_at(sol, tg, _c_sn_c_bn(sol)[1]) @ lever)[:, 2]
     sig_v = np.array([GNSS_SIGMA.get(int(f), (np.nan, 5.0))[1] for f in g.fix[keep]])
     ref = sol if ref is None else ref
     res = h_g - np.interp(tg, t, ref.pos[:, 2])

@@ -34,6 +34,25 @@ def unsupported(bridged, fir_s, fs):
     return ~((share <= MAX_BRIDGED_SHARE) & (share_long <= MAX_LONG_GAP_SHARE))
 
 
+def leveling_fit(vals, grid_m, mode):
+    """Per-line adjustment (n, m) in mGal of lines on common points about their mean line.
+
+    ``bias``: each line's mean residual; ``linear``: each line's least-squares a + b·s fit of its
+    residual (a drift varying linearly along the line). The residuals sum to zero at every point,
+    so the adjustments do too: what all lines share (Δg and the common part of the drift) stays;
+    only the lines' differences from each other are removed (a repeat-line adjustment)."""
+    res = vals - np.nanmean(vals, axis=0)
+    if mode == "bias":
+        return np.repeat(np.nanmean(res, axis=1)[:, None], vals.shape[1], axis=1)
+    x = (grid_m - grid_m.mean()) / max(float(np.ptp(grid_m)), 1e-9)
+    out = np.empty_like(vals)
+    for i, r in enumerate(res):
+        ok = np.isfinite(r)
+        a = np.polyfit(x[ok], r[ok], 1)
+        out[i] = np.polyval(a, x)
+    return out
+
+
 def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="none"):
     """Filter each chain, cut and trim the lines, put them on common points, compute the statistics.
 
@@ -86,12 +105,18 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
             grid, vals = common_points([(p[3], filtered[p[1]][p[2]] / MGAL) for p in used], spacing_m,
                                        allow_holes=not strict)
             co = internal_coincidence(vals, [p[0] for p in used], grid)
-            if leveling == "bias":
-                result["line_offsets_mgal"] = {nm: float(o) for nm, o in zip(co.names, co.per_line_mean)}
-                for p, o in zip(used, co.per_line_mean):
+            if leveling in ("bias", "linear"):
+                fit = leveling_fit(vals, grid, leveling)
+                result["line_offsets_mgal"] = {nm: float(np.mean(o)) for nm, o in zip(co.names, fit)}
+                if leveling == "linear":
+                    result["line_slopes_mgal_per_km"] = {nm: float((o[-1] - o[0]) / max(grid[-1] - grid[0], 1e-9) * 1e3)
+                                                         for nm, o in zip(co.names, fit)}
+                for p, o in zip(used, fit):
                     line_all = (chains[p[1]]["t_s"] >= lines_t[p[0]][0]) & (chains[p[1]]["t_s"] <= lines_t[p[0]][1])
-                    filtered[p[1]][line_all] -= o * MGAL
-                co = internal_coincidence(vals - co.per_line_mean[:, None], co.names, grid)
+                    # along the line at its own distances (constant beyond the common stretch)
+                    s_all = np.interp(chains[p[1]]["t_s"][line_all], chains[p[1]]["t_s"][p[2]], p[3])
+                    filtered[p[1]][line_all] -= np.interp(s_all, grid, o) * MGAL
+                co = internal_coincidence(vals - fit, co.names, grid)
             result["coincidence"] = co
         except ValueError as exc:
             if strict:
@@ -145,10 +170,19 @@ def block(res, fir_s, trim_s, aiding, floor):
     out["common_length_m"] = float(co.distance_m[-1] - co.distance_m[0]) if co is not None else None
     out["common_points"] = int(len(co.distance_m)) if co is not None else 0
     out["floor_ratio"] = co.total / floor["total_mgal"] if co is not None and floor.get("total_mgal") else None
+    comb = floor.get("combined_mgal")
+    out["combined_floor_ratio"] = co.total / comb if co is not None and comb else None
     if "line_offsets_mgal" in res:
-        out["line_leveling"] = {"method": "bias about the mean line", "offsets_mgal": res["line_offsets_mgal"],
-                                "note": "coincidence of the levelled lines; leveling uses one degree of freedom "
-                                        "per line, so it reads slightly below the white-noise floor's expectation"}
+        lin = "line_slopes_mgal_per_km" in res
+        out["line_leveling"] = {"method": ("linear drift per line" if lin else "bias") + " about the mean line "
+                                          "(repeat-line adjustment)",
+                                "offsets_mgal": res["line_offsets_mgal"],
+                                "note": "coincidence of the adjusted lines: internal and optimistic (the adjustment "
+                                        f"takes {2 if lin else 1} degree(s) of freedom per line and removes the "
+                                        "lines' differing drift, not the drift they share, which stays in the "
+                                        "absolute values)"}
+        if lin:
+            out["line_leveling"]["slopes_mgal_per_km"] = res["line_slopes_mgal_per_km"]
     if "coincidence_note" in res:
         out["coincidence_note"] = res["coincidence_note"]
     out["crossover_mgal"] = res["crossover_mgal"]

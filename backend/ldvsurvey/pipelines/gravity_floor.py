@@ -1,0 +1,107 @@
+"""The accelerometer drift's share of the repeated-line coincidence (the floor beyond white noise).
+
+The manifest's bias instability (``imu.accel_bias_instability_ug``, stationary σ of a first-order
+Gauss–Markov bias, and ``imu.bias_correlation_s``, its correlation time τ) wanders the vertical
+accelerometer bias; while driving it is indistinguishable from Δg. Its expected contribution to
+the coincidence depends on the very processing: the stop tie (if applied) removes the part the
+repeated stops see, the FIR passes the rest (τ ≫ L), the coincidence removes the part common to
+all lines at a point, line leveling (if chosen) each line's mean. No closed form covers the stop
+geometry, so it is computed by a cheap Monte Carlo of the same processing: GM realisations on
+the drive's own time axis (1 Hz; the FIR cut-off is 1/L ≪ 0.5 Hz), the stop means (with the
+accelerometer's white noise over each stop) through the same drift estimate, the residual through
+the same FIR, lines, common points and coincidence. The result is the RMS over realisations of
+the coincidence the drift alone would give (``drift_mgal``); the combined floor is the
+root-sum-square with the white-noise floor (independent sources; an RMS statistic, so the
+combination is the expectation of ε², not of ε).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import lfilter
+
+from ldvsurvey.nav.coincidence import common_points, internal_coincidence
+from ldvsurvey.nav.earth import MGAL
+from ldvsurvey.nav.gravity import G0, zero_phase_lowpass
+from ldvsurvey.pipelines.gravity_drift import estimate_drift, stop_means
+from ldvsurvey.pipelines.gravity_report import leveling_fit
+
+#: Monte Carlo realisations (the spread of the estimate is ~1/√(2·N) relative: ~8 % at 80)
+N_REALISATIONS = 80
+#: rate of the realisations, Hz
+MC_RATE_HZ = 1.0
+
+
+def gauss_markov_1hz(n: int, sigma: float, tau_s: float, dt_s: float, rng) -> np.ndarray:
+    """(n,) stationary first-order Gauss–Markov sequence (σ, τ), started from its stationary law."""
+    phi = np.exp(-dt_s / tau_s)
+    x0 = rng.normal(0.0, sigma)
+    w = rng.normal(0.0, sigma * np.sqrt(1.0 - phi ** 2), n)
+    return lfilter([1.0], [1.0, -phi], w, zi=[phi * x0])[0]
+
+
+def drift_floor(log, chain, res, fir_s: float, spacing_m: float, tie_applied: bool, leveling: str = "none",
+                n_real: int = N_REALISATIONS, seed: int = 0) -> dict:
+    """Expected coincidence (mGal) of the manifest's accelerometer bias instability after the processing.
+
+    ``chain``: the SINS/LDV chain (times, stops); ``res``: :func:`gravity_report.evaluate`'s result
+    (the lines and their samples); ``tie_applied``: whether the stop tie was subtracted.
+    Returns a dict with ``drift_mgal`` (None when the manifest gives no bias instability) and how
+    it was computed.
+    """
+    imu = log.manifest.imu
+    sig_ug = getattr(imu, "accel_bias_instability_ug", None)
+    tau = getattr(imu, "bias_correlation_s", None)
+    if not sig_ug or not tau:
+        return {"drift_mgal": None, "drift_source": "manifest gives no imu.accel_bias_instability_ug / "
+                                                    "imu.bias_correlation_s: drift not in the floor"}
+    sigma = float(sig_ug) * 1e-6 * G0
+    t = chain["t_s"]
+    tg = np.arange(t[0], t[-1], 1.0 / MC_RATE_HZ)
+    used = [p for p in res["per_line"] if len(p[3]) and p[1] == 0]
+    if len(used) < 2:
+        return {"drift_mgal": None, "drift_source": "fewer than two lines in the first bundle"}
+    # the filtered drift is smooth at 1/L: the lines' samples thinned to ~the Monte Carlo rate
+    step = max(1, int(round(chain.get("fs", 1.0 / float(np.median(np.diff(t[:1000])))) / MC_RATE_HZ)))
+    line_t = [(t[p[2]][::step], p[3][::step]) for p in used]
+    stops = stop_means(chain, chain["still"]) if tie_applied else []
+    noise = (imu.accel_noise_ug_per_rthz or 0.0) * 1e-6 * G0
+    rng = np.random.default_rng(seed)
+    tot = []
+    for _ in range(n_real):
+        b = gauss_markov_1hz(len(tg), sigma, float(tau), 1.0 / MC_RATE_HZ, rng)
+        r = b
+        if tie_applied and stops:
+            cum = np.r_[0.0, np.cumsum(b)]
+            y = []
+            for tc, la, lo, _, dur in stops:  # the stop mean of b, plus the white noise over the stop
+                a = np.searchsorted(tg, tc - dur / 2)
+                e = max(a + 1, np.searchsorted(tg, tc + dur / 2))
+                y.append((tc, la, lo, (cum[e] - cum[a]) / (e - a) + rng.normal(0.0, noise / np.sqrt(dur)), dur))
+            est = estimate_drift(y)
+            if est is not None:
+                r = b - np.interp(tg, est["t_s"], est["drift"])
+        f = zero_phase_lowpass(r, fir_s, MC_RATE_HZ)
+        try:
+            grid, vals = common_points([(s, np.interp(tt, tg, f) / MGAL) for tt, s in line_t], spacing_m)
+        except ValueError:
+            return {"drift_mgal": None, "drift_source": "no common stretch"}
+        if leveling in ("bias", "linear"):
+            vals = vals - leveling_fit(vals, grid, leveling)
+        co = internal_coincidence(vals)
+        tot.append(co.total)
+    return {"drift_mgal": float(np.sqrt(np.mean(np.square(tot)))),
+            "drift_mgal_spread": float(np.std(tot)),
+            "accel_bias_instability_ug": float(sig_ug), "bias_correlation_s": float(tau),
+            "drift_source": f"manifest bias instability; Monte Carlo of the same processing ({n_real} Gauss-Markov "
+                            f"realisations, stop tie {'applied' if tie_applied else 'not applied'}, leveling "
+                            f"{leveling})"}
+
+
+def combine(floor: dict, drift: dict) -> dict:
+    """The white-noise floor with the drift term beside it and their root-sum-square."""
+    out = {**floor, **drift, "white_mgal": floor.get("total_mgal")}
+    d = drift.get("drift_mgal")
+    w = floor.get("total_mgal")
+    out["combined_mgal"] = float(np.hypot(w, d)) if (d is not None and w) else w
+    return out
