@@ -86,7 +86,7 @@ def gravity_truth_rms_mgal(sim, res, fir_s: float = GRAVITY_FIR_S) -> float:
     """RMS over the lines of the result minus the equally filtered true Δg, after one constant."""
     g = res.tables["gravity"]
     im = sim.imu
-    mid = lambda a: 0.5 * (a[1:] + a[:-1])  # noqa: E731
+    mid = lambda a: 0.5 * (a[1:] + a[:-1])  # noqa: E731 - a local shorthand
     _, _, dg = sim.extras["gravity_field"](mid(im.lat_rad), mid(im.lon_rad), mid(im.h_m))
     tf = zero_phase_lowpass(dg, fir_s, 1.0 / float(np.median(np.diff(im.t_s)))) / MGAL
     on = np.array([x != "" for x in g["line"]]) & np.isfinite(g["dg_mgal"])

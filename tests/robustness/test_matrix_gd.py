@@ -11,8 +11,14 @@ import functools
 import numpy as np
 import pytest
 
-from tests.robustness.matrix_gd import (DAMPING_CONFIGS, GRAVITY_CONFIGS, damping_figures, gravity_figures,
-                                        run_damping_case, run_gravity_case)
+from tests.robustness.matrix_gd import (
+    DAMPING_CONFIGS,
+    GRAVITY_CONFIGS,
+    damping_figures,
+    gravity_figures,
+    run_damping_case,
+    run_gravity_case,
+)
 
 K = 3.0  #: bounds are 1-σ
 
