@@ -3,8 +3,10 @@
 Shared by ``tests/robustness/test_matrix_gd.py`` and ``scripts/accuracy_table.py``. The pipelines
 are called through their public entry (registry + ``run_pipeline``) only.
 
-Gravity: ``catalog.realistic_gravity`` shortened to two repeated 3-km lines (~16 min), FIR 100 s,
-SINS/GNSS comparison off (its own tests and the benchmark cover it). Figures:
+Gravity: ``catalog.realistic_gravity`` shortened to two repeated 5-km lines (~20 min), FIR 100 s,
+SINS/GNSS comparison off (its own tests and the benchmark cover it); without the point-mass
+effect its sinusoid field made five times steeper (``FIELD_GAIN``) so that the truth comparison
+can fail. Figures:
 
 * internal coincidence (summary ``total_mgal``) beside the pipeline's printed white-noise floor
   (summary ``noise_floor.total_mgal``: accelerometer and LDV white noise through the FIR);
@@ -34,6 +36,8 @@ the bounds). Bounds:
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ldvsurvey.io.drivelog import parse_files
@@ -41,6 +45,7 @@ from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.nav.gravity import zero_phase_lowpass
 from ldvsurvey.nav.sim import catalog
 from ldvsurvey.nav.sim.effects import Effects
+from ldvsurvey.nav.sim.fields import SinusoidField
 from ldvsurvey.nav.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
@@ -48,6 +53,11 @@ from ldvsurvey.pipelines.registry import get
 UG_MGAL = 9.80665e-6 / MGAL  #: one µg in mGal
 GRAVITY_FIR_S = 100.0
 GRAVITY_SEED = 3
+GRAVITY_LINE_KM = 5.0
+#: the survey's sinusoid field (≤ 3 mGal/km) varies by ~0.5 mGal RMS over the ~3.5 km a 5-km line
+#: keeps after the FIR's end trims: a flat result would pass a 3-floor bound. Five times steeper
+#: (≤ 15 mGal/km, ~2.8 mGal RMS), a flat or sign-flipped result fails.
+FIELD_GAIN = 5.0
 #: the effects that touch a fixed-IMU gravity drive (no turntable; a start on the move has no
 #: alignment for the stop-and-go gravimetry drive)
 GRAVITY_CONFIGS = ("ideal", "ldv_dropouts", "body_attitude", "gravity_field", "imu_errors", "imu_timing",
@@ -71,7 +81,10 @@ def _effects(config: str, seed: int, vessel: bool = False) -> Effects:
 # --- gravity ---------------------------------------------------------------------------------------
 
 def run_gravity_case(config: str, seed: int = GRAVITY_SEED) -> dict:
-    sc = catalog.realistic_gravity(seed=seed, effects=_effects(config, seed), n_lines=2, line_km=3.0)
+    sc = catalog.realistic_gravity(seed=seed, effects=_effects(config, seed), n_lines=2, line_km=GRAVITY_LINE_KM)
+    if isinstance(sc.gravity_field, SinusoidField):  # no point-mass effect: the survey's sinusoids, steeper
+        f = sc.gravity_field
+        sc.gravity_field = replace(f, terms=[(a * FIELD_GAIN, lam, th, ph) for a, lam, th, ph in f.terms])
     sim = simulate(sc)
     out = {"sim": sim, "config": config}
     try:
@@ -82,17 +95,19 @@ def run_gravity_case(config: str, seed: int = GRAVITY_SEED) -> dict:
     return out
 
 
-def gravity_truth_rms_mgal(sim, res, fir_s: float = GRAVITY_FIR_S) -> float:
-    """RMS over the lines of the result minus the equally filtered true Δg, after one constant."""
+def gravity_truth_rms_mgal(sim, res, fir_s: float = GRAVITY_FIR_S) -> tuple[float, float]:
+    """RMS over the lines of the result minus the equally filtered true Δg, after one constant;
+    and the RMS of that true Δg itself about its mean (what a result of zeros would score)."""
     g = res.tables["gravity"]
     im = sim.imu
     mid = lambda a: 0.5 * (a[1:] + a[:-1])  # noqa: E731 - a local shorthand
     _, _, dg = sim.extras["gravity_field"](mid(im.lat_rad), mid(im.lon_rad), mid(im.h_m))
     tf = zero_phase_lowpass(dg, fir_s, 1.0 / float(np.median(np.diff(im.t_s)))) / MGAL
     on = np.array([x != "" for x in g["line"]]) & np.isfinite(g["dg_mgal"])
-    e = g["dg_mgal"][on] - np.interp(g["t_s"][on], mid(im.t_s), tf)
+    truth = np.interp(g["t_s"][on], mid(im.t_s), tf)
+    e = g["dg_mgal"][on] - truth
     e -= np.mean(e)
-    return float(np.sqrt(np.mean(e ** 2)))
+    return float(np.sqrt(np.mean(e ** 2))), float(np.std(truth))
 
 
 def accel_drift_sigma_mgal(sim) -> float:
@@ -108,10 +123,11 @@ def gravity_figures(case: dict) -> dict | None:
     s = r.summary
     floor = float(s["noise_floor"]["total_mgal"])
     drift = accel_drift_sigma_mgal(sim)
+    rms, signal = gravity_truth_rms_mgal(sim, r)
     return {"coincidence_mgal": float(s["total_mgal"]), "floor_mgal": floor, "drift_sigma_mgal": drift,
             "coincidence_bound_mgal": np.sqrt(2) * drift + floor,
-            "truth_rms_mgal": gravity_truth_rms_mgal(sim, r), "truth_bound_mgal": drift + floor,
-            "warnings": list(s["warnings"])}
+            "truth_rms_mgal": rms, "signal_rms_mgal": signal, "truth_bound_mgal": drift + floor,
+            "bridged_s": float(s["bridged_s"]), "warnings": list(s["warnings"])}
 
 
 # --- damping ---------------------------------------------------------------------------------------
