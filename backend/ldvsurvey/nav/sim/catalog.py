@@ -141,21 +141,23 @@ def dov(km: float = 315.0, speed_mps: float = 25.0, step_arcmin: float = 1.0, de
     return Scenario(name="dov", road=road, segments=segs, static_s=300.0, **defaults)
 
 
-def vessel(hours: float = 3.0, current_mps: float = 2.0, speed_mps: float = 20.0, **kw) -> Scenario:
-    """The damping paper's simulation: moored for 1000 s, a left turn at 0.1°/s for 450 s, 1 m/s²
-    for 20 s, hours of straight run, 1 m/s² deceleration; a water-track LDV; a steady current."""
+def vessel(hours: float = 3.0, current_mps: float = 2.0, speed_mps: float = 20.0, mooring_s: float = 1000.0,
+           **kw) -> Scenario:
+    """The damping paper's simulation: moored for ``mooring_s`` (1000 s), a left turn at 0.1°/s for
+    450 s, 1 m/s² for 20 s, hours of straight run, 1 m/s² deceleration; a water-track LDV; a steady
+    current (from the end of the mooring)."""
     length = speed_mps * hours * 3600.0 + 2 * speed_mps * 20.0 + 2000.0
     road = Road(30.56 * RAD, 114.32 * RAD, 7.0, length, Ramps(0.0))  # water track due north
-    segs = [Static(1000.0), TurnInPlace(450.0, -45.0 * RAD),
+    segs = [Static(mooring_s), TurnInPlace(450.0, -45.0 * RAD),
             Drive(speed_mps * (hours * 3600.0 + 20.0), speed_mps, 20.0), Static(600.0)]
     c = np.array([np.cos(RAD * 30.0), np.sin(RAD * 30.0), 0.0]) * current_mps  # toward ENE
     defaults = dict(platform="vessel", date="2023-06-08", t0_s=36000.0, gyro_bias_dph=0.01, accel_bias_ug=50.0,
                     gyro_arw_dprh=0.001, accel_vrw_ug_rthz=10.0, ldv_rate_hz=20.0,
                     ldv=LdvSpecSim(scale=1.002, noise_mps=0.02, kind="water", lever_arm_m=(0.0, 1.0, -2.5)),
                     gnss_lever_m=(0.0, -1.0, 4.0), heading_offset0_rad=45.0 * RAD, current_n_mps=tuple(c),
-                    current_from_s=1000.0)
+                    current_from_s=mooring_s)
     defaults.update(kw)
-    return Scenario(name="vessel", road=road, segments=segs, static_s=1000.0, **defaults)
+    return Scenario(name="vessel", road=road, segments=segs, static_s=mooring_s, **defaults)
 
 
 SCENARIOS = {"drive": drive, "height": height, "gravity": gravity, "dov": dov, "vessel": vessel}
