@@ -15,7 +15,7 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.sim import catalog
 from ldvsurvey.nav.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.gravity import PARAMS, navigation_log
+from ldvsurvey.pipelines.gravity import navigation_log
 from ldvsurvey.pipelines.gravity_chains import ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_report import evaluate
@@ -29,14 +29,14 @@ FIR_S = 150.0
 def test_drift_floor_matches_the_true_drift(seed):
     sim = simulate(catalog.realistic_gravity(seed=seed, n_lines=3, line_km=4.0))
     log = parse_files(bundle_files(sim))
-    assert log.manifest.imu.accel_bias_instability_ug > 0  # the simulator states what it simulates
+    assert log.manifest.imu.accel_bias_instability_ug > 0  # the simulator states its datasheet drift
     s = run_pipeline(get("gravity"), [log], {"fir_length_s": FIR_S}).summary
     nf = s["noise_floor"]
     white, drift, comb, spread = nf["total_mgal"], nf["drift_mgal"], nf["combined_mgal"], nf["drift_mgal_spread"]
     assert drift is not None and abs(comb - np.hypot(white, drift)) < 1e-9
     assert s["total_mgal"] >= comb - 3 * spread
     # the true drift through the same processing
-    params = {p.name: p.default for p in PARAMS}
+    params = get("gravity").resolve({})
     inp, setup, sol = run_navigation(navigation_log(log), {**params, "aiding": "ldv", "smooth": True},
                                      lambda *a, **k: None)
     ch = ldv_chain(inp, sol, setup)
