@@ -23,7 +23,7 @@ export async function accountPage(ctx, app) {
         autocomplete="new-password" required></label>
       <button type="submit" id="password-change">Change password</button>
     </form><div id="password-msg"></div></div>`);
-  await refreshTokens(ctx);
+  // handlers first: a click while the token list loads must not submit the form natively (a page reload)
   $("#token-form").addEventListener("submit", async (e) => {
     e.preventDefault();
     const days = $("#token-days").value;
@@ -45,6 +45,7 @@ export async function accountPage(ctx, app) {
       setTimeout(() => { location.hash = "#/login"; location.reload(); }, 800);
     } catch (err) { render($("#password-msg"), html`<p class="error">${err.message}</p>`); }
   });
+  await refreshTokens(ctx);
 }
 
 async function refreshTokens(ctx) {
