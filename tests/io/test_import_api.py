@@ -138,3 +138,22 @@ def test_formats_hint_and_partial_manifest_as_a_json_file(client):
     assert p["imu_axes"] == "FLU" and p["date"] == "2023-03-20" and p["rates_hz"]["imu"] == 100.0
     r = client.post("/api/imports/preview", files=_multipart(files), data={"formats": json.dumps({"imu.csv": "sbf"})})
     assert r.status_code == 422 and r.json()["error"]["file"] == "formats"
+
+
+def test_admin_import_without_project_lands_in_their_own_project(settings, recordings):
+    """As an upload does: an admin's import without ``project_id`` goes to a project of theirs, not nowhere."""
+    from fastapi.testclient import TestClient
+
+    from ldvsurvey.api.app import create_app
+
+    st = settings.model_copy(update={"auth_enabled": True, "admin_user": "root", "admin_password": "first-admin-pw"})
+    _, files, partial = recordings
+    with TestClient(create_app(st)) as c:
+        r = c.post("/api/login", json={"username": "root", "password": "first-admin-pw"})
+        h = {"X-CSRF-Token": r.json()["csrf"]}
+        own = c.post("/api/imports", files=_multipart(files), data={"manifest": json.dumps(partial)}, headers=h)
+        assert own.status_code == 201, own.text
+        assert own.json()["project_id"] is not None
+        missing = c.post("/api/imports", files=_multipart(files), data={"manifest": json.dumps(partial),
+                                                                        "project_id": "999"}, headers=h)
+        assert missing.status_code == 404

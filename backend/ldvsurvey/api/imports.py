@@ -100,20 +100,14 @@ def create_import(request: Request, response: Response, files: list[UploadFile] 
                   project_id: int | None = Form(None, ge=1, le=2**31 - 1), session: Session = Depends(get_session),
                   who: Principal = Depends(principal)) -> dict:
     """Answers like ``POST /api/logs`` (201 with the log; 200 with ``duplicate: true``)."""
-    from ldvsurvey.api.logs import log_summary
+    from ldvsurvey.api.logs import log_summary, target_project
     from ldvsurvey.io.drivelog import parse_files
     from ldvsurvey.io.quality import quality_report
     from ldvsurvey.store import logs as store
     from ldvsurvey.store.models import LogFile
 
     check_upload_rate(request, who)
-    if who.projects is not None:
-        if project_id is None:
-            if not who.projects:
-                raise HTTPException(403, "you are not a member of any project")
-            project_id = who.projects[0]
-        elif project_id not in who.projects:
-            raise HTTPException(404, f"project {project_id} not found")
+    project_id = target_project(session, who, project_id)
     sources, partial, originals = _read_parts(files, manifest, formats)
     result = build_bundle(sources, partial)
     log = parse_files(result.files)

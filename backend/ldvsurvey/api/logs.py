@@ -38,6 +38,27 @@ def log_summary(row) -> dict:
     }
 
 
+def target_project(session: Session, who: Principal, project_id: int | None) -> int | None:
+    """The project a new log goes to: the one named (404 unless the uploader may write to it), else a
+    member's first project, an admin's own default project (none without a user: open mode)."""
+    if who.projects is not None:
+        if project_id is None:
+            if not who.projects:
+                raise HTTPException(403, "you are not a member of any project")
+            return who.projects[0]
+        if project_id not in who.projects:
+            raise HTTPException(404, f"project {project_id} not found")
+        return project_id
+    if who.user is not None:  # an admin: a named project must exist; none named: their own
+        from ldvsurvey.store.models import Project
+
+        if project_id is None:
+            return ustore.default_project(session, who.user)
+        if session.get(Project, project_id) is None:
+            raise HTTPException(404, f"project {project_id} not found")
+    return project_id
+
+
 @router.post("", status_code=201, summary="Upload a drive-log bundle (one .zip, or the files)")
 def upload_log(request: Request, response: Response, files: list[UploadFile] = File(...),
                project_id: int | None = Form(None, ge=1, le=2**31 - 1), session: Session = Depends(get_session),
@@ -46,20 +67,7 @@ def upload_log(request: Request, response: Response, files: list[UploadFile] = F
     project is not stored twice (200 with ``duplicate: true`` and the existing log)."""
     st = request.app.state.settings
     check_upload_rate(request, who)
-    if who.projects is not None:
-        if project_id is None:
-            if not who.projects:
-                raise HTTPException(403, "you are not a member of any project")
-            project_id = who.projects[0]
-        elif project_id not in who.projects:
-            raise HTTPException(404, f"project {project_id} not found")
-    elif who.user is not None:  # an admin: a named project must exist; none named: their own
-        from ldvsurvey.store.models import Project
-
-        if project_id is None:
-            project_id = ustore.default_project(session, who.user)
-        elif session.get(Project, project_id) is None:
-            raise HTTPException(404, f"project {project_id} not found")
+    project_id = target_project(session, who, project_id)
     members = read_upload(files, st)
     log = parse_files(members)
     quality = quality_report(log)
