@@ -12,7 +12,6 @@ from pydantic import Field, field_validator
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import parse_imu
-from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.io.imutime import check_no_long_gaps
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_from_q, q_from_c
@@ -22,6 +21,7 @@ from ldvsurvey.nav.earth import OMEGA_IE, enu_offset_m, normal_gravity, radii
 from ldvsurvey.nav.mech import mechanize
 from ldvsurvey.pipelines.base import (Floats, LogFacts, Params, Paths, Pipeline, PipelineResult, Reason, Text,
                                       needs_gnss, output_rate, rate_within_imu)
+from ldvsurvey.pipelines.plumb import load_grids
 from ldvsurvey.pipelines.prep import c_bs_of, gnss_ins, nav_inputs
 from ldvsurvey.pipelines.stages import tilt_stage
 
@@ -73,16 +73,7 @@ def _grid(params, lat_deg, lon_deg, progress) -> DovGrid:
     if paths:
         if len(paths) != 2:
             raise ParameterError("give two .gdf files: dov_grid=xi.gdf,eta.gdf", field="dov_grid")
-        parsed = []
-        for p in paths:
-            path = Path(p)
-            if not path.is_file():
-                raise ParameterError("no such file", file=str(path), field="dov_grid")
-            parsed.append(parse_gdf(path.read_bytes(), path.name))
-        (_, la1, lo1, v1), (_, la2, lo2, v2) = parsed
-        if v1.shape != v2.shape or not (np.allclose(la1, la2) and np.allclose(lo1, lo2)):
-            raise ParameterError("the ξ and η grids must share the same nodes", field="dov_grid")
-        grid = DovGrid(la1, lo1, v1, v2, None, source=f"{Path(paths[0]).name}, {Path(paths[1]).name}")
+        grid = load_grids(paths)
     else:
         step = params["grid_step_arcmin"]
         area = area_for_track(lat_deg, lon_deg, step)

@@ -131,7 +131,6 @@ def per_nominal_interval(f_u_mps2, t_s):
 def ldv_chain(inp, sol, setup):
     """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times."""
     t = inp.t_s
-    dt = np.diff(t)
     f_u = vertical_force(inp, sol)
     v_imu = ldv_velocity_imu(inp, sol, setup)
     ok = inp.ldv_ok & np.all(np.isfinite(v_imu), axis=1)
