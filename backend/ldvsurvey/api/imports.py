@@ -15,6 +15,7 @@ from sqlalchemy.orm import Session
 
 from ldvsurvey.api.auth import Principal, check_upload_rate, principal
 from ldvsurvey.api.deps import get_session
+from ldvsurvey.api.uploads import part_names
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.importers import REGISTRY, Source, build_bundle, detect, parse_partial_manifest
 
@@ -49,14 +50,8 @@ def _read_parts(files: list[UploadFile], manifest: str | None, formats: str | No
     if not files:
         raise BundleError("no file in the upload (send the recordings as 'files')")
     hints = _hints(formats)
-    originals, partial = {}, None
-    for up in files:
-        name = (up.filename or "").replace("\\", "/").rsplit("/", 1)[-1]
-        if not name:
-            raise BundleError("an uploaded part has no file name")
-        if name in originals:
-            raise BundleError("file uploaded twice", file=name)
-        originals[name] = up.file.read()
+    partial = None
+    originals = {name: up.file.read() for name, up in zip(part_names(files), files)}
     if manifest:
         partial = parse_partial_manifest(manifest.encode(), file="manifest")
     sources = []

@@ -133,10 +133,9 @@ def _size(fh: BinaryIO) -> int:
     return n
 
 
-def read_upload(uploads: list[UploadFile], settings) -> dict[str, bytes]:
-    """Turn the multipart parts into ``{file name: bytes}`` (one zip, or the files)."""
-    if not uploads:
-        raise BundleError("no file in the upload (send one .zip or the bundle's files as 'files')")
+def part_names(uploads: list[UploadFile]) -> list[str]:
+    """The base file name of every multipart part (a client's folder path dropped); a part without a
+    name or a name sent twice is a :class:`BundleError`."""
     names = []
     for up in uploads:
         name = (up.filename or "").replace("\\", "/").rsplit("/", 1)[-1]
@@ -145,6 +144,14 @@ def read_upload(uploads: list[UploadFile], settings) -> dict[str, bytes]:
         if name in names:
             raise BundleError("file uploaded twice", file=name)
         names.append(name)
+    return names
+
+
+def read_upload(uploads: list[UploadFile], settings) -> dict[str, bytes]:
+    """Turn the multipart parts into ``{file name: bytes}`` (one zip, or the files)."""
+    if not uploads:
+        raise BundleError("no file in the upload (send one .zip or the bundle's files as 'files')")
+    names = part_names(uploads)
     if len(uploads) == 1:
         up, name = uploads[0], names[0]
         up.file.seek(0)
