@@ -13,9 +13,9 @@ from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, run_filter
 from ldvsurvey.nav.mech import mechanize
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import simulate
-from ldvsurvey.nav.sim.sensors import FIX_SIGMA
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import simulate
+from ldvsurvey.sim.sensors import FIX_SIGMA
 
 RAD = np.pi / 180
 

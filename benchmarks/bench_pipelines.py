@@ -8,8 +8,8 @@ import sys
 import time
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import PIPELINES
 

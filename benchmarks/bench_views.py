@@ -13,8 +13,8 @@ import httpx
 def main(repeats=5):
     from playwright.sync_api import sync_playwright
 
-    from ldvsurvey.nav.sim import catalog
-    from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+    from ldvsurvey.sim import catalog
+    from ldvsurvey.sim.scenario import bundle_files, simulate
 
     from _server import start
 

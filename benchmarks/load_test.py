@@ -16,8 +16,8 @@ sys.path.insert(0, str(ROOT))
 
 
 def main(seconds=60, users=50):
-    from ldvsurvey.nav.sim import catalog
-    from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+    from ldvsurvey.sim import catalog
+    from ldvsurvey.sim.scenario import bundle_files, simulate
 
     from _server import start
 

@@ -22,8 +22,8 @@ def bundle_path(hours: float, rate_hz: float = 100.0) -> Path:
     if path.exists():
         return path
     from ldvsurvey.io.writers import write_bundle
-    from ldvsurvey.nav.sim import catalog
-    from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+    from ldvsurvey.sim import catalog
+    from ldvsurvey.sim.scenario import bundle_files, simulate
 
     n_lines = max(1, round((hours * 3600.0 - 300.0) / LINE_S))
     t0 = time.perf_counter()

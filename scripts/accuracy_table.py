@@ -96,9 +96,9 @@ def matrix_rows(minutes: float, seed: int) -> list[str]:
 def acceptance_rows(seeds) -> list[str]:
     """The 40-minute drive, every effect on; DOV grids from the simulator's field used."""
     from ldvsurvey.io.drivelog import parse_files
-    from ldvsurvey.nav.sim import catalog
-    from ldvsurvey.nav.sim import truth as TR
-    from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+    from ldvsurvey.sim import catalog
+    from ldvsurvey.sim import truth as TR
+    from ldvsurvey.sim.scenario import bundle_files, simulate
     from ldvsurvey.pipelines.base import run_pipeline
     from ldvsurvey.pipelines.registry import get
 

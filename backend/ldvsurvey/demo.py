@@ -14,7 +14,7 @@ def write_demo(directory: str | Path, scenario: str = "height", seed: int = 1,
     ``eta.gdf`` (arcsec) and ``dg.gdf`` (mGal) to ``directory/grids``."""
     import inspect
 
-    from ldvsurvey.nav.sim.catalog import REALISTIC, SCENARIOS, by_name
+    from ldvsurvey.sim.catalog import REALISTIC, SCENARIOS, by_name
 
     if scenario not in SCENARIOS:
         raise ParameterError(f"unknown scenario '{scenario}' (known: {', '.join(sorted(SCENARIOS))})",
@@ -36,7 +36,7 @@ def write_scenario(sc, directory: str | Path, seed: int | None = None) -> list[P
     Returns the paths written: the bundle folder, ``truth/`` and, if written, ``grids/``.
     """
     from ldvsurvey.io.writers import write_bundle
-    from ldvsurvey.nav.sim.scenario import bundle_files, grid_files, simulate, truth_files
+    from ldvsurvey.sim.scenario import bundle_files, grid_files, simulate, truth_files
 
     sim = simulate(sc, seed=seed, with_nodov=sc.gravity_field is not None)
     out = Path(directory)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.gdf import write_gdf
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from tests.bundles import zip_bytes
 
 

@@ -8,8 +8,8 @@ import zipfile
 import httpx
 import pytest
 
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from tests.browser.conftest import shot
 from tests.bundles import zip_bytes
 

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ldvsurvey.nav.sim.catalog import RAD
-from ldvsurvey.nav.sim.motion import Static
-from ldvsurvey.nav.sim.road import Ramps, Road
-from ldvsurvey.nav.sim.scenario import Scenario, bundle_files, manifest, simulate
+from ldvsurvey.sim.catalog import RAD
+from ldvsurvey.sim.motion import Static
+from ldvsurvey.sim.road import Ramps, Road
+from ldvsurvey.sim.scenario import Scenario, bundle_files, manifest, simulate
 from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu, sow_of_midnight
 
 OUT = Path("docs/examples")

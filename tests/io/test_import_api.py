@@ -9,8 +9,8 @@ import json
 import numpy as np
 import pytest
 
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, manifest, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, manifest, simulate
 from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu
 
 

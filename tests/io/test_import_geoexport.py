@@ -83,8 +83,8 @@ def test_table_without_positions_is_placed_on_the_gnss_track():
 def test_cli_run_writes_geojson(tmp_path):
     """``ldv-survey run navigate ... --format geojson`` writes trajectory.geojson beside the CSV."""
     from ldvsurvey.io.writers import write_bundle
-    from ldvsurvey.nav.sim import catalog
-    from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+    from ldvsurvey.sim import catalog
+    from ldvsurvey.sim.scenario import bundle_files, simulate
 
     sim = simulate(catalog.drive(minutes=2.5, static_s=30.0), seed=8)
     write_bundle(bundle_files(sim), tmp_path / "b.zip")

@@ -12,8 +12,8 @@ import pytest
 
 from ldvsurvey.cli import main
 from ldvsurvey.io.drivelog import load_bundle, parse_files
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu

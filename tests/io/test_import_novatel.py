@@ -14,8 +14,8 @@ import pytest
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.importers import Source, build_bundle, detect
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, manifest, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, manifest, simulate
 from tests.io.test_import_helpers import sow_of_midnight
 
 pytest.importorskip("novatel_edie")

@@ -11,9 +11,9 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.writers import imu_csv
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.mech import mechanize
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.prep import nav_inputs
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
+from ldvsurvey.pipelines.inputs import nav_inputs
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,8 @@ import numpy as np
 
 from ldvsurvey.nav.attitude import attitude_error_rad
 from ldvsurvey.nav.earth import enu_offset_m
-from ldvsurvey.nav.sim.imu import simulate_imu
-from ldvsurvey.nav.sim.motion import Motion
+from ldvsurvey.sim.imu import simulate_imu
+from ldvsurvey.sim.motion import Motion
 
 
 def truth_imu(sc, dt=0.01):

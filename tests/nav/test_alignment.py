@@ -6,10 +6,10 @@ from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import attitude_error_rad, q_from_c
 from ldvsurvey.nav.earth import ARCSEC, OMEGA_IE
 from ldvsurvey.nav.filter import FilterConfig, ImuNoise, run_filter
-from ldvsurvey.nav.sim.motion import Static
-from ldvsurvey.nav.sim.road import Ramps, Road
-from ldvsurvey.nav.sim.scenario import Scenario
-from ldvsurvey.nav.sim.sensors import ImuErrors
+from ldvsurvey.sim.motion import Static
+from ldvsurvey.sim.road import Ramps, Road
+from ldvsurvey.sim.scenario import Scenario
+from ldvsurvey.sim.sensors import ImuErrors
 from tests.nav.helpers import truth_imu
 
 RAD = np.pi / 180

@@ -13,8 +13,8 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, run_filter
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.sensors import FIX_SIGMA
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.sensors import FIX_SIGMA
 from tests.pipelines.effects import simulate_effects
 
 RAD = np.pi / 180

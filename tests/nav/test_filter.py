@@ -8,9 +8,9 @@ from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import q_from_c, skew
 from ldvsurvey.nav.earth import ARCSEC, radii
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, run_filter
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import simulate
-from ldvsurvey.nav.sim.sensors import FIX_SIGMA, ImuErrors, LdvSpecSim, gnss_fixes, ldv_measure
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import simulate
+from ldvsurvey.sim.sensors import FIX_SIGMA, ImuErrors, LdvSpecSim, gnss_fixes, ldv_measure
 from tests.nav.helpers import errors, truth_imu
 
 RAD = np.pi / 180

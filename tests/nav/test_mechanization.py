@@ -6,9 +6,9 @@ import pytest
 from ldvsurvey.nav.attitude import attitude_error_rad, c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import ARCSEC, enu_offset_m
 from ldvsurvey.nav.mech import mechanize
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.motion import Motion, Turntable
-from ldvsurvey.nav.sim.imu import simulate_imu
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.motion import Motion, Turntable
+from ldvsurvey.sim.imu import simulate_imu
 
 
 def _truth_start(m, c_bt, t0):

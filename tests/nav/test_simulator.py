@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from ldvsurvey.nav.earth import normal_gravity
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.imu import rates, simulate_imu
-from ldvsurvey.nav.sim.motion import Motion
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.imu import rates, simulate_imu
+from ldvsurvey.sim.motion import Motion
 
 pyins_sim = pytest.importorskip("pyins.sim")
 pyins_tr = pytest.importorskip("pyins.transform")
@@ -45,8 +45,8 @@ def test_increments_match_pyins():
 def test_increments_match_pyins_with_body_attitude():
     """The body-attitude effect (stance, crab, squat, roll in curves, 1–2 Hz bounce) makes the body
     rates differ from the travel frame's; pyins, given the same body attitude, agrees."""
-    from ldvsurvey.nav.sim.body import BodyModel
-    from ldvsurvey.nav.sim.effects import BodyAttitude, DEG
+    from ldvsurvey.sim.body import BodyModel
+    from ldvsurvey.sim.effects import BodyAttitude, DEG
 
     sc = catalog.drive(minutes=6, static_s=20)
     m = Motion(sc.road, sc.segments, sc.t0_s)

@@ -12,9 +12,9 @@ import pytest
 from ldvsurvey.nav.attitude import c_bs, q_from_c
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, run_filter
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.imu import GL_W, GL_X, rates, simulate_imu
-from ldvsurvey.nav.sim.motion import Motion, Turntable
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.imu import GL_W, GL_X, rates, simulate_imu
+from ldvsurvey.sim.motion import Motion, Turntable
 
 RAD = np.pi / 180
 

@@ -12,8 +12,8 @@ import dataclasses
 
 import numpy as np
 
-from ldvsurvey.nav.sim import scenario as scenario_mod
-from ldvsurvey.nav.sim.road import smooth_step, smooth_step_integral
+from ldvsurvey.sim import scenario as scenario_mod
+from ldvsurvey.sim.road import smooth_step, smooth_step_integral
 
 
 class Stops:

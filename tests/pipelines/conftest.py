@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 
 
 @pytest.fixture(scope="session")

@@ -20,10 +20,10 @@ import numpy as np
 from ldvsurvey.nav.attitude import c_bs
 from ldvsurvey.nav.earth import gravity_n, w_en_n, w_ie_n
 from ldvsurvey.nav.errmodel import c_db
-from ldvsurvey.nav.sim.imu import GL_W, GL_X, ImuTruth
-from ldvsurvey.nav.sim.motion import Motion, Turntable
-from ldvsurvey.nav.sim.scenario import SimResult
-from ldvsurvey.nav.sim.sensors import ImuErrors, gnss_fixes
+from ldvsurvey.sim.imu import GL_W, GL_X, ImuTruth
+from ldvsurvey.sim.motion import Motion, Turntable
+from ldvsurvey.sim.scenario import SimResult
+from ldvsurvey.sim.sensors import ImuErrors, gnss_fixes
 
 H_FD = 1e-3  # s, finite-difference step for the jerk
 

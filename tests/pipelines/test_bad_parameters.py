@@ -7,7 +7,7 @@ import pytest
 
 from ldvsurvey.cli import main
 from ldvsurvey.io.writers import imu_csv, write_bundle
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim.scenario import bundle_files, simulate
 
 
 @pytest.fixture(scope="module")

@@ -8,8 +8,8 @@ import pytest
 from ldvsurvey.cli import main
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.writers import write_bundle
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 

@@ -7,8 +7,8 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.gdf import write_gdf
 from ldvsurvey.io.writers import imu_csv
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 
@@ -54,8 +54,8 @@ def test_grid_compensation_against_the_simulators_point_mass_field(tmp_path):
     simulator makes with an independent field (point masses, not the product's EGM2008): two IMU
     files of one drive, with and without the DOV, mechanized free-inertially. A wrong sign, frame
     or unit of ξ/η anywhere between the grid and the propagator shows here."""
-    from ldvsurvey.nav.sim import truth as TR
-    from ldvsurvey.nav.sim.effects import Effects
+    from ldvsurvey.sim import truth as TR
+    from ldvsurvey.sim.effects import Effects
 
     sc = catalog.realistic_drive(seed=3, effects=Effects.only("gravity_field", 3), minutes=9.0, static_s=120.0,
                                  speed_mps=25.0)

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.gravity import navigation_log
 from ldvsurvey.pipelines.gravity_chains import ldv_chain

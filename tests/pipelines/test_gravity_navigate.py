@@ -6,10 +6,10 @@ import pytest
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL, enu_offset_m
 from ldvsurvey.nav.gravity import zero_phase_lowpass
-from ldvsurvey.nav.sim.fields import ConstantField
-from ldvsurvey.nav.sim.motion import Static
-from ldvsurvey.nav.sim.road import Ramps, Road
-from ldvsurvey.nav.sim.scenario import Scenario, bundle_files, simulate
+from ldvsurvey.sim.fields import ConstantField
+from ldvsurvey.sim.motion import Static
+from ldvsurvey.sim.road import Ramps, Road
+from ldvsurvey.sim.scenario import Scenario, bundle_files, simulate
 from ldvsurvey.pipelines.base import Progress, run_pipeline
 from ldvsurvey.pipelines.gravity import ldv_chain
 from ldvsurvey.pipelines.navigate import run_navigation

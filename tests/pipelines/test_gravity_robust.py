@@ -14,8 +14,8 @@ import pytest
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.nav.gravity import noise_floor_mgal, zero_phase_lowpass
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 

@@ -13,8 +13,8 @@ import pytest
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.filter import FilterConfig, ImuNoise, LdvAid, ldv_spikes, run_filter
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from tests.pipelines.effects import simulate_effects

@@ -15,10 +15,10 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.writers import imu_csv, ldv_csv, nmea_text
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import GEOID_SEPARATION_M, bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import GEOID_SEPARATION_M, bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.prep import nav_inputs
+from ldvsurvey.pipelines.inputs import nav_inputs
 from ldvsurvey.pipelines.registry import get
 
 DEG = np.pi / 180
@@ -86,7 +86,7 @@ def test_moving_start_without_gnss_names_what_is_missing(moving):
 def test_realistic_moving_start_of_the_rotating_height_drive():
     """The simulator's own moving-start effect (``initial.static_s`` = 0, rotating IMU, LDV mounted
     0.35° nose-up, nominal 0): the coarse alignment is coarser, the filter still converges."""
-    from ldvsurvey.nav.sim.effects import Effects
+    from ldvsurvey.sim.effects import Effects
 
     sc = catalog.realistic_height(seed=4, effects=Effects.only("moving_start", 4), minutes=14.0, length_m=3500.0,
                                   relief_m=15.0)

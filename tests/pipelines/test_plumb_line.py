@@ -15,8 +15,8 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.gdf import write_gdf
 from ldvsurvey.io.writers import write_bundle
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from tests.pipelines.effects import simulate_effects

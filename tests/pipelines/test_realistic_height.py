@@ -13,9 +13,9 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.errmodel import c_db
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim import truth as TR
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim import truth as TR
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 

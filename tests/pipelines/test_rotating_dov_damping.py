@@ -10,9 +10,9 @@ import pytest
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.gdf import write_gdf
 from ldvsurvey.nav.dovgrid import DovGrid
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.motion import Drive, Static, TurnInPlace
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.motion import Drive, Static, TurnInPlace
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 

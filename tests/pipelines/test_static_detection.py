@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.motion import Drive, Static
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.prep import nav_inputs
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.motion import Drive, Static
+from ldvsurvey.sim.scenario import bundle_files, simulate
+from ldvsurvey.pipelines.inputs import nav_inputs
 
 
 def _sim():

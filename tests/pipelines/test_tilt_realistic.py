@@ -13,12 +13,12 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.attitude import c_from_q, euler_from_c_bn
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.effects import Effects, TurntableSpec
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
-from ldvsurvey.nav.sim.truth import effective_tilt
-from ldvsurvey.pipelines.prep import c_bs_of, nav_inputs, navigate, pipeline_cfg
-from ldvsurvey.pipelines.stages import static_part, tilt_stage
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.effects import Effects, TurntableSpec
+from ldvsurvey.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim.truth import effective_tilt
+from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs, navigate, pipeline_cfg
+from ldvsurvey.pipelines.tiltfit import static_part, tilt_stage
 
 
 def _effective(sim):

@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.motion import Static
-from ldvsurvey.nav.sim.scenario import bundle_files
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.motion import Static
+from ldvsurvey.sim.scenario import bundle_files
 from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.prep import nav_inputs
+from ldvsurvey.pipelines.inputs import nav_inputs
 from ldvsurvey.pipelines.registry import get
-from ldvsurvey.pipelines.stages import tilt_stage
+from ldvsurvey.pipelines.tiltfit import tilt_stage
 from tests.nav.turntables import Continuous, Stops, quantise_encoder, simulate_with_table
 
 ALPHA, BETA = 4.0e-4, -6.0e-4
@@ -101,7 +101,7 @@ def test_no_rotation_falls_back_with_a_warning_and_height_still_runs():
 
 def test_stops_later_in_the_log_make_the_tilt_observable():
     """The turntable stays parked through the static period and turns 0/180/0 at a later stop."""
-    from ldvsurvey.nav.sim.motion import Drive, Motion
+    from ldvsurvey.sim.motion import Drive, Motion
 
     sc = catalog.height(minutes=10.0, length_m=4000.0, relief_m=5.0)
     segs = [Static(120.0), Drive(1500.0, 12.0, 15.0), Static(110.0), Drive(3000.0, 12.0, 15.0)]

@@ -3,7 +3,7 @@ every figure against the simulator's own truth, beside the physical floor it is 
 
 Shared by ``tests/robustness/test_matrix.py`` (assertions, CI-sized scenarios) and
 ``scripts/accuracy_table.py`` (the table in ``docs/accuracy.md``). Nothing here calls the code
-under test to make a truth: the truth comes from the simulator (``nav/sim/truth.py``, the
+under test to make a truth: the truth comes from the simulator (``sim/truth.py``, the
 motion model, the IMU's true trajectory) and the floors from the sensor specifications.
 
 Physical floors (1-σ)
@@ -31,11 +31,11 @@ import numpy as np
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.errmodel import c_db
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim import truth as TR
-from ldvsurvey.nav.sim.effects import Effects, effect_names
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
-from ldvsurvey.nav.sim.sensors import FIX_SIGMA
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim import truth as TR
+from ldvsurvey.sim.effects import Effects, effect_names
+from ldvsurvey.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim.sensors import FIX_SIGMA
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 

@@ -43,10 +43,10 @@ import numpy as np
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.nav.gravity import zero_phase_lowpass
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.effects import Effects
-from ldvsurvey.nav.sim.fields import SinusoidField
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.effects import Effects
+from ldvsurvey.sim.fields import SinusoidField
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 

@@ -12,9 +12,9 @@ import pathlib
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim import truth as TR
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim import truth as TR
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from tests.robustness.matrix import ARCSEC, calibration_figures, height_figures, tilt_figures

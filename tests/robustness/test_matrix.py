@@ -2,7 +2,7 @@
 effect alone, and every effect together, through tilt, calibrate, height, navigate and dov.
 
 Every figure is compared with the simulator's truth (``tests/robustness/matrix.py``: effective
-tilt and travel direction from ``nav/sim/truth.py``, the true trajectory, the point-mass field)
+tilt and travel direction from ``sim/truth.py``, the true trajectory, the point-mass field)
 and bounded by a physical floor derived from the sensor specifications (see that module), never
 by a number read off the output. No pipeline may fail with anything but a typed refusal that
 names its field, and a degraded input must leave a warning in summary.json.

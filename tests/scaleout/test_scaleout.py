@@ -10,8 +10,8 @@ import httpx
 import pytest
 from sqlalchemy import create_engine, text
 
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from tests.bundles import make_bundle, zip_bytes
 from tests.scaleout.conftest import Stack
 

@@ -6,9 +6,9 @@ import pytest
 
 from ldvsurvey.nav.attitude import c_bn_from_euler, euler_from_c_bn
 from ldvsurvey.nav.errmodel import c_db
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.effects import DEG, BodyAttitude, Effects
-from ldvsurvey.nav.sim.scenario import effective_travel_direction, mean_travel_direction, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.effects import DEG, BodyAttitude, Effects
+from ldvsurvey.sim.scenario import effective_travel_direction, mean_travel_direction, simulate
 
 G0 = 9.80665
 SPEC = BodyAttitude(stance_pitch_rad=0.3 * DEG, crab_rad=-0.25 * DEG, squat_rad_per_g=2.0 * DEG,

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.effects import DEG, Effects, GnssEffects, effect_names
-from ldvsurvey.nav.sim.scenario import simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.effects import DEG, Effects, GnssEffects, effect_names
+from ldvsurvey.sim.scenario import simulate
 
 
 def test_names_and_switches():

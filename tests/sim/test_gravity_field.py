@@ -6,10 +6,10 @@ import pytest
 
 from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.nav.earth import ARCSEC, MGAL, normal_gravity
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.effects import Effects, GravityFieldSpec
-from ldvsurvey.nav.sim.pointmass import G_NEWTON
-from ldvsurvey.nav.sim.scenario import grid_files, simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.effects import Effects, GravityFieldSpec
+from ldvsurvey.sim.pointmass import G_NEWTON
+from ldvsurvey.sim.scenario import grid_files, simulate
 
 hm = pytest.importorskip("harmonica")
 
@@ -47,8 +47,8 @@ def test_field_matches_harmonica_along_the_track(sim):
 def test_realistic_magnitudes(seed):
     """DOV of 5–30″ at the survey, Δg gradients ≤ 3 mGal/km, Δg of tens of mGal: harmonica's numbers."""
     sc = catalog.realistic_height(seed=seed)  # only the motion is evaluated: cheap
-    from ldvsurvey.nav.sim.motion import Motion
-    from ldvsurvey.nav.sim.pointmass import build_field
+    from ldvsurvey.sim.motion import Motion
+    from ldvsurvey.sim.pointmass import build_field
 
     m = Motion(sc.road, sc.segments, sc.t0_s)
     tr = m.truth(np.linspace(sc.t0_s, m.t_end_s, 400))

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from ldvsurvey.nav.earth import OMEGA_IE
-from ldvsurvey.nav.sim.effects import Effects, ImuErrorSpec, ImuTiming
-from ldvsurvey.nav.sim.motion import Static, TurnInPlace
-from ldvsurvey.nav.sim.road import Ramps, Road
-from ldvsurvey.nav.sim.scenario import Scenario, bundle_files, simulate
+from ldvsurvey.sim.effects import Effects, ImuErrorSpec, ImuTiming
+from ldvsurvey.sim.motion import Static, TurnInPlace
+from ldvsurvey.sim.road import Ramps, Road
+from ldvsurvey.sim.scenario import Scenario, bundle_files, simulate
 
 boule = pytest.importorskip("boule")
 
@@ -44,7 +44,7 @@ def test_scale_and_nonorthogonality_from_a_turn_and_gravity():
     # the true body rates of a level turn in place: heading ψ(t) clockwise, Earth rate in ENU [0, Ω cos L, Ω sin L]
     tf = np.arange(sim.scenario.t0_s + 10.0, sim.scenario.t0_s + 40.0 + 1e-9, 1e-3)
     from ldvsurvey.nav.attitude import euler_from_c_bn
-    from ldvsurvey.nav.sim.imu import rates
+    from ldvsurvey.sim.imu import rates
 
     c = rates(sim.motion, tf, np.eye(3))[3]
     psi = np.unwrap(euler_from_c_bn(c)[2])

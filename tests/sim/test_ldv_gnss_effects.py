@@ -4,9 +4,9 @@ each measured from the generated data against the effect's specification."""
 import numpy as np
 import pytest
 
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.effects import Effects, GnssEffects, LdvDropouts
-from ldvsurvey.nav.sim.scenario import simulate
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.effects import Effects, GnssEffects, LdvDropouts
+from ldvsurvey.sim.scenario import simulate
 
 A, E2 = 6378137.0, 6.69437999014e-3  # WGS-84
 

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from ldvsurvey.nav.earth import OMEGA_IE
-from ldvsurvey.nav.sim import catalog
-from ldvsurvey.nav.sim.effects import Effects, TurntableSpec
-from ldvsurvey.nav.sim.motion import Motion, Static
-from ldvsurvey.nav.sim.road import Ramps, Road
-from ldvsurvey.nav.sim.scenario import Scenario, bundle_files, simulate, truth_files
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.effects import Effects, TurntableSpec
+from ldvsurvey.sim.motion import Motion, Static
+from ldvsurvey.sim.road import Ramps, Road
+from ldvsurvey.sim.scenario import Scenario, bundle_files, simulate, truth_files
 
 LAT = 0.5
 LSB = 360.0 / 2 ** 16

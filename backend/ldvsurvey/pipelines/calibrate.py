@@ -6,9 +6,10 @@ from pydantic import Field, field_validator
 
 from ldvsurvey.pipelines.base import (Floats, LogFacts, Pipeline, PipelineResult, Reason, needs_gnss,
                                       window_inside)
-from ldvsurvey.pipelines.prep import c_bs_of, nav_inputs
+from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs
 from ldvsurvey.pipelines.plumb import DovParams, apply_dov
-from ldvsurvey.pipelines.stages import calibration_stage, tilt_stage, time_window
+from ldvsurvey.pipelines.calibration import calibration_stage, time_window
+from ldvsurvey.pipelines.tiltfit import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
 

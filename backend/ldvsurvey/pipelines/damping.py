@@ -12,8 +12,8 @@ from ldvsurvey.nav.earth import enu_offset_m
 from ldvsurvey.units import RAD_PER_DEG as DEG
 from ldvsurvey.pipelines.base import (LogFacts, Params, Pipeline, PipelineResult, Reason, needs_gnss, output_rate,
                                       rate_within_imu)
-from ldvsurvey.pipelines.prep import c_bs_of, initial_attitude, nav_inputs
-from ldvsurvey.pipelines.stages import tilt_stage
+from ldvsurvey.pipelines.inputs import c_bs_of, initial_attitude, nav_inputs
+from ldvsurvey.pipelines.tiltfit import tilt_stage
 
 class DampingParams(Params):
     """Parameters of ``damping``."""

@@ -22,8 +22,8 @@ from ldvsurvey.nav.mech import mechanize
 from ldvsurvey.pipelines.base import (Floats, LogFacts, Params, Paths, Pipeline, PipelineResult, Reason, Text,
                                       needs_gnss, output_rate, rate_within_imu)
 from ldvsurvey.pipelines.plumb import load_grids
-from ldvsurvey.pipelines.prep import c_bs_of, gnss_ins, nav_inputs
-from ldvsurvey.pipelines.stages import tilt_stage
+from ldvsurvey.pipelines.inputs import c_bs_of, gnss_ins, nav_inputs
+from ldvsurvey.pipelines.tiltfit import tilt_stage
 
 #: a grid cache the caller may provide (the store's database cache); get(key) -> DovGrid | None, put(key, grid)
 GRID_CACHE: contextvars.ContextVar = contextvars.ContextVar("dov_grid_cache", default=None)

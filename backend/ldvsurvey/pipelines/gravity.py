@@ -27,8 +27,8 @@ from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
 from ldvsurvey.pipelines.gravity_report import block, chain_difference, evaluate, floor_of
 from ldvsurvey.pipelines.navigate import run_navigation
-from ldvsurvey.pipelines.prep import gnss_aid, navigate
-from ldvsurvey.pipelines.stages import CalibrationParams, calibration_applicable, ldv_aid_of
+from ldvsurvey.pipelines.inputs import gnss_aid, navigate
+from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of
 
 class GravityParams(CalibrationParams):
     """Parameters of ``gravity``."""

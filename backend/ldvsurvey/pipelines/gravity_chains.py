@@ -26,8 +26,8 @@ from scipy.ndimage import median_filter, uniform_filter1d
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.attitude import c_from_q
 from ldvsurvey.nav.gravity import bridge_velocity, disturbance_mps2, runs, zero_phase_lowpass
-from ldvsurvey.pipelines.prep import GNSS_SIGMA, attitude_at
-from ldvsurvey.pipelines.stages import accel_fwd, ldv_body_velocity
+from ldvsurvey.pipelines.inputs import GNSS_SIGMA, attitude_at
+from ldvsurvey.pipelines.calibration import accel_fwd, ldv_body_velocity
 
 
 #: GNSS fixes (each side) whose mean offset from the doubly integrated f_U ties a gap's bridge

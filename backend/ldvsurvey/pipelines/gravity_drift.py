@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.pipelines.prep import local_metres
+from ldvsurvey.pipelines.inputs import local_metres
 
 #: stops shorter than this (after trimming their edges) are not used, s
 MIN_STOP_S = 10.0

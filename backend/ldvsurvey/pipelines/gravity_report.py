@@ -11,7 +11,7 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
 from ldvsurvey.nav.gravity import (MGAL, half_wavelength_resolution_m, noise_floor_mgal, runs, trim_line,
                                    zero_phase_lowpass)
-from ldvsurvey.pipelines.prep import local_metres
+from ldvsurvey.pipelines.inputs import local_metres
 
 #: filtered values are withheld where bridged samples take more than this share of the FIR's weight …
 MAX_BRIDGED_SHARE = 0.5

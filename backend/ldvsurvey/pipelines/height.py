@@ -13,9 +13,9 @@ from pydantic import Field
 
 from ldvsurvey.nav.filter import forward_accel_mps2, ldv_spikes
 from ldvsurvey.pipelines.base import LogFacts, Pipeline, PipelineResult, Reason, output_rate, rate_within_imu
-from ldvsurvey.pipelines.prep import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
+from ldvsurvey.pipelines.inputs import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
 from ldvsurvey.pipelines.plumb import DovParams, apply_dov
-from ldvsurvey.pipelines.stages import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_body_velocity, ldv_setup
+from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_body_velocity, ldv_setup
 
 class HeightParams(CalibrationParams, DovParams):
     """Parameters of ``height``."""

@@ -11,10 +11,10 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
 from ldvsurvey.pipelines.base import LogFacts, Pipeline, PipelineResult, Reason, needs_gnss, output_rate, rate_within_imu
-from ldvsurvey.pipelines.prep import attitude_at, gnss_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.inputs import attitude_at, gnss_aid, nav_inputs, navigate
 from ldvsurvey.pipelines.plumb import DOV_HELP, DovChoice, DovParams, apply_dov
 from ldvsurvey.units import DEG_PER_RAD as DEG
-from ldvsurvey.pipelines.stages import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_setup
+from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_setup
 
 
 class NavigateParams(CalibrationParams, DovParams):
@@ -47,8 +47,8 @@ def run_navigation(log, params, progress):
     setup = ldv_setup(inp, params, progress) if use_ldv else None
     cbs = setup.cbs if setup else None
     if setup is None and inp.eta_rad is not None:
-        from ldvsurvey.pipelines.prep import c_bs_of
-        from ldvsurvey.pipelines.stages import tilt_stage
+        from ldvsurvey.pipelines.inputs import c_bs_of
+        from ldvsurvey.pipelines.tiltfit import tilt_stage
 
         est, _ = tilt_stage(inp)
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)

@@ -19,7 +19,7 @@ from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.nav.dovgrid import ARCSEC, DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.pipelines.base import Params, Paths, Text
-from ldvsurvey.pipelines.prep import NavInputs
+from ldvsurvey.pipelines.inputs import NavInputs
 
 EGM_STEP_ARCMIN = 1.0
 EGM_DEGREE = 2190

@@ -175,8 +175,8 @@ def warmup(names: list[str] | None = None, variants: bool = True, log=None) -> W
     """
     from ldvsurvey.compilecache import cache_dir
     from ldvsurvey.io.drivelog import parse_files
-    from ldvsurvey.nav.sim import catalog
-    from ldvsurvey.nav.sim.scenario import bundle_files, simulate
+    from ldvsurvey.sim import catalog
+    from ldvsurvey.sim.scenario import bundle_files, simulate
     from ldvsurvey.pipelines.base import Progress, run_pipeline
     from ldvsurvey.pipelines.registry import PIPELINES
 

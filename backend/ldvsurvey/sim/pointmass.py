@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ldvsurvey.nav.earth import ARCSEC, MGAL, normal_gravity
-from ldvsurvey.nav.sim.effects import GravityFieldSpec
+from ldvsurvey.sim.effects import GravityFieldSpec
 
 R_M = 6371000.0
 G_NEWTON = 6.6743e-11  #: m³/(kg s²), to quote the masses in kg

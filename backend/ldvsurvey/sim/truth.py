@@ -13,13 +13,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from ldvsurvey.nav.sim.scenario import SimResult
+    from ldvsurvey.sim.scenario import SimResult
 
 
 def effective_travel_direction(sim: SimResult, t_s) -> tuple[np.ndarray, np.ndarray]:
     """Pitch and heading (rad) of the travel direction in IMU-body axes at times ``t_s``, in the LDV
     mounting convention: what an LDV calibration sees (equal to the mounting without body attitude)."""
-    from ldvsurvey.nav.sim.body import travel_direction
+    from ldvsurvey.sim.body import travel_direction
 
     t = np.atleast_1d(np.asarray(t_s, float))
     if sim.body is None:
@@ -71,7 +71,7 @@ def grid_files(sim: SimResult) -> dict[str, bytes]:
     """ICGEM ``.gdf`` grids of the effect's gravity field over the survey area: ``xi.gdf``,
     ``eta.gdf`` (arcsec) and ``dg.gdf`` (mGal) at the mean track height; empty without the effect."""
     from ldvsurvey.io.gdf import write_gdf
-    from ldvsurvey.nav.sim.pointmass import PointMassField, grid_axes
+    from ldvsurvey.sim.pointmass import PointMassField, grid_axes
 
     field = sim.extras.get("gravity_field")
     eff = sim.scenario.effects.gravity_field

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ldvsurvey.nav.sim.effects import GnssEffects
+from ldvsurvey.sim.effects import GnssEffects
 
 
 RANK = {4: 0, 5: 1, 2: 2, 1: 3, 0: 4}  #: fix quality from best to worst

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ldvsurvey.nav.attitude import c_bn_from_euler
-from ldvsurvey.nav.sim.road import Road, smooth_step, smooth_step_integral
+from ldvsurvey.sim.road import Road, smooth_step, smooth_step_integral
 
 
 @dataclass

@@ -15,11 +15,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ldvsurvey.nav.attitude import euler_from_c_bn
-from ldvsurvey.nav.sim.effects import Effects
-from ldvsurvey.nav.sim.imu import GravityField, ImuTruth, simulate_imu
-from ldvsurvey.nav.sim.motion import Motion, Turntable
-from ldvsurvey.nav.sim.road import Road
-from ldvsurvey.nav.sim.sensors import ImuErrors, LdvSpecSim, gnss_fixes, ldv_measure
+from ldvsurvey.sim.effects import Effects
+from ldvsurvey.sim.imu import GravityField, ImuTruth, simulate_imu
+from ldvsurvey.sim.motion import Motion, Turntable
+from ldvsurvey.sim.road import Road
+from ldvsurvey.sim.sensors import ImuErrors, LdvSpecSim, gnss_fixes, ldv_measure
 
 GEOID_SEPARATION_M = -16.0
 
@@ -118,19 +118,19 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
     c_bt = sc.ldv.c_bt()
     body = None
     if eff.body_attitude is not None:
-        from ldvsurvey.nav.sim.body import BodyModel
+        from ldvsurvey.sim.body import BodyModel
 
         body = c_bt = BodyModel(eff.body_attitude, motion, sc.ldv.pitch_rad, sc.ldv.heading_rad, erng)
     field = sc.gravity_field
     if eff.gravity_field is not None and field is None:
-        from ldvsurvey.nav.sim.pointmass import build_field
+        from ldvsurvey.sim.pointmass import build_field
 
         tr = motion.truth(np.linspace(sc.t0_s, motion.t_end_s, 2001))
         field = build_field(eff.gravity_field, tr["lat_rad"], tr["lon_rad"], tr["h_m"])
     extras["gravity_field"] = field
     table = None
     if sc.rotating and eff.turntable is not None:
-        from ldvsurvey.nav.sim.turntable import ScheduledTurntable
+        from ldvsurvey.sim.turntable import ScheduledTurntable
 
         table = ScheduledTurntable(eff.turntable, sc.t0_s, motion.t_end_s, dt, erng)
         extras["turntable"] = table
@@ -145,7 +145,7 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
         ref = simulate_imu(motion, t, c_bt, dg_only, table, sc.alpha_rad, sc.beta_rad)
     ideal_dth, ideal_dv = imu.dtheta_rad, imu.dvel_mps
     if eff.imu_errors is not None:
-        from ldvsurvey.nav.sim.imuerrors import apply_imu_errors
+        from ldvsurvey.sim.imuerrors import apply_imu_errors
 
         ideal_dth, ideal_dv, extras["imu_errors"] = apply_imu_errors(
             imu.dtheta_rad, imu.dvel_mps, dt, eff.imu_errors, sc.gyro_bias_dph, sc.accel_bias_ug, erng)
@@ -161,11 +161,11 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
             r_dv = r_dv @ x["m_accel"].T + x["accel_gm_mps2"] * dt
         nodov = err.apply(r_dth, r_dv, dt, rng)
     if eff.imu_timing is not None:
-        from ldvsurvey.nav.sim.imuerrors import timing
+        from ldvsurvey.sim.imuerrors import timing
 
         extras["imu_keep"], extras["imu_t_written"] = timing(imu.t_s, dt, eff.imu_timing, erng)
     if table is not None and eff.turntable is not None:
-        from ldvsurvey.nav.sim.turntable import encoder_reading
+        from ldvsurvey.sim.turntable import encoder_reading
 
         extras["encoder_deg"] = encoder_reading(imu.eta_rad, eff.turntable, erng)
     # LDV
@@ -173,7 +173,7 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
     t_l = sc.t0_s + np.arange(1, n_l + 1) / sc.ldv_rate_hz
     current = None
     if sc.current_n_mps is not None:  # a water-track LDV sees the velocity relative to the water
-        from ldvsurvey.nav.sim.road import smooth_step
+        from ldvsurvey.sim.road import smooth_step
 
         frac = smooth_step((t_l - motion.current_t0) / motion.current_ramp)[0]
         current = frac[:, None] * np.asarray(sc.current_n_mps, float)
@@ -184,7 +184,7 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
     vf[bad] += rng.normal(0, 2.0, bad.sum())
     vu[bad] += rng.normal(0, 2.0, bad.sum())
     if eff.ldv_dropouts is not None:
-        from ldvsurvey.nav.sim.ldvfaults import apply_dropouts
+        from ldvsurvey.sim.ldvfaults import apply_dropouts
 
         static_end = sc.t0_s + (sc.segments[0].duration_s if sc.static_s > 0 else 0.0)
         vf, vu, quality, bursts, spikes = apply_dropouts(t_l, vf, vu, quality, eff.ldv_dropouts, static_end, erng)
@@ -193,7 +193,7 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
     t_g = np.arange(np.ceil(sc.t0_s), np.floor(motion.t_end_s) + 1e-9, 1.0)
     fix_of_t, extra = sc.fix_of_t, None
     if eff.gnss is not None:
-        from ldvsurvey.nav.sim.gnsseffects import fix_with_events, gnss_events, multipath_offsets
+        from ldvsurvey.sim.gnsseffects import fix_with_events, gnss_events, multipath_offsets
 
         ev = gnss_events(eff.gnss, sc.t0_s, motion.t_end_s, erng)
         fix_of_t = fix_with_events(sc.fix_of_t, ev)
@@ -304,5 +304,5 @@ def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:
 
 
 # the effects' truth lives in truth.py; re-exported here for one import place
-from ldvsurvey.nav.sim.truth import (effect_truth, effective_travel_direction, grid_files,  # noqa: E402, F401
+from ldvsurvey.sim.truth import (effect_truth, effective_travel_direction, grid_files,  # noqa: E402, F401
                                      mean_travel_direction)

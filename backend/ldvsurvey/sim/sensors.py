@@ -14,8 +14,8 @@ import numpy as np
 
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.errmodel import c_db
-from ldvsurvey.nav.sim.imu import rates
-from ldvsurvey.nav.sim.motion import Motion
+from ldvsurvey.sim.imu import rates
+from ldvsurvey.sim.motion import Motion
 
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)
@@ -78,7 +78,7 @@ def ldv_measure(motion: Motion, t_s, spec: LdvSpecSim, rng, current_n=None, body
     """Forward (and up) speeds along the head axes, (v_fwd, v_up) in m/s.
 
     ``current_n`` (N, 3) m/s: water velocity to subtract (water-track LDV).
-    ``body``: a :class:`~ldvsurvey.nav.sim.body.BodyModel` (the head frame then is fixed in the
+    ``body``: a :class:`~ldvsurvey.sim.body.BodyModel` (the head frame then is fixed in the
     body, no longer the travel frame).
     """
     c_bt = spec.c_bt() if body is None else body

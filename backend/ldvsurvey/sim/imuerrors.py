@@ -1,7 +1,7 @@
 """IMU errors real sensors have beyond constant bias and white noise (``imu_errors``, ``imu_timing``).
 
 Sensor-frame model of each increment over (t_{k−1}, t_k] (applied before the turn-on bias and
-white noise of :class:`~ldvsurvey.nav.sim.sensors.ImuErrors`)::
+white noise of :class:`~ldvsurvey.sim.sensors.ImuErrors`)::
 
     Δθ̃ = (I + S_g + N_g) Δθ + b_g,GM(t_k) Δt,    Δṽ = (I + S_a + N_a) Δv + b_a,GM(t_k) Δt
 
@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-from ldvsurvey.nav.sim.effects import ImuErrorSpec, ImuTiming
+from ldvsurvey.sim.effects import ImuErrorSpec, ImuTiming
 
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ldvsurvey.nav.sim.effects import LdvDropouts
+from ldvsurvey.sim.effects import LdvDropouts
 
 KINDS = ("zeros", "stale", "spikes", "noise")
 

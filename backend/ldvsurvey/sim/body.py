@@ -25,7 +25,7 @@ import numpy as np
 
 from ldvsurvey.nav.attitude import c_bn_from_euler
 from ldvsurvey.nav.errmodel import c_db
-from ldvsurvey.nav.sim.effects import BodyAttitude
+from ldvsurvey.sim.effects import BodyAttitude
 
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 H_S = 1e-4
@@ -48,7 +48,7 @@ def euler_rate_to_body(pitch, roll, yaw_cw, pitch_rate, roll_rate, yaw_cw_rate):
 class BodyModel:
     """C_b^t(t) and ω_tb^b(t) of the IMU body with the body-attitude effect.
 
-    Called by :func:`ldvsurvey.nav.sim.imu.rates` as ``model(t, truth) -> (C_b^t, ω_tb^b)``.
+    Called by :func:`ldvsurvey.sim.imu.rates` as ``model(t, truth) -> (C_b^t, ω_tb^b)``.
     """
 
     def __init__(self, spec: BodyAttitude, motion, mount_pitch_rad: float, mount_heading_rad: float,

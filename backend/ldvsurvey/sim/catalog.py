@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ldvsurvey.nav.sim.motion import Drive, Static, TurnInPlace
-from ldvsurvey.nav.sim.road import Ramps, Road
-from ldvsurvey.nav.sim.scenario import Scenario
-from ldvsurvey.nav.sim.sensors import LdvSpecSim
+from ldvsurvey.sim.motion import Drive, Static, TurnInPlace
+from ldvsurvey.sim.road import Ramps, Road
+from ldvsurvey.sim.scenario import Scenario
+from ldvsurvey.sim.sensors import LdvSpecSim
 
 from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402  (rad per degree)
 
@@ -66,8 +66,8 @@ def gravity(n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, sp
             **kw) -> Scenario:
     """The gravimetry paper's survey: fixed IMU (0.003°/h, 20 µg), 2-D LDV (0.1 %), repeated lines
     with large relief, GNSS partly degraded, a synthetic field with gradients up to 3 mGal/km."""
-    from ldvsurvey.nav.sim.fields import SinusoidField
-    from ldvsurvey.nav.sim.motion import Motion
+    from ldvsurvey.sim.fields import SinusoidField
+    from ldvsurvey.sim.motion import Motion
 
     L = line_km * 1000.0
     a, b = 500.0, 500.0 + L  # line ends on the road
@@ -175,7 +175,7 @@ def by_name(name: str, **kw) -> Scenario:
 
 def _split_effects(seed: int, effects, kw: dict):
     """Effect overrides (keys named like effects) out of ``kw``; returns (Effects, remaining kw)."""
-    from ldvsurvey.nav.sim.effects import Effects, effect_names
+    from ldvsurvey.sim.effects import Effects, effect_names
 
     over = {k: kw.pop(k) for k in list(kw) if k in effect_names()}
     if effects is None:
@@ -189,7 +189,7 @@ def _realistic(sc: Scenario, eff, seed: int) -> Scenario:
     """Attach the effects: a moving start drops the initial static period and starts the log at
     cruising speed; the GNSS effect
     moves the antenna to its real lever arm."""
-    from ldvsurvey.nav.sim.motion import Static as _Static
+    from ldvsurvey.sim.motion import Static as _Static
 
     sc.effects = eff
     sc.seed = seed

@@ -16,7 +16,7 @@ import numpy as np
 
 from ldvsurvey.nav.attitude import c_bs
 from ldvsurvey.nav.earth import gravity_n, w_en_n, w_ie_n
-from ldvsurvey.nav.sim.motion import Motion, Turntable
+from ldvsurvey.sim.motion import Motion, Turntable
 
 GL_X = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
 GL_W = np.array([5.0, 8.0, 5.0]) / 9.0

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ldvsurvey.nav.sim.effects import TurntableSpec
-from ldvsurvey.nav.sim.road import smooth_step, smooth_step_integral
+from ldvsurvey.sim.effects import TurntableSpec
+from ldvsurvey.sim.road import smooth_step, smooth_step_integral
 
 DELTAS = {"2pos": [180.0, -180.0], "4pos-seq": [90.0, 90.0, 90.0, -270.0],
           "4pos-paper": [180.0, 90.0, -180.0, -90.0]}
