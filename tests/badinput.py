@@ -7,6 +7,7 @@ import json
 import zipfile
 
 from tests.bundles import make_bundle, zip_bytes
+from tests.helpers.nmea import sentence
 
 
 def _lines(b: bytes) -> list[str]:
@@ -113,11 +114,7 @@ def case(name):
         lines = f["gnss.nmea"].decode().split("\r\n")
         body = lines[4][1:].split("*")[0].split(",")
         body[9] = "12a.5"
-        b = ",".join(body)
-        acc = 0
-        for ch in b.encode():
-            acc ^= ch
-        lines[4] = f"${b}*{acc:02X}"
+        lines[4] = sentence(",".join(body))
         f["gnss.nmea"] = "\r\n".join(lines).encode()
         exp = dict(file="gnss.nmea", line=5, field="altitude")
     elif name == "nmea_time_backwards":

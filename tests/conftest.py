@@ -1,10 +1,6 @@
 import os
-from pathlib import Path
 
 import pytest
-
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-SAMPLES = SHARED / "samples"
 
 
 @pytest.fixture
@@ -16,7 +12,7 @@ def settings(tmp_path, monkeypatch):
     s = Settings(data_dir=tmp_path / "data", database_url=url or None, auth_enabled=False,
                  max_upload_bytes=5 * 1024 * 1024, max_unzipped_bytes=50 * 1024 * 1024, uploads_per_minute=1000)
     if url:  # a shared server database: start from empty tables
-        from ldvsurvey.store.testing import reset_database
+        from tests.helpers.db import reset_database
 
         reset_database(url)
     return s

@@ -1,30 +1,20 @@
 """A real server process and Debian's Chromium driven by Playwright (never a downloaded browser)."""
 
 import os
-import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
-import httpx
 import pytest
 
+from tests.browser.helpers import ADMIN
+from tests.helpers.server import free_port, wait_healthy
+
 CHROMIUM = "/usr/bin/chromium"
-ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts"
-
-
-def _free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-ADMIN = ("admin", "first-admin-password")
 
 
 def _serve(tmp_path_factory, extra: dict):
-    port = _free_port()
+    port = free_port()
     data = tmp_path_factory.mktemp("srv")
     env = {**os.environ, "LDVSURVEY_DATA_DIR": str(data), "LDVSURVEY_MAX_UPLOAD_BYTES": str(200 * 1024 * 1024),
            **extra}
@@ -35,15 +25,9 @@ def _serve(tmp_path_factory, extra: dict):
     proc = subprocess.Popen([sys.executable, "-m", "ldvsurvey.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
                             env=env, stdout=log, stderr=subprocess.STDOUT)
     base = f"http://127.0.0.1:{port}"
-    for _ in range(120):
-        try:
-            if httpx.get(base + "/api/health", timeout=1).status_code == 200:
-                break
-        except httpx.HTTPError:
-            pass
-        if proc.poll() is not None:
-            raise RuntimeError((data / "server.log").read_text())
-        time.sleep(0.5)
+    if not wait_healthy(base, proc=proc):
+        proc.kill()
+        raise RuntimeError((data / "server.log").read_text())
     return proc, base
 
 
@@ -85,8 +69,3 @@ def page(browser):
     pg = ctx.new_page()
     yield pg
     ctx.close()
-
-
-def shot(page, name):
-    ARTIFACTS.mkdir(exist_ok=True)
-    page.screenshot(path=str(ARTIFACTS / f"{name}.png"), full_page=True)

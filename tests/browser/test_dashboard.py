@@ -10,7 +10,7 @@ import pytest
 
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from tests.browser.conftest import shot
+from tests.browser.helpers import shot
 from tests.bundles import zip_bytes
 
 pytestmark = pytest.mark.browser

@@ -11,7 +11,7 @@ import pytest
 
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, manifest, simulate
-from tests.browser.conftest import shot
+from tests.browser.helpers import shot
 from tests.browser.test_dashboard import drop_files
 from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu
 

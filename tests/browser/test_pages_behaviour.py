@@ -6,7 +6,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.browser.conftest import shot
+from tests.browser.helpers import shot
 from tests.bundles import make_bundle
 
 pytestmark = pytest.mark.browser

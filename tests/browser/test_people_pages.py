@@ -5,7 +5,7 @@ from urllib.parse import urlparse
 import httpx
 import pytest
 
-from tests.browser.conftest import ADMIN, shot
+from tests.browser.helpers import ADMIN, shot
 from tests.bundles import make_bundle
 
 pytestmark = pytest.mark.browser

@@ -18,6 +18,7 @@ from ldvsurvey.sim.catalog import RAD
 from ldvsurvey.sim.motion import Static
 from ldvsurvey.sim.road import Ramps, Road
 from ldvsurvey.sim.scenario import Scenario, bundle_files, manifest, simulate
+from tests.helpers.nmea import sentence
 from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu, sow_of_midnight
 
 OUT = Path("docs/examples")
@@ -69,11 +70,7 @@ def main():
         lines.append(format_gga(float(t), float(sim.gnss_lat_deg[k]), float(sim.gnss_lon_deg[k]),
                                 float(sim.gnss_h_m[k]) + 16.9, -16.9, int(sim.gnss_fix[k]), talker="GP"))
         if k == 0:
-            body = "GPRMC,082000.00,A,2829.1660,N,11303.7380,E,0.0,30.0,200323,,,A"
-            cks = 0
-            for ch in body.encode():
-                cks ^= ch
-            lines.append(f"${body}*{cks:02X}")
+            lines.append(sentence("GPRMC,082000.00,A,2829.1660,N,11303.7380,E,0.0,30.0,200323,,,A"))
     (nm / "receiver.nmea").write_bytes(("\r\n".join(lines) + "\r\n").encode())
     # any CSV: rates in deg/s, accelerations in g, axes x forward / y left / z up, UNIX time in ms
     cs = OUT / "csv"

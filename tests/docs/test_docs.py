@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import os
 import re
-import socket
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from tests.helpers.server import free_port
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
@@ -23,12 +24,6 @@ def shell_blocks(page: Path) -> list[str]:
     return [body for info, body in FENCE.findall(page.read_text()) if info.strip().split() == ["sh", "test"]]
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.mark.parametrize("page", [p for p in PAGES if shell_blocks(p)], ids=lambda p: p.name)
 def test_shell_examples_run(page, tmp_path):
     """Each page's ``sh test`` blocks run in order in one shell, in a scratch folder that sees docs/."""
@@ -39,7 +34,7 @@ def test_shell_examples_run(page, tmp_path):
     wrapper.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m ldvsurvey.cli "$@"\n')
     wrapper.chmod(0o755)
     env = {**os.environ, "PATH": f"{bindir}:{os.environ.get('PATH', '')}", "PYTHONPATH": str(ROOT / "backend"),
-           "PORT": str(_free_port()), "LDVSURVEY_DATA_DIR": str(tmp_path / "data")}
+           "PORT": str(free_port()), "LDVSURVEY_DATA_DIR": str(tmp_path / "data")}
     for k in ("LDVSURVEY_DATABASE_URL", "LDVSURVEY_REDIS_URL"):
         env.pop(k, None)
     script = "set -euo pipefail\n" + "\n".join(shell_blocks(page))

@@ -13,6 +13,7 @@ from ldvsurvey.errors import BundleError
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.importers import Source, build_bundle, gpstime
 from ldvsurvey.io.nmea import format_gga
+from tests.helpers.nmea import sentence
 from tests.io.test_import_helpers import sow_of_midnight
 
 G = 9.80665
@@ -63,11 +64,7 @@ def test_nmea_across_midnight_takes_the_date_from_rmc():
         if k == 5:  # the same epoch from a second talker: kept once
             lines.append(format_gga(tt, 28.1 + 1e-6 * k, 113.0, 40.0, -16.5, 4, talker="GN"))
         if k == 0:
-            body = "GPRMC,235950.00,A,2806.0000,N,11300.0000,E,0.0,0.0,200323,,,A"
-            cks = 0
-            for ch in body.encode():
-                cks ^= ch
-            lines.append(f"${body}*{cks:02X}")
+            lines.append(sentence("GPRMC,235950.00,A,2806.0000,N,11300.0000,E,0.0,0.0,200323,,,A"))
     lines.append("$GPGGA,000011.00,2806.00,N,11300.00,E,4,10,0.9,40.0,M,-16.5,M,,*00")  # bad checksum: skipped
     nmea = ("\r\n".join(lines) + "\r\n").encode()
     ti = np.round(86389.0 + np.arange(1, 2201) * 0.01, 2)

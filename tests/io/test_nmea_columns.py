@@ -12,13 +12,7 @@ import pytest
 
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.nmea import parse_nmea
-
-
-def _sentence(body: str) -> str:
-    acc = 0
-    for ch in body.encode():
-        acc ^= ch
-    return f"${body}*{acc:02X}"
+from tests.helpers.nmea import sentence
 
 
 def _survey(n: int = 400, seed: int = 3) -> list[str]:
@@ -42,14 +36,14 @@ def _survey(n: int = 400, seed: int = 3) -> list[str]:
                     f"{rng.integers(4, 30):02d},{rng.uniform(0.5, 3):.1f},{rng.uniform(-50, 3000):.4f},M,{sep},M,,")
         else:
             body = f"{talker}GGA,{t},,,,,0,00,,,M,,M,,"
-        lines.append(_sentence(body))
+        lines.append(sentence(body))
         if k % 3 == 0:
-            lines.append(_sentence(f"GNRMC,{t},A,{la},N,{lo},E,0.0,0.0,200323,,,A"))
-            lines.append(_sentence("GNGSA,A,3,01,02,03,,,,,,,,,,1.4,0.9,1.1"))
+            lines.append(sentence(f"GNRMC,{t},A,{la},N,{lo},E,0.0,0.0,200323,,,A"))
+            lines.append(sentence("GNGSA,A,3,01,02,03,,,,,,,,,,1.4,0.9,1.1"))
     return lines
 
 
-def test_values_match_pynmea2_sentence_by_sentence():
+def test_values_match_pynmea2_sentence_bysentence():
     lines = _survey()
     g = parse_nmea("\r\n".join(lines).encode(), t_ref_s=23 * 3600.0)
     ggas = [(i + 1, pynmea2.parse(s)) for i, s in enumerate(lines) if s[3:6] == "GGA"]
@@ -77,7 +71,7 @@ def _corrupt(field_index: int, value: str, at: int = 250):
     i = gga_rows[at]
     body = lines[i][1:].rpartition("*")[0].split(",")
     body[field_index] = value
-    lines[i] = _sentence(",".join(body))
+    lines[i] = sentence(",".join(body))
     return "\r\n".join(lines).encode(), i + 1
 
 

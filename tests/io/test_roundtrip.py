@@ -11,7 +11,7 @@ from ldvsurvey.io.nmea import parse_nmea
 from ldvsurvey.io.quality import quality_report
 from ldvsurvey.io.writers import imu_csv, ldv_csv, nmea_text
 from tests.bundles import MANIFEST, make_arrays, make_bundle, zip_bytes
-from tests.conftest import SAMPLES
+from tests.helpers.samples import sample_zip
 
 
 def test_imu_and_ldv_round_trip_bit_exact():
@@ -119,9 +119,7 @@ def test_exactly_repeated_row_is_dropped_and_counted():
 
 @pytest.mark.parametrize("name", ["fixed-imu-2d-ldv-8min", "rotating-imu-1d-ldv-8min", "vessel-water-ldv-8min"])
 def test_independent_samples_validate(name):
-    path = SAMPLES / f"{name}.zip"
-    if not path.exists():
-        pytest.skip("shared/samples not beside the checkout")
+    path = sample_zip(name)
     from ldvsurvey.io.drivelog import load_bundle
 
     log = load_bundle(path)

@@ -1,6 +1,5 @@
 """Simulated bundles for the pipeline tests, made once per session."""
 
-import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
@@ -22,10 +21,6 @@ def height_sim():
 def short_height_sim():
     sc = catalog.height(minutes=14.0, length_m=3500.0, relief_m=15.0, fix_schedule=[])
     return sc
-
-
-def truth_height(sim, t_s):
-    return np.interp(t_s, sim.imu.t_s, sim.imu.h_m)
 
 
 @pytest.fixture(scope="session")

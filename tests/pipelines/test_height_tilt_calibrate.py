@@ -11,7 +11,7 @@ from ldvsurvey.io.writers import write_bundle
 from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
-from tests.pipelines.conftest import truth_height
+from tests.pipelines.helpers import truth_height
 
 ARCSEC = np.pi / 180 / 3600
 

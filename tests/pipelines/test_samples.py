@@ -19,16 +19,14 @@ import pytest
 from ldvsurvey.io.drivelog import load_bundle
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
-from tests.conftest import SAMPLES
+from tests.helpers.samples import sample_zip
 
 G = 9.80665
 DEG = np.pi / 180
 
 
 def _run(sample, pipeline, params=None):
-    path = SAMPLES / f"{sample}.zip"
-    if not path.exists():
-        pytest.skip("shared/samples not beside the checkout")
+    path = sample_zip(sample)
     res = run_pipeline(get(pipeline), [load_bundle(path)], params or {})
     for cols in res.tables.values():
         assert len(next(iter(cols.values()))) > 100

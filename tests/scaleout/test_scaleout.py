@@ -13,7 +13,7 @@ from sqlalchemy import create_engine, text
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
 from tests.bundles import make_bundle, zip_bytes
-from tests.scaleout.conftest import Stack
+from tests.scaleout.helpers import Stack
 
 
 def _wait(base, job_id, until=("succeeded", "failed", "cancelled"), timeout=300, pred=None):

@@ -1,6 +1,4 @@
-"""Helpers for test suites that run against a shared server database."""
-
-from __future__ import annotations
+"""A server database (PostgreSQL in CI) emptied between tests."""
 
 from sqlalchemy import MetaData, text
 
