@@ -1,11 +1,20 @@
 #!/usr/bin/env bash
-# Set up and run every test. Extra arguments go to pytest.
+# Set up, check lint and formatting (ruff, prettier; scripts/format.sh fixes what it can), and run
+# every test. Extra arguments go to pytest (and skip the lint and formatting checks).
 # Under CI (CI=true) or with LDVSURVEY_TEST_SCALEOUT=1 the scale-out tests run against PostgreSQL and
 # Redis on loopback (started here if installed but stopped) and the database-facing tests run a second
 # time on PostgreSQL; an unreachable engine is then a failure, not a skip.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh --browser
+./scripts/node-tools.sh
+
+if [ $# -eq 0 ]; then
+  echo "== lint and formatting (scripts/format.sh fixes what can be fixed)"
+  .venv/bin/ruff check .
+  .venv/bin/ruff format --check .
+  node_modules/.bin/prettier --check --log-level warn frontend
+fi
 
 if [ "${CI:-}" = "true" ]; then export LDVSURVEY_TEST_SCALEOUT=1; fi
 if [ "${LDVSURVEY_TEST_SCALEOUT:-}" = "1" ]; then
