@@ -146,25 +146,23 @@ def admin_add_project(body: NewProject, _: Principal = Depends(admin),
 @router.put("/api/admin/projects/{project_id}/members/{user_id}", summary="Add a member (admin)")
 def admin_add_member(project_id: PathId, user_id: PathId, _: Principal = Depends(admin),
                      session: Session = Depends(get_session)) -> dict:
-    _check(session, project_id, user_id)
-    ustore.add_member(session, user_id, project_id)
-    session.commit()
-    return next(p for p in ustore.list_projects(session, [project_id]))
+    return _change_member(session, project_id, user_id, ustore.add_member)
 
 
 @router.delete("/api/admin/projects/{project_id}/members/{user_id}", summary="Remove a member (admin)")
 def admin_remove_member(project_id: PathId, user_id: PathId, _: Principal = Depends(admin),
                         session: Session = Depends(get_session)) -> dict:
-    _check(session, project_id, user_id)
-    ustore.remove_member(session, user_id, project_id)
-    session.commit()
-    return next(p for p in ustore.list_projects(session, [project_id]))
+    return _change_member(session, project_id, user_id, ustore.remove_member)
 
 
-def _check(session: Session, project_id: int, user_id: int) -> None:
+def _change_member(session: Session, project_id: int, user_id: int, change) -> dict:
+    """``change(session, user_id, project_id)`` after checking both exist; the project with its members."""
     from ldvsurvey.store.models import Project
 
     if session.get(Project, project_id) is None:
         raise HTTPException(404, f"project {project_id} not found")
     if session.get(User, user_id) is None:
         raise HTTPException(404, f"user {user_id} not found")
+    change(session, user_id, project_id)
+    session.commit()
+    return next(p for p in ustore.list_projects(session, [project_id]))
