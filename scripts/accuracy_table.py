@@ -166,18 +166,30 @@ def gravity_damping_rows() -> list[str]:
            "⚠ marks a figure beyond 3 bounds.", "",
            "| effects | coincidence (mGal) [bound] | RMS vs truth (mGal) [bound] | Δg signal RMS (mGal) | "
            "white floor (mGal) | drift σ (mGal) | warnings |", "|---|---|---|---|---|---|---|"]
-    for cfg in GRAVITY_CONFIGS:
-        t0 = time.perf_counter()
-        case = run_gravity_case(cfg)
-        f = gravity_figures(case)
-        if f is None:
-            out.append(f"| {cfg} | crash | crash | – | – | – | {notes(case['gravity'], f)} |")
-        else:
-            out.append(f"| {cfg} | {f['coincidence_mgal']:.2f} [{f['coincidence_bound_mgal']:.2f}]"
-                       f"{_w(f['coincidence_mgal'], f['coincidence_bound_mgal'])} | {f['truth_rms_mgal']:.2f} "
-                       f"[{f['truth_bound_mgal']:.2f}]{_w(f['truth_rms_mgal'], f['truth_bound_mgal'])} | "
-                       f"{f['signal_rms_mgal']:.2f} | {f['floor_mgal']:.2f} | {f['drift_sigma_mgal']:.2f} | {notes(case['gravity'], f)} |")
-        print(f"gravity {cfg}: {time.perf_counter() - t0:.0f} s", flush=True)
+    def table(kind, configs, run_case, figures, crash_cells, cells):
+        """One row per effects configuration: the figures' cells, or crash cells where the pipeline failed."""
+        for cfg in configs:
+            t0 = time.perf_counter()
+            case = run_case(cfg)
+            f = figures(case)
+            out.append(f"| {cfg} | {crash_cells if f is None else cells(f)} | {notes(case[kind], f)} |")
+            print(f"{kind} {cfg}: {time.perf_counter() - t0:.0f} s", flush=True)
+
+    def gravity_cells(f):
+        return (f"{f['coincidence_mgal']:.2f} [{f['coincidence_bound_mgal']:.2f}]"
+                f"{_w(f['coincidence_mgal'], f['coincidence_bound_mgal'])} | {f['truth_rms_mgal']:.2f} "
+                f"[{f['truth_bound_mgal']:.2f}]{_w(f['truth_rms_mgal'], f['truth_bound_mgal'])} | "
+                f"{f['signal_rms_mgal']:.2f} | {f['floor_mgal']:.2f} | {f['drift_sigma_mgal']:.2f}")
+
+    def damping_cells(f):
+        u, c, d = f["undamped"], f["conventional"], f["delayed_state"]
+        return (f"{u['rms_velocity_mps']:.3f} / {u['rms_position_m']:.0f} | "
+                f"{c['rms_velocity_mps']:.3f} / {c['rms_position_m']:.0f} | {d['rms_velocity_mps']:.3f} "
+                f"[{f['velocity_floor_mps']:.3f}]{_w(d['rms_velocity_mps'], f['velocity_floor_mps'])} | "
+                f"{d['rms_position_m']:.1f} / {d['max_position_m']:.1f} [{f['position_floor_m']:.0f}]"
+                f"{_w(d['rms_position_m'], f['position_floor_m'])}")
+
+    table("gravity", GRAVITY_CONFIGS, run_gravity_case, gravity_figures, "crash | crash | – | – | –", gravity_cells)
     out += ["", f"**damping**: `catalog.realistic_vessel(seed={DAMPING_SEED}, hours=0.2, mooring_s=300)` (2 m/s "
             "current, water-track LDV 0.02 m/s at 20 Hz), default parameters (1-s period, 60-s delayed baseline). "
             "Velocity RMS against the true velocity (the pipeline's error to its GNSS reference plus that "
@@ -188,20 +200,7 @@ def gravity_damping_rows() -> list[str]:
             "in-run drift (Schuler-bounded σ_a/ω_s and R·σ_ω) in quadrature when it is on; position σ_v·T.", "",
             "| effects | undamped vel. / pos. RMS (m/s / m) | conventional vel. / pos. RMS | delayed-state vel. RMS "
             "[bound] | delayed-state pos. RMS / max (m) [bound] | warnings |", "|---|---|---|---|---|---|"]
-    for cfg in DAMPING_CONFIGS:
-        t0 = time.perf_counter()
-        case = run_damping_case(cfg)
-        f = damping_figures(case)
-        if f is None:
-            out.append(f"| {cfg} | crash | crash | crash | crash | {notes(case['damping'], f)} |")
-        else:
-            u, c, d = f["undamped"], f["conventional"], f["delayed_state"]
-            out.append(f"| {cfg} | {u['rms_velocity_mps']:.3f} / {u['rms_position_m']:.0f} | "
-                       f"{c['rms_velocity_mps']:.3f} / {c['rms_position_m']:.0f} | {d['rms_velocity_mps']:.3f} "
-                       f"[{f['velocity_floor_mps']:.3f}]{_w(d['rms_velocity_mps'], f['velocity_floor_mps'])} | "
-                       f"{d['rms_position_m']:.1f} / {d['max_position_m']:.1f} [{f['position_floor_m']:.0f}]"
-                       f"{_w(d['rms_position_m'], f['position_floor_m'])} | {notes(case['damping'], f)} |")
-        print(f"damping {cfg}: {time.perf_counter() - t0:.0f} s", flush=True)
+    table("damping", DAMPING_CONFIGS, run_damping_case, damping_figures, "crash | crash | crash | crash", damping_cells)
     out += ["", GD_END]
     return out
 
