@@ -14,8 +14,10 @@ from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, run_filter
 from ldvsurvey.sim import catalog
+from ldvsurvey.sim import truth as TR
+from ldvsurvey.sim.effects import Effects, ImuErrorSpec
+from ldvsurvey.sim.scenario import simulate
 from ldvsurvey.sim.sensors import FIX_SIGMA
-from tests.pipelines.effects import simulate_effects
 
 RAD = np.pi / 180
 TAU = 600.0
@@ -23,8 +25,13 @@ TAU = 600.0
 
 @pytest.fixture(scope="module")
 def drifting():
-    sc = catalog.drive(minutes=12, static_s=60, gyro_bias_dph=0.01, accel_bias_ug=50.0)
-    sim = simulate_effects(sc, seed=21, gm_gyro_dph=0.02, gm_accel_ug=60.0, gm_tau_s=TAU)
+    # the bias instability alone (no scale factors or non-orthogonality): σ 0.02 °/h and 60 µg
+    drift = ImuErrorSpec(gyro_scale_ppm=(0.0,) * 3, accel_scale_ppm=(0.0,) * 3, gyro_nonorth_urad=(0.0,) * 6,
+                         accel_nonorth_urad=(0.0,) * 6, gyro_bi_frac=0.02 / 0.01, accel_bi_frac=60.0 / 50.0,
+                         gyro_tau_s=TAU, accel_tau_s=TAU)
+    sc = catalog.drive(minutes=12, static_s=60, gyro_bias_dph=0.01, accel_bias_ug=50.0,
+                       effects=Effects.ideal().with_(imu_errors=drift))
+    sim = simulate(sc, seed=21)
     imu = sim.imu
     static = imu.t_s < sc.t0_s + 59
     c0 = coarse_align(sim.dtheta_rad[static], sim.dvel_mps[static], sc.road.lat0_rad)
@@ -49,7 +56,7 @@ def test_gauss_markov_states_track_the_drift(drifting):
     stats = {}
     for name, sol in out.items():
         est = sol.epoch_bias[1:][moving, 3:5]  # horizontal accelerometers (observable in the drive)
-        err = est - sim.accel_bias_mps2[idx, :2]
+        err = est - TR.imu_bias(sim)[1][idx, :2]
         sig = sol.epoch_sigma[1:][moving, 12:14]
         stats[name] = (np.sqrt(np.mean(err ** 2)), np.mean(np.abs(err) <= 3 * sig))
     assert stats["gm"][0] < 0.6 * stats["constant"][0], stats

@@ -4,6 +4,8 @@ Truth: a geoid N(x, y) = N₀ + a sin(2πx/λ) cos(2πy/λ) + regional tilt, fro
 η = −∂N/∂x (one potential); the simulator's IMU feels g^n = [−γη, −γξ, −γ]. Levelled to the plumb
 line, an INS/LDV height follows H = h − N, so without the deflection the height error is the
 geoid change along the track (≈ 0.3 m here); with the user's .gdf grids it is back at the noise.
+The calibration's own error (a 2″ pitch error, well within its 1-σ of 1.4″ twice, costs 7 cm over
+7 km) is taken out first, from the simulated mounting, so the comparison holds for any noise draw.
 """
 
 
@@ -16,10 +18,9 @@ from ldvsurvey.io.gdf import write_gdf
 from ldvsurvey.io.writers import write_bundle
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import bundle_files
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
-from tests.pipelines.effects import simulate_effects
 
 ARCSEC = np.pi / 180 / 3600
 LAM_M = 9000.0
@@ -46,8 +47,8 @@ class GeoidField:
 @pytest.fixture(scope="module")
 def dov_case(tmp_path_factory):
     sc = catalog.height(minutes=14.0, length_m=3500.0, relief_m=12.0, fix_schedule=[])
-    field = GeoidField(sc.road.lat0_rad, sc.road.lon0_rad)
-    sim = simulate_effects(sc, seed=12, field=field)
+    field = sc.gravity_field = GeoidField(sc.road.lat0_rad, sc.road.lon0_rad)
+    sim = simulate(sc, seed=12)
     d = tmp_path_factory.mktemp("dov")
     lat = np.degrees(sim.imu.lat_rad)
     lon = np.degrees(sim.imu.lon_rad)
@@ -76,9 +77,28 @@ def test_height_with_grid_dov_levels_to_the_normal(dov_case):
     xi_t, eta_t, _ = field(sim.imu.lat_rad, sim.imu.lon_rad, 0.0)
     dn = np.hypot(xi_t, eta_t).max() / ARCSEC
     assert dn > 10  # a deflection of the realistic size
-    # plumb-line levelling: the geoid change along the track (partly absorbed by the calibration)
-    assert np.abs(e0).max() > 0.08 and np.std(e0) > 3 * np.std(e1)
-    assert np.std(e1) <= 0.03 and np.abs(e1).max() <= 0.06, (np.std(e1), np.abs(e1).max())
+    # the calibration's own error (its pitch error over the distance driven, its compliance times v²/2;
+    # truth: the simulated mounting, no compliance) is common to both runs and within its 3-σ envelope
+    # (above a 2-cm floor of LDV noise and GNSS); what is left of it is the plumb-line levelling
+    t = with_dov.tables["height"]["t_s"]
+    tr = sim.motion.truth(t)
+    dist_m = np.concatenate([[0.0], np.cumsum(0.5 * (tr["speed_mps"][1:] + tr["speed_mps"][:-1]) * np.diff(t))])
+    cal = with_dov.summary["calibration"]
+    sig = cal["sigma"]
+    envelope = 0.02 + 3 * (np.radians(sig["ldv_pitch_deg"]) * dist_m
+                           + sig["ldv_pitch_k_rad_per_mps2"] * tr["speed_mps"] ** 2 / 2)
+    worst = int(np.argmax(np.abs(e1) / envelope))
+    assert np.abs(e1[worst]) <= envelope[worst], (e1[worst], envelope[worst], t[worst])
+
+    def levelling(r, e):
+        c = r.summary["calibration"]
+        d_pitch = np.radians(c["ldv_pitch_deg"]) - sim.scenario.ldv.pitch_rad
+        return e - (d_pitch * dist_m + c["ldv_pitch_k_rad_per_mps2"] * tr["speed_mps"] ** 2 / 2)
+
+    r1, r0 = levelling(with_dov, e1), levelling(without, e0)
+    # without the deflection: the geoid change along the track; with it: back at the noise
+    assert np.abs(r0).max() > 0.08 and np.std(r0) > 3 * np.std(r1), (np.abs(r0).max(), np.std(r0), np.std(r1))
+    assert np.std(r1) <= 0.03 and np.abs(r1).max() <= 0.06, (np.std(r1), np.abs(r1).max())
     s = with_dov.summary["dov"]
     assert s["xi_arcsec_max"] == pytest.approx(np.abs(xi_t).max() / ARCSEC, rel=0.05)
     assert s["eta_arcsec_max"] == pytest.approx(np.abs(eta_t).max() / ARCSEC, rel=0.05)

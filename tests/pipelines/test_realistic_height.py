@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim import truth as TR
 from ldvsurvey.sim.scenario import bundle_files, simulate
@@ -42,12 +41,7 @@ def test_calibration_within_acceptance_with_honest_sigma(realistic):
     s = r["calibrate"].summary
     a, b = s["segment_t_s"]
     mt = TR.mean_travel_direction(sim, a, b)
-    t = np.arange(a, b, 0.1)
-    p, hd = TR.effective_travel_direction(sim, t)
-    u = np.column_stack([-np.sin(hd) * np.cos(p), np.cos(hd) * np.cos(p), np.sin(p)])
-    speed = sim.motion.truth(t)["speed_mps"]
-    k_eff = sim.scenario.ldv.scale * np.sum((u @ c_db(sim.scenario.ldv.pitch_rad,
-                                                       sim.scenario.ldv.heading_rad)[:, 1]) * speed) / np.sum(speed)
+    k_eff = TR.effective_scale(sim, a, b)
     checks = [(np.radians(s["ldv_pitch_deg"]) - mt["pitch_rad"], np.radians(s["ldv_pitch_deg_sigma"]), 10 * ARCSEC),
               (np.radians(s["ldv_heading_deg"]) - mt["heading_rad"], np.radians(s["ldv_heading_deg_sigma"]),
                10 * ARCSEC),

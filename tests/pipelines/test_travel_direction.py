@@ -1,7 +1,8 @@
 """The travel direction the LDV sees: stance mounting plus squat/dive under acceleration (issue 13 §2).
 
-The body pitches against its path by k·a (2° per g here, a car's typical squat), injected into the
-product's simulator (tests/pipelines/effects.py). Before the compliance state the calibration took
+The body pitches over its path by 2° per g of forward acceleration (a car's typical squat; the
+simulator's ``body_attitude`` effect with squat alone), so the travel direction in body axes pitches
+by k·a, k = −2°/g. Before the compliance state the calibration took
 η_L 12″ off and the 14-min height drifted 0.28 m std / 0.68 m max against truth, reversibly with
 every start and stop (k·v²/2 ≈ 0.35 m at 14 m/s).
 """
@@ -11,19 +12,24 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import bundle_files
+from ldvsurvey.sim.effects import DEG, BodyAttitude, Effects
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
-from tests.pipelines.effects import simulate_effects
 
 ARCSEC = np.pi / 180 / 3600
-K_SQUAT = 2.0 * np.pi / 180 / 9.80665  # rad per m/s²
+G0 = 9.80665
+#: squat alone: no stance pitch, crab, roll or bounce, so the mean travel direction is the mounting
+SQUAT = BodyAttitude(stance_pitch_rad=0.0, crab_rad=0.0, squat_rad_per_g=2.0 * DEG, roll_rad_per_g=0.0,
+                     bounce_rad=0.0)
+K_SQUAT = -SQUAT.squat_rad_per_g / G0  # travel-direction pitch in body axes per m/s² (nose up: travel below)
 
 
 @pytest.fixture(scope="module")
 def squat_sim():
-    sc = catalog.height(minutes=14.0, length_m=3500.0, relief_m=12.0, fix_schedule=[])
-    sim = simulate_effects(sc, seed=11, squat_rad_per_mps2=K_SQUAT)
+    sc = catalog.height(minutes=14.0, length_m=3500.0, relief_m=12.0, fix_schedule=[],
+                        effects=Effects.ideal().with_(body_attitude=SQUAT))
+    sim = simulate(sc, seed=11)
     return sim, parse_files(bundle_files(sim))
 
 
@@ -41,7 +47,7 @@ def test_calibration_finds_stance_and_compliance(squat_sim, squat_results):
               (np.radians(s["ldv_heading_deg"]) - ldv.heading_rad, np.radians(s["ldv_heading_deg_sigma"]),
                10 * ARCSEC),
               (s["ldv_scale"] - ldv.scale, s["ldv_scale_sigma"], 1e-4),
-              (s["ldv_pitch_k_rad_per_mps2"] - K_SQUAT, s["ldv_pitch_k_rad_per_mps2_sigma"], 0.05 * K_SQUAT)]
+              (s["ldv_pitch_k_rad_per_mps2"] - K_SQUAT, s["ldv_pitch_k_rad_per_mps2_sigma"], 0.05 * abs(K_SQUAT))]
     for err, sig, bound in checks:
         assert abs(err) <= bound, (err, sig, bound)
         assert 0 < sig < bound and abs(err) <= 3 * sig, (err, sig)  # the 1-σ is honest (3σ covers)
@@ -53,4 +59,5 @@ def test_height_follows_truth_through_starts_and_stops(squat_sim, squat_results)
     err = h["h_m"] - np.interp(h["t_s"], sim.imu.t_s, sim.imu.h_m)
     # left: LDV noise, 1.4″ of pitch σ over 7 km (≈ 5 cm at most), compliance σ 5e-5 × v²/2 (≈ 7 mm)
     assert np.std(err) <= 0.03 and np.abs(err).max() <= 0.08, (np.std(err), np.abs(err).max())
-    assert squat_results["height"].summary["calibration"]["ldv_pitch_k_rad_per_mps2"] > 0
+    k = squat_results["height"].summary["calibration"]["ldv_pitch_k_rad_per_mps2"]
+    assert np.sign(k) == np.sign(K_SQUAT)

@@ -30,7 +30,6 @@ import numpy as np
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim import truth as TR
 from ldvsurvey.sim.effects import Effects, effect_names
@@ -132,14 +131,10 @@ def calibration_figures(sim, r) -> dict:
     """Errors against the mean effective travel direction over the calibrated span, and the scale
     against the effective scale K·cos δ (δ: angle of the LDV head axis to the travel direction,
     speed-weighted), both from the simulator; floors from the GNSS σ over the span."""
-    s, sc = r.summary, sim.scenario
+    s = r.summary
     a, b = s["segment_t_s"]
     mt = TR.mean_travel_direction(sim, a, b)
-    t = np.arange(a, b, 0.1)
-    p, hd = TR.effective_travel_direction(sim, t)
-    u = np.column_stack([-np.sin(hd) * np.cos(p), np.cos(hd) * np.cos(p), np.sin(p)])
-    speed = sim.motion.truth(t)["speed_mps"]
-    k_eff = sc.ldv.scale * np.sum((u @ c_db(sc.ldv.pitch_rad, sc.ldv.heading_rad)[:, 1]) * speed) / np.sum(speed)
+    k_eff = TR.effective_scale(sim, a, b)
     span = _span_m(sim, a, b)
     sh, sv = _pos_sigma(sim)
     return {"pitch_err_rad": np.radians(s["ldv_pitch_deg"]) - mt["pitch_rad"],

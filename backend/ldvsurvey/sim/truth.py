@@ -27,6 +27,31 @@ def effective_travel_direction(sim: SimResult, t_s) -> tuple[np.ndarray, np.ndar
     return travel_direction(sim.body(t, sim.motion.truth(t))[0])
 
 
+def travel_unit_vector(pitch_rad, heading_rad) -> np.ndarray:
+    """(N, 3) unit vectors (right, forward, up axes) of directions given by pitch and heading (rad) in the LDV
+    mounting convention: the inverse of :func:`ldvsurvey.sim.body.travel_direction`."""
+    p, h = np.atleast_1d(np.asarray(pitch_rad, float)), np.atleast_1d(np.asarray(heading_rad, float))
+    return np.column_stack([-np.sin(h) * np.cos(p), np.cos(h) * np.cos(p), np.sin(p)])
+
+
+def effective_scale(sim: SimResult, t_from_s: float, t_to_s: float) -> float:
+    """The LDV scale a calibration over [t_from_s, t_to_s) sees: K·cos δ, speed-weighted at 10 Hz.
+
+    The LDV measures the velocity component along its head axis (the forward column of C_d^b, from
+    the simulated mounting), so it reports K·|v|·cos δ, δ the angle between the head axis and the
+    true travel direction (stance pitch and crab, squat, bounce). Without body attitude δ = 0 and
+    this is K. From the simulator's own parameters, never from the code under test.
+    """
+    from ldvsurvey.nav.errmodel import c_db
+
+    ldv = sim.scenario.ldv
+    t = np.arange(t_from_s, t_to_s, 0.1)
+    p, h = effective_travel_direction(sim, t)
+    cos_d = travel_unit_vector(p, h) @ c_db(ldv.pitch_rad, ldv.heading_rad)[:, 1]
+    speed = sim.motion.truth(t)["speed_mps"]
+    return float(ldv.scale * np.sum(cos_d * speed) / np.sum(speed))
+
+
 def mean_travel_direction(sim: SimResult, t_from_s: float | None = None, t_to_s: float | None = None,
                           min_speed_mps: float = 2.0) -> dict:
     """Mean effective LDV pitch/heading (rad) over the moving samples (speed ≥ ``min_speed_mps``)
@@ -42,6 +67,25 @@ def mean_travel_direction(sim: SimResult, t_from_s: float | None = None, t_to_s:
     return {"pitch_rad": float(np.mean(p)), "heading_rad": float(np.mean(h)), "pitch_std_rad": float(np.std(p)),
             "heading_std_rad": float(np.std(h)), "t_from_s": float(a), "t_to_s": float(b),
             "n_samples": int(moving.sum())}
+
+
+def imu_bias(sim: SimResult) -> tuple[np.ndarray, np.ndarray]:
+    """True total IMU biases in sensor axes at the IMU samples, ((N, 3) gyro rad/s, (N, 3) accel m/s²):
+    the turn-on bias of the run plus, with ``imu_errors``, the Gauss–Markov bias instability."""
+    n = len(sim.imu.t_s)
+    g = np.broadcast_to(sim.errors.gyro_bias_rps, (n, 3)).copy()
+    a = np.broadcast_to(sim.errors.accel_bias_mps2, (n, 3)).copy()
+    e = sim.extras.get("imu_errors")
+    if e is not None:
+        g += e["gyro_gm_rps"]
+        a += e["accel_gm_mps2"]
+    return g, a
+
+
+def ldv_spike_index(sim: SimResult) -> np.ndarray:
+    """Indices (into the LDV rows) of the isolated spikes the ``ldv_dropouts`` effect flagged good."""
+    t = np.asarray(sim.extras.get("ldv_spikes_t", []), float)
+    return np.unique(np.searchsorted(sim.ldv_t_s, t))
 
 
 def effective_tilt(sim: SimResult) -> dict:
@@ -115,8 +159,7 @@ def effect_truth(sim: SimResult, sl=slice(None)) -> tuple[dict, dict]:
         bp, br, by = sim.body.angles(t)
         from ldvsurvey.nav.errmodel import c_db
 
-        u_b = np.column_stack([-np.sin(h) * np.cos(p), np.cos(h) * np.cos(p), np.sin(p)])
-        u_d = u_b @ c_db(sc.ldv.pitch_rad, sc.ldv.heading_rad)  # C_b^d u_b, row-vector form
+        u_d = travel_unit_vector(p, h) @ c_db(sc.ldv.pitch_rad, sc.ldv.heading_rad)  # C_b^d u_b, row-vector form
         cols.update(ldv_travel_pitch_deg=np.degrees(p), ldv_travel_heading_deg=np.degrees(h),
                     head_travel_pitch_deg=np.degrees(np.arcsin(np.clip(u_d[:, 2], -1, 1))),
                     head_travel_heading_deg=np.degrees(np.arctan2(-u_d[:, 0], u_d[:, 1])),
