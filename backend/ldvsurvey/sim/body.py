@@ -26,23 +26,10 @@ import numpy as np
 from ldvsurvey.nav.attitude import c_bn_from_euler
 from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.sim.effects import BodyAttitude
+from ldvsurvey.sim.motion import euler_rate_to_body
 
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 H_S = 1e-4
-
-
-def euler_rate_to_body(pitch, roll, yaw_cw, pitch_rate, roll_rate, yaw_cw_rate):
-    """ω of a frame (in its own axes) from the product's Euler angles and their rates (rad/s).
-
-    Same relation as the travel frame in ``motion.py``: with y = −ψ,
-    ω = (R_x(θ) R_y(γ))ᵀ [0, 0, ẏ] + R_y(γ)ᵀ [θ̇, 0, 0] + [0, γ̇, 0].
-    """
-    yd = -yaw_cw_rate
-    cg, sg, ct, st = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch)
-    wz = np.stack([-sg * ct * yd, st * yd, cg * ct * yd], axis=-1)
-    wx = np.stack([cg * pitch_rate, np.zeros_like(yd), sg * pitch_rate], axis=-1)
-    wy = np.stack([np.zeros_like(yd), roll_rate, np.zeros_like(yd)], axis=-1)
-    return wz + wx + wy
 
 
 class BodyModel:

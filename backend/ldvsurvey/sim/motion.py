@@ -43,6 +43,21 @@ def _grid(x: float, dt: float) -> float:
     return max(dt, round(x / dt) * dt)
 
 
+def euler_rate_to_body(pitch, roll, yaw_cw, pitch_rate, roll_rate, yaw_cw_rate):
+    """ω of a frame in its own axes (rad/s) from the product's Euler angles and their rates (yaw clockwise).
+
+    With y = −ψ: ω = (R_x(θ) R_y(γ))ᵀ [0, 0, ẏ] + R_y(γ)ᵀ [θ̇, 0, 0] + [0, γ̇, 0], where
+    R_x(θ)ᵀ e_z = [0, sθ, cθ] and R_y(γ)ᵀ [a, b, c] = [cγ a − sγ c, b, sγ a + cγ c]. Used for the
+    travel frame here and for the vehicle body in ``body.py``.
+    """
+    yd = -yaw_cw_rate
+    cg, sg, ct, st = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch)
+    wz = np.stack([-sg * ct * yd, st * yd, cg * ct * yd], axis=-1)
+    wx = np.stack([cg * pitch_rate, np.zeros_like(yd), sg * pitch_rate], axis=-1)
+    wy = np.stack([np.zeros_like(yd), roll_rate, np.zeros_like(yd)], axis=-1)
+    return wz + wx + wy
+
+
 class Motion:
     """A vehicle timeline on a road. Times are seconds of day (the bundle clock)."""
 
@@ -175,15 +190,9 @@ class Motion:
             v_n = v_n + frac[:, None] * self.current
             a_n = a_n + (rate / self.current_ramp)[:, None] * self.current
         c_tn = c_bn_from_euler(pitch, roll, heading)
-        # ω_nt^t = (R_x(θ) R_y(γ))ᵀ [0,0,ẏ] + R_y(γ)ᵀ [θ̇,0,0] + [0,γ̇,0], with y = −ψ
-        yd = -heading_rate
-        cg, sg, ct, st = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch)
-        # R_x(θ)ᵀ e_z = [0, sθ, cθ]; R_y(γ)ᵀ [a, b, c] = [cγ a − sγ c, b, sγ a + cγ c]
-        wz = np.stack([-sg * ct * yd, st * yd, cg * ct * yd], axis=-1)
-        wx = np.stack([cg * pitch_rate, np.zeros_like(yd), sg * pitch_rate], axis=-1)
-        wy = np.stack([np.zeros_like(yd), roll_rate, np.zeros_like(yd)], axis=-1)
+        w_nt_t = euler_rate_to_body(pitch, roll, heading, pitch_rate, roll_rate, heading_rate)
         return dict(t_s=t, lat_rad=lat, lon_rad=lon, h_m=h, v_n=v_n, a_n=a_n, c_tn=c_tn,
-                    w_nt_t=wz + wx + wy, s_m=s, speed_mps=np.abs(sd),
+                    w_nt_t=w_nt_t, s_m=s, speed_mps=np.abs(sd),
                     pitch_t=pitch, roll_t=roll, heading_t=np.mod(heading, 2 * np.pi))
 
 
