@@ -3,8 +3,8 @@
 filter and the height integration; the filter's innovation gate copes with an unscreened spike
 without locking the LDV out.
 
-Before the screen, on this drive the compliance came out 13σ off (0.0030 vs 0.0036 rad per m/s²)
-and the height error was 0.054 m std / 0.149 m max (0.021 / 0.067 m with it).
+Before the screen (on the tests' former simulator), the compliance came out 13σ off (0.0030 vs
+0.0036 rad per m/s²) and the height error was 0.054 m std / 0.149 m max (0.021 / 0.067 m with it).
 """
 
 import numpy as np
