@@ -149,7 +149,7 @@ def test_deleting_a_log_stops_its_running_job(client, monkeypatch, capfd):
         s.flush()
         job_id = j.id
     out = {}
-    t = threading.Thread(target=lambda: out.setdefault("status", runner.execute(job_id)))
+    t = threading.Thread(target=lambda: out.setdefault("status", client.app_state.runner.execute(job_id)))
     t.start()
     assert inside.wait(30)
     assert client.delete(f"/api/logs/{log_id}").status_code == 204
@@ -177,7 +177,7 @@ def test_unexpected_failure_tells_what_to_do(client, monkeypatch):
         s.add(j)
         s.flush()
         job_id = j.id
-    assert runner.execute(job_id) == "failed"
+    assert client.app_state.runner.execute(job_id) == "failed"
     j = client.get(f"/api/jobs/{job_id}").json()
     assert not j["error"].startswith("internal error")
     assert "tilt pipeline" in j["error"] and "retry" in j["error"]

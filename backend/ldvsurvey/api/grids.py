@@ -10,9 +10,11 @@ from __future__ import annotations
 import secrets
 
 import numpy as np
-from fastapi import APIRouter, Depends, File, HTTPException, Request, UploadFile
+from fastapi import APIRouter, File, HTTPException, Request, UploadFile
 
-from ldvsurvey.api.auth import Principal, check_upload_rate, principal
+from ldvsurvey.api import models as m
+from ldvsurvey.api.auth import CurrentUser, check_upload_rate
+from ldvsurvey.api.deps import SettingsDep
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.nav.dovgrid import DovGrid
@@ -36,8 +38,8 @@ def _read(up: UploadFile | None, field: str, required: bool):
 def upload_grids(request: Request, xi: UploadFile | None = File(None, description="ξ grid, arcsec"),
                  eta: UploadFile | None = File(None, description="η grid, arcsec"),
                  dg: UploadFile | None = File(None, description="Δg grid, mGal (optional)"),
-                 who: Principal = Depends(principal)) -> dict:
-    check_upload_rate(request, who)
+                 *, who: CurrentUser, st: SettingsDep) -> m.GridUploaded:
+    check_upload_rate(request, who, st)
     parts = [(f, _read(up, f, f != "dg")) for f, up in (("xi", xi), ("eta", eta), ("dg", dg))]
     parts = [(f, p) for f, p in parts if p is not None]
     (_, (name0, (_, lat, lon, v_xi))) = parts[0]
@@ -57,7 +59,7 @@ def upload_grids(request: Request, xi: UploadFile | None = File(None, descriptio
 
 
 @router.get("/{grid_id}", summary="An uploaded grid's extent")
-def grid_info(grid_id: str, request: Request, who: Principal = Depends(principal)) -> dict:
+def grid_info(grid_id: str, request: Request, who: CurrentUser) -> m.GridInfo:
     from ldvsurvey.store.gridcache import DbGridCache
 
     g = DbGridCache(request.app.state.database_url).get(KEY_PREFIX + grid_id) if grid_id.isalnum() else None
