@@ -30,14 +30,20 @@ def app_settings(request: Request) -> Settings:
     return request.app.state.settings
 
 
-def get_session(request: Request) -> Iterator[Session]:
+def database_url(request: Request) -> str:
+    """The SQLAlchemy URL the app was created on (``Settings.resolved_database_url()``, migrated)."""
+    return request.app.state.database_url
+
+
+def get_session(url: Annotated[str, Depends(database_url)]) -> Iterator[Session]:
     """One session per request (shared by every dependency of the request): committed when the
     route returns, rolled back when it raises (:func:`ldvsurvey.store.db.session_scope`)."""
-    with session_scope(request.app.state.database_url) as s:
+    with session_scope(url) as s:
         yield s
 
 
 SettingsDep = Annotated[Settings, Depends(app_settings)]
+DatabaseUrlDep = Annotated[str, Depends(database_url)]
 SessionDep = Annotated[Session, Depends(get_session)]
 
 
