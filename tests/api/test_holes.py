@@ -139,7 +139,7 @@ def test_deleting_a_log_stops_its_running_job(client, monkeypatch, capfd):
         return real(pipe, logs, params, progress)
 
     monkeypatch.setattr(runner, "run_pipeline", slow)
-    files = make_bundle(seed=56, n_imu=2000)
+    files = make_bundle(seed=56, n_imu=2000, rotating=True)  # tilt applies (the worker checks again)
     log_id = client.post("/api/logs", files=[("files", (n, d, "x")) for n, d in files.items()]).json()["id"]
     url = client.app_state.database_url
     with session_scope(url) as s:
@@ -170,7 +170,7 @@ def test_unexpected_failure_tells_what_to_do(client, monkeypatch):
         raise IndexError("index 5 is out of bounds for axis 0 with size 5")
 
     monkeypatch.setattr(runner, "run_pipeline", broken)
-    files = make_bundle(seed=57, n_imu=300)
+    files = make_bundle(seed=57, n_imu=300, rotating=True)  # tilt applies (the worker checks again)
     log_id = client.post("/api/logs", files=[("files", (n, d, "x")) for n, d in files.items()]).json()["id"]
     with session_scope(client.app_state.database_url) as s:
         j = Job(pipeline="tilt", log_ids=[log_id], parameters={}, status="queued", stage="queued", progress=0)
