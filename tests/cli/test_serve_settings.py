@@ -19,10 +19,10 @@ def test_serve_demo_passes_settings_not_environment(tmp_path, monkeypatch):
     seen = {}
 
     class FakeApp:
-        class state:  # noqa: N801 - stands in for app.state
+        class state:  # stands in for app.state
             database_url = "sqlite://"
 
-            class runner:  # noqa: N801
+            class runner:
                 @staticmethod
                 def enqueue(job_id):
                     pass
