@@ -34,21 +34,19 @@ def _cmd_validate(args) -> int:
 
 
 def _cmd_serve(args) -> int:
-    import os
-
     import uvicorn
 
     from ldvsurvey.api.app import create_app
     from ldvsurvey.settings import get_settings
 
+    settings = get_settings()
     if args.demo:  # visitors act as the clearly marked demo account
-        os.environ["LDVSURVEY_DEMO_MODE"] = "1"
-        get_settings.cache_clear()
-    app = create_app()
+        settings = settings.model_copy(update={"demo_mode": True})
+    app = create_app(settings)
     if args.demo:
         from ldvsurvey.demo import load_demo_survey
 
-        load_demo_survey(app.state.database_url, app.state.settings.data_dir)
+        load_demo_survey(app.state.database_url, settings.data_dir, app.state.runner.enqueue)
         print(f"dashboard with the demo survey: http://{args.host}:{args.port}/", flush=True)
     uvicorn.run(app, host=args.host, port=args.port, log_level="info")
     return 0

@@ -53,14 +53,14 @@ def write_scenario(sc, directory: str | Path, seed: int | None = None) -> list[P
 DEMO = (("height", "height"), ("gravity", "gravity"))  # (scenario, pipeline run on it)
 
 
-def load_demo_survey(database_url: str, data_dir: Path) -> list[int]:
+def load_demo_survey(database_url: str, data_dir: Path, enqueue) -> list[int]:
     """Simulate the demo bundles once (cached under data_dir/demo), store them, and queue their
-    pipelines unless a job for them exists already. Returns the log ids."""
+    pipelines (``enqueue(job_id)``, the app's ``JobRunner.enqueue``) unless a job for them exists
+    already. Returns the log ids."""
     from sqlalchemy import select
 
     from ldvsurvey.io.drivelog import load_bundle
     from ldvsurvey.io.quality import quality_report
-    from ldvsurvey.jobs.runner import enqueue
     from ldvsurvey.store.db import session_scope
     from ldvsurvey.store.logs import store_log
     from ldvsurvey.store.models import Job

@@ -6,9 +6,6 @@ import { num } from "./format.js";
 import { draw } from "./plots.js";
 import { fields, summaryCard } from "./summary.js";
 
-const VIEWS = { height: ["height", "height_error"], tilt: ["attitude"], navigate: ["trajectory"],
-  calibrate: ["calibration_track"], gravity: ["gravity_lines", "gravity_residuals", "gravity_compare_gnss"],
-  dov: ["dov_deflection", "dov_error"], damping: ["damping"] };
 const ACTIVE = ["queued", "running"];
 
 export async function jobPage(ctx, app, id) {
@@ -62,12 +59,13 @@ function showInfo(j) {
 async function showResults(ctx, j) {
   const files = await api(`/api/jobs/${j.id}/files`);
   if (!ctx.alive) return;
-  const views = VIEWS[j.pipeline] || [];
+  const views = j.views || []; // the server's view registry (api/views.py): name, title, units, files
   render($("#results"), html`<div class="card" id="downloads">${files.map((f) => html`<a class="dl" download
     href="/api/jobs/${j.id}/files/${encodeURIComponent(f.name)}"><button>${f.name}</button></a> `)}</div>
     ${summaryCard(j)}
-    ${views.map((v) => html`<div class="card"><div class="plot" id="view-${v}" data-view="${v}"></div></div>`)}`);
-  await Promise.all(views.map((v) => drawView(ctx, j.id, v)));
+    ${views.map((v) => html`<div class="card"><div class="plot" id="view-${v.name}" data-view="${v.name}"
+      aria-label="${v.title} (${v.units})"></div></div>`)}`);
+  await Promise.all(views.map((v) => drawView(ctx, j.id, v.name)));
 }
 
 async function drawView(ctx, id, v, x0, x1) {

@@ -139,7 +139,7 @@ def test_deleting_a_log_stops_its_running_job(client, monkeypatch, capfd):
         return real(pipe, logs, params, progress)
 
     monkeypatch.setattr(runner, "run_pipeline", slow)
-    files = make_bundle(seed=56, n_imu=2000)
+    files = make_bundle(seed=56, n_imu=2000, rotating=True)  # tilt applies (the worker checks again)
     log_id = client.post("/api/logs", files=[("files", (n, d, "x")) for n, d in files.items()]).json()["id"]
     url = client.app_state.database_url
     with session_scope(url) as s:
@@ -149,7 +149,7 @@ def test_deleting_a_log_stops_its_running_job(client, monkeypatch, capfd):
         s.flush()
         job_id = j.id
     out = {}
-    t = threading.Thread(target=lambda: out.setdefault("status", runner.execute(job_id)))
+    t = threading.Thread(target=lambda: out.setdefault("status", client.app_state.runner.execute(job_id)))
     t.start()
     assert inside.wait(30)
     assert client.delete(f"/api/logs/{log_id}").status_code == 204
@@ -170,14 +170,14 @@ def test_unexpected_failure_tells_what_to_do(client, monkeypatch):
         raise IndexError("index 5 is out of bounds for axis 0 with size 5")
 
     monkeypatch.setattr(runner, "run_pipeline", broken)
-    files = make_bundle(seed=57, n_imu=300)
+    files = make_bundle(seed=57, n_imu=300, rotating=True)  # tilt applies (the worker checks again)
     log_id = client.post("/api/logs", files=[("files", (n, d, "x")) for n, d in files.items()]).json()["id"]
     with session_scope(client.app_state.database_url) as s:
         j = Job(pipeline="tilt", log_ids=[log_id], parameters={}, status="queued", stage="queued", progress=0)
         s.add(j)
         s.flush()
         job_id = j.id
-    assert runner.execute(job_id) == "failed"
+    assert client.app_state.runner.execute(job_id) == "failed"
     j = client.get(f"/api/jobs/{job_id}").json()
     assert not j["error"].startswith("internal error")
     assert "tilt pipeline" in j["error"] and "retry" in j["error"]

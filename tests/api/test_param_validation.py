@@ -26,9 +26,10 @@ def api(tmp_path_factory):
     st = Settings(data_dir=tmp_path_factory.mktemp("data"), auth_enabled=False, uploads_per_minute=10000,
                   max_upload_bytes=5 * 1024 * 1024, max_unzipped_bytes=50 * 1024 * 1024)
     queued = []
+    app = create_app(st)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr("ldvsurvey.jobs.runner.enqueue", queued.append)
-        with TestClient(create_app(st)) as c:
+        mp.setattr(app.state.runner, "enqueue", queued.append)
+        with TestClient(app) as c:
             c.queued = queued
             yield c
 

@@ -11,6 +11,7 @@ from fastapi.staticfiles import StaticFiles
 
 from ldvsurvey import __version__
 from ldvsurvey.api.limits import BodySizeLimit
+from ldvsurvey.api.models import Health
 from ldvsurvey.api.auth import RateLimiter, bootstrap_users
 from ldvsurvey.api.auth import router as auth_router
 from ldvsurvey.api.compare import router as compare_router
@@ -66,7 +67,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return JSONResponse(status_code=exc.status_code, content={"detail": str(exc), "error": exc.to_dict()})
 
     @app.get("/api/health", tags=["meta"], summary="Liveness and database reachability")
-    def health() -> dict:
+    def health() -> Health:
         with get_engine(url).connect() as conn:
             conn.exec_driver_sql("SELECT 1")
             dialect = conn.dialect.name
@@ -101,11 +102,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             gz_cache["gz"] = gzip.compress(plotly_js.read_bytes(), compresslevel=6)
         return Response(gz_cache["gz"], media_type="text/javascript", headers={**cache, "Content-Encoding": "gzip"})
 
-    from ldvsurvey.jobs import runner
+    from ldvsurvey.jobs.runner import Consumer, JobRunner
 
-    runner.configure(url, settings)
-    consumer = runner.Consumer(workers=settings.workers, reap_every_s=settings.reap_every_s,
-                               consume=settings.run_consumer)
+    app.state.runner = JobRunner(url, settings)  # routes queue jobs through it (ldvsurvey.api.deps.RunnerDep)
+    consumer = Consumer(app.state.runner, workers=settings.workers, reap_every_s=settings.reap_every_s,
+                        consume=settings.run_consumer)
 
     @app.on_event("startup")
     def _start_consumer():

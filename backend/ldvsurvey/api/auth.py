@@ -11,14 +11,17 @@ import threading
 import time
 from collections import defaultdict, deque
 from dataclasses import dataclass
+from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException, Request, Response
 from pydantic import BaseModel, Field
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from ldvsurvey.api.deps import get_session
+from ldvsurvey.api import models as m
+from ldvsurvey.api.deps import SessionDep, SettingsDep
 from ldvsurvey.api.throttle import client_address
+from ldvsurvey.settings import Settings
 from ldvsurvey.store import users as ustore
 from ldvsurvey.store.models import Job, Log, User
 
@@ -37,8 +40,8 @@ class Principal:
         return self.projects is None or log.project_id in self.projects
 
 
-def principal(request: Request, session: Session = Depends(get_session)) -> Principal:
-    st = request.app.state.settings
+def principal(request: Request, session: SessionDep, st: SettingsDep) -> Principal:
+    """Who sends the request (bearer token, session cookie, or the demo account); 401/403 otherwise."""
     if not st.auth_enabled:
         return Principal(None, None)
     user, csrf, via_cookie = None, None, False
@@ -61,6 +64,10 @@ def principal(request: Request, session: Session = Depends(get_session)) -> Prin
     if via_cookie and request.method in UNSAFE and request.headers.get("x-csrf-token") != csrf:
         raise HTTPException(403, "missing or wrong CSRF token (X-CSRF-Token header)")
     return Principal(user, None if user.is_admin else ustore.project_ids(session, user), csrf)
+
+
+#: the principal of the request, for every route that needs one
+CurrentUser = Annotated[Principal, Depends(principal)]
 
 
 def visible_log(session: Session, who: Principal, log_id: int) -> Log:
@@ -101,15 +108,13 @@ class RateLimiter:
             return True
 
 
-def check_upload_rate(request: Request, who: Principal) -> None:
-    st = request.app.state.settings
+def check_upload_rate(request: Request, who: Principal, st: Settings) -> None:
     key = who.user.id if who.user is not None else request.client.host if request.client else "anon"
     if not request.app.state.rate_limiter.allow(("upload", key), st.uploads_per_minute):
         raise HTTPException(429, f"more than {st.uploads_per_minute} uploads a minute: slow down")
 
 
-def check_job_quota(request: Request, session: Session, who: Principal) -> None:
-    st = request.app.state.settings
+def check_job_quota(session: Session, who: Principal, st: Settings) -> None:
     if who.user is None:
         return
     active = session.scalar(select(func.count()).select_from(Job).where(
@@ -126,10 +131,9 @@ class Login(BaseModel):
 @router.post("/api/login", summary="Start a session (sets an HttpOnly cookie; returns the CSRF token)",
              responses={401: {"description": "wrong user name or password"},
                         429: {"description": "too many failed logins for the account or the client"}})
-def login(body: Login, request: Request, response: Response, session: Session = Depends(get_session)) -> dict:
-    st = request.app.state.settings
+def login(body: Login, request: Request, response: Response, session: SessionDep, st: SettingsDep) -> m.LoginOut:
     throttle = request.app.state.login_throttle
-    client = client_address(request)
+    client = client_address(request, st)
     reason = throttle.blocked(body.username, client)
     if reason:
         raise HTTPException(429, reason)
@@ -146,7 +150,7 @@ def login(body: Login, request: Request, response: Response, session: Session = 
 
 
 @router.post("/api/logout", summary="End the session")
-def logout(request: Request, response: Response, session: Session = Depends(get_session)) -> dict:
+def logout(request: Request, response: Response, session: SessionDep) -> m.Ok:
     if request.cookies.get(COOKIE):
         ustore.end_session(session, request.cookies[COOKIE])
         session.commit()
@@ -155,7 +159,7 @@ def logout(request: Request, response: Response, session: Session = Depends(get_
 
 
 @router.get("/api/me", summary="Who am I (user, projects, CSRF token for page writes)")
-def me(who: Principal = Depends(principal), session: Session = Depends(get_session)) -> dict:
+def me(who: CurrentUser, session: SessionDep) -> m.Me:
     if who.user is None:
         return {"user": None, "auth": False, "csrf": None, "demo": False, "admin": False, "projects": None,
                 "project_list": ustore.list_projects(session)}

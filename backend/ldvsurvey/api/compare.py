@@ -10,11 +10,12 @@ from __future__ import annotations
 import io
 
 import numpy as np
-from fastapi import APIRouter, Depends, HTTPException, Query, Response
+from fastapi import APIRouter, HTTPException, Query, Response
 from sqlalchemy.orm import Session
 
-from ldvsurvey.api.auth import Principal, principal, visible_job
-from ldvsurvey.api.deps import ID_MAX, get_session
+from ldvsurvey.api import models as m
+from ldvsurvey.api.auth import CurrentUser, Principal, visible_job
+from ldvsurvey.api.deps import ID_MAX, SessionDep
 
 router = APIRouter(tags=["compare"])
 JOBS_Q = Query(..., description="gravity job ids, comma-separated; the first is the reference",
@@ -83,17 +84,17 @@ def compare_jobs(session: Session, who: Principal, ids: list[int]) -> dict:
     return {"reference_job": ids[0], "jobs": ids, "statistics": stats, "points": points}
 
 
-@router.get("/api/compare", summary="Compare gravity lines of jobs: statistics of the differences")
-def compare(jobs: str = JOBS_Q, session: Session = Depends(get_session),
-            who: Principal = Depends(principal)) -> dict:
+@router.get("/api/compare", summary="Compare gravity lines of jobs: statistics of the differences",
+            response_model_exclude_unset=True)
+def compare(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m.Comparison:
     out = compare_jobs(session, who, _ids(jobs))
     out.pop("points")
     return out
 
 
-@router.get("/api/compare/csv", summary="The common points and their differences as CSV")
-def compare_csv(jobs: str = JOBS_Q, session: Session = Depends(get_session),
-                who: Principal = Depends(principal)) -> Response:
+@router.get("/api/compare/csv", summary="The common points and their differences as CSV",
+            response_class=Response, responses={200: {"content": {"text/csv": {}}, "description": "CSV table"}})
+def compare_csv(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> Response:
     out = compare_jobs(session, who, _ids(jobs))
     buf = io.StringIO()
     buf.write("job,line,distance_m,dg_reference_mgal,dg_job_mgal,diff_mgal\n")
@@ -105,8 +106,7 @@ def compare_csv(jobs: str = JOBS_Q, session: Session = Depends(get_session),
 
 
 @router.get("/api/compare/view", summary="Plotly figure: δg of every job and the differences to the reference")
-def compare_view(jobs: str = JOBS_Q, session: Session = Depends(get_session),
-                 who: Principal = Depends(principal)) -> dict:
+def compare_view(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m.Figure:
     ids = _ids(jobs)
     out = compare_jobs(session, who, ids)
     traces = []

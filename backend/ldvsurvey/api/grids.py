@@ -10,9 +10,11 @@ from __future__ import annotations
 import secrets
 
 import numpy as np
-from fastapi import APIRouter, Depends, File, HTTPException, Request, UploadFile
+from fastapi import APIRouter, File, HTTPException, Request, UploadFile
 
-from ldvsurvey.api.auth import Principal, check_upload_rate, principal
+from ldvsurvey.api import models as m
+from ldvsurvey.api.auth import CurrentUser, check_upload_rate
+from ldvsurvey.api.deps import DatabaseUrlDep, SettingsDep
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.nav.dovgrid import DovGrid
@@ -36,8 +38,8 @@ def _read(up: UploadFile | None, field: str, required: bool):
 def upload_grids(request: Request, xi: UploadFile | None = File(None, description="ξ grid, arcsec"),
                  eta: UploadFile | None = File(None, description="η grid, arcsec"),
                  dg: UploadFile | None = File(None, description="Δg grid, mGal (optional)"),
-                 who: Principal = Depends(principal)) -> dict:
-    check_upload_rate(request, who)
+                 *, who: CurrentUser, st: SettingsDep, url: DatabaseUrlDep) -> m.GridUploaded:
+    check_upload_rate(request, who, st)
     parts = [(f, _read(up, f, f != "dg")) for f, up in (("xi", xi), ("eta", eta), ("dg", dg))]
     parts = [(f, p) for f, p in parts if p is not None]
     (_, (name0, (_, lat, lon, v_xi))) = parts[0]
@@ -49,7 +51,7 @@ def upload_grids(request: Request, xi: UploadFile | None = File(None, descriptio
     gid = secrets.token_hex(12)
     from ldvsurvey.store.gridcache import DbGridCache
 
-    DbGridCache(request.app.state.database_url).put(KEY_PREFIX + gid, grid)
+    DbGridCache(url).put(KEY_PREFIX + gid, grid)
     return {"id": gid, "source": grid.source, "lat_deg": [float(lat[0]), float(lat[-1])],
             "lon_deg": [float(lon[0]), float(lon[-1])], "step_arcmin": grid.step_arcmin,
             "has_dg": grid.dg_mgal is not None,
@@ -57,10 +59,10 @@ def upload_grids(request: Request, xi: UploadFile | None = File(None, descriptio
 
 
 @router.get("/{grid_id}", summary="An uploaded grid's extent")
-def grid_info(grid_id: str, request: Request, who: Principal = Depends(principal)) -> dict:
+def grid_info(grid_id: str, who: CurrentUser, url: DatabaseUrlDep) -> m.GridInfo:
     from ldvsurvey.store.gridcache import DbGridCache
 
-    g = DbGridCache(request.app.state.database_url).get(KEY_PREFIX + grid_id) if grid_id.isalnum() else None
+    g = DbGridCache(url).get(KEY_PREFIX + grid_id) if grid_id.isalnum() else None
     if g is None:
         raise HTTPException(404, f"grid {grid_id} not found")
     return {"id": grid_id, "source": g.source, "lat_deg": [float(g.lat_deg[0]), float(g.lat_deg[-1])],

@@ -10,11 +10,12 @@ from __future__ import annotations
 import hashlib
 import json
 
-from fastapi import APIRouter, Depends, File, Form, HTTPException, Request, Response, UploadFile
+from fastapi import APIRouter, File, Form, HTTPException, Request, Response, UploadFile
 from sqlalchemy.orm import Session
 
-from ldvsurvey.api.auth import Principal, check_upload_rate, principal
-from ldvsurvey.api.deps import get_session
+from ldvsurvey.api import models as m
+from ldvsurvey.api.auth import CurrentUser, check_upload_rate
+from ldvsurvey.api.deps import SessionDep, SettingsDep
 from ldvsurvey.api.uploads import part_names
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.importers import REGISTRY, Source, build_bundle, detect, parse_partial_manifest
@@ -79,8 +80,8 @@ def _read_parts(files: list[UploadFile], manifest: str | None, formats: str | No
 
 @router.post("/preview", summary="Convert foreign recordings and say what was found (nothing stored)")
 def preview_import(request: Request, files: list[UploadFile] = File(...), manifest: str | None = Form(None),
-                   formats: str | None = Form(None), who: Principal = Depends(principal)) -> dict:
-    check_upload_rate(request, who)  # a preview converts everything: it counts as an upload
+                   formats: str | None = Form(None), *, who: CurrentUser, st: SettingsDep) -> m.ImportPreview:
+    check_upload_rate(request, who, st)  # a preview converts everything: it counts as an upload
     sources, partial, _ = _read_parts(files, manifest, formats)
     result = build_bundle(sources, partial)
     s = result.summary
@@ -92,8 +93,8 @@ def preview_import(request: Request, files: list[UploadFile] = File(...), manife
 @router.post("", status_code=201, summary="Convert foreign recordings, validate and store the bundle")
 def create_import(request: Request, response: Response, files: list[UploadFile] = File(...),
                   manifest: str | None = Form(None), formats: str | None = Form(None),
-                  project_id: int | None = Form(None, ge=1, le=2**31 - 1), session: Session = Depends(get_session),
-                  who: Principal = Depends(principal)) -> dict:
+                  project_id: int | None = Form(None, ge=1, le=2**31 - 1), *, session: SessionDep,
+                  who: CurrentUser, st: SettingsDep) -> m.Imported:
     """Answers like ``POST /api/logs`` (201 with the log; 200 with ``duplicate: true``)."""
     from ldvsurvey.api.logs import log_summary, target_project
     from ldvsurvey.io.drivelog import parse_files
@@ -101,7 +102,7 @@ def create_import(request: Request, response: Response, files: list[UploadFile] 
     from ldvsurvey.store import logs as store
     from ldvsurvey.store.models import LogFile
 
-    check_upload_rate(request, who)
+    check_upload_rate(request, who, st)
     project_id = target_project(session, who, project_id)
     sources, partial, originals = _read_parts(files, manifest, formats)
     result = build_bundle(sources, partial)

@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import datetime as dt
 
-from fastapi import APIRouter, Depends, HTTPException, Query, Request, Response
+from fastapi import APIRouter, HTTPException, Query, Request, Response
 from pydantic import BaseModel, Field
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from ldvsurvey.api.auth import Principal, check_job_quota, principal, visible_job, visible_log
-from ldvsurvey.api.deps import BodyId, JobId, LogId, get_session
+from ldvsurvey.api import models as m
+from ldvsurvey.api.auth import CurrentUser, check_job_quota, principal, visible_job, visible_log
+from ldvsurvey.api.deps import BodyId, JobId, LogId, RunnerDep, SessionDep, SettingsDep
+from ldvsurvey.api.views import VIEWS, build_view, job_file, views_of
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.pipelines.base import LogFacts
+from ldvsurvey.jobs.runner import log_facts
 from ldvsurvey.store.models import Job, JobFile
 
 router = APIRouter(tags=["jobs"])
@@ -55,12 +57,8 @@ def job_detail(session: Session, j: Job) -> dict:
     if warnings is None:  # not finished: the logs' own warnings
         warnings = [w for lid in j.log_ids if (row := session.get(Log, lid)) is not None
                     for w in (row.quality or {}).get("warnings", [])]
-    return {**job_dict(j), "inputs": inputs, "warnings": warnings}
-
-
-def log_facts(row) -> LogFacts:
-    """What the applicability checks know of a stored log (no samples read)."""
-    return LogFacts.of_manifest(row.manifest, row.t_start_s, row.t_end_s, row.has_gnss)
+    return {**job_dict(j), "inputs": inputs, "warnings": warnings,
+            "views": [v.info() for v in views_of(j.pipeline)]}
 
 
 def public_schema(model) -> dict:
@@ -70,15 +68,17 @@ def public_schema(model) -> dict:
     return schema
 
 
-@router.get("/api/pipelines", summary="Pipelines with their parameters, defaults and JSON schema")
-def list_pipelines(log_id: int | None = Query(None, ge=1, le=2**31 - 1,
+@router.get("/api/pipelines", summary="Pipelines with their parameters, defaults and JSON schema",
+            response_model_exclude_unset=True)
+def list_pipelines(request: Request, session: SessionDep, st: SettingsDep,
+                   log_id: int | None = Query(None, ge=1, le=2**31 - 1,
                                               description="also say whether each pipeline applies to this log"),
-                   request: Request = None, session: Session = Depends(get_session)) -> list[dict]:
+                   ) -> list[m.PipelineInfo]:
     from ldvsurvey.pipelines.registry import PIPELINES
 
     facts = None
     if log_id is not None:  # the list itself is public; a log's applicability needs the right to see it
-        facts = [log_facts(visible_log(session, principal(request, session), log_id))]
+        facts = [log_facts(visible_log(session, principal(request, session, st), log_id))]
     out = []
     for p in PIPELINES.values():
         item = {"name": p.name, "description": p.description, "multi_input": p.multi_input,
@@ -95,9 +95,8 @@ def list_pipelines(log_id: int | None = Query(None, ge=1, le=2**31 - 1,
 
 
 @router.post("/api/logs/{log_id}/jobs", status_code=201, summary="Start a pipeline on a log")
-def start_job(log_id: LogId, req: JobRequest, request: Request, session: Session = Depends(get_session),
-              who: Principal = Depends(principal)) -> dict:
-    from ldvsurvey.jobs.runner import enqueue
+def start_job(log_id: LogId, req: JobRequest, session: SessionDep, who: CurrentUser, st: SettingsDep,
+              runner: RunnerDep) -> m.JobStarted:
     from ldvsurvey.pipelines.registry import get
 
     ids = [log_id] + [i for i in req.log_ids if i != log_id]
@@ -110,22 +109,26 @@ def start_job(log_id: LogId, req: JobRequest, request: Request, session: Session
         raise ParameterError(f"'{pipe.name}' takes one log", field="log_ids")
     # types and bounds of every parameter, then whether the pipeline applies to these logs: 422 naming the field
     values = pipe.check([log_facts(r) for r in rows], {k: v for k, v in req.parameters.items() if v is not None})
-    check_job_quota(request, session, who)
+    check_job_quota(session, who, st)
     job = Job(pipeline=pipe.name, log_ids=ids, parameters={k: v for k, v in req.parameters.items() if v is not None},
               status="queued", stage="queued", progress=0.0, user_id=who.user.id if who.user else None)
     session.add(job)
     session.commit()
-    enqueue(job.id)
+    runner.enqueue(job.id)
     out = job_dict(job)
     out["resolved_parameters"] = values
     return out
 
 
+@router.get("/api/views", summary="Every view (Plotly figure of a result): pipeline, title, units, files read")
+def list_views(pipeline: str | None = Query(None, max_length=100, description="only this pipeline's views")
+               ) -> list[m.ViewInfo]:
+    return [v.info() for v in VIEWS.values() if pipeline is None or v.pipeline == pipeline]
 
 
 @router.get("/api/jobs", summary="Jobs, newest first")
-def list_jobs(log_id: int | None = Query(None, ge=1, le=2**31 - 1), session: Session = Depends(get_session),
-              who: Principal = Depends(principal)) -> list[dict]:
+def list_jobs(session: SessionDep, who: CurrentUser,
+              log_id: int | None = Query(None, ge=1, le=2**31 - 1)) -> list[m.Job]:
     from ldvsurvey.store.models import Log
 
     jobs = list(session.scalars(select(Job).order_by(Job.id.desc())))
@@ -148,12 +151,12 @@ def list_jobs(log_id: int | None = Query(None, ge=1, le=2**31 - 1), session: Ses
 
 
 @router.get("/api/jobs/{job_id}", summary="One job: status, stage, progress, error, summary")
-def get_job(job_id: JobId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+def get_job(job_id: JobId, session: SessionDep, who: CurrentUser) -> m.JobDetail:
     return job_detail(session, visible_job(session, who, job_id))
 
 
 @router.post("/api/jobs/{job_id}/cancel", summary="Ask a job to stop (between stages)")
-def cancel_job(job_id: JobId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+def cancel_job(job_id: JobId, session: SessionDep, who: CurrentUser) -> m.Job:
     j = visible_job(session, who, job_id)
     if j.status in ("succeeded", "failed", "cancelled"):
         raise HTTPException(409, f"job {job_id} already {j.status}")
@@ -166,37 +169,33 @@ def cancel_job(job_id: JobId, session: Session = Depends(get_session), who: Prin
 
 
 @router.post("/api/jobs/{job_id}/retry", summary="Run a failed or cancelled job again")
-def retry_job(job_id: JobId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
-    from ldvsurvey.jobs.runner import enqueue
-
+def retry_job(job_id: JobId, session: SessionDep, who: CurrentUser, runner: RunnerDep) -> m.Job:
     j = visible_job(session, who, job_id)
     if j.status not in ("failed", "cancelled"):
         raise HTTPException(409, f"only failed or cancelled jobs can be retried (job {job_id} is {j.status})")
     j.status, j.stage, j.progress, j.error, j.cancel_requested = "queued", "queued", 0.0, None, False
     j.finished_at = None
     session.commit()
-    enqueue(j.id)
+    runner.enqueue(j.id)
     return job_dict(j)
 
 
 @router.get("/api/jobs/{job_id}/files", summary="Result files of a job")
-def list_job_files(job_id: JobId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> list[dict]:
+def list_job_files(job_id: JobId, session: SessionDep, who: CurrentUser) -> list[m.ResultFile]:
     visible_job(session, who, job_id)
     rows = session.execute(select(JobFile.name, JobFile.size_bytes).where(JobFile.job_id == job_id)
                            .order_by(JobFile.name))
     return [{"name": n, "size_bytes": s} for n, s in rows]
 
 
-def job_file(session: Session, job_id: int, name: str) -> bytes:
-    f = session.scalar(select(JobFile).where(JobFile.job_id == job_id, JobFile.name == name))
-    if f is None:
-        raise HTTPException(404, f"job {job_id} has no file '{name}'")
-    return f.content
-
-
-@router.get("/api/jobs/{job_id}/files/{name}", summary="A result file, exactly as the CLI writes it")
-def get_job_file(job_id: JobId, name: str, format: str = Query("csv", pattern="^(csv|geojson|kml)$"),
-                 session: Session = Depends(get_session), who: Principal = Depends(principal)) -> Response:
+@router.get("/api/jobs/{job_id}/files/{name}", summary="A result file, exactly as the CLI writes it",
+            response_class=Response,
+            responses={200: {"description": "the file (CSV or JSON; GeoJSON or KML with ?format=)",
+                             "content": {"text/csv": {}, "application/json": {"schema": {"type": "object"}},
+                                         "application/geo+json": {},
+                                         "application/vnd.google-earth.kml+xml": {}}}})
+def get_job_file(job_id: JobId, name: str, session: SessionDep, who: CurrentUser,
+                 format: str = Query("csv", pattern="^(csv|geojson|kml)$")) -> Response:
     j = visible_job(session, who, job_id)
     if format != "csv":  # a table with positions as GeoJSON (RFC 7946) or KML 2.2, with the summary's provenance
         from ldvsurvey.api.imports import job_geo_file
@@ -208,11 +207,8 @@ def get_job_file(job_id: JobId, name: str, format: str = Query("csv", pattern="^
 
 
 @router.get("/api/jobs/{job_id}/views/{view}", summary="A Plotly figure of a result (downsampled)")
-def get_view(job_id: JobId, view: str, x0: float | None = None, x1: float | None = None,
-             points: int = Query(2000, ge=100, le=20000), session: Session = Depends(get_session),
-             who: Principal = Depends(principal)) -> dict:
-    from ldvsurvey.api.views import build_view
-
+def get_view(job_id: JobId, view: str, session: SessionDep, who: CurrentUser, x0: float | None = None,
+             x1: float | None = None, points: int = Query(2000, ge=100, le=20000)) -> m.Figure:
     j = visible_job(session, who, job_id)
     if j.status != "succeeded":
         what = {"failed": "it failed, so there are no results (see its error)",

@@ -5,11 +5,12 @@ from __future__ import annotations
 import datetime as dt
 import mimetypes
 
-from fastapi import APIRouter, Depends, File, Form, HTTPException, Query, Request, Response, UploadFile
+from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
 from sqlalchemy.orm import Session
 
-from ldvsurvey.api.auth import Principal, check_upload_rate, principal, visible_log
-from ldvsurvey.api.deps import ID_MAX, LogId, get_session
+from ldvsurvey.api import models as m
+from ldvsurvey.api.auth import CurrentUser, Principal, check_upload_rate, visible_log
+from ldvsurvey.api.deps import ID_MAX, LogId, SessionDep, SettingsDep
 from ldvsurvey.api.uploads import read_upload
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.quality import quality_report
@@ -61,12 +62,11 @@ def target_project(session: Session, who: Principal, project_id: int | None) -> 
 
 @router.post("", status_code=201, summary="Upload a drive-log bundle (one .zip, or the files)")
 def upload_log(request: Request, response: Response, files: list[UploadFile] = File(...),
-               project_id: int | None = Form(None, ge=1, le=2**31 - 1), session: Session = Depends(get_session),
-               who: Principal = Depends(principal)) -> dict:
+               project_id: int | None = Form(None, ge=1, le=2**31 - 1), *, session: SessionDep,
+               who: CurrentUser, st: SettingsDep) -> m.Uploaded:
     """Validate, parse and store a bundle in a project. The same bundle uploaded again to the same
     project is not stored twice (200 with ``duplicate: true`` and the existing log)."""
-    st = request.app.state.settings
-    check_upload_rate(request, who)
+    check_upload_rate(request, who, st)
     project_id = target_project(session, who, project_id)
     members = read_upload(files, st)
     log = parse_files(members)
@@ -84,22 +84,24 @@ def list_logs(project_id: int | None = Query(None, ge=1, le=ID_MAX),
               platform: str | None = Query(None, max_length=16, description="vehicle or vessel"),
               date_from: dt.date | None = Query(None, description="survey date on or after (YYYY-MM-DD)"),
               date_to: dt.date | None = Query(None, description="survey date on or before (YYYY-MM-DD)"),
-              session: Session = Depends(get_session), who: Principal = Depends(principal)) -> list[dict]:
+              *, session: SessionDep, who: CurrentUser) -> list[m.LogSummary]:
     rows = store.list_logs(session, project_id=project_id, platform=platform or None, date_from=date_from,
                            date_to=date_to)
     return [log_summary(r) for r in rows if who.can_see(r)]
 
 
 @router.get("/{log_id}", summary="One log: manifest, quality report, files")
-def get_log(log_id: LogId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> dict:
+def get_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> m.LogDetail:
     row = visible_log(session, who, log_id)
     return {**log_summary(row), "manifest": row.manifest, "quality": row.quality,
             "files": [{"name": n, "sha256": h, "size_bytes": s} for n, h, s in store.list_files(session, log_id)]}
 
 
-@router.get("/{log_id}/files/{name}", summary="An original file, byte for byte")
-def get_file(log_id: LogId, name: str, session: Session = Depends(get_session),
-             who: Principal = Depends(principal)) -> Response:
+@router.get("/{log_id}/files/{name}", summary="An original file, byte for byte", response_class=Response,
+            responses={200: {"description": "the file as uploaded (X-Content-SHA256: its SHA-256)",
+                             "content": {"text/csv": {}, "application/json": {"schema": {"type": "object"}},
+                                         "application/octet-stream": {}}}})
+def get_file(log_id: LogId, name: str, session: SessionDep, who: CurrentUser) -> Response:
     visible_log(session, who, log_id)
     f = store.get_file(session, log_id, name)
     if f is None:
@@ -112,7 +114,7 @@ def get_file(log_id: LogId, name: str, session: Session = Depends(get_session),
 
 
 @router.delete("/{log_id}", status_code=204, summary="Delete a log with all its files and arrays")
-def delete_log(log_id: LogId, session: Session = Depends(get_session), who: Principal = Depends(principal)) -> Response:
+def delete_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> Response:
     visible_log(session, who, log_id)
     store.delete_log(session, log_id)
     session.commit()  # answer only once it is gone: an immediate GET says 404

@@ -3,12 +3,15 @@ projects and memberships (the same operations as ``ldv-survey user|project``).""
 
 from __future__ import annotations
 
+from typing import Annotated
+
 from fastapi import APIRouter, Depends, HTTPException, Response
 from pydantic import BaseModel, Field
 from sqlalchemy.orm import Session
 
-from ldvsurvey.api.auth import Principal, principal
-from ldvsurvey.api.deps import BodyId, PathId, get_session
+from ldvsurvey.api import models as m
+from ldvsurvey.api.auth import CurrentUser, Principal
+from ldvsurvey.api.deps import BodyId, PathId, SessionDep
 from ldvsurvey.store import users as ustore
 from ldvsurvey.store.models import User
 
@@ -22,14 +25,18 @@ def _me(who: Principal) -> User:
     return who.user
 
 
-def admin(who: Principal = Depends(principal)) -> Principal:
+def admin(who: CurrentUser) -> Principal:
     if who.user is None or not who.user.is_admin:
         raise HTTPException(403, "only an admin may do this")
     return who
 
 
+#: the principal of the request, who must be an admin (403 otherwise)
+AdminUser = Annotated[Principal, Depends(admin)]
+
+
 @router.get("/api/projects", summary="The projects you may see (all of them for admins)")
-def my_projects(who: Principal = Depends(principal), session: Session = Depends(get_session)) -> list[dict]:
+def my_projects(who: CurrentUser, session: SessionDep) -> list[m.ProjectOut]:
     return ustore.list_projects(session, who.projects)
 
 
@@ -39,8 +46,8 @@ class PasswordChange(BaseModel):
 
 
 @router.post("/api/password", summary="Change your password (ends all your sessions: log in again)")
-def change_password(body: PasswordChange, response: Response, who: Principal = Depends(principal),
-                    session: Session = Depends(get_session)) -> dict:
+def change_password(body: PasswordChange, response: Response, who: CurrentUser,
+                    session: SessionDep) -> m.Ok:
     user = _me(who)
     if ustore.verify(session, user.username, body.old_password) is None:
         raise HTTPException(403, "the current password is wrong")
@@ -56,13 +63,13 @@ class TokenRequest(BaseModel):
 
 
 @router.get("/api/tokens", summary="Your API tokens (names and dates; never the secret)")
-def list_tokens(who: Principal = Depends(principal), session: Session = Depends(get_session)) -> list[dict]:
+def list_tokens(who: CurrentUser, session: SessionDep) -> list[m.TokenOut]:
     return ustore.list_tokens(session, _me(who))
 
 
 @router.post("/api/tokens", status_code=201, summary="Create an API token (the secret is shown once)")
-def create_token(body: TokenRequest, who: Principal = Depends(principal),
-                 session: Session = Depends(get_session)) -> dict:
+def create_token(body: TokenRequest, who: CurrentUser,
+                 session: SessionDep) -> m.NewToken:
     token = ustore.new_api_token(session, _me(who), body.name, body.expires_days)
     session.commit()
     row = ustore.list_tokens(session, who.user)[-1]
@@ -70,8 +77,8 @@ def create_token(body: TokenRequest, who: Principal = Depends(principal),
 
 
 @router.delete("/api/tokens/{token_id}", status_code=204, summary="Revoke one of your API tokens")
-def revoke_token(token_id: PathId, who: Principal = Depends(principal),
-                 session: Session = Depends(get_session)) -> Response:
+def revoke_token(token_id: PathId, who: CurrentUser,
+                 session: SessionDep) -> Response:
     if not ustore.revoke_token(session, _me(who), token_id):
         raise HTTPException(404, f"you have no token {token_id}")
     session.commit()
@@ -92,12 +99,12 @@ class UserChange(BaseModel):
 
 
 @router.get("/api/admin/users", summary="Users with their projects (admin)")
-def admin_users(_: Principal = Depends(admin), session: Session = Depends(get_session)) -> list[dict]:
+def admin_users(_: AdminUser, session: SessionDep) -> list[m.UserOut]:
     return ustore.list_users(session)
 
 
 @router.post("/api/admin/users", status_code=201, summary="Create a user (admin)")
-def admin_add_user(body: NewUser, _: Principal = Depends(admin), session: Session = Depends(get_session)) -> dict:
+def admin_add_user(body: NewUser, _: AdminUser, session: SessionDep) -> m.UserOut:
     ustore.check_password(body.password)
     for pid in body.project_ids:
         ustore.find_project(session, pid)
@@ -109,8 +116,8 @@ def admin_add_user(body: NewUser, _: Principal = Depends(admin), session: Sessio
 
 
 @router.patch("/api/admin/users/{user_id}", summary="Disable/enable a user, make admin, set a password (admin)")
-def admin_change_user(user_id: PathId, body: UserChange, who: Principal = Depends(admin),
-                      session: Session = Depends(get_session)) -> dict:
+def admin_change_user(user_id: PathId, body: UserChange, who: AdminUser,
+                      session: SessionDep) -> m.UserOut:
     u = session.get(User, user_id)
     if u is None:
         raise HTTPException(404, f"user {user_id} not found")
@@ -131,27 +138,27 @@ class NewProject(BaseModel):
 
 
 @router.get("/api/admin/projects", summary="All projects with their members (admin)")
-def admin_projects(_: Principal = Depends(admin), session: Session = Depends(get_session)) -> list[dict]:
+def admin_projects(_: AdminUser, session: SessionDep) -> list[m.ProjectOut]:
     return ustore.list_projects(session)
 
 
 @router.post("/api/admin/projects", status_code=201, summary="Create a project (admin)")
-def admin_add_project(body: NewProject, _: Principal = Depends(admin),
-                      session: Session = Depends(get_session)) -> dict:
+def admin_add_project(body: NewProject, _: AdminUser,
+                      session: SessionDep) -> m.ProjectOut:
     p = ustore.create_project(session, body.name)
     session.commit()
     return {"id": p.id, "name": p.name, "members": []}
 
 
 @router.put("/api/admin/projects/{project_id}/members/{user_id}", summary="Add a member (admin)")
-def admin_add_member(project_id: PathId, user_id: PathId, _: Principal = Depends(admin),
-                     session: Session = Depends(get_session)) -> dict:
+def admin_add_member(project_id: PathId, user_id: PathId, _: AdminUser,
+                     session: SessionDep) -> m.ProjectOut:
     return _change_member(session, project_id, user_id, ustore.add_member)
 
 
 @router.delete("/api/admin/projects/{project_id}/members/{user_id}", summary="Remove a member (admin)")
-def admin_remove_member(project_id: PathId, user_id: PathId, _: Principal = Depends(admin),
-                        session: Session = Depends(get_session)) -> dict:
+def admin_remove_member(project_id: PathId, user_id: PathId, _: AdminUser,
+                        session: SessionDep) -> m.ProjectOut:
     return _change_member(session, project_id, user_id, ustore.remove_member)
 
 

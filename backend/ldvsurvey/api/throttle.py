@@ -34,11 +34,11 @@ def _trusted(addr: str, nets: list) -> bool:
     return any(ip in n for n in nets)
 
 
-def client_address(request: Request) -> str:
+def client_address(request: Request, settings) -> str:
     """The client's address: the peer, or the right-most untrusted hop of ``X-Forwarded-For``
-    when the peer is a configured proxy."""
+    when the peer is one of ``settings.trusted_proxies``."""
     peer = request.client.host if request.client else "unknown"
-    nets = _networks(request.app.state.settings.trusted_proxies)
+    nets = _networks(settings.trusted_proxies)
     if not nets or not _trusted(peer, nets):
         return peer
     hops = [h.strip() for h in request.headers.get("x-forwarded-for", "").split(",") if h.strip()]

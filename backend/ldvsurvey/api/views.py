@@ -1,38 +1,96 @@
 """Plotly figures of the stored results, downsampled on the server (MinMax-LTTB).
 
-Each view reads the job's CSV files (the same files the CLI writes) and returns figure JSON;
-``x0``/``x1`` re-fetch detail for a zoomed range.
+Each view is a small function registered with :func:`view`: its name, the pipeline whose jobs it
+draws, a title, the units of its y axis and the result files it reads (the same files the CLI
+writes). ``GET /api/views`` lists the registry and ``GET /api/jobs/{id}`` names a job's views, so
+the dashboard draws whatever is registered here; ``x0``/``x1`` re-fetch detail for a zoomed range.
 """
 
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import pyarrow.csv as pacsv
 from fastapi import HTTPException
+from sqlalchemy import select
 from tsdownsample import MinMaxLTTBDownsampler
 
-from ldvsurvey.store.models import Job
+from ldvsurvey.store.models import Job, JobFile
 
 ARCSEC_PER_RAD = 180.0 * 3600.0 / np.pi
 #: NMEA GGA fix quality
 FIX_NAMES = {0: "0 no fix", 1: "1 GPS", 2: "2 DGPS", 3: "3 PPS", 4: "4 RTK fixed", 5: "5 RTK float",
              6: "6 dead reckoning", 7: "7 manual", 8: "8 simulation"}
-VIEWS = {
-    "height": ["height", "height_error"],
-    "tilt": ["attitude"],
-    "navigate": ["trajectory"],
-    "calibrate": ["calibration_track"],
-    "gravity": ["gravity_lines", "gravity_residuals", "gravity_compare_gnss"],
-    "dov": ["dov_deflection", "dov_error"],
-    "damping": ["damping"],
-}
+
+
+def job_file(session, job_id: int, name: str) -> bytes:
+    """The bytes of a job's result file; 404 naming it when the job has none of that name."""
+    f = session.scalar(select(JobFile).where(JobFile.job_id == job_id, JobFile.name == name))
+    if f is None:
+        raise HTTPException(404, f"job {job_id} has no file '{name}'")
+    return f.content
+
+
+@dataclass
+class ViewInput:
+    """What a view function gets: the job, its summary and the requested range and point count."""
+
+    session: object
+    job: Job
+    summary: dict
+    x0: float | None
+    x1: float | None
+    n: int  #: at most this many points per trace
+    files: tuple[str, ...] = ()  #: the result files the view declared (read no others)
+
+    def csv(self, name: str) -> dict[str, np.ndarray]:
+        """The columns of one of the job's result files (numbers as float, text as object arrays)."""
+        if self.files and name not in self.files:
+            raise RuntimeError(f"a view read '{name}' without declaring it (declared: {self.files})")
+        return _csv(self.session, self.job, name)
+
+    def trace(self, x, y, name, **kw) -> dict:
+        """A scatter trace of (x, y) within the requested range, downsampled to ``n`` points."""
+        return _trace(x, y, name, self.x0, self.x1, self.n, **kw)
+
+
+@dataclass(frozen=True)
+class View:
+    name: str
+    pipeline: str
+    title: str  #: what the figure shows
+    units: str  #: units of the y axis
+    files: tuple[str, ...]  #: the job's result files it reads
+    build: Callable[[ViewInput], dict]
+
+    def info(self) -> dict:
+        return {"name": self.name, "pipeline": self.pipeline, "title": self.title, "units": self.units,
+                "files": list(self.files)}
+
+
+#: every view by name, in registration order (the order a job's page shows them)
+VIEWS: dict[str, View] = {}
+
+
+def view(name: str, pipeline: str, title: str, units: str, files: tuple[str, ...]):
+    """Register the decorated ``f(v: ViewInput) -> figure dict`` as the view ``name`` of ``pipeline``."""
+    def register(build: Callable[[ViewInput], dict]) -> Callable[[ViewInput], dict]:
+        if name in VIEWS:
+            raise ValueError(f"view '{name}' registered twice")
+        VIEWS[name] = View(name, pipeline, title, units, tuple(files), build)
+        return build
+    return register
+
+
+def views_of(pipeline: str) -> list[View]:
+    """The views of a pipeline's jobs, in the order they are shown."""
+    return [v for v in VIEWS.values() if v.pipeline == pipeline]
 
 
 def _csv(session, job: Job, name: str) -> dict[str, np.ndarray]:
-    from ldvsurvey.api.jobs import job_file
-
     table = pacsv.read_csv(io.BytesIO(job_file(session, job.id, name)))
     out = {}
     for c in table.column_names:
@@ -85,129 +143,199 @@ def _floor_text(block: dict) -> str:
     return txt
 
 
-def _gravity_view(session, job: Job, view: str, s: dict, x0, x1, n) -> dict:
-    """The gravity views: lines on common points, residuals beside the noise floor, the chains' difference."""
-    if view in ("gravity_lines", "gravity_residuals"):
-        c = _csv(session, job, "coincidence.csv")
-        names = sorted(set(c["line"]))
-        tr = []
-        for name in names:
-            k = c["line"] == name
-            y = c["dg_mgal"][k] if view == "gravity_lines" else c["residual_mgal"][k]
-            tr.append(_trace(c["distance_m"][k], y, str(name), x0, x1, n))
-        if view == "gravity_lines":
-            k = c["line"] == names[0]
-            tr.append(_trace(c["distance_m"][k], c["mean_mgal"][k], "mean line", x0, x1, n,
-                             line={"width": 3, "color": "black"}))
-            return _fig(tr, f"Gravity disturbance on the repeated lines (FIR {s.get('fir_length_s')} s, "
-                            f"resolution {s.get('resolution_m', 0):.0f} m, line ends trimmed "
-                            f"{s.get('line_end_trim_s', 0):g} s)", "along-track distance (m)", "δg (mGal)")
-        fl = (s.get("noise_floor") or {}).get("total_mgal")
-        if fl:  # the ±1σ band white sensor noise alone would give
-            d = c["distance_m"][c["line"] == names[0]]
-            lo, hi = float(np.nanmin(d)), float(np.nanmax(d))
-            tr.append({"type": "scatter", "mode": "lines", "name": f"white-noise floor ±{fl:.3f} mGal",
-                       "x": [lo, hi, None, lo, hi], "y": [fl, fl, None, -fl, -fl],
-                       "line": {"dash": "dash", "color": "black"}})
-            comb = (s.get("noise_floor") or {}).get("combined_mgal")
-            if comb and (s.get("noise_floor") or {}).get("drift_mgal") is not None:
-                tr.append({"type": "scatter", "mode": "lines", "name": f"floor with the drift ±{comb:.3f} mGal",
-                           "x": [lo, hi, None, lo, hi], "y": [comb, comb, None, -comb, -comb],
-                           "line": {"dash": "dot", "color": "gray"}})
-        return _fig(tr, f"Residuals about the mean line: {_floor_text(s)}", "along-track distance (m)",
-                    "residual (mGal)")
-    if view == "gravity_compare_gnss":
-        g = _csv(session, job, "gravity.csv")
-        on = g["line"] != ""
-        gc = s.get("gnss_comparison") or {}
-        tr = []
-        other = "dg_sins_gnss_mgal" if "dg_sins_gnss_mgal" in g else None
-        for name in sorted(set(g["line"][on])):
-            k = g["line"] == name
-            if other is not None:  # the two chains' difference along each line
-                tr.append(_trace(g["distance_m"][k], g["dg_mgal"][k] - g[other][k], f"{name}: SINS/LDV − SINS/GNSS",
-                                 x0, x1, n))
-            if "dg_gnss_aided_mgal" in g:
-                tr.append(_trace(g["distance_m"][k], g["dg_mgal"][k] - g["dg_gnss_aided_mgal"][k],
-                                 f"{name}: LDV − LDV+GNSS navigation", x0, x1, n, line={"dash": "dot"}))
-        rms = [f"{d['name']} {d['rms_mgal']:.2f}" for d in gc.get("ldv_minus_gnss", [])
-               if d.get("rms_mgal") is not None]
-        title = (f"SINS/LDV {_floor_text(s)} vs SINS/GNSS {_floor_text(gc)}; difference RMS per line (mGal): "
-                 + (", ".join(rms) if rms else "none"))
-        return _fig(tr, title, "along-track distance (m)", "δg difference (mGal)")
-    raise HTTPException(404, f"unknown view '{view}'")
 
 
-def build_view(session, job: Job, view: str, x0, x1, n) -> dict:
-    if view not in VIEWS.get(job.pipeline, []):
-        raise HTTPException(404, f"no view '{view}' for a {job.pipeline} job (views: {VIEWS.get(job.pipeline)})")
-    s = job.summary or {}
-    if view in ("height", "height_error"):
-        h = _csv(session, job, "height.csv")
-        t = h["t_s"]
-        if view == "height":
-            tr = [_trace(t, h["h_m"], "LDV height (tilt compensated)", x0, x1, n),
-                  _trace(t, h["h_uncompensated_m"], "LDV height (uncompensated)", x0, x1, n),
-                  _trace(t, h["h_gnss_m"], "GNSS height (fix 4/2)", x0, x1, n, mode="markers",
-                         marker={"size": 3})]
-            return _fig(tr, "Height of the IMU centre", "t (s of day)", "h (m, ellipsoidal)")
-        tr = [_trace(t, h["h_m"] - h["h_gnss_m"], "error, tilt compensated", x0, x1, n, mode="markers",
-                     marker={"size": 3}),
-              _trace(t, h["h_uncompensated_m"] - h["h_gnss_m"], "error, uncompensated", x0, x1, n, mode="markers",
-                     marker={"size": 3})]
-        return _fig(tr, f"Height error against GNSS: std {s.get('std_error_m', float('nan')):.3f} m, "
-                        f"max {s.get('max_error_m', float('nan')):.3f} m", "t (s of day)", "LDV − GNSS (m)")
-    if view == "attitude":
-        a = _csv(session, job, "attitude.csv")
-        t = a["t_s"]
-        tr = [_trace(t, a["pitch_raw_deg"], "pitch raw", x0, x1, n), _trace(t, a["pitch_deg"], "pitch compensated", x0, x1, n),
-              _trace(t, a["roll_raw_deg"], "roll raw", x0, x1, n), _trace(t, a["roll_deg"], "roll compensated", x0, x1, n)]
-        al, be = s.get("alpha_rad", 0.0), s.get("beta_rad", 0.0)
-        return _fig(tr, f"Attitude: α = {al:.2e} rad ({al * ARCSEC_PER_RAD:.1f}″), "
-                        f"β = {be:.2e} rad ({be * ARCSEC_PER_RAD:.1f}″)", "t (s of day)", "angle (deg)")
-    if view in ("trajectory", "calibration_track"):
-        name = "trajectory.csv" if view == "trajectory" else "calibration_track.csv"
-        d = _csv(session, job, name)
-        lat0, lon0 = np.radians(d["lat_deg"][0]), np.radians(d["lon_deg"][0])
-        e = (np.radians(d["lon_deg"]) - lon0) * 6378137.0 * np.cos(lat0)
-        nn = (np.radians(d["lat_deg"]) - lat0) * 6356752.0
-        tr = [_trace(e, nn, "solution", None, None, n, mode="lines")]
-        from ldvsurvey.store.logs import load_array
+# --- height ---------------------------------------------------------------------------------------
 
-        g = load_array(session, job.log_ids[0], "gnss")
-        if g is not None:
-            ok = np.isfinite(g["lat_deg"])
-            ge = (np.radians(g["lon_deg"][ok]) - lon0) * 6378137.0 * np.cos(lat0)
-            gn = (np.radians(g["lat_deg"][ok]) - lat0) * 6356752.0
-            fix = g["fix"][ok].astype(int)
-            for q in sorted(set(fix.tolist())):  # one legend entry per fix quality (a discrete legend)
-                kq = np.flatnonzero(fix == q)
-                k = kq[_down(ge[kq], gn[kq], None, None, n)]
-                tr.append({"type": "scatter", "mode": "markers", "name": f"GNSS, {FIX_NAMES.get(q, f'fix {q}')}",
-                           "x": ge[k].tolist(), "y": gn[k].tolist(), "marker": {"size": 4}})
-        return _fig(tr, "Trajectory (local east/north from the start)", "east (m)", "north (m)",
-                    yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1})
-    if view.startswith("gravity_"):
-        return _gravity_view(session, job, view, s, x0, x1, n)
-    if view == "dov_deflection":
-        d = _csv(session, job, "dov.csv")
-        t = d["t_s"]
-        return _fig([_trace(t, d["xi_arcsec"], "ξ", x0, x1, n), _trace(t, d["eta_arcsec"], "η", x0, x1, n)],
-                    f"Deflection of the vertical along the track ({s.get('dov_source', '')})", "t (s of day)",
-                    "arcsec")
-    if view == "dov_error":
-        d = _csv(session, job, "dov.csv")
-        t = d["t_s"]
-        tr = []
-        for m in ("direct", "rk4", "theoretical"):
-            tr.append(_trace(t, d[f"dn_{m}_m"], f"north, {m}", x0, x1, n))
-            tr.append(_trace(t, d[f"de_{m}_m"], f"east, {m}", x0, x1, n, line={"dash": "dot"}))
-        return _fig(tr, "DOV-caused position error", "t (s of day)", "m")
-    if view == "damping":
-        d = _csv(session, job, "damping.csv")
-        t = d["t_s"]
-        tr = [_trace(t, d[f"{m}_north_error_m"], f"{m.replace('_', ' ')}, north", x0, x1, n)
-              for m in ("undamped", "conventional", "delayed_state")]
-        return _fig(tr, f"Position error: delayed-state improves {s.get('position_improvement_pct', 0):.1f} % over "
-                        "conventional", "t (s of day)", "north error (m)")
-    raise HTTPException(404, f"unknown view '{view}'")
+@view("height", "height", "Height of the IMU centre: LDV (tilt compensated, uncompensated) and GNSS",
+      "m (ellipsoidal)", ("height.csv",))
+def _height(v: ViewInput) -> dict:
+    h = v.csv("height.csv")
+    t = h["t_s"]
+    tr = [v.trace(t, h["h_m"], "LDV height (tilt compensated)"),
+          v.trace(t, h["h_uncompensated_m"], "LDV height (uncompensated)"),
+          v.trace(t, h["h_gnss_m"], "GNSS height (fix 4/2)", mode="markers", marker={"size": 3})]
+    return _fig(tr, "Height of the IMU centre", "t (s of day)", "h (m, ellipsoidal)")
+
+
+@view("height_error", "height", "Height error against GNSS, tilt compensated and uncompensated", "m",
+      ("height.csv",))
+def _height_error(v: ViewInput) -> dict:
+    h, s = v.csv("height.csv"), v.summary
+    t = h["t_s"]
+    tr = [v.trace(t, h["h_m"] - h["h_gnss_m"], "error, tilt compensated", mode="markers", marker={"size": 3}),
+          v.trace(t, h["h_uncompensated_m"] - h["h_gnss_m"], "error, uncompensated", mode="markers",
+                  marker={"size": 3})]
+    return _fig(tr, f"Height error against GNSS: std {s.get('std_error_m', float('nan')):.3f} m, "
+                    f"max {s.get('max_error_m', float('nan')):.3f} m", "t (s of day)", "LDV − GNSS (m)")
+
+
+# --- tilt -----------------------------------------------------------------------------------------
+
+@view("attitude", "tilt", "Pitch and roll, raw and tilt compensated", "deg", ("attitude.csv",))
+def _attitude(v: ViewInput) -> dict:
+    a, s = v.csv("attitude.csv"), v.summary
+    t = a["t_s"]
+    tr = [v.trace(t, a["pitch_raw_deg"], "pitch raw"), v.trace(t, a["pitch_deg"], "pitch compensated"),
+          v.trace(t, a["roll_raw_deg"], "roll raw"), v.trace(t, a["roll_deg"], "roll compensated")]
+    al, be = s.get("alpha_rad", 0.0), s.get("beta_rad", 0.0)
+    return _fig(tr, f"Attitude: α = {al:.2e} rad ({al * ARCSEC_PER_RAD:.1f}″), "
+                    f"β = {be:.2e} rad ({be * ARCSEC_PER_RAD:.1f}″)", "t (s of day)", "angle (deg)")
+
+
+# --- navigate, calibrate: the track -----------------------------------------------------------------
+
+def _track(v: ViewInput, name: str) -> dict:
+    """The solution's track in local east/north metres from its start, with the log's GNSS fixes
+    (read from the log's stored ``gnss`` array), one legend entry per fix quality."""
+    d = v.csv(name)
+    n = v.n
+    lat0, lon0 = np.radians(d["lat_deg"][0]), np.radians(d["lon_deg"][0])
+    e = (np.radians(d["lon_deg"]) - lon0) * 6378137.0 * np.cos(lat0)
+    nn = (np.radians(d["lat_deg"]) - lat0) * 6356752.0
+    tr = [_trace(e, nn, "solution", None, None, n, mode="lines")]
+    from ldvsurvey.store.logs import load_array
+
+    g = load_array(v.session, v.job.log_ids[0], "gnss")
+    if g is not None:
+        ok = np.isfinite(g["lat_deg"])
+        ge = (np.radians(g["lon_deg"][ok]) - lon0) * 6378137.0 * np.cos(lat0)
+        gn = (np.radians(g["lat_deg"][ok]) - lat0) * 6356752.0
+        fix = g["fix"][ok].astype(int)
+        for q in sorted(set(fix.tolist())):  # one legend entry per fix quality (a discrete legend)
+            kq = np.flatnonzero(fix == q)
+            k = kq[_down(ge[kq], gn[kq], None, None, n)]
+            tr.append({"type": "scatter", "mode": "markers", "name": f"GNSS, {FIX_NAMES.get(q, f'fix {q}')}",
+                       "x": ge[k].tolist(), "y": gn[k].tolist(), "marker": {"size": 4}})
+    return _fig(tr, "Trajectory (local east/north from the start)", "east (m)", "north (m)",
+                yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1})
+
+
+@view("trajectory", "navigate", "Trajectory in local east/north from the start, with the GNSS fixes",
+      "m (north)", ("trajectory.csv",))
+def _trajectory(v: ViewInput) -> dict:
+    return _track(v, "trajectory.csv")
+
+
+@view("calibration_track", "calibrate", "Calibration drive in local east/north from the start, with the GNSS fixes",
+      "m (north)", ("calibration_track.csv",))
+def _calibration_track(v: ViewInput) -> dict:
+    return _track(v, "calibration_track.csv")
+
+
+# --- gravity ----------------------------------------------------------------------------------------
+
+def _gravity_on_lines(v: ViewInput, residuals: bool) -> dict:
+    c, s = v.csv("coincidence.csv"), v.summary
+    names = sorted(set(c["line"]))
+    tr = []
+    for name in names:
+        k = c["line"] == name
+        y = c["residual_mgal"][k] if residuals else c["dg_mgal"][k]
+        tr.append(v.trace(c["distance_m"][k], y, str(name)))
+    if not residuals:
+        k = c["line"] == names[0]
+        tr.append(v.trace(c["distance_m"][k], c["mean_mgal"][k], "mean line", line={"width": 3, "color": "black"}))
+        return _fig(tr, f"Gravity disturbance on the repeated lines (FIR {s.get('fir_length_s')} s, "
+                        f"resolution {s.get('resolution_m', 0):.0f} m, line ends trimmed "
+                        f"{s.get('line_end_trim_s', 0):g} s)", "along-track distance (m)", "δg (mGal)")
+    fl = (s.get("noise_floor") or {}).get("total_mgal")
+    if fl:  # the ±1σ band white sensor noise alone would give
+        d = c["distance_m"][c["line"] == names[0]]
+        lo, hi = float(np.nanmin(d)), float(np.nanmax(d))
+        tr.append({"type": "scatter", "mode": "lines", "name": f"white-noise floor ±{fl:.3f} mGal",
+                   "x": [lo, hi, None, lo, hi], "y": [fl, fl, None, -fl, -fl],
+                   "line": {"dash": "dash", "color": "black"}})
+        comb = (s.get("noise_floor") or {}).get("combined_mgal")
+        if comb and (s.get("noise_floor") or {}).get("drift_mgal") is not None:
+            tr.append({"type": "scatter", "mode": "lines", "name": f"floor with the drift ±{comb:.3f} mGal",
+                       "x": [lo, hi, None, lo, hi], "y": [comb, comb, None, -comb, -comb],
+                       "line": {"dash": "dot", "color": "gray"}})
+    return _fig(tr, f"Residuals about the mean line: {_floor_text(s)}", "along-track distance (m)",
+                "residual (mGal)")
+
+
+@view("gravity_lines", "gravity", "Gravity disturbance on the repeated lines and their mean", "mGal",
+      ("coincidence.csv",))
+def _gravity_lines(v: ViewInput) -> dict:
+    return _gravity_on_lines(v, residuals=False)
+
+
+@view("gravity_residuals", "gravity", "Residuals about the mean line beside the white-noise floor", "mGal",
+      ("coincidence.csv",))
+def _gravity_residuals(v: ViewInput) -> dict:
+    return _gravity_on_lines(v, residuals=True)
+
+
+@view("gravity_compare_gnss", "gravity", "SINS/LDV against SINS/GNSS (and LDV+GNSS navigation) along each line",
+      "mGal", ("gravity.csv",))
+def _gravity_compare_gnss(v: ViewInput) -> dict:
+    g, s = v.csv("gravity.csv"), v.summary
+    on = g["line"] != ""
+    gc = s.get("gnss_comparison") or {}
+    tr = []
+    other = "dg_sins_gnss_mgal" if "dg_sins_gnss_mgal" in g else None
+    for name in sorted(set(g["line"][on])):
+        k = g["line"] == name
+        if other is not None:  # the two chains' difference along each line
+            tr.append(v.trace(g["distance_m"][k], g["dg_mgal"][k] - g[other][k], f"{name}: SINS/LDV − SINS/GNSS"))
+        if "dg_gnss_aided_mgal" in g:
+            tr.append(v.trace(g["distance_m"][k], g["dg_mgal"][k] - g["dg_gnss_aided_mgal"][k],
+                              f"{name}: LDV − LDV+GNSS navigation", line={"dash": "dot"}))
+    rms = [f"{d['name']} {d['rms_mgal']:.2f}" for d in gc.get("ldv_minus_gnss", [])
+           if d.get("rms_mgal") is not None]
+    title = (f"SINS/LDV {_floor_text(s)} vs SINS/GNSS {_floor_text(gc)}; difference RMS per line (mGal): "
+             + (", ".join(rms) if rms else "none"))
+    return _fig(tr, title, "along-track distance (m)", "δg difference (mGal)")
+
+
+def _gravity_view(session, job: Job, name: str, s: dict, x0, x1, n) -> dict:
+    """A gravity view by name on a summary ``s`` (the registered function; kept for callers that
+    pass the summary themselves)."""
+    if not name.startswith("gravity_") or name not in VIEWS:
+        raise HTTPException(404, f"unknown view '{name}'")
+    v = VIEWS[name]
+    return v.build(ViewInput(session, job, s, x0, x1, n, v.files))
+
+
+# --- dov --------------------------------------------------------------------------------------------
+
+@view("dov_deflection", "dov", "Deflection of the vertical ξ, η along the track", "arcsec", ("dov.csv",))
+def _dov_deflection(v: ViewInput) -> dict:
+    d, s = v.csv("dov.csv"), v.summary
+    t = d["t_s"]
+    return _fig([v.trace(t, d["xi_arcsec"], "ξ"), v.trace(t, d["eta_arcsec"], "η")],
+                f"Deflection of the vertical along the track ({s.get('dov_source', '')})", "t (s of day)", "arcsec")
+
+
+@view("dov_error", "dov", "Position error the DOV causes: direct, RK4 and theoretical", "m", ("dov.csv",))
+def _dov_error(v: ViewInput) -> dict:
+    d = v.csv("dov.csv")
+    t = d["t_s"]
+    tr = []
+    for m in ("direct", "rk4", "theoretical"):
+        tr.append(v.trace(t, d[f"dn_{m}_m"], f"north, {m}"))
+        tr.append(v.trace(t, d[f"de_{m}_m"], f"east, {m}", line={"dash": "dot"}))
+    return _fig(tr, "DOV-caused position error", "t (s of day)", "m")
+
+
+# --- damping ----------------------------------------------------------------------------------------
+
+@view("damping", "damping", "North position error: undamped, conventional and delayed-state damping", "m",
+      ("damping.csv",))
+def _damping(v: ViewInput) -> dict:
+    d, s = v.csv("damping.csv"), v.summary
+    t = d["t_s"]
+    tr = [v.trace(t, d[f"{m}_north_error_m"], f"{m.replace('_', ' ')}, north")
+          for m in ("undamped", "conventional", "delayed_state")]
+    return _fig(tr, f"Position error: delayed-state improves {s.get('position_improvement_pct', 0):.1f} % over "
+                    "conventional", "t (s of day)", "north error (m)")
+
+
+def build_view(session, job: Job, name: str, x0, x1, n) -> dict:
+    """The figure of view ``name`` of a (succeeded) job; 404 when the job's pipeline has no such view."""
+    v = VIEWS.get(name)
+    if v is None or v.pipeline != job.pipeline:
+        raise HTTPException(404, f"no view '{name}' for a {job.pipeline} job "
+                                 f"(views: {[x.name for x in views_of(job.pipeline)] or None})")
+    return v.build(ViewInput(session, job, job.summary or {}, x0, x1, n, v.files))
