@@ -9,8 +9,8 @@ import numpy as np
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
-from ldvsurvey.nav.gravity import (MGAL, half_wavelength_resolution_m, noise_floor_mgal, runs, trim_line,
-                                   zero_phase_lowpass)
+from ldvsurvey.nav.gravity import (MGAL, half_wavelength_resolution_m, noise_floor_mgal, runs,
+                                   second_difference_noise_gain, trim_line, zero_phase_lowpass)
 from ldvsurvey.pipelines.inputs import local_metres
 
 #: filtered values are withheld where bridged samples take more than this share of the FIR's weight …
@@ -21,6 +21,21 @@ MAX_LONG_GAP_SHARE = 0.01
 LONG_GAP_FIR_SHARE = 0.5
 #: crossings at a smaller angle are repeated passes over the same road, not crossovers
 CROSSOVER_MIN_ANGLE_DEG = 20.0
+
+
+def break_edges(ch, fir_s):
+    """Samples of a double-differenced chain (GNSS heights) withheld next to its breaks.
+
+    Next to a break (NaN δg) the truncated FIR keeps an edge velocity error of the heights nearly
+    unweighted: the white-height-noise σ of the filtered value grows from the interior floor to tens of
+    mGal (:func:`second_difference_noise_gain`). Withheld where that σ exceeds the chain's whole white
+    floor (accelerometer and heights), i.e. where the break at least doubles the noise variance;
+    ``ch["edge_gain_max"]`` is that floor over the heights' share of it (set by the pipeline)."""
+    gmax = ch.get("edge_gain_max")
+    if not gmax:
+        return np.zeros(len(ch["dg"]), bool)
+    gain = second_difference_noise_gain(np.isfinite(ch["dg"]), fir_s, ch["fs"])
+    return ~(gain <= gmax)
 
 
 def unsupported(bridged, fir_s, fs):
@@ -66,7 +81,7 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
     filtered = []
     for ch in chains:
         f = zero_phase_lowpass(ch["dg"], fir_s, ch["fs"])
-        ch["unsupported"] = unsupported(ch["bridged"], fir_s, ch["fs"])
+        ch["unsupported"] = unsupported(ch["bridged"], fir_s, ch["fs"]) | break_edges(ch, fir_s)
         f[ch["unsupported"]] = np.nan
         filtered.append(f)
     ref = None
@@ -207,3 +222,48 @@ def chain_difference(res_a, chains_a, res_b, chains_b):
                     "rms_mgal": float(np.sqrt(np.mean(d ** 2))) if len(d) else None,
                     "std_mgal": float(np.std(d)) if len(d) else None, "compared_s": len(d) / chains_a[pa[1]]["fs"]})
     return out
+
+
+#: the frame tilt is estimated only from at least this many compared samples …
+FRAME_TILT_MIN_SAMPLES = 100
+#: … and when the filtered horizontal acceleration varies by at least this much (m/s², RMS)
+FRAME_TILT_MIN_ACCEL_MPS2 = 0.002
+
+
+def frame_tilt(res_a, chains_a, res_b, chains_b, fir_s):
+    """The navigation frame's tilt against the ellipsoidal normal, from SINS/LDV minus SINS/GNSS.
+
+    The two chains share f_U; the SINS/LDV one is in the navigation's (plumb-levelled) frame, the
+    SINS/GNSS one against ellipsoidal heights, so their difference is ξ·a_N + η·a_E (+ noise, + a
+    constant): a least-squares fit of the filtered difference on the equally filtered horizontal
+    accelerations at the compared line samples. ξ, η are the deflection of the vertical the
+    navigation levelled to (rad). Returns a dict (xi_rad, eta_rad, their 1-σ from the fit's residual,
+    n samples) or None when the drive gives too few samples or too little horizontal acceleration."""
+    ys, xs = [], []
+    for pa, pb in zip(res_a["per_line"], res_b["per_line"]):
+        if not len(pa[3]) or not len(pb[3]):
+            continue
+        chb = chains_b[pb[1]]
+        tb = chb["t_s"][pb[2]]
+        fb = res_b["filtered"][pb[1]][pb[2]]
+        fa = np.interp(tb, chains_a[pa[1]]["t_s"], res_a["filtered"][pa[1]])
+        an = zero_phase_lowpass(chb["a_n"], fir_s, chb["fs"])[pb[2]]
+        ae = zero_phase_lowpass(chb["a_e"], fir_s, chb["fs"])[pb[2]]
+        ok = np.isfinite(fa) & np.isfinite(fb) & np.isfinite(an) & np.isfinite(ae)
+        ys.append((fa - fb)[ok])
+        xs.append(np.column_stack([an[ok], ae[ok]]))
+    if not ys:
+        return None
+    y, x = np.concatenate(ys), np.vstack(xs)
+    if len(y) < FRAME_TILT_MIN_SAMPLES or np.sqrt(np.mean((x - x.mean(axis=0)) ** 2)) < FRAME_TILT_MIN_ACCEL_MPS2:
+        return None
+    a = np.column_stack([np.ones(len(y)), x])
+    c, *_ = np.linalg.lstsq(a, y, rcond=None)
+    r = y - a @ c
+    # the filtered residual is correlated over ~the FIR length: σ from the effective number of samples
+    fs = chains_b[0]["fs"]
+    n_eff = max(len(y) / max(fir_s * fs / 2.0, 1.0), 4.0)
+    cov = np.linalg.inv(a.T @ a) * float(np.sum(r ** 2)) / max(len(y) - 3, 1) * len(y) / n_eff
+    # the difference is SINS/LDV − SINS/GNSS = −(ξ a_N + η a_E) in the GNSS chain's error: sign flipped
+    return {"xi_rad": float(-c[1]), "eta_rad": float(-c[2]), "xi_sigma_rad": float(np.sqrt(cov[1, 1])),
+            "eta_sigma_rad": float(np.sqrt(cov[2, 2])), "n_samples": int(len(y))}
