@@ -112,7 +112,13 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
     used = [p for p in per_line if len(p[3])]
     lines_t = {name: (a, b) for name, _, a, b in lines}
     if not used:
-        raise ValueError("no line holds data")
+        if strict:
+            raise ValueError("no line holds data")
+        # a comparison chain without a supported value on any line (e.g. RTK only in stretches shorter
+        # than the FIR): every line reported as holding no data, nothing smeared over them
+        return {"repeated": False, "filtered": filtered, "per_line": per_line, "crossings": [],
+                "crossover_mgal": None, "median_speed_mps": None, "resolution_m": None,
+                "coincidence_note": "no line holds a supported value"}
     repeated = all(np.median(p[4]) < 50.0 for p in used)
     result = {"repeated": repeated, "filtered": filtered, "per_line": per_line}
     if repeated and len(used) >= 2:
