@@ -130,3 +130,28 @@ def test_frame_tilt_recovered_from_the_chain_difference():
     assert tilt["xi_rad"] == pytest.approx(xi, abs=max(3 * tilt["xi_sigma_rad"], 1e-6))
     assert tilt["eta_rad"] == pytest.approx(eta, abs=max(3 * tilt["eta_sigma_rad"], 1e-6))
     assert tilt["xi_sigma_rad"] < 1e-5 and tilt["eta_sigma_rad"] < 1e-5
+
+
+def test_a_comparison_line_without_any_value_is_reported_not_a_crash():
+    """The 4.4-h benchmark log failed with "IndexError: boolean index did not match indexed array":
+    a line of the SINS/GNSS chain held no finite value and common_points indexed its empty distances
+    with a one-element mask. Such a line is reported as holding no data; the others are compared."""
+    from ldvsurvey.nav.coincidence import common_points
+
+    with pytest.raises(ValueError):
+        common_points([(np.arange(5.0), np.full(5, np.nan)), (np.arange(5.0), np.arange(5.0))], 1.0)
+    fs = 1.0
+    t = np.arange(0.0, 4000.0, 1 / fs)
+    # three passes over the same 10-km road (east, west, east), 15 m/s; GNSS blocked on the second
+    x = np.where(t < 1400, 15.0 * t, np.where(t < 2700, 21000.0 - 15.0 * t, 15.0 * t - 40500.0))
+    dg = 1e-4 * np.sin(2 * np.pi * x / 5000.0)
+    dg_blocked = np.where((t > 1300) & (t < 2800), np.nan, dg)
+    ch = {"t_s": t, "dg": dg_blocked, "lat": np.full(len(t), LAT), "lon": 0.2 + x / 6.4e6, "h": np.zeros(len(t)),
+          "speed": np.full(len(t), 15.0), "fs": fs, "bridged": ~np.isfinite(dg_blocked), "screened": 0,
+          "kind": "gnss"}
+    lines = [("L1", 0, 50.0, 650.0), ("L2", 0, 1450.0, 2050.0), ("L3", 0, 2750.0 + 100.0, 3350.0)]
+    res = evaluate([ch], lines, FIR_S, 10.0, 75.0, strict=False)
+    by = {p[0]: p for p in res["per_line"]}
+    assert by["L2"][7].get("no_data") and not len(by["L2"][3])
+    assert len(by["L1"][3]) and len(by["L3"][3])
+    assert res["coincidence"].names == ["L1", "L3"]
