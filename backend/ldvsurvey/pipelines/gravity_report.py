@@ -242,10 +242,11 @@ def frame_tilt(res_a, chains_a, res_b, chains_b, fir_s):
     The two chains share f_U; the SINS/LDV one is in the navigation's (plumb-levelled) frame, the
     SINS/GNSS one against ellipsoidal heights, so their difference is ξ·a_N + η·a_E (+ noise, + a
     constant): a least-squares fit of the filtered difference on the equally filtered horizontal
-    accelerations at the compared line samples. ξ, η are the deflection of the vertical the
+    accelerations at the compared line samples, with one offset per line (the chains' constant
+    difference, and each chain's own line leveling when chosen). ξ, η are the deflection of the vertical the
     navigation levelled to (rad). Returns a dict (xi_rad, eta_rad, their 1-σ from the fit's residual,
     n samples) or None when the drive gives too few samples or too little horizontal acceleration."""
-    ys, xs = [], []
+    ys, xs, line = [], [], []
     for pa, pb in zip(res_a["per_line"], res_b["per_line"]):
         if not len(pa[3]) or not len(pb[3]):
             continue
@@ -258,18 +259,21 @@ def frame_tilt(res_a, chains_a, res_b, chains_b, fir_s):
         ok = np.isfinite(fa) & np.isfinite(fb) & np.isfinite(an) & np.isfinite(ae)
         ys.append((fa - fb)[ok])
         xs.append(np.column_stack([an[ok], ae[ok]]))
+        line.append(np.full(int(ok.sum()), len(line)))
     if not ys:
         return None
-    y, x = np.concatenate(ys), np.vstack(xs)
+    y, x, line = np.concatenate(ys), np.vstack(xs), np.concatenate(line)
     if len(y) < FRAME_TILT_MIN_SAMPLES or np.sqrt(np.mean((x - x.mean(axis=0)) ** 2)) < FRAME_TILT_MIN_ACCEL_MPS2:
         return None
-    a = np.column_stack([np.ones(len(y)), x])
+    # one offset per line: the chains' constant difference, and each chain's own line leveling if chosen
+    offsets = (line[:, None] == np.unique(line)[None, :]).astype(float)
+    a = np.column_stack([x, offsets])
     c, *_ = np.linalg.lstsq(a, y, rcond=None)
     r = y - a @ c
     # the filtered residual is correlated over ~the FIR length: σ from the effective number of samples
     fs = chains_b[0]["fs"]
     n_eff = max(len(y) / max(fir_s * fs / 2.0, 1.0), 4.0)
-    cov = np.linalg.inv(a.T @ a) * float(np.sum(r ** 2)) / max(len(y) - 3, 1) * len(y) / n_eff
+    cov = np.linalg.pinv(a.T @ a) * float(np.sum(r ** 2)) / max(len(y) - a.shape[1], 1) * len(y) / n_eff
     # the difference is SINS/LDV − SINS/GNSS = −(ξ a_N + η a_E) in the GNSS chain's error: sign flipped
-    return {"xi_rad": float(-c[1]), "eta_rad": float(-c[2]), "xi_sigma_rad": float(np.sqrt(cov[1, 1])),
-            "eta_sigma_rad": float(np.sqrt(cov[2, 2])), "n_samples": int(len(y))}
+    return {"xi_rad": float(-c[0]), "eta_rad": float(-c[1]), "xi_sigma_rad": float(np.sqrt(cov[0, 0])),
+            "eta_sigma_rad": float(np.sqrt(cov[1, 1])), "n_samples": int(len(y))}
