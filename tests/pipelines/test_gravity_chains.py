@@ -12,7 +12,6 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-
 from ldvsurvey.nav.earth import MGAL, normal_gravity
 from ldvsurvey.nav.gravity import zero_phase_lowpass
 from ldvsurvey.pipelines.gravity_chains import gnss_chain
@@ -29,7 +28,6 @@ def synthetic(duration_s=3000.0, v0_mps=0.2, gaps=(), sigma_h_m=0.015, seed=5):
     t = np.arange(0.0, duration_s, 1.0 / FS_HZ)
     w = 2 * np.pi / 97.0
     h = 200.0 + v0_mps * t + 3.0 * np.sin(w * t)
-    hdd = -3.0 * w ** 2 * np.sin(w * t)
     dg = 10.0 * MGAL * np.sin(2 * np.pi * t / 900.0)
     n = len(t)
     # f_U over the interval (t_{k-1}, t_k]: its mean, from the exact velocity change

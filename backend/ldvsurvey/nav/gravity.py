@@ -126,7 +126,7 @@ def _edge_offset(off, lo: int, hi: int, at: int, fit: str) -> float:
     seg = off[lo:hi]
     if fit == "line" and len(seg) >= 3:
         x = np.arange(lo, hi, dtype=float) - at
-        a1, a0 = np.polyfit(x, seg, 1)
+        _slope, a0 = np.polyfit(x, seg, 1)
         return float(a0)
     return float(np.mean(seg))
 
