@@ -15,7 +15,7 @@ import pytest
 from ldvsurvey.nav.earth import MGAL, normal_gravity
 from ldvsurvey.nav.gravity import zero_phase_lowpass
 from ldvsurvey.pipelines.gravity_chains import gnss_chain
-from ldvsurvey.pipelines.gravity_report import evaluate
+from ldvsurvey.pipelines.gravity_report import edge_gain_max, evaluate
 
 FS_HZ = 20.0
 FIR_S = 150.0
@@ -92,7 +92,7 @@ def test_values_next_to_a_break_are_withheld_not_smeared():
     for seed in range(4):
         log, inp, sol, tm, dg = synthetic(duration_s=2600.0, v0_mps=0.0, gaps=[(1000.0, 1400.0)], seed=seed)
         ch = gnss_chain(log, inp, sol, FIR_S)
-        ch["edge_gain_max"] = fl["total_mgal"] / fl["gnss_height_mgal"]  # as the pipeline sets it
+        ch["edge_gain_max"] = edge_gain_max(fl)  # as the pipeline sets it
         res = evaluate([ch], [("L1", 0, 300.0, 2300.0), ("L2", 0, 300.0, 2300.0)], FIR_S, 10.0, 0.0, strict=False)
         truth = np.interp(ch["t_s"], tm, zero_phase_lowpass(dg, FIR_S, FS_HZ))
         e = (res["filtered"][0] - truth) / MGAL
@@ -153,3 +153,17 @@ def test_a_comparison_line_without_any_value_is_reported_not_a_crash():
     assert by["L2"][7].get("no_data") and not len(by["L2"][3])
     assert len(by["L1"][3]) and len(by["L3"][3])
     assert res["coincidence"].names == ["L1", "L3"]
+
+
+def test_break_threshold_doubles_the_white_variance():
+    """Withheld where the break doubles the chain's white variance: with the heights the only noise
+    given (no accelerometer density in the manifest) that is a gain of √2, not 1 (which withheld
+    every value whose gain rounded above 1)."""
+    from ldvsurvey.nav.gravity import noise_floor_mgal
+
+    only_h = noise_floor_mgal(FIR_S, height_noise_m=0.05, gnss_rate_hz=1.0)
+    assert edge_gain_max(only_h) == pytest.approx(np.sqrt(2.0))
+    both = noise_floor_mgal(FIR_S, accel_noise_ug_rthz=5.0, height_noise_m=0.05, gnss_rate_hz=1.0)
+    g = edge_gain_max(both)
+    var = both["accel_mgal"] ** 2 + (g * both["gnss_height_mgal"]) ** 2
+    assert var == pytest.approx(2.0 * both["total_mgal"] ** 2)

@@ -26,7 +26,8 @@ from ldvsurvey.pipelines.base import (LogFacts, Pipeline, PipelineResult, Reason
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
-from ldvsurvey.pipelines.gravity_report import block, chain_difference, evaluate, floor_of, frame_tilt
+from ldvsurvey.pipelines.gravity_report import (block, chain_difference, edge_gain_max, evaluate, floor_of,
+                                                 frame_tilt)
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.inputs import gnss_aid, navigate
 from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of
@@ -203,7 +204,7 @@ def run(logs, params, progress) -> PipelineResult:
                 gchains[-1] = gnss_chain(log, inp, sol, fir_s, fixes)
                 fl = floor_of(log, gchains[-1], fir_s)
                 if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
-                    gchains[-1]["edge_gain_max"] = fl["total_mgal"] / fl["gnss_height_mgal"]
+                    gchains[-1]["edge_gain_max"] = edge_gain_max(fl)
             except ValueError as exc:
                 warnings.append(f"SINS/GNSS chain skipped for bundle {i + 1}: {exc}")
         if params["gnss_aided"]:

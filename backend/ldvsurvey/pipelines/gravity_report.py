@@ -23,14 +23,22 @@ LONG_GAP_FIR_SHARE = 0.5
 CROSSOVER_MIN_ANGLE_DEG = 20.0
 
 
+def edge_gain_max(floor: dict) -> float:
+    """The height-noise gain g at which a break doubles a SINS/GNSS chain's white variance.
+
+    ``floor``: :func:`floor_of` of the chain (σ_tot² = σ_acc² + σ_h²). Next to a break the heights'
+    share grows to g²·σ_h², so the variance doubles where (g² − 1)·σ_h² = σ_tot²:
+    g = √(1 + σ_tot²/σ_h²) (√2 when the heights are the only noise given)."""
+    return float(np.sqrt(1.0 + (floor["total_mgal"] / floor["gnss_height_mgal"]) ** 2))
+
+
 def break_edges(ch, fir_s):
     """Samples of a double-differenced chain (GNSS heights) withheld next to its breaks.
 
     Next to a break (NaN δg) the truncated FIR keeps an edge velocity error of the heights nearly
     unweighted: the white-height-noise σ of the filtered value grows from the interior floor to tens of
-    mGal (:func:`second_difference_noise_gain`). Withheld where that σ exceeds the chain's whole white
-    floor (accelerometer and heights), i.e. where the break at least doubles the noise variance;
-    ``ch["edge_gain_max"]`` is that floor over the heights' share of it (set by the pipeline)."""
+    mGal (:func:`second_difference_noise_gain`). Withheld where the break at least doubles the chain's
+    white variance (accelerometer and heights): ``ch["edge_gain_max"]`` from :func:`edge_gain_max`."""
     gmax = ch.get("edge_gain_max")
     if not gmax:
         return np.zeros(len(ch["dg"]), bool)
