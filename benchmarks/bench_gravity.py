@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.nav.earth import MGAL
+from ldvsurvey.nav.earth import ARCSEC, MGAL
 from ldvsurvey.nav.gravity import zero_phase_lowpass
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
@@ -64,6 +64,13 @@ def truth_rms(sim, res, fir_s, column):
     return out
 
 
+def true_dov(sim):
+    """Mean (ξ, η) in arcsec of the simulator's field along the drive (to read the fitted frame tilt)."""
+    im = sim.imu
+    xi, eta, _ = sim.extras["gravity_field"](im.lat_rad[::1000], im.lon_rad[::1000], im.h_m[::1000])
+    return float(np.mean(xi) / ARCSEC), float(np.mean(eta) / ARCSEC)
+
+
 def run(sim, log, fir_s, **params):
     t0 = time.perf_counter()
     res = run_pipeline(get("gravity"), [log], {"fir_length_s": fir_s, **params})
@@ -81,7 +88,9 @@ def run(sim, log, fir_s, **params):
                                        for d in (s.get("gnss_comparison") or {}).get("ldv_minus_gnss", [])},
            "ldv_minus_gnss_mean_mgal": {d["name"]: d["mean_mgal"]
                                         for d in (s.get("gnss_comparison") or {}).get("ldv_minus_gnss", [])},
-           "bridged_s": s["bridged_s"], "elapsed_s": time.perf_counter() - t0}
+           "bridged_s": s["bridged_s"], "elapsed_s": time.perf_counter() - t0,
+           "frame_tilt": (s.get("gnss_comparison") or {}).get("frame_tilt"), "true_dov_arcsec": true_dov(sim),
+           "gnss_withheld_s": {ln["name"]: ln["unsupported_s"] for ln in (s.get("gnss_comparison") or {}).get("lines", [])}}
     if params.get("gnss_aided"):
         row["aided_truth_rms_mgal"] = truth_rms(sim, res, fir_s, "dg_gnss_aided_mgal")
     return row
@@ -133,6 +142,15 @@ def fmt(x, d=2):
     return "–" if x is None else f"{x:.{d}f}"
 
 
+def tilt_text(r):
+    ft = r.get("frame_tilt") or {}
+    if not ft.get("applied"):
+        return "; frame tilt not estimated"
+    return (f"; frame tilt (DOV the navigation levels to) ξ {ft['xi_arcsec']:.1f} ± {ft['xi_sigma_arcsec']:.1f}″, "
+            f"η {ft['eta_arcsec']:.1f} ± {ft['eta_sigma_arcsec']:.1f}″ (field's mean {r['true_dov_arcsec'][0]:.1f}″, "
+            f"{r['true_dov_arcsec'][1]:.1f}″)")
+
+
 def section(rows, extra, seeds, hours, wall, cpu):
     lines = ["<!-- gravity:begin (written by benchmarks/bench_gravity.py) -->", "## Gravity", "",
              f"Realistic six-line drive (`catalog.realistic_gravity(seed={SEED})`: six repeated 11-km lines, "
@@ -163,14 +181,22 @@ def section(rows, extra, seeds, hours, wall, cpu):
                      + (f"; LDV+GNSS navigation {', '.join(fmt(v) for v in r['aided_truth_rms_mgal'].values())} mGal"
                         if "aided_truth_rms_mgal" in r else "")
                      + f"; SINS/LDV − SINS/GNSS per-line mean "
-                       f"{', '.join(fmt(v) for v in r['ldv_minus_gnss_mean_mgal'].values())} mGal")
+                       f"{', '.join(fmt(v) for v in r['ldv_minus_gnss_mean_mgal'].values())} mGal"
+                     + tilt_text(r))
     on, off = extra.get("all effects"), extra.get("all effects but LDV dropouts")
     if on and off and on["coincidence_mgal"] and off["coincidence_mgal"]:
         lines.append(f"- dropouts on vs off: coincidence differs by "
                      f"{100 * abs(on['coincidence_mgal'] / off['coincidence_mgal'] - 1):.1f} %")
     if seeds:
-        lines += ["", "Other seeds (all effects, FIR 150 s): coincidence against the combined floor:", ""]
+        lines += ["", "Other seeds (FIR 150 s): coincidence against the combined floor; SINS/GNSS per line (– = no "
+                      "RTK-supported value on the line: withheld, not smeared):", ""]
         for sd, r in seeds.items():
+            if isinstance(sd, str):
+                lines.append(f"- seed {sd}: coincidence {fmt(r['coincidence_mgal'], 3)} mGal (white floor "
+                             f"{fmt(r['floor_mgal'], 3)}), per line vs truth SINS/LDV "
+                             f"{', '.join(fmt(v) for v in r['ldv_truth_rms_mgal'].values())} mGal; SINS/GNSS "
+                             f"{', '.join(fmt(v) for v in r['gnss_truth_rms_mgal'].values())} mGal" + tilt_text(r))
+                continue
             lines.append(f"- seed {sd}: coincidence {fmt(r['coincidence_mgal'], 3)} mGal, white floor "
                          f"{fmt(r['floor_mgal'], 3)}, drift floor {fmt(r['floor_drift_mgal'], 3)}, combined "
                          f"{fmt(r['floor_combined_mgal'], 3)} (×{fmt(r['combined_ratio'])}); worst line vs truth "
@@ -218,6 +244,10 @@ def main(quick=False):
     for sd in ([] if quick else [2, 3]):
         s2, l2 = drive(seed=sd)
         seeds[sd] = run(s2, l2, 150.0)
+        s2, l2 = drive(seed=sd, imu_errors=None)
+        seeds[f"{sd}, no accelerometer in-run errors"] = run(s2, l2, 150.0)
+        print(f"seed {sd} without in-run errors: LDV {seeds[f'{sd}, no accelerometer in-run errors']['ldv_truth_rms_mgal']}"
+              f" GNSS {seeds[f'{sd}, no accelerometer in-run errors']['gnss_truth_rms_mgal']}")
         print(f"seed {sd}: coincidence {fmt(seeds[sd]['coincidence_mgal'], 3)} combined floor "
               f"{fmt(seeds[sd]['floor_combined_mgal'], 3)} LDV vs truth {seeds[sd]['ldv_truth_rms_mgal']}")
     hours, wall, cpu, _ = timing()

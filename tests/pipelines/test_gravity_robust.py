@@ -73,6 +73,23 @@ def test_dropouts_cost_only_their_own_data(with_dropouts, without_dropouts):
     assert max(err.values()) <= 1.0, err
 
 
+def test_ldv_gaps_are_named_per_line_in_a_warning(with_dropouts, without_dropouts):
+    """LDV dropouts bridged through the navigation velocity were only in the summary's per-line
+    figures; a warning now names every line's bridged seconds (the drive had bursts inside lines)."""
+    _, res = with_dropouts
+    warn = [w for w in res.warnings if w.startswith("LDV gaps")]
+    assert len(warn) == 1
+    for ln in res.summary["lines"]:
+        if ln["bridged_s"] > 0:
+            assert f"{ln['name']} {ln['bridged_s']:.1f} s" in warn[0]
+    _, clean = without_dropouts
+    named = [w for w in clean.warnings if w.startswith("LDV gaps")]
+    # without the dropout effect only the simulator's rare low-quality samples remain: far fewer seconds
+    if named:
+        assert sum(ln["bridged_s"] for ln in clean.summary["lines"]) < 0.2 * sum(ln["bridged_s"]
+                                                                                for ln in res.summary["lines"])
+
+
 def test_imu_gaps_are_surfaced(with_dropouts):
     sim, res = with_dropouts
     dropped = int(np.count_nonzero(~sim.extras["imu_keep"]))
@@ -107,11 +124,15 @@ def test_sins_gnss_and_gnss_aided_beside(with_dropouts):
     diff = {d["name"]: d for d in gc["ldv_minus_gnss"]}
     assert set(diff) == {ln["name"] for ln in s["lines"]}
     err = _truth_error(sim, res, "dg_sins_gnss_mgal")
-    # this short drive keeps RTK on ~100 s of a line at most (outages, degraded fixes, multipath);
-    # where the outages leave the FIR window to the bridge the values are withheld, not shown.
-    # The 3-mGal acceptance is measured on the full drive (benchmarks/bench_gravity.py).
-    assert np.nanmax(list(err.values())) <= 5.0, err
+    # this short drive keeps RTK on ~100 s of a line at most (outages, degraded fixes, multipath):
+    # shorter than the FIR's reach, so next to the breaks the values are withheld (the former chain
+    # showed them, up to 5 mGal off the truth). What is shown must hold the 3-mGal acceptance; the
+    # rest is reported as withheld. The full drive: benchmarks/bench_gravity.py.
+    shown = [v for v in err.values() if np.isfinite(v)]
+    assert all(v <= 3.0 for v in shown), err
     assert any(ln["unsupported_s"] > 0 for ln in gc["lines"])  # withheld stretches are reported
+    for ln in gc["lines"]:
+        assert ln.get("no_data") or ln["rms_mgal"] is not None or ln["unsupported_s"] > 0
     aided = s["gnss_aided"]
     assert aided["aiding"] == "ldv+gnss"
     err_a = _truth_error(sim, res, "dg_gnss_aided_mgal")

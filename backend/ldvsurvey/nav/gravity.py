@@ -63,6 +63,45 @@ def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5
     return y
 
 
+def second_difference_noise_gain(valid, length_s: float, fs_hz: float) -> np.ndarray:
+    """σ of :func:`zero_phase_lowpass` of a second difference of white noise, relative to the interior.
+
+    ``valid``: the samples of the double-differenced series (e.g. δg from GNSS heights) the filter
+    uses (False: a break). Far from breaks the filter's kernel is smooth and the second differences
+    of white height noise cancel into the small interior σ; next to a break the truncated kernel
+    keeps one edge velocity error (σ_h·√2/Δt, centimetres per second) almost unweighted, which is
+    tens of mGal. Exact propagation: the filtered value is Σ_k c_k Δ²e_k, c_k = h2(t−k)·valid_k/den,
+    so its variance is σ²·Σ_j (Δ²ᵀc)_j² = σ²·[6 S₀ − 4 (S₁ + S₋₁) + S₂ + S₋₂]/den² with
+    S_δ(t) = Σ_i valid_i valid_{i+δ} h2(t−i) h2(t−i−δ). Returns that σ over the σ with every sample
+    valid (1 in the interior; NaN where the filter gives no value).
+    """
+    g = np.asarray(valid, bool).astype(float)
+    h = fir_taps(length_s, fs_hz)
+    h2 = oaconvolve(h, h[::-1])
+    m = len(h2) // 2
+    n = len(g)
+
+    def s_delta(d):
+        x = np.zeros(n)
+        if d >= 0:
+            x[:n - d] = g[:n - d] * g[d:]
+        else:
+            x[-d:] = g[-d:] * g[:n + d]
+        k = h2 * np.roll(np.r_[h2, 0.0], d)[:len(h2)] if d >= 0 else h2 * np.r_[h2[-d:], np.zeros(-d)]
+        full = oaconvolve(x, k)
+        return full[m:m + n]
+
+    var = 6 * s_delta(0) - 4 * (s_delta(1) + s_delta(-1)) + s_delta(2) + s_delta(-2)
+    den = oaconvolve(g, h2)[m:m + n]
+    k1 = h2 * np.r_[0.0, h2[:-1]]
+    k2 = h2 * np.r_[0.0, 0.0, h2[:-2]]
+    inner = np.sqrt(max(6 * np.sum(h2 * h2) - 8 * np.sum(k1) + 2 * np.sum(k2), 1e-300))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.sqrt(np.maximum(var, 0.0)) / den / inner
+    out[den < 0.5] = np.nan
+    return out
+
+
 def half_wavelength_resolution_m(speed_mps: float, length_s: float) -> float:
     """Spatial half-wavelength at the FIR cut-off 1/L: v·L/2 (m)."""
     return 0.5 * speed_mps * length_s
@@ -82,17 +121,32 @@ def runs(mask):
     return list(zip(e[::2], e[1::2]))
 
 
-def bridge_velocity(v_mps, ok, v_ref_mps, edge_n: int = 1):
+def _edge_offset(off, lo: int, hi: int, at: int, fit: str) -> float:
+    """The offset at sample ``at`` from the valid samples ``off[lo:hi]`` next to it (mean or line)."""
+    seg = off[lo:hi]
+    if fit == "line" and len(seg) >= 3:
+        x = np.arange(lo, hi, dtype=float) - at
+        _slope, a0 = np.polyfit(x, seg, 1)
+        return float(a0)
+    return float(np.mean(seg))
+
+
+def bridge_velocity(v_mps, ok, v_ref_mps, edge_n: int = 1, edge_fit: str = "mean"):
     """Fill the gaps (``~ok``) of a series with a reference series tied to both gap ends.
 
     Inside a gap: the reference (e.g. the smoothed navigation velocity) plus an offset varying
-    linearly from the left to the right edge's ``v − v_ref``, each taken as the mean over up to
-    ``edge_n`` valid samples next to the edge (so one noisy edge sample is not spread over the
-    whole gap). The bridged series is continuous with the data, so its difference quotient
-    still telescopes and a gap costs only its own samples. Gaps at either end take the offset
-    of their one edge. Works for any quantity (velocity through velocity, height through the
-    doubly integrated specific force, ...).
+    linearly from the left to the right edge's ``v − v_ref``, each taken from up to ``edge_n``
+    valid samples next to the edge (so one noisy edge sample is not spread over the whole gap):
+    their mean (``edge_fit="mean"``), or a least-squares line through them evaluated at the edge
+    sample (``"line"``: unbiased where the offset trends, e.g. heights against a doubly
+    integrated specific force whose velocity has drifted; a mean over n samples would put a step
+    of slope·(n−1)/2 at each edge). The bridged series is continuous with the data, so its
+    difference quotient still telescopes and a gap costs only its own samples. Gaps at either
+    end take the offset of their one edge. Works for any quantity (velocity through velocity,
+    height through the doubly integrated specific force, ...).
     """
+    if edge_fit not in ("mean", "line"):
+        raise ValueError(f"edge_fit is 'mean' or 'line', got {edge_fit!r}")
     v = np.array(v_mps, float, copy=True)
     ok = np.asarray(ok, bool) & np.isfinite(v)
     if not ok.any():
@@ -103,8 +157,8 @@ def bridge_velocity(v_mps, ok, v_ref_mps, edge_n: int = 1):
     for i, (a, b) in enumerate(segs):
         lo = segs[i - 1][1] if i > 0 else 0
         hi = segs[i + 1][0] if i + 1 < len(segs) else n
-        oa = float(np.mean(off[max(lo, a - edge_n):a])) if a > 0 else None
-        ob = float(np.mean(off[b:min(hi, b + edge_n)])) if b < n else None
+        oa = _edge_offset(off, max(lo, a - edge_n), a, a - 1, edge_fit) if a > 0 else None
+        ob = _edge_offset(off, b, min(hi, b + edge_n), b, edge_fit) if b < n else None
         oa = ob if oa is None else oa
         ob = oa if ob is None else ob
         w = (np.arange(a, b) - (a - 1)) / (b - a + 1)

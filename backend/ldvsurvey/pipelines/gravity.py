@@ -19,13 +19,15 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from ldvsurvey.errors import ParameterError
+from ldvsurvey.nav.earth import ARCSEC
 from ldvsurvey.nav.gravity import MGAL
 from ldvsurvey.pipelines.base import (LogFacts, Pipeline, PipelineResult, Reason, Text, needs_gnss, output_rate,
                                       rate_within_imu, window_inside)
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
-from ldvsurvey.pipelines.gravity_report import block, chain_difference, evaluate, floor_of
+from ldvsurvey.pipelines.gravity_report import (block, chain_difference, edge_gain_max, evaluate, floor_of,
+                                                 frame_tilt)
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.inputs import gnss_aid, navigate
 from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of
@@ -200,6 +202,9 @@ def run(logs, params, progress) -> PipelineResult:
                 # f_U, attitude and the Eötvös velocity of the SINS/LDV navigation: the chains then differ
                 # only in the vertical acceleration (LDV vs GNSS heights), and no third filter runs
                 gchains[-1] = gnss_chain(log, inp, sol, fir_s, fixes)
+                fl = floor_of(log, gchains[-1], fir_s)
+                if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
+                    gchains[-1]["edge_gain_max"] = edge_gain_max(fl)
             except ValueError as exc:
                 warnings.append(f"SINS/GNSS chain skipped for bundle {i + 1}: {exc}")
         if params["gnss_aided"]:
@@ -238,6 +243,7 @@ def run(logs, params, progress) -> PipelineResult:
     drift = drift_floor(logs[0], chains[0], res, fir_s, params["spacing_m"],
                         drift_reports[0].get("method") == "repeated stops", params["line_leveling"])
     summary = block(res, fir_s, trim_s, "ldv", combine(floor_of(logs[0], chains[0], fir_s), drift))
+    warnings += ldv_gap_warnings(res)
     summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
     summary["imu_gaps"] = imu_gap_report(logs)
     summary["drift_correction"] = drift_reports[0] if len(drift_reports) == 1 else drift_reports
@@ -246,7 +252,14 @@ def run(logs, params, progress) -> PipelineResult:
         try:
             gres = evaluate(gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False,
                             leveling=params["line_leveling"])
+            tilt = frame_tilt(res, chains, gres, gchains, fir_s)
+            if tilt is not None:  # the navigation frame's DOV: removed from the SINS/GNSS chain
+                for g in gchains:
+                    g["dg"] = g["dg"] - (tilt["xi_rad"] * g["a_n"] + tilt["eta_rad"] * g["a_e"])
+                gres = evaluate(gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False,
+                                leveling=params["line_leveling"])
             summary["gnss_comparison"] = block(gres, fir_s, trim_s, "gnss", floor_of(logs[0], gchains[0], fir_s))
+            summary["gnss_comparison"]["frame_tilt"] = frame_tilt_report(tilt)
             summary["gnss_comparison"]["gnss_fixes"] = list(fixes)
             summary["gnss_comparison"]["screened_fixes"] = int(sum(g["screened"] for g in gchains))
             summary["gnss_comparison"]["ldv_minus_gnss"] = chain_difference(res, chains, gres, gchains)
@@ -268,6 +281,35 @@ def run(logs, params, progress) -> PipelineResult:
                                  "distance_m": np.tile(co.distance_m, n), "dg_mgal": co.values.ravel(),
                                  "mean_mgal": np.tile(co.mean, n), "residual_mgal": co.residual.ravel()}
     return PipelineResult(summary=summary, tables=tables, warnings=warnings)
+
+
+def ldv_gap_warnings(res) -> list[str]:
+    """One warning naming, per line, the LDV data bridged through the navigation velocity (dropouts,
+    low quality, screened values) and what was withheld as unsupported; none when nothing was bridged."""
+    parts = []
+    for name, _ci, _k, _s, *_rest, info in res["per_line"]:
+        if info["bridged_s"] > 0:
+            share = info["bridged_s"] / info["duration_s"] if info["duration_s"] > 0 else 0.0
+            parts.append(f"{name} {info['bridged_s']:.1f} s ({100 * share:.1f} %"
+                         + (f", {info['unsupported_s']:.0f} s withheld" if info["unsupported_s"] > 0 else "") + ")")
+    if not parts:
+        return []
+    return ["LDV gaps (dropouts, low quality, screened values) bridged through the navigation velocity on the "
+            "lines: " + ", ".join(parts)]
+
+
+def frame_tilt_report(tilt):
+    """The summary entry of the SINS/GNSS chain's frame-tilt correction (arcsec)."""
+    if tilt is None:
+        return {"applied": False, "note": "too few compared samples or too little horizontal acceleration to "
+                                          "estimate the navigation frame's tilt; SINS/GNSS keeps ξ·a_N + η·a_E"}
+    return {"applied": True, "xi_arcsec": tilt["xi_rad"] / ARCSEC, "eta_arcsec": tilt["eta_rad"] / ARCSEC,
+            "xi_sigma_arcsec": tilt["xi_sigma_rad"] / ARCSEC, "eta_sigma_arcsec": tilt["eta_sigma_rad"] / ARCSEC,
+            "n_samples": tilt["n_samples"],
+            "note": "the navigation levels to the plumb line, GNSS heights are ellipsoidal: the deflection of the "
+                    "vertical (ξ, η) the frame holds, fitted to SINS/LDV − SINS/GNSS against the horizontal "
+                    "accelerations, and ξ·a_N + η·a_E removed from the SINS/GNSS chain (two parameters per "
+                    "survey; the chains' remaining difference is still a check of the vertical acceleration)"}
 
 
 def gravity_table(chains, res, rate_hz, extra):

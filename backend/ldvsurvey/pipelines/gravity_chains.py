@@ -16,6 +16,12 @@ heights brought to the IMU centre with the lever arm, on the regular grid of the
 fixes are missing (outage, lower quality, multipath) the height is bridged through S tied to
 both gap edges, the height-domain twin of the LDV bridge. The second difference of S − h is δg:
 both sides of the subtraction see the very same differencing, so the FIR treats them alike.
+
+The navigation levels its frame to the plumb line (the SINS/LDV filter cannot tell a deflection of
+the vertical from a tilt), GNSS heights are along the ellipsoidal normal: f_U then holds
+ξ·a_N + η·a_E beyond the ellipsoidal vertical acceleration. The SINS/LDV chain differentiates the
+LDV velocity in the same tilted frame and the term cancels; the SINS/GNSS chain keeps it (mGal on a
+winding road with a DOV of tens of arcseconds). :func:`gravity_report.frame_tilt` estimates it.
 """
 
 from __future__ import annotations
@@ -30,8 +36,8 @@ from ldvsurvey.pipelines.inputs import GNSS_SIGMA, attitude_at
 from ldvsurvey.pipelines.calibration import accel_fwd, ldv_body_velocity
 
 
-#: GNSS fixes (each side) whose mean offset from the doubly integrated f_U ties a gap's bridge
-GNSS_EDGE_N = 3
+#: GNSS fixes (each side) through whose offset from the doubly integrated f_U a line is fitted to tie a gap's bridge
+GNSS_EDGE_N = 10
 #: passes of the outage bridge (each takes the previous pass's filtered δg as its prior)
 GNSS_BRIDGE_PASSES = 4
 #: LDV samples (each side) whose mean offset from the navigation velocity ties a gap's bridge
@@ -209,7 +215,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
     for _ in range(GNSS_BRIDGE_PASSES):
         gg = np.zeros(len(grid))
         gg[2:] = np.cumsum(np.cumsum(g_prior) * step) * step
-        d = s_grid - bridge_velocity(h_grid, ok, s_grid - gg, edge_n=GNSS_EDGE_N)
+        d = s_grid - bridge_velocity(h_grid, ok, s_grid - gg, edge_n=GNSS_EDGE_N, edge_fit="line")
         dg = (d[2:] - 2 * d[1:-1] + d[:-2]) / step ** 2
         if not bridged.any():
             break
@@ -227,7 +233,11 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
     for a, b in runs(bridged):
         if (b - a) * step > 0.5 * fir_s:
             dg[max(0, a - 1):b + 1] = np.nan
+    # horizontal accelerations (navigation frame) over the same three-epoch stencil, for the frame tilt
+    v_g = np.column_stack([np.interp(grid, t, sol.v_n[:, i]) for i in (0, 1)])
+    a_en = (v_g[2:] - v_g[:-2]) / (2 * step)
     return {"t_s": tc, "dg": dg, "lat": np.interp(tc, t, sol.pos[:, 0]), "lon": np.interp(tc, t, sol.pos[:, 1]),
+            "a_e": a_en[:, 0], "a_n": a_en[:, 1],
             "h": np.interp(tc, t, sol.pos[:, 2]),
             "speed": np.interp(tc, t, np.hypot(sol.v_n[:, 0], sol.v_n[:, 1])), "fs": 1.0 / step,
             "bridged": bridged, "screened": int((~good).sum()),

@@ -9,8 +9,8 @@ import numpy as np
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
-from ldvsurvey.nav.gravity import (MGAL, half_wavelength_resolution_m, noise_floor_mgal, runs, trim_line,
-                                   zero_phase_lowpass)
+from ldvsurvey.nav.gravity import (MGAL, half_wavelength_resolution_m, noise_floor_mgal, runs,
+                                   second_difference_noise_gain, trim_line, zero_phase_lowpass)
 from ldvsurvey.pipelines.inputs import local_metres
 
 #: filtered values are withheld where bridged samples take more than this share of the FIR's weight …
@@ -21,6 +21,29 @@ MAX_LONG_GAP_SHARE = 0.01
 LONG_GAP_FIR_SHARE = 0.5
 #: crossings at a smaller angle are repeated passes over the same road, not crossovers
 CROSSOVER_MIN_ANGLE_DEG = 20.0
+
+
+def edge_gain_max(floor: dict) -> float:
+    """The height-noise gain g at which a break doubles a SINS/GNSS chain's white variance.
+
+    ``floor``: :func:`floor_of` of the chain (σ_tot² = σ_acc² + σ_h²). Next to a break the heights'
+    share grows to g²·σ_h², so the variance doubles where (g² − 1)·σ_h² = σ_tot²:
+    g = √(1 + σ_tot²/σ_h²) (√2 when the heights are the only noise given)."""
+    return float(np.sqrt(1.0 + (floor["total_mgal"] / floor["gnss_height_mgal"]) ** 2))
+
+
+def break_edges(ch, fir_s):
+    """Samples of a double-differenced chain (GNSS heights) withheld next to its breaks.
+
+    Next to a break (NaN δg) the truncated FIR keeps an edge velocity error of the heights nearly
+    unweighted: the white-height-noise σ of the filtered value grows from the interior floor to tens of
+    mGal (:func:`second_difference_noise_gain`). Withheld where the break at least doubles the chain's
+    white variance (accelerometer and heights): ``ch["edge_gain_max"]`` from :func:`edge_gain_max`."""
+    gmax = ch.get("edge_gain_max")
+    if not gmax:
+        return np.zeros(len(ch["dg"]), bool)
+    gain = second_difference_noise_gain(np.isfinite(ch["dg"]), fir_s, ch["fs"])
+    return ~(gain <= gmax)
 
 
 def unsupported(bridged, fir_s, fs):
@@ -66,7 +89,7 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
     filtered = []
     for ch in chains:
         f = zero_phase_lowpass(ch["dg"], fir_s, ch["fs"])
-        ch["unsupported"] = unsupported(ch["bridged"], fir_s, ch["fs"])
+        ch["unsupported"] = unsupported(ch["bridged"], fir_s, ch["fs"]) | break_edges(ch, fir_s)
         f[ch["unsupported"]] = np.nan
         filtered.append(f)
     ref = None
@@ -97,7 +120,13 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
     used = [p for p in per_line if len(p[3])]
     lines_t = {name: (a, b) for name, _, a, b in lines}
     if not used:
-        raise ValueError("no line holds data")
+        if strict:
+            raise ValueError("no line holds data")
+        # a comparison chain without a supported value on any line (e.g. RTK only in stretches shorter
+        # than the FIR): every line reported as holding no data, nothing smeared over them
+        return {"repeated": False, "filtered": filtered, "per_line": per_line, "crossings": [],
+                "crossover_mgal": None, "median_speed_mps": None, "resolution_m": None,
+                "coincidence_note": "no line holds a supported value"}
     repeated = all(np.median(p[4]) < 50.0 for p in used)
     result = {"repeated": repeated, "filtered": filtered, "per_line": per_line}
     if repeated and len(used) >= 2:
@@ -207,3 +236,52 @@ def chain_difference(res_a, chains_a, res_b, chains_b):
                     "rms_mgal": float(np.sqrt(np.mean(d ** 2))) if len(d) else None,
                     "std_mgal": float(np.std(d)) if len(d) else None, "compared_s": len(d) / chains_a[pa[1]]["fs"]})
     return out
+
+
+#: the frame tilt is estimated only from at least this many compared samples …
+FRAME_TILT_MIN_SAMPLES = 100
+#: … and when the filtered horizontal acceleration varies by at least this much (m/s², RMS)
+FRAME_TILT_MIN_ACCEL_MPS2 = 0.002
+
+
+def frame_tilt(res_a, chains_a, res_b, chains_b, fir_s):
+    """The navigation frame's tilt against the ellipsoidal normal, from SINS/LDV minus SINS/GNSS.
+
+    The two chains share f_U; the SINS/LDV one is in the navigation's (plumb-levelled) frame, the
+    SINS/GNSS one against ellipsoidal heights, so their difference is ξ·a_N + η·a_E (+ noise, + a
+    constant): a least-squares fit of the filtered difference on the equally filtered horizontal
+    accelerations at the compared line samples, with one offset per line (the chains' constant
+    difference, and each chain's own line leveling when chosen). ξ, η are the deflection of the vertical the
+    navigation levelled to (rad). Returns a dict (xi_rad, eta_rad, their 1-σ from the fit's residual,
+    n samples) or None when the drive gives too few samples or too little horizontal acceleration."""
+    ys, xs, line = [], [], []
+    for pa, pb in zip(res_a["per_line"], res_b["per_line"]):
+        if not len(pa[3]) or not len(pb[3]):
+            continue
+        chb = chains_b[pb[1]]
+        tb = chb["t_s"][pb[2]]
+        fb = res_b["filtered"][pb[1]][pb[2]]
+        fa = np.interp(tb, chains_a[pa[1]]["t_s"], res_a["filtered"][pa[1]])
+        an = zero_phase_lowpass(chb["a_n"], fir_s, chb["fs"])[pb[2]]
+        ae = zero_phase_lowpass(chb["a_e"], fir_s, chb["fs"])[pb[2]]
+        ok = np.isfinite(fa) & np.isfinite(fb) & np.isfinite(an) & np.isfinite(ae)
+        ys.append((fa - fb)[ok])
+        xs.append(np.column_stack([an[ok], ae[ok]]))
+        line.append(np.full(int(ok.sum()), len(line)))
+    if not ys:
+        return None
+    y, x, line = np.concatenate(ys), np.vstack(xs), np.concatenate(line)
+    if len(y) < FRAME_TILT_MIN_SAMPLES or np.sqrt(np.mean((x - x.mean(axis=0)) ** 2)) < FRAME_TILT_MIN_ACCEL_MPS2:
+        return None
+    # one offset per line: the chains' constant difference, and each chain's own line leveling if chosen
+    offsets = (line[:, None] == np.unique(line)[None, :]).astype(float)
+    a = np.column_stack([x, offsets])
+    c, *_ = np.linalg.lstsq(a, y, rcond=None)
+    r = y - a @ c
+    # the filtered residual is correlated over ~the FIR length: σ from the effective number of samples
+    fs = chains_b[0]["fs"]
+    n_eff = max(len(y) / max(fir_s * fs / 2.0, 1.0), 4.0)
+    cov = np.linalg.pinv(a.T @ a) * float(np.sum(r ** 2)) / max(len(y) - a.shape[1], 1) * len(y) / n_eff
+    # the difference is SINS/LDV − SINS/GNSS = −(ξ a_N + η a_E) in the GNSS chain's error: sign flipped
+    return {"xi_rad": float(-c[0]), "eta_rad": float(-c[1]), "xi_sigma_rad": float(np.sqrt(cov[0, 0])),
+            "eta_sigma_rad": float(np.sqrt(cov[1, 1])), "n_samples": int(len(y))}
