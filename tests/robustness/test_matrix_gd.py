@@ -41,9 +41,10 @@ def test_gravity_matrix(config):
     f = gravity_figures(case)
     sim = case["sim"]
     _gaps_said(sim, f["warnings"])
-    # LDV bursts are bridged and the summary says for how long (not a warning: screening is routine)
+    # LDV bursts are bridged; the summary says for how long and a warning names the share per line
     if sim.scenario.effects.ldv_dropouts is not None and len(sim.extras["ldv_bursts"]):
         assert f["bridged_s"] > 0, f
+        assert any("LDV" in w for w in f["warnings"]), f["warnings"]
     elif config == "ideal":
         assert f["bridged_s"] == 0, f
     assert np.isfinite(f["floor_mgal"]) and 0.1 < f["floor_mgal"] < 2.0  # 5 µg/√Hz through a 100-s FIR
