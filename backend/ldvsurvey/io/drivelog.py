@@ -24,6 +24,8 @@ from ldvsurvey.io.nmea import GnssData, parse_nmea
 REQUIRED_FILES = ("manifest.json", "imu.csv", "ldv.csv")
 OPTIONAL_FILES = ("gnss.nmea",)
 KNOWN_FILES = REQUIRED_FILES + OPTIONAL_FILES
+#: files parsed from memory (a DriveLog holds them as bytes); the CSV files may stay on disk
+SMALL_FILES = ("manifest.json", "gnss.nmea")
 IMU_COLUMNS = ["t", "dtheta_x", "dtheta_y", "dtheta_z", "dvel_x", "dvel_y", "dvel_z"]
 #: imu.csv columns read straight into one (N, 3) array each
 IMU_GROUPS = {"dtheta": ["dtheta_x", "dtheta_y", "dtheta_z"], "dvel": ["dvel_x", "dvel_y", "dvel_z"]}
@@ -279,14 +281,17 @@ def parse_files(files: dict[str, bytes | Path]) -> DriveLog:
     known_sha = {k: v for k, v in getattr(files, "sha256", {}).items() if k in KNOWN_FILES}
     keep = getattr(files, "folder", None)
     files = {k: v for k, v in files.items() if k in KNOWN_FILES}
-    manifest = parse_manifest(_small(files["manifest.json"]))
+    for name in SMALL_FILES:  # read whole anyway: kept as bytes
+        if name in files:
+            files[name] = _small(files[name])
+    manifest = parse_manifest(files["manifest.json"])
     imu, w = parse_imu(files["imu.csv"], manifest)
     warnings += w
     ldv, w = parse_ldv(files["ldv.csv"], manifest)
     warnings += w
     gnss = None
     if "gnss.nmea" in files:
-        gnss = parse_nmea(_small(files["gnss.nmea"]), t_ref_s=float(imu.t_s[0]))
+        gnss = parse_nmea(files["gnss.nmea"], t_ref_s=float(imu.t_s[0]))
         warnings += gnss.warnings
     if ldv.t_s[-1] < imu.t_s[0] or ldv.t_s[0] > imu.t_s[-1]:
         raise BundleError(f"LDV times [{ldv.t_s[0]:.2f}, {ldv.t_s[-1]:.2f}] s do not overlap the IMU's "
