@@ -98,14 +98,14 @@ def read_zip_safely(fh: BinaryIO, archive_bytes: int, *, max_unzipped: int, max_
     with zf:
         inflate, ignored = plan_zip(zf, archive_bytes, max_unzipped=max_unzipped, max_ratio=max_ratio,
                                     max_members=max_members, archive=archive)
-        budget = max_unzipped
         out = BundleFiles.in_temp_folder(parent)
+        jobs = []
         for name, info in inflate.items():
             def chunks(info=info):
-                nonlocal budget
                 try:
                     with zf.open(info) as src:
-                        limit = min(budget, info.file_size) + 1  # a member may not outgrow its header
+                        # a member may not outgrow its header (the declared sizes are within the limit)
+                        limit = min(max_unzipped, info.file_size) + 1
                         n = 0
                         while chunk := src.read(min(CHUNK, limit - n)):
                             n += len(chunk)
@@ -113,16 +113,16 @@ def read_zip_safely(fh: BinaryIO, archive_bytes: int, *, max_unzipped: int, max_
                                 raise TooLargeError(f"member '{info.filename}' inflates past its declared size "
                                                     "or the limit", file=archive, field=info.filename)
                             yield chunk
-                        budget -= n
                 except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
                     raise BundleError(f"member '{info.filename}' cannot be read (truncated or corrupt: {exc})",
                                       file=archive, field=info.filename) from None
 
-            try:
-                out.write(name, chunks())
-            except BaseException:
-                out.folder.cleanup()  # nothing of a refused upload stays on disk
-                raise
+            jobs.append((name, chunks()))
+        try:
+            out.write_all(jobs)  # the members inflate in parallel
+        except BaseException:
+            out.folder.cleanup()  # nothing of a refused upload stays on disk
+            raise
         for name in ignored:
             out[name] = b""
         return out

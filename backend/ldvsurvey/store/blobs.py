@@ -34,7 +34,7 @@ INLINE_MAX_BYTES = 1 << 20
 ROW_GROUP = 1 << 20
 #: lz4 over byte-stream-split floats: about as small as zstd here at twice its speed both ways;
 #: no dictionary encoding (useless on measured values, and slow)
-_PARQUET = dict(compression="lz4", use_dictionary=False, write_statistics=False)
+_PARQUET = {"compression": "lz4", "use_dictionary": False, "write_statistics": False}
 
 _roots: dict[str, Path] = {}
 
