@@ -184,13 +184,16 @@ class Writer:
             os.replace(tmp, dst)
         self._pending.append(self._pool.submit(sync))
 
-    def file(self, src: Path | bytes, suffix: str = "") -> str:
-        """Store a file's bytes (a path: hard-linked when it can be, else copied) as a new blob."""
+    def file(self, src: Path | bytes, suffix: str = "", link: bool = False) -> str:
+        """Store a file's bytes as a new blob; a path is copied, or hard-linked when ``link`` (only
+        for a temporary file nobody else writes to) and the file system allows it."""
         key, dst, tmp = self._target(suffix)
         if isinstance(src, (bytes, bytearray, memoryview)):
             tmp.write_bytes(src)
         else:
             try:
+                if not link:
+                    raise OSError
                 os.link(src, tmp)  # the upload's temporary file on the same file system: no copy
             except OSError:
                 shutil.copyfile(src, tmp)

@@ -70,7 +70,8 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
             for name, content in sorted(log.files.items()):
                 size = log.size_of(name)
                 if writer is not None and size > blobs.INLINE_MAX_BYTES:
-                    f = LogFile(blob=writer.file(content, suffix="-" + name))
+                    # a file of the upload's own temporary folder is linked, anything else copied
+                    f = LogFile(blob=writer.file(content, suffix="-" + name, link=log.keep is not None))
                 else:
                     f = LogFile(content=bytes(content) if isinstance(content, (bytes, bytearray, memoryview))
                                 else Path(content).read_bytes())
