@@ -175,13 +175,28 @@ def read_upload(uploads: list[UploadFile], settings) -> BundleFiles:
     return out
 
 
+#: a staging folder older than this was left by a process that died mid-upload: removed
+STALE_S = 24 * 3600.0
+
+
 def _tmp_parent(settings) -> Path | None:
-    """``<data_dir>/tmp`` when the data folder is usable, else the system's temporary folder."""
+    """``<data_dir>/tmp`` when the data folder is usable, else the system's temporary folder.
+    Staging folders a killed process left there a day ago or more are removed on the way."""
+    import shutil
+    import time
+
     try:
         p = Path(settings.data_dir) / "tmp"
         p.mkdir(parents=True, exist_ok=True)
-        return p
     except OSError:
         return None
+    try:
+        now = time.time()
+        for d in p.glob("ldvs-bundle-*"):
+            if now - d.stat().st_mtime > STALE_S:
+                shutil.rmtree(d, ignore_errors=True)
+    except OSError:
+        pass
+    return p
 
 

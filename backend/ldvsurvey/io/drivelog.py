@@ -282,13 +282,24 @@ def parse_ldv(data: bytes | Path, manifest: Manifest) -> tuple[LdvData, list[str
 
 def parse_files(files: dict[str, bytes | Path]) -> DriveLog:
     """Validate and parse a bundle given as ``{file name: bytes or path}`` (a :class:`BundleFiles`
-    passes on its folder and the hashes it knows to the log).
+    passes on its folder and the hashes it knows to the log; a refused bundle's folder is removed
+    at once, not whenever the last reference to it goes).
 
     Raises
     ------
     BundleError
         On the first defect, naming the file, line and field.
     """
+    try:
+        return _parse_files(files)
+    except BundleError:
+        folder = getattr(files, "folder", None)
+        if folder is not None:
+            folder.cleanup()
+        raise
+
+
+def _parse_files(files: dict[str, bytes | Path]) -> DriveLog:
     for name in REQUIRED_FILES:
         if name not in files:
             raise BundleError(f"required file '{name}' is missing from the bundle "
