@@ -140,3 +140,16 @@ def test_rows_stored_before_0006_still_read(tmp_path):
         assert s.scalar(select(LogFile).where(LogFile.name == "ldv.csv")).content == files["ldv.csv"]
     np.testing.assert_array_equal(back.imu.dtheta_rad, log.imu.dtheta_rad)
     assert back.files["imu.csv"] == files["imu.csv"]
+
+
+def test_a_missing_blob_folder_is_named(tmp_path, all_in_blobs):
+    """A worker that does not see the API's blob folder says so instead of failing obscurely."""
+    url = f"sqlite:///{tmp_path / 'db.sqlite'}"
+    upgrade_head(url)
+    log = parse_files(make_bundle(seed=35))
+    with session_scope(url) as s:
+        row, _ = store_log(s, log, quality_report(log))
+    for p in _blob_files(tmp_path / "blobs"):
+        p.unlink()
+    with session_scope(url) as s, pytest.raises(FileNotFoundError, match="same blob folder"):
+        load_drivelog(s, row.id)

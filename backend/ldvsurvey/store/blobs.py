@@ -144,7 +144,11 @@ def blob_path(row, key: str) -> Path:
     root = root_for(session) if session is not None else None
     if root is None:
         raise RuntimeError(f"blob '{key}' has no blob folder (the row is not bound to a session)")
-    return root / key
+    path = root / key
+    if not path.is_file():  # say where it was looked for: the usual cause is a folder not shared
+        raise FileNotFoundError(f"stored file {path} is missing: every API and worker process must see the same "
+                                "blob folder (LDVSURVEY_DATA_DIR on a shared volume)")
+    return path
 
 
 def _new_key(suffix: str) -> str:
