@@ -285,19 +285,16 @@ def _read_regular(data, file, required, optional, alternatives, groups) -> Numer
 
 def _count_lines(data, start: int) -> int:
     """Lines from byte ``start`` to the end (a last line without newline counts)."""
+    if isinstance(data, memoryview):
+        data = data.tobytes()
+    if isinstance(data, (bytes, bytearray)):
+        return data.count(b"\n", start) + (data[-1:] != b"\n")
     n, last = 0, b"\n"
-    if isinstance(data, (bytes, bytearray, memoryview)):
-        mv = memoryview(data)[start:]
-        for a in range(0, len(mv), _CHUNK):
-            chunk = mv[a:a + _CHUNK].tobytes() if isinstance(data, memoryview) else data[start + a:start + a + _CHUNK]
+    with open(data, "rb") as fh:
+        fh.seek(start)
+        while chunk := fh.read(1 << 24):
             n += chunk.count(b"\n")
-            last = chunk[-1:] or last
-    else:
-        with open(data, "rb") as fh:
-            fh.seek(start)
-            while chunk := fh.read(1 << 24):
-                n += chunk.count(b"\n")
-                last = chunk[-1:]
+            last = chunk[-1:]
     return n + (last != b"\n")
 
 
