@@ -9,6 +9,7 @@ into ``docs/performance.md`` (between its ``bench`` markers) and ``docs/performa
 Prints figures; asserts nothing; not part of the test suite.
 
 Run: .venv/bin/python benchmarks/bench_scaling.py --hours 1 2 [--rate 100] [--pipelines navigate gravity] --doc
+(``--pipelines`` with no name: the ingest alone; ``--load``: and the job side's loading of the stored log)
 """
 
 from __future__ import annotations
@@ -33,23 +34,37 @@ PLOT = ROOT / "docs" / "performance-scaling.png"
 SETS = {"navigate": ["aiding=ldv+gnss"]}  # the acceptance figure: LDV + GNSS, forward filter + RTS
 
 INGEST = r"""
-import json, sys, time, tempfile
+import json, resource, shutil, sys, time, tempfile
 t0 = time.perf_counter()
 from ldvsurvey.io.drivelog import parse_files, read_bundle_path
 from ldvsurvey.io.quality import quality_report
 from ldvsurvey.store.db import session_scope, upgrade_head
 from ldvsurvey.store.logs import store_log
-url = f"sqlite:///{tempfile.mkdtemp()}/bench.db"
+tmp = tempfile.mkdtemp()
+url = f"sqlite:///{tmp}/bench.db"
 upgrade_head(url)
-t1 = time.perf_counter()
+def cpu():  # CPU seconds of this process, all threads (less sensitive to other load than wall time)
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+t1, c1 = time.perf_counter(), cpu()
 log = parse_files(read_bundle_path(sys.argv[1]))
 q = quality_report(log)
-t2 = time.perf_counter()
+t2, c2 = time.perf_counter(), cpu()
 with session_scope(url) as s:
-    store_log(s, log, q)
-t3 = time.perf_counter()
-print(json.dumps({"import_s": t1 - t0, "parse_s": t2 - t1, "store_s": t3 - t2, "duration_s": q["duration_s"],
-                  "imu_rows": int(len(log.imu.t_s))}))
+    row, _ = store_log(s, log, q)
+t3, c3 = time.perf_counter(), cpu()
+info = {"import_s": t1 - t0, "parse_s": t2 - t1, "store_s": t3 - t2, "parse_cpu_s": c2 - c1, "store_cpu_s": c3 - c2,
+        "duration_s": q["duration_s"], "imu_rows": int(len(log.imu.t_s)),
+        "ingest_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+if len(sys.argv) > 2:  # the job side too: the stored log back as arrays, as a worker loads it
+    del log
+    from ldvsurvey.store.logs import load_drivelog
+    t4 = time.perf_counter()
+    with session_scope(url) as s:
+        back = load_drivelog(s, row.id)
+    info["load_s"] = time.perf_counter() - t4
+shutil.rmtree(tmp, ignore_errors=True)
+print(json.dumps(info))
 """
 
 
@@ -123,7 +138,8 @@ def _best(cmd: list[str], env: dict, repeat: int) -> tuple[float, float, int, st
     return (*best, [round(r[0], 2) for r in runs])
 
 
-def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool, repeat: int = 1) -> None:
+def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool, repeat: int = 1,
+          with_load: bool = False) -> None:
     sys.path.insert(0, str(HERE))
     from simlogs import bundle_path
 
@@ -131,7 +147,8 @@ def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool, rep
     py = sys.executable
     for h in hours:
         bundle = bundle_path(h, rate)
-        wall, rss, rc, text, walls = _best([py, "-c", INGEST, str(bundle)], _env(None), repeat)
+        wall, rss, rc, text, walls = _best([py, "-c", INGEST, str(bundle)] + (["--load"] if with_load else []),
+                                           _env(None), repeat)
         info = json.loads(text.strip().splitlines()[-1]) if rc == 0 else {}
         info["walls_s"] = walls
         log_h = info.get("duration_s", h * 3600.0) / 3600.0
@@ -219,12 +236,14 @@ def main() -> None:
     ap.add_argument("--pipelines", nargs="*", default=["navigate", "gravity", "calibrate"])
     ap.add_argument("--no-cold", action="store_true", help="skip the cold (empty cache) runs")
     ap.add_argument("--repeat", type=int, default=1, help="warm runs per figure; the fastest is kept")
+    ap.add_argument("--load", action="store_true", help="also time loading the stored log back (the job side: "
+                    "load_s; the peak RSS then covers both, ingest_rss_mb the ingest alone)")
     ap.add_argument("--doc", action="store_true", help="write docs/performance.md and the plot")
     ap.add_argument("--max-rss-gb", type=float, default=MAX_RSS_MB / 1024, help="stop a child above this RSS")
     a = ap.parse_args()
     globals()["MAX_RSS_MB"] = a.max_rss_gb * 1024
     if a.hours:
-        bench(a.hours, a.rate, a.pipelines, cold=not a.no_cold, repeat=a.repeat)
+        bench(a.hours, a.rate, a.pipelines, cold=not a.no_cold, repeat=a.repeat, with_load=a.load)
     if a.doc:
         write_doc(load())
 

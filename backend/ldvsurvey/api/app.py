@@ -52,6 +52,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or get_settings()
     url = settings.resolved_database_url()
     upgrade_head(url)
+    if not url.startswith("sqlite"):  # SQLite keeps its blob folder beside the file; a server uses the data dir
+        from ldvsurvey.store.blobs import register_root
+
+        register_root(url, Path(settings.data_dir) / "blobs")
     app = FastAPI(title="ldv-survey", version=__version__, docs_url=None, redoc_url=None,
                   description="Drive logs of SINS + LDV + GNSS: upload, validate, process, compare.")
     app.state.settings = settings

@@ -2,21 +2,22 @@
 
 A zip is judged by its central directory before a single byte is inflated: member names, the
 number of members, the total declared size and the compression ratio. Only the bundle's own files
-are then inflated, streamed to a temporary file under a running byte budget (headers can lie),
-and read back for parsing. Anything else in the archive is named in a warning, never inflated.
+are then inflated, streamed to a temporary folder under a running byte budget (headers can lie)
+and hashed on the way; they are parsed from there and linked into the blob folder when stored, never
+held in memory whole. Anything else in the archive is named in a warning, never inflated.
 """
 
 from __future__ import annotations
 
 import posixpath
-import tempfile
 import zipfile
+from pathlib import Path
 from typing import BinaryIO
 
 from fastapi import UploadFile
 
 from ldvsurvey.errors import BundleError, TooLargeError
-from ldvsurvey.io.drivelog import KNOWN_FILES
+from ldvsurvey.io.drivelog import KNOWN_FILES, BundleFiles
 
 CHUNK = 1 << 20
 #: members smaller than this are not judged by their own ratio (tiny files compress oddly)
@@ -83,8 +84,9 @@ def plan_zip(zf: zipfile.ZipFile, archive_bytes: int, *, max_unzipped: int, max_
 
 
 def read_zip_safely(fh: BinaryIO, archive_bytes: int, *, max_unzipped: int, max_ratio: float,
-                    max_members: int, archive: str = "upload.zip") -> dict[str, bytes]:
-    """``{name: bytes}`` of a bundle zip read from a file object, under every limit.
+                    max_members: int, archive: str = "upload.zip", parent: str | Path | None = None) -> BundleFiles:
+    """``{name: path}`` of a bundle zip read from a file object, under every limit; the files sit in a
+    temporary folder (under ``parent``) that lives as long as the result or the log parsed from it.
 
     Files of the archive that are not part of the format map to ``b""`` so that the parser warns
     about them without their content ever being inflated.
@@ -96,30 +98,31 @@ def read_zip_safely(fh: BinaryIO, archive_bytes: int, *, max_unzipped: int, max_
     with zf:
         inflate, ignored = plan_zip(zf, archive_bytes, max_unzipped=max_unzipped, max_ratio=max_ratio,
                                     max_members=max_members, archive=archive)
-        budget = max_unzipped
-        out: dict[str, bytes] = {}
-        with tempfile.TemporaryDirectory(prefix="ldvs-unzip-") as tmp:
-            paths = {}
-            for k, (name, info) in enumerate(inflate.items()):
-                path = f"{tmp}/{k}"
+        out = BundleFiles.in_temp_folder(parent)
+        jobs = []
+        for name, info in inflate.items():
+            def chunks(info=info):
                 try:
-                    with zf.open(info) as src, open(path, "wb") as dst:
-                        limit = min(budget, info.file_size) + 1  # a member may not outgrow its header
+                    with zf.open(info) as src:
+                        # a member may not outgrow its header (the declared sizes are within the limit)
+                        limit = min(max_unzipped, info.file_size) + 1
                         n = 0
                         while chunk := src.read(min(CHUNK, limit - n)):
                             n += len(chunk)
                             if n >= limit:
                                 raise TooLargeError(f"member '{info.filename}' inflates past its declared size "
                                                     "or the limit", file=archive, field=info.filename)
-                            dst.write(chunk)
+                            yield chunk
                 except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
                     raise BundleError(f"member '{info.filename}' cannot be read (truncated or corrupt: {exc})",
                                       file=archive, field=info.filename) from None
-                budget -= n
-                paths[name] = path
-            for name, path in paths.items():
-                with open(path, "rb") as f:
-                    out[name] = f.read()
+
+            jobs.append((name, chunks()))
+        try:
+            out.write_all(jobs)  # the members inflate in parallel
+        except BaseException:
+            out.folder.cleanup()  # nothing of a refused upload stays on disk
+            raise
         for name in ignored:
             out[name] = b""
         return out
@@ -147,8 +150,9 @@ def part_names(uploads: list[UploadFile]) -> list[str]:
     return names
 
 
-def read_upload(uploads: list[UploadFile], settings) -> dict[str, bytes]:
-    """Turn the multipart parts into ``{file name: bytes}`` (one zip, or the files)."""
+def read_upload(uploads: list[UploadFile], settings) -> BundleFiles:
+    """Turn the multipart parts into ``{file name: path}`` (one zip, or the files) in a temporary
+    folder under ``<data_dir>/tmp`` (the file system of the blob folder: storing links, not copies)."""
     if not uploads:
         raise BundleError("no file in the upload (send one .zip or the bundle's files as 'files')")
     names = part_names(uploads)
@@ -160,10 +164,39 @@ def read_upload(uploads: list[UploadFile], settings) -> dict[str, bytes]:
         if name.lower().endswith(".zip") or head == b"PK":
             return read_zip_safely(up.file, _size(up.file), max_unzipped=settings.max_unzipped_bytes,
                                    max_ratio=settings.max_zip_ratio, max_members=settings.max_zip_members,
-                                   archive=name)
+                                   archive=name, parent=_tmp_parent(settings))
     zips = [n for n in names if n.lower().endswith(".zip")]
     if zips:
         raise BundleError("send either one .zip or the separate files, not both", file=zips[0])
-    return {name: up.file.read() for name, up in zip(names, uploads)}
+    out = BundleFiles.in_temp_folder(_tmp_parent(settings))
+    for name, up in zip(names, uploads):
+        up.file.seek(0)
+        out.write(name, iter(lambda f=up.file: f.read(CHUNK), b""))
+    return out
+
+
+#: a staging folder older than this was left by a process that died mid-upload: removed
+STALE_S = 24 * 3600.0
+
+
+def _tmp_parent(settings) -> Path | None:
+    """``<data_dir>/tmp`` when the data folder is usable, else the system's temporary folder.
+    Staging folders a killed process left there a day ago or more are removed on the way."""
+    import shutil
+    import time
+
+    try:
+        p = Path(settings.data_dir) / "tmp"
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    try:
+        now = time.time()
+        for d in p.glob("ldvs-bundle-*"):
+            if now - d.stat().st_mtime > STALE_S:
+                shutil.rmtree(d, ignore_errors=True)
+    except OSError:
+        pass
+    return p
 
 

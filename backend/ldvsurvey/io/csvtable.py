@@ -35,6 +35,7 @@ class NumericTable:
     columns: dict[str, np.ndarray]
     line_of_row: np.ndarray
     warnings: list[str] = field(default_factory=list)
+    groups: dict[str, np.ndarray] = field(default_factory=dict)  #: (N, k) arrays of ``groups``
 
     def __len__(self) -> int:
         return len(self.line_of_row)
@@ -63,15 +64,19 @@ def _lines(data: bytes) -> tuple[np.ndarray, np.ndarray]:
     return starts, ends
 
 
-def read_numeric_csv(data: bytes, file: str, required: list[str],
-                     optional: list[str] = (), alternatives: list[tuple[str, ...]] = ()
-                     ) -> NumericTable:
+def read_numeric_csv(data, file: str, required: list[str],
+                     optional: list[str] = (), alternatives: list[tuple[str, ...]] = (),
+                     groups: dict[str, list[str]] | None = None) -> NumericTable:
     """Parse a comma-separated numeric file with a header row.
+
+    A file without comment or blank lines after its header (what recorders write) is parsed in one
+    pass by pyarrow, straight from disk when ``data`` is a path; anything else (or any defect) goes
+    the exact way that keeps the line of every row, reading the whole file.
 
     Parameters
     ----------
-    data : bytes
-        The file's bytes. ``#`` starts a comment line; blank lines are skipped.
+    data : bytes or path
+        The file's bytes, or its path. ``#`` starts a comment line; blank lines are skipped.
     file : str
         File name used in error messages.
     required : list of str
@@ -81,12 +86,28 @@ def read_numeric_csv(data: bytes, file: str, required: list[str],
     alternatives : list of tuple of str
         Groups of which exactly one column must be present.
 
+    groups : dict of str to list of str, optional
+        Columns to fill into one (N, k) float64 array each (``{"dtheta": ["dtheta_x", ...]}``):
+        ``columns`` then holds column views of it and ``NumericTable.groups`` the array, so that no
+        second copy of the table is made to stack them.
+
     Raises
     ------
     BundleError
         Empty file, missing/misspelled/duplicated columns, wrong field count,
         non-numeric, empty, NaN or infinite cells; naming file, line and column.
     """
+    fast = _read_regular(data, file, required, optional, alternatives, groups or {})
+    if fast is not None:
+        return fast
+    if not isinstance(data, (bytes, bytearray, memoryview)):
+        with open(data, "rb") as fh:
+            data = fh.read()
+    return _read_exact(data, file, required, optional, alternatives, groups or {})
+
+
+def _read_exact(data: bytes, file, required, optional, alternatives, groups) -> NumericTable:
+    """The exact reader: every line located, comments and blank lines skipped (holds the file)."""
     if _is_blank(data):
         raise BundleError("file is empty", file=file, line=1)
     starts, ends = _lines(data)
@@ -140,36 +161,141 @@ def read_numeric_csv(data: bytes, file: str, required: list[str],
         _diagnose(data, starts, ends, rows, names, wanted, file)
         raise BundleError(f"parsed {table.num_rows} rows, expected {len(rows)}", file=file)
 
+    return _to_numpy(table, names, wanted, groups, file, lambda r: int(line_of_row[r]), line_of_row)
+
+
+def _to_numpy(table, names, wanted, groups, file, line_of, line_of_row) -> NumericTable:
+    """Move the Arrow columns into numpy, one column at a time (each Arrow column is dropped once
+    copied, so the table exists in two copies for one column only); empty and non-finite cells are
+    refused naming their line (``line_of(row)``)."""
+    n_rows = table.num_rows
+    group_arrays = {g: np.empty((n_rows, len(cols)), dtype=np.float64) for g, cols in groups.items()
+                    if all(c in wanted for c in cols)}
+    slot = {c: (g, k) for g, cols in groups.items() if g in group_arrays for k, c in enumerate(cols)}
     columns: dict[str, np.ndarray] = {}
     for n in wanted:
         col = table.column(n)
-        table = table.drop_columns([n])  # its Arrow buffers go once copied: one column at a time in two copies
+        table = table.drop_columns([n])
         if col.null_count:
             r = int(np.flatnonzero(np.asarray(col.is_null()))[0])
-            raise BundleError("empty cell", file=file, line=int(line_of_row[r]), field=n)
-        values = _float64_values(col)
-        bad = ~np.isfinite(values)
-        if bad.any():
-            r = int(np.flatnonzero(bad)[0])
-            raise BundleError(f"value {values[r]} is not a finite number", file=file,
-                              line=int(line_of_row[r]), field=n)
+            raise BundleError("empty cell", file=file, line=line_of(r), field=n)
+        if n in slot:
+            g, k = slot[n]
+            values = group_arrays[g][:, k]
+            _float64_values(col, out=values)
+        else:
+            values = _float64_values(col)
+        del col
+        bad = np.flatnonzero(~np.isfinite(values))
+        if len(bad):
+            r = int(bad[0])
+            raise BundleError(f"value {values[r]} is not a finite number", file=file, line=line_of(r), field=n)
         columns[n] = values
-        del col, bad
     ignored = [n for n in names if n not in wanted]
     warnings = [f"{file}: column '{n}' is not part of the format and was ignored" for n in ignored]
-    return NumericTable(file=file, columns=columns, line_of_row=line_of_row, warnings=warnings)
+    return NumericTable(file=file, columns=columns, line_of_row=line_of_row, warnings=warnings,
+                        groups=group_arrays)
 
 
-def _float64_values(col) -> np.ndarray:
-    """A null-free float64 Arrow column as one numpy array, from the value buffers.
+def _float64_values(col, out: np.ndarray | None = None) -> np.ndarray:
+    """A null-free float64 Arrow column as one numpy array, from the value buffers (into ``out``
+    when given).
 
     ``ChunkedArray.to_numpy`` would import pandas (a third of a second at every start).
     """
     parts = [np.frombuffer(c.buffers()[1], dtype=np.float64, count=len(c), offset=8 * c.offset)
              for c in col.chunks if len(c)]
-    if not parts:
-        return np.empty(0, dtype=np.float64)
-    return parts[0].copy() if len(parts) == 1 else np.concatenate(parts)
+    if out is None:
+        if not parts:
+            return np.empty(0, dtype=np.float64)
+        return parts[0].copy() if len(parts) == 1 else np.concatenate(parts)
+    i = 0
+    for p in parts:
+        out[i:i + len(p)] = p
+        i += len(p)
+    return out
+
+
+#: bytes read to find the header of a file given by path
+_HEAD = 1 << 16
+
+
+def _read_regular(data, file, required, optional, alternatives, groups) -> NumericTable | None:
+    """The one-pass reader of a file whose data rows follow its header without a comment or blank
+    line: pyarrow parses the body (multi-threaded, from disk for a path) and the file line of row
+    ``r`` is ``header line + 1 + r``. None when the file is not like that or has a defect (the
+    exact reader then says which, naming its line)."""
+    is_path = not isinstance(data, (bytes, bytearray, memoryview))
+    if is_path:
+        with open(data, "rb") as fh:
+            head = fh.read(_HEAD)
+    else:
+        head = bytes(memoryview(data)[:_HEAD])
+    # the header: the first line that is neither blank nor a comment (within the head)
+    pos, hline = 0, 0
+    while True:
+        nl = head.find(b"\n", pos)
+        if nl < 0:
+            return None
+        hline += 1
+        text = head[pos:nl].rstrip(b"\r")
+        if text.strip() and not text.startswith(b"#"):
+            break
+        pos = nl + 1
+    body_at = nl + 1
+    names = [c.strip() for c in text.decode("utf-8", "replace").lstrip("\ufeff").split(",")]
+    if len(names) < 2:
+        return None
+    _check_header(names, file, hline, required, optional, alternatives)
+    wanted = [n for n in names if n in set(required) | set(optional)
+              | {c for grp in alternatives for c in grp}]
+    if is_path:
+        src = pa.OSFile(str(data))
+        src.seek(body_at)
+        size = src.size() - body_at
+    else:
+        src = pa.BufferReader(pa.py_buffer(memoryview(data)[body_at:]))
+        size = len(data) - body_at
+    if size <= 0:
+        return None
+    try:
+        # blank lines are kept (as rows of empty cells) so that every line is a row: a row count
+        # that differs from the line count, an empty cell or a parse error sends the file the exact way
+        table = pacsv.read_csv(
+            src,
+            read_options=pacsv.ReadOptions(column_names=names, autogenerate_column_names=False,
+                                           block_size=4 << 20),
+            parse_options=pacsv.ParseOptions(delimiter=",", ignore_empty_lines=False),
+            convert_options=pacsv.ConvertOptions(
+                column_types={n: pa.float64() for n in wanted}, include_columns=wanted,
+                strings_can_be_null=False, null_values=[""]),
+        )
+    except (pa.ArrowInvalid, pa.ArrowTypeError):
+        return None
+    finally:
+        src.close()
+    if table.num_rows == 0 or any(table.column(n).null_count for n in wanted):
+        return None
+    if _count_lines(data, body_at) != table.num_rows:  # e.g. a lone carriage return split a line
+        return None
+    first = hline + 1
+    line_of_row = np.arange(first, first + table.num_rows, dtype=np.int64)
+    return _to_numpy(table, names, wanted, groups, file, lambda r: first + int(r), line_of_row)
+
+
+def _count_lines(data, start: int) -> int:
+    """Lines from byte ``start`` to the end (a last line without newline counts)."""
+    if isinstance(data, memoryview):
+        data = data.tobytes()
+    if isinstance(data, (bytes, bytearray)):
+        return data.count(b"\n", start) + (data[-1:] != b"\n")
+    n, last = 0, b"\n"
+    with open(data, "rb") as fh:
+        fh.seek(start)
+        while chunk := fh.read(1 << 24):
+            n += chunk.count(b"\n")
+            last = chunk[-1:]
+    return n + (last != b"\n")
 
 
 def _check_header(names, file, hline, required, optional, alternatives) -> None:

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import hashlib
 import io
+import os
 import posixpath
+import shutil
+import tempfile
+import weakref
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,7 +24,11 @@ from ldvsurvey.io.nmea import GnssData, parse_nmea
 REQUIRED_FILES = ("manifest.json", "imu.csv", "ldv.csv")
 OPTIONAL_FILES = ("gnss.nmea",)
 KNOWN_FILES = REQUIRED_FILES + OPTIONAL_FILES
+#: files parsed from memory (a DriveLog holds them as bytes); the CSV files may stay on disk
+SMALL_FILES = ("manifest.json", "gnss.nmea")
 IMU_COLUMNS = ["t", "dtheta_x", "dtheta_y", "dtheta_z", "dvel_x", "dvel_y", "dvel_z"]
+#: imu.csv columns read straight into one (N, 3) array each
+IMU_GROUPS = {"dtheta": ["dtheta_x", "dtheta_y", "dtheta_z"], "dvel": ["dvel_x", "dvel_y", "dvel_z"]}
 C0_MPS = 299_792_458.0
 
 
@@ -61,26 +69,121 @@ class LdvData:
 
 @dataclass
 class DriveLog:
-    """A parsed, validated bundle plus its original file bytes."""
+    """A parsed, validated bundle plus its original files.
+
+    ``files`` maps each file name to its bytes or to the path of a file holding them byte for byte
+    (a file of a :class:`BundleFiles` folder, or of the log store); ``file_sha256`` their SHA-256.
+    """
 
     manifest: Manifest
     imu: ImuData
     ldv: LdvData
     gnss: GnssData | None
-    files: dict[str, bytes]
+    files: dict[str, bytes | Path]
     warnings: list[str] = field(default_factory=list)
+    file_sha256: dict[str, str] = field(default_factory=dict)
+    #: keeps the temporary folder of path-valued ``files`` alive as long as the log
+    keep: object = field(default=None, repr=False, compare=False)
+
+    def sha256_of(self, name: str) -> str:
+        """SHA-256 (hex) of one original file (computed once)."""
+        h = self.file_sha256.get(name)
+        if h is None:
+            h = self.file_sha256[name] = file_sha256(self.files[name])
+        return h
+
+    def size_of(self, name: str) -> int:
+        """Size in bytes of one original file."""
+        v = self.files[name]
+        return len(v) if isinstance(v, (bytes, bytearray, memoryview)) else os.path.getsize(v)
 
     @property
     def sha256(self) -> str:
         """Identity of the bundle: SHA-256 over the sorted (name, SHA-256 of content) pairs."""
-        return bundle_sha256(self.files)
+        return _combine({name: self.sha256_of(name) for name in self.files})
 
 
-def bundle_sha256(files: dict[str, bytes]) -> str:
+def file_sha256(data: bytes | Path) -> str:
+    """SHA-256 (hex) of bytes or of a file's content (read in chunks)."""
+    if isinstance(data, (bytes, bytearray, memoryview)):
+        return hashlib.sha256(data).hexdigest()
     h = hashlib.sha256()
-    for name in sorted(files):
-        h.update(name.encode() + b"\0" + hashlib.sha256(files[name]).hexdigest().encode() + b"\n")
+    with open(data, "rb") as fh:
+        while chunk := fh.read(1 << 22):
+            h.update(chunk)
     return h.hexdigest()
+
+
+def _combine(hashes: dict[str, str]) -> str:
+    h = hashlib.sha256()
+    for name in sorted(hashes):
+        h.update(name.encode() + b"\0" + hashes[name].encode() + b"\n")
+    return h.hexdigest()
+
+
+def bundle_sha256(files: dict[str, bytes | Path]) -> str:
+    return _combine({name: file_sha256(v) for name, v in files.items()})
+
+
+class _TempFolder:
+    """A temporary folder removed when the last object referring to it goes (or at exit)."""
+
+    def __init__(self, parent: str | Path | None = None):
+        if parent is not None:
+            Path(parent).mkdir(parents=True, exist_ok=True)
+        self.path = Path(tempfile.mkdtemp(prefix="ldvs-bundle-", dir=parent))
+        self._done = weakref.finalize(self, shutil.rmtree, str(self.path), True)
+
+    def cleanup(self) -> None:
+        self._done()
+
+
+class BundleFiles(dict):
+    """``{file name: bytes or Path}`` of a bundle whose large files sit in a temporary folder on disk
+    (removed when the last of this dict and the :class:`DriveLog` parsed from it goes), with the
+    SHA-256 of the files already hashed while they were written (``sha256``)."""
+
+    def __init__(self, *args, folder: _TempFolder | None = None, sha256: dict[str, str] | None = None, **kw):
+        super().__init__(*args, **kw)
+        self.folder = folder
+        self.sha256 = dict(sha256 or {})
+
+    @classmethod
+    def in_temp_folder(cls, parent: str | Path | None = None) -> BundleFiles:
+        return cls(folder=_TempFolder(parent))
+
+    def write(self, name: str, chunks) -> Path:
+        """Write ``name`` from an iterable of byte chunks into the folder, hashing it on the way."""
+        return self.write_all([(name, chunks)])[0]
+
+    def write_all(self, items: list[tuple[str, object]]) -> list[Path]:
+        """:meth:`write` for several files at once, each in its own thread (inflating, hashing and
+        writing release the GIL); the first failure is raised once all have stopped."""
+        def one(k, name, chunks):
+            path = self.folder.path / f"{len(self) + k}-{name}"
+            h = hashlib.sha256()
+            with open(path, "wb") as out:
+                for chunk in chunks:
+                    h.update(chunk)
+                    out.write(chunk)
+            return path, h.hexdigest()
+
+        if len(items) == 1:
+            done = [one(0, *items[0])]
+        else:
+            from concurrent.futures import ThreadPoolExecutor
+
+            with ThreadPoolExecutor(max_workers=min(len(items), os.cpu_count() or 2)) as pool:
+                futures = [pool.submit(one, k, name, chunks) for k, (name, chunks) in enumerate(items)]
+            done = [f.result() for f in futures]  # in order: the first member's error first
+        for (name, _), (path, sha) in zip(items, done):
+            self[name] = path
+            self.sha256[name] = sha
+        return [path for path, _ in done]
+
+
+def _small(v: bytes | Path) -> bytes:
+    return bytes(v) if isinstance(v, (bytes, bytearray, memoryview)) else Path(v).read_bytes()
 
 
 def fd_to_v_fwd(fd_hz: np.ndarray, optics) -> np.ndarray:
@@ -118,10 +221,18 @@ def _drop_duplicate_rows(cols: dict[str, np.ndarray], lines: np.ndarray, file: s
     return {k: v[keep] for k, v in cols.items()}, lines[keep], int(len(drop))
 
 
-def parse_imu(data: bytes, manifest: Manifest) -> tuple[ImuData, list[str]]:
+def _stacked(cols: dict, names: list[str], whole: np.ndarray | None) -> np.ndarray:
+    """The (N, 3) array of ``names``: ``whole`` itself when the columns are still its views (no row
+    was dropped, reordered or inserted), else a new stack."""
+    if whole is not None and all(cols[n].base is whole and len(cols[n]) == len(whole) for n in names):
+        return whole
+    return np.column_stack([cols[n] for n in names])
+
+
+def parse_imu(data: bytes | Path, manifest: Manifest) -> tuple[ImuData, list[str]]:
     """Parse ``imu.csv`` (see the format spec); ``turntable_deg`` is required for a rotating IMU."""
     file = "imu.csv"
-    tab = read_numeric_csv(data, file, IMU_COLUMNS, optional=["turntable_deg"])
+    tab = read_numeric_csv(data, file, IMU_COLUMNS, optional=["turntable_deg"], groups=IMU_GROUPS)
     warnings = list(tab.warnings)
     cols, lines, dups = _drop_duplicate_rows(tab.columns, tab.line_of_row, file)
     cols, lines, w, bridged, long_gaps = regularize_imu(cols, lines, manifest.imu.rate_hz, file)
@@ -135,14 +246,13 @@ def parse_imu(data: bytes, manifest: Manifest) -> tuple[ImuData, list[str]]:
         turn = None
     if dups:
         warnings.append(f"imu.csv: {dups} exactly repeated row(s) dropped")
-    imu = ImuData(t_s=cols["t"],
-                  dtheta_rad=np.column_stack([cols["dtheta_x"], cols["dtheta_y"], cols["dtheta_z"]]),
-                  dvel_mps=np.column_stack([cols["dvel_x"], cols["dvel_y"], cols["dvel_z"]]),
+    imu = ImuData(t_s=cols["t"], dtheta_rad=_stacked(cols, IMU_GROUPS["dtheta"], tab.groups.get("dtheta")),
+                  dvel_mps=_stacked(cols, IMU_GROUPS["dvel"], tab.groups.get("dvel")),
                   turntable_deg=turn, duplicated_rows=dups, bridged_rows=bridged, long_gaps=long_gaps)
     return imu, warnings
 
 
-def parse_ldv(data: bytes, manifest: Manifest) -> tuple[LdvData, list[str]]:
+def parse_ldv(data: bytes | Path, manifest: Manifest) -> tuple[LdvData, list[str]]:
     """Parse ``ldv.csv``; ``fd_hz`` is converted to ``v_fwd`` with the manifest optics."""
     file = "ldv.csv"
     kind = manifest.ldv.kind
@@ -170,21 +280,38 @@ def parse_ldv(data: bytes, manifest: Manifest) -> tuple[LdvData, list[str]]:
     return ldv, warnings
 
 
-def parse_files(files: dict[str, bytes]) -> DriveLog:
-    """Validate and parse a bundle given as ``{file name: bytes}``.
+def parse_files(files: dict[str, bytes | Path]) -> DriveLog:
+    """Validate and parse a bundle given as ``{file name: bytes or path}`` (a :class:`BundleFiles`
+    passes on its folder and the hashes it knows to the log; a refused bundle's folder is removed
+    at once, not whenever the last reference to it goes).
 
     Raises
     ------
     BundleError
         On the first defect, naming the file, line and field.
     """
+    try:
+        return _parse_files(files)
+    except BundleError:
+        folder = getattr(files, "folder", None)
+        if folder is not None:
+            folder.cleanup()
+        raise
+
+
+def _parse_files(files: dict[str, bytes | Path]) -> DriveLog:
     for name in REQUIRED_FILES:
         if name not in files:
             raise BundleError(f"required file '{name}' is missing from the bundle "
                               f"(got: {', '.join(sorted(files)) or 'nothing'})", file=name)
     extra = sorted(set(files) - set(KNOWN_FILES))
     warnings = [f"file '{n}' is not part of the format and was ignored" for n in extra]
+    known_sha = {k: v for k, v in getattr(files, "sha256", {}).items() if k in KNOWN_FILES}
+    keep = getattr(files, "folder", None)
     files = {k: v for k, v in files.items() if k in KNOWN_FILES}
+    for name in SMALL_FILES:  # read whole anyway: kept as bytes
+        if name in files:
+            files[name] = _small(files[name])
     manifest = parse_manifest(files["manifest.json"])
     imu, w = parse_imu(files["imu.csv"], manifest)
     warnings += w
@@ -202,7 +329,8 @@ def parse_files(files: dict[str, bytes]) -> DriveLog:
         if not (ln.t_end > ln.t_start):
             raise BundleError(f"line '{ln.name}' ends before it starts", file="manifest.json",
                               field="lines")
-    return DriveLog(manifest=manifest, imu=imu, ldv=ldv, gnss=gnss, files=files, warnings=warnings)
+    return DriveLog(manifest=manifest, imu=imu, ldv=ldv, gnss=gnss, files=files, warnings=warnings,
+                    file_sha256=known_sha, keep=keep)
 
 
 def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0,
@@ -252,14 +380,82 @@ def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0,
     return members
 
 
-def read_bundle_path(path: str | Path, max_unzipped_bytes: int = 4 << 30) -> dict[str, bytes]:
-    """Files of a bundle given as a ``.zip`` path or a folder."""
+def stage_zip(path: str | Path, max_unzipped_bytes: int, max_ratio: float = 200.0, name: str | None = None,
+              parent: str | Path | None = None) -> BundleFiles:
+    """The bundle files of a zip inflated into a temporary folder (under ``parent``), never held in
+    memory whole; the checks and messages of :func:`read_zip`. Files of the archive that are not
+    part of the format map to ``b""`` (the parser names them in a warning; they are not inflated)."""
+    name = name or Path(path).name
+    try:
+        zf = zipfile.ZipFile(path)
+        infos = zf.infolist()
+    except (zipfile.BadZipFile, EOFError, ValueError) as exc:
+        raise BundleError(f"not a readable zip archive (truncated or corrupt: {exc})", file=name) from None
+    with zf:
+        entries = []
+        declared = 0
+        for info in infos:
+            fn = info.filename
+            if fn.startswith(("/", "\\")) or (len(fn) > 1 and fn[1] == ":") or ".." in fn.replace("\\", "/").split("/"):
+                raise BundleError(f"unsafe path in archive: '{fn}'", file=name, field=fn)
+            if info.is_dir() or fn.startswith("__MACOSX/") or posixpath.basename(fn).startswith("._"):
+                continue
+            declared += info.file_size
+            if info.file_size > max_unzipped_bytes or declared > max_unzipped_bytes:
+                raise TooLargeError(f"archive unpacks to more than {max_unzipped_bytes} bytes", file=name, field=fn)
+            if info.compress_size and info.file_size / info.compress_size > max_ratio and info.file_size > 1 << 20:
+                raise TooLargeError(f"member '{fn}' compresses {info.file_size / info.compress_size:.0f}:1 "
+                                    f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb", file=name, field=fn)
+            entries.append((fn, info))
+        if not entries:
+            raise BundleError("archive holds no files", file=name)
+        names = [fn for fn, _ in entries]
+        if len({n.split("/", 1)[0] for n in names}) == 1 and all("/" in n for n in names):
+            names = [n.split("/", 1)[1] for n in names]
+        nested = [n for n in names if "/" in n]
+        if nested:
+            raise BundleError(f"files must sit at the top level of the archive: '{nested[0]}'", file=name)
+        out = BundleFiles.in_temp_folder(parent)
+        jobs = []
+        for member, (fn, info) in zip(names, entries):
+            if member not in KNOWN_FILES:
+                out[member] = b""
+                continue
+
+            def chunks(fn=fn, info=info):
+                # read with a hard cap: headers can lie (the declared sizes are within the limit)
+                left = info.file_size
+                try:
+                    with zf.open(info) as fh:
+                        while chunk := fh.read(min(1 << 22, left + 1)):
+                            left -= len(chunk)
+                            if left < 0:
+                                raise TooLargeError(f"member '{fn}' inflates past its declared size; "
+                                                    f"refusing a possible zip bomb", file=name, field=fn)
+                            yield chunk
+                except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
+                    raise BundleError(f"member '{fn}' cannot be read (truncated or corrupt: {exc})",
+                                      file=name, field=fn) from None
+
+            jobs.append((member, chunks()))
+        try:
+            out.write_all(jobs)
+        except BaseException:
+            out.folder.cleanup()
+            raise
+        return out
+
+
+def read_bundle_path(path: str | Path, max_unzipped_bytes: int = 4 << 30) -> dict[str, bytes | Path]:
+    """Files of a bundle given as a ``.zip`` path or a folder: paths to files on disk (a zip is
+    inflated into a temporary folder that lives as long as the returned :class:`BundleFiles` or the
+    log parsed from it)."""
     p = Path(path)
     if not p.exists():
         raise BundleError("no such file or folder", file=str(p))
     if p.is_dir():
-        return {f.name: f.read_bytes() for f in sorted(p.iterdir()) if f.is_file() and f.name in KNOWN_FILES}
-    return read_zip(p, max_unzipped_bytes, name=p.name)
+        return {f.name: f for f in sorted(p.iterdir()) if f.is_file() and f.name in KNOWN_FILES}
+    return stage_zip(p, max_unzipped_bytes, name=p.name)
 
 
 def load_bundle(path: str | Path) -> DriveLog:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import contextvars
 import datetime as dt
-import hashlib
 import io
 import json
 import math
@@ -321,8 +320,8 @@ def run_pipeline(pipe: Pipeline, logs: list, params: dict, progress: Progress | 
         _RUN_WARNINGS.reset(token)
     inputs = []
     for log in logs:
-        for name, data in sorted(log.files.items()):
-            inputs.append({"bundle": log.manifest.name, "file": name, "sha256": hashlib.sha256(data).hexdigest()})
+        for name in sorted(log.files):  # the hashes known since the files were read: never re-read
+            inputs.append({"bundle": log.manifest.name, "file": name, "sha256": log.sha256_of(name)})
     warnings = []
     for log in logs:
         warnings += list(log.warnings)

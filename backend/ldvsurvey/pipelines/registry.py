@@ -1,22 +1,65 @@
-"""All pipelines by name, and the ``ldv-survey run`` entry point."""
+"""All pipelines by name, and the ``ldv-survey run`` entry point.
+
+The registry is lazy: a pipeline's module (and with it numba, scipy and the numerical core it
+needs) is imported the first time that pipeline is looked up, so ``ldv-survey run height`` does not
+pay for importing the dov or gravity pipelines. Iterating the names costs nothing; listing the
+pipelines themselves (``values()``, ``items()``: ``GET /api/pipelines``, the warm-up) imports them all.
+"""
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Iterator, Mapping
+
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.pipelines import calibrate, damping, dov, gravity, height, navigate, tilt
-from ldvsurvey.pipelines.base import LogFacts, Pipeline, parse_set_args, run_pipeline, write_result
 
-PIPELINES: dict[str, Pipeline] = {p.name: p for p in (calibrate.PIPELINE, tilt.PIPELINE, height.PIPELINE,
-                                                     navigate.PIPELINE, gravity.PIPELINE,
-                                                     dov.PIPELINE, damping.PIPELINE)}
+#: pipeline name -> module defining it as ``PIPELINE`` (in the order they are listed)
+MODULES: dict[str, str] = {
+    "calibrate": "ldvsurvey.pipelines.calibrate",
+    "tilt": "ldvsurvey.pipelines.tilt",
+    "height": "ldvsurvey.pipelines.height",
+    "navigate": "ldvsurvey.pipelines.navigate",
+    "gravity": "ldvsurvey.pipelines.gravity",
+    "dov": "ldvsurvey.pipelines.dov",
+    "damping": "ldvsurvey.pipelines.damping",
+}
 
 
-def get(name: str) -> Pipeline:
-    try:
-        return PIPELINES[name]
-    except KeyError:
+class _Registry(Mapping):
+    """``{name: Pipeline}`` importing each pipeline's module on first access."""
+
+    def __init__(self, modules: dict[str, str]):
+        self._modules = modules
+        self._loaded: dict = {}
+
+    def __getitem__(self, name: str):
+        p = self._loaded.get(name)
+        if p is None:
+            p = importlib.import_module(self._modules[name]).PIPELINE  # KeyError for an unknown name
+            if p.name != name:
+                raise RuntimeError(f"module {self._modules[name]} defines pipeline '{p.name}', registered as '{name}'")
+            self._loaded[name] = p
+        return p
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._modules)
+
+    def __len__(self) -> int:
+        return len(self._modules)
+
+    def __contains__(self, name) -> bool:
+        return name in self._modules
+
+
+PIPELINES: Mapping = _Registry(MODULES)
+
+
+def get(name: str):
+    """The :class:`~ldvsurvey.pipelines.base.Pipeline` called ``name`` (its module imported now)."""
+    if name not in PIPELINES:
         raise ParameterError(f"unknown pipeline '{name}' (known: {', '.join(sorted(PIPELINES))})",
-                             field="PIPELINE") from None
+                             field="PIPELINE")
+    return PIPELINES[name]
 
 
 def run_pipeline_cli(name: str, bundles: list[str], out: str, sets: list[str]) -> int:
@@ -24,7 +67,7 @@ def run_pipeline_cli(name: str, bundles: list[str], out: str, sets: list[str]) -
     import sys
 
     from ldvsurvey.io.drivelog import load_bundle
-    from ldvsurvey.pipelines.base import Progress
+    from ldvsurvey.pipelines.base import LogFacts, Progress, parse_set_args, run_pipeline, write_result
 
     pipe = get(name)
     params = parse_set_args(sets)

@@ -1,8 +1,12 @@
-"""Storing, listing, loading and deleting drive logs. One transaction per write."""
+"""Storing, listing, loading and deleting drive logs. One transaction per write.
+
+Large originals and the Parquet arrays live in the blob folder (see :mod:`ldvsurvey.store.blobs`);
+small files and databases without a folder (in-memory SQLite) keep them in the rows.
+"""
 
 from __future__ import annotations
 
-import hashlib
+from pathlib import Path
 
 import numpy as np
 from sqlalchemy import delete, func, select
@@ -12,7 +16,8 @@ from sqlalchemy.orm import Session
 from ldvsurvey.io.drivelog import DriveLog, ImuData, LdvData
 from ldvsurvey.io.manifest import Manifest
 from ldvsurvey.io.nmea import GnssData
-from ldvsurvey.store.blobs import from_parquet, to_parquet
+from ldvsurvey.store import blobs
+from ldvsurvey.store.blobs import from_parquet, read_parquet_into, to_parquet
 from ldvsurvey.store.models import Log, LogArray, LogFile
 
 
@@ -54,16 +59,31 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
               imu_rotating=m.imu.rotating, survey_date=m.date,
               t_start_s=float(log.imu.t_s[0]), t_end_s=float(log.imu.t_s[-1]),
               duration_s=float(log.imu.t_s[-1] - log.imu.t_s[0]), has_gnss=log.gnss is not None,
-              size_bytes=sum(len(b) for b in log.files.values()),
+              size_bytes=sum(log.size_of(n) for n in log.files),
               manifest=m.model_dump(mode="json"), quality=quality)
     session.add(row)
-    session.flush()
-    for name, content in sorted(log.files.items()):
-        session.add(LogFile(log_id=row.id, name=name, sha256=hashlib.sha256(content).hexdigest(),
-                            size_bytes=len(content), content=content))
-    for name, cols in _arrays(log).items():
-        session.add(LogArray(log_id=row.id, name=name, n_rows=len(cols["t_s"]), parquet=to_parquet(cols)))
     try:
+        session.flush()
+        root = blobs.root_for(session)
+        writer = blobs.Writer(session, root) if root is not None else None
+        try:
+            for name, content in sorted(log.files.items()):
+                size = log.size_of(name)
+                if writer is not None and size > blobs.INLINE_MAX_BYTES:
+                    # a file of the upload's own temporary folder is linked, anything else copied
+                    f = LogFile(blob=writer.file(content, suffix="-" + name, link=log.keep is not None))
+                else:
+                    f = LogFile(content=bytes(content) if isinstance(content, (bytes, bytearray, memoryview))
+                                else Path(content).read_bytes())
+                f.log_id, f.name, f.sha256, f.size_bytes = row.id, name, log.sha256_of(name), size
+                session.add(f)
+            for name, cols in _arrays(log).items():
+                a = LogArray(blob=writer.parquet(cols)) if writer is not None else LogArray(parquet=to_parquet(cols))
+                a.log_id, a.name, a.n_rows = row.id, name, len(cols["t_s"])
+                session.add(a)
+        finally:
+            if writer is not None:
+                writer.done()  # every blob on disk (fsynced) before a row names it
         session.flush()
     except IntegrityError:  # a concurrent upload of the same bundle won the race
         session.rollback()
@@ -115,9 +135,14 @@ def delete_log(session: Session, log_id: int) -> bool:
         # row gone (jobs.runner treats a missing row as cancelled and keeps no results)
         session.execute(delete(JobFile).where(JobFile.job_id.in_(job_ids)))
         session.execute(delete(Job).where(Job.id.in_(job_ids)))
+    keys = [k for t in (LogFile, LogArray)
+            for k in session.scalars(select(t.blob).where(t.log_id == log_id, t.blob.is_not(None)))]
     session.execute(delete(LogArray).where(LogArray.log_id == log_id))
     session.execute(delete(LogFile).where(LogFile.log_id == log_id))
     session.execute(delete(Log).where(Log.id == log_id))
+    root = blobs.root_for(session) if keys else None
+    if root is not None:  # the files go once the deletion is committed
+        blobs.unlink_after_commit(session, [root / k for k in keys])
     return True
 
 
@@ -127,25 +152,37 @@ def count_rows(session: Session) -> dict[str, int]:
             for t in (Log, LogFile, LogArray)}
 
 
+def _array_source(session: Session, a: LogArray) -> bytes | Path:
+    return blobs.blob_path(a, a.blob) if a.blob is not None else a.parquet
+
+
 def load_array(session: Session, log_id: int, name: str) -> dict[str, np.ndarray] | None:
     """One stored stream (``imu``, ``ldv``, ``gnss``) as columns, without reading the others."""
-    blob = session.scalar(select(LogArray.parquet).where(LogArray.log_id == log_id, LogArray.name == name))
-    return None if blob is None else from_parquet(blob)
+    a = session.scalar(select(LogArray).where(LogArray.log_id == log_id, LogArray.name == name))
+    return None if a is None else from_parquet(_array_source(session, a))
 
 
 def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
-    """Rebuild the parsed :class:`DriveLog` from the stored Parquet arrays (no re-parse)."""
+    """Rebuild the parsed :class:`DriveLog` from the stored Parquet arrays (no re-parse).
+
+    The arrays are read row group by row group into their final arrays; the originals are not read
+    (``files`` holds the path of a file in the blob folder, or the bytes of a small one kept in its
+    row; ``file_sha256`` the stored hashes).
+    """
     row = session.get(Log, log_id)
     if row is None:
         return None
-    arrays = {a.name: from_parquet(a.parquet)
+    stacks = {"imu": {"dtheta_rad": ["dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad"],
+                      "dvel_mps": ["dvel_x_mps", "dvel_y_mps", "dvel_z_mps"]}}
+    arrays = {a.name: read_parquet_into(_array_source(session, a), stacks.get(a.name))
               for a in session.scalars(select(LogArray).where(LogArray.log_id == log_id))}
-    files = {f.name: f.content for f in session.scalars(select(LogFile).where(LogFile.log_id == log_id))}
+    files, sha = {}, {}
+    for f in session.scalars(select(LogFile).where(LogFile.log_id == log_id)):
+        files[f.name] = blobs.blob_path(f, f.blob) if f.blob is not None else f.inline
+        sha[f.name] = f.sha256
     manifest = Manifest.model_validate(row.manifest, strict=False)
     i = arrays["imu"]
-    imu = ImuData(t_s=i["t_s"],
-                  dtheta_rad=np.column_stack([i["dtheta_x_rad"], i["dtheta_y_rad"], i["dtheta_z_rad"]]),
-                  dvel_mps=np.column_stack([i["dvel_x_mps"], i["dvel_y_mps"], i["dvel_z_mps"]]),
+    imu = ImuData(t_s=i["t_s"], dtheta_rad=i["dtheta_rad"], dvel_mps=i["dvel_mps"],
                   turntable_deg=i.get("turntable_deg"))
     d = arrays["ldv"]
     ldv = LdvData(t_s=d["t_s"], v_fwd_mps=d["v_fwd_mps"], v_up_mps=d.get("v_up_mps"),
@@ -157,4 +194,4 @@ def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
         gnss = GnssData(t_s=g["t_s"], lat_deg=g["lat_deg"], lon_deg=g["lon_deg"], h_m=g["h_m"],
                         fix=g["fix"], n_sat=g["n_sat"], hdop=g["hdop"], line_of_row=g["line"])
     return DriveLog(manifest=manifest, imu=imu, ldv=ldv, gnss=gnss, files=files,
-                    warnings=list(row.quality.get("warnings", [])))
+                    warnings=list(row.quality.get("warnings", [])), file_sha256=sha)

@@ -48,7 +48,8 @@ class Log(Base):
 
 
 class LogFile(Base):
-    """An original file of a bundle, byte for byte."""
+    """An original file of a bundle, byte for byte: in the row (``content``) or, when large, in a
+    file of the blob folder (``blob``, see :mod:`ldvsurvey.store.blobs`)."""
 
     __tablename__ = "log_files"
     __table_args__ = (UniqueConstraint("log_id", "name"),)
@@ -58,13 +59,27 @@ class LogFile(Base):
     name: Mapped[str] = mapped_column(String(255), nullable=False)
     sha256: Mapped[str] = mapped_column(String(64), nullable=False)
     size_bytes: Mapped[int] = mapped_column(BigInteger, nullable=False)
-    content: Mapped[bytes] = mapped_column(LargeBinary, nullable=False)
+    inline: Mapped[bytes | None] = mapped_column("content", LargeBinary, nullable=True, deferred=True)
+    blob: Mapped[str | None] = mapped_column(String(200), nullable=True)
 
     log: Mapped[Log] = relationship(back_populates="files")
 
+    def __init__(self, content: bytes | None = None, **kw):
+        super().__init__(inline=content, **kw)
+
+    @property
+    def content(self) -> bytes:
+        """The file's bytes (read from the blob folder when it lives there)."""
+        if self.blob is None:
+            return self.inline
+        from ldvsurvey.store.blobs import blob_path
+
+        return blob_path(self, self.blob).read_bytes()
+
 
 class LogArray(Base):
-    """A parsed stream (``imu``, ``ldv``, ``gnss``) as a Parquet blob."""
+    """A parsed stream (``imu``, ``ldv``, ``gnss``) as Parquet: in the row (``parquet``) or in a file
+    of the blob folder (``blob``)."""
 
     __tablename__ = "log_arrays"
     __table_args__ = (UniqueConstraint("log_id", "name"),)
@@ -73,7 +88,8 @@ class LogArray(Base):
     log_id: Mapped[int] = mapped_column(ForeignKey("logs.id", ondelete="CASCADE"), nullable=False, index=True)
     name: Mapped[str] = mapped_column(String(64), nullable=False)
     n_rows: Mapped[int] = mapped_column(Integer, nullable=False)
-    parquet: Mapped[bytes] = mapped_column(LargeBinary, nullable=False)
+    parquet: Mapped[bytes | None] = mapped_column(LargeBinary, nullable=True, deferred=True)
+    blob: Mapped[str | None] = mapped_column(String(200), nullable=True)
 
     log: Mapped[Log] = relationship(back_populates="arrays")
 
