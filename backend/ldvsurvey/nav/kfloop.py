@@ -1,10 +1,18 @@
 """Compiled loops: closed-loop forward filter (mechanization + error-state KF) and RTS smoother.
 
-Filter epochs fall every ``decim`` IMU samples. Between epochs the LDV residual
-v̂_head − Ĉ_b^n V̂^b is averaged; a GNSS fix is brought to the epoch (back-dated by v̂·Δt).
-Scalar sequential updates with an innovation gate; after each epoch the estimate is fed
-back and the error state reset. Stored per epoch for the smoother: Φ, P⁺, Δt and the
-feedback dx (see :mod:`ldvsurvey.nav.filter` for the smoothing algebra).
+The mechanization runs at the IMU rate; the error-state covariance is propagated only at the
+filter epochs, every ``decim`` IMU samples (Φ over the epoch from the mean specific force), and
+the measurement updates happen there. Between epochs the LDV residual v̂_head − Ĉ_b^n V̂^b is
+averaged; a GNSS fix is brought to the epoch (back-dated by v̂·Δt). Scalar sequential updates
+with an innovation gate; after each epoch the estimate is fed back and the error state reset.
+
+Stored per epoch for the smoother (nothing per IMU sample): P⁺ as its upper triangle, the
+handful of numbers Φ is built from (Φ itself is rebuilt in the backward pass, bit for bit),
+Δt and the feedback dx (see :mod:`ldvsurvey.nav.filter` for the smoothing algebra). Memory is
+thus ~(n(n+1)/2 + 2n + 40)·8 bytes per epoch whatever the IMU rate.
+
+Inputs come grouped (:class:`ImuIn`, :class:`Model`, :class:`LdvIn`, :class:`GnssIn`,
+:class:`Start`): named tuples of arrays and scalars that numba compiles as they are.
 
 Augmented LDV states (when enabled, in this order after the 15): δs_f, δη_L (rad), δφ_L (rad),
 δs_u, δk_η (rad per m/s²), where s = 1/K is the factor applied to the measured speed
@@ -15,13 +23,15 @@ Inverse scales are estimated additively, so the feedback is linear like the smoo
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numba as nb
 import numpy as np
 
 from ldvsurvey.nav.attitude import cross, q_rotvec, q_to_c, qmul
 from ldvsurvey.nav.earth import radii_nb
 from ldvsurvey.nav.errmodel import build_f, c_db, discretize, skew_nb
-from ldvsurvey.nav.mech import mech_step
+from ldvsurvey.nav.mech import mech_step_into, q_to_c_into
 
 
 @nb.njit(cache=True)
@@ -39,54 +49,193 @@ def feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a):
 MAX_REJECT_RUN = 5  #: epochs of consecutive rejections after which a measurement is taken anyway
 
 
+#: the IMU: t (N,) s; dth, dvel (N, 3) sensor-frame increments (rad, m/s); c_bs (N, 3, 3) C_b^s per
+#: sample, or (1, 3, 3) for a fixed IMU; xi, eta (rad), dg (m/s²) per sample for the gravity model, or empty
+ImuIn = namedtuple("ImuIn", "t dth dvel c_bs xi eta dg")
+#: the error model: decim (IMU samples per epoch), p0 (n,) prior variances, qd (n,) PSDs, inv_tau (n,)
+#: 1/τ of Gauss–Markov states (1/s), zupt (M+1,) bool epochs standing still, zupt_sigma (m/s),
+#: gate (σ, 0 = off), i_sz (index of the z-gyro scale-factor state, −1: none)
+Model = namedtuple("Model", "decim p0 qd inv_tau zupt zupt_sigma gate i_sz")
+#: LDV: ok (N,) bool, nu_f, nu_u (N,) m/s, par0 (5,) [s_f, η_L, φ_L, s_u, k_η], lever (3,) m,
+#: sigma (3,) m/s per sample, up (2-D LDV), aug_idx (5,) state index of each LDV state (−1: none),
+#: a_fwd (N,) or empty: forward acceleration for the pitch compliance (m/s²)
+LdvIn = namedtuple("LdvIn", "ok nu_f nu_u par0 lever sigma up aug_idx a_fwd")
+#: GNSS: t (G,) s, pos (G, 3) lat, lon rad, h m of the antenna, sig (G, 2) 1-σ horizontal/vertical m, lever (3,) m
+GnssIn = namedtuple("GnssIn", "t pos sig lever")
+#: initial state: q (4,) C_s^n, v (3,) ENU m/s, pos (3,) lat, lon rad, h m, bias (6,) gyro rad/s, accel m/s²
+Start = namedtuple("Start", "q v pos bias")
+
+#: what Φ of an epoch is built from (stored per epoch): C_s^n (9), mean f^n (3), v (3), lat, h, mean ω_z
+N_FIN = 18
+
+
 @nb.njit(cache=True)
-def _gated_rows(x, P, H, z, r, gate, kind, run, rejected, nis_row):
+def _phi_into(fin, T, inv_tau, i_sz, Phi):
+    """Φ = I + F T + (F T)²/2 of one epoch into ``Phi`` (n×n), F from the stored ``fin`` row.
+
+    Rows 9.. of F (biases, LDV and scale-factor states) hold only their diagonal (−1/τ), so the
+    square needs the full sum only in the first nine rows."""
+    n = Phi.shape[0]
+    c_sn = np.empty((3, 3))
+    for i in range(3):
+        for jj in range(3):
+            c_sn[i, jj] = fin[3 * i + jj]
+    F15 = build_f(15, c_sn, fin[9:12], fin[12:15], fin[15], fin[16])
+    A = np.zeros((n, n))
+    for i in range(15):
+        for jj in range(15):
+            A[i, jj] = F15[i, jj]
+    if i_sz >= 0:  # φ̇ = −C_s^n δω^s, δω^s = [0, 0, δs_z ω_z]
+        for i in range(3):
+            A[i, i_sz] = -c_sn[i, 2] * fin[17]
+    for i in range(n):  # first-order Gauss–Markov states (bias instability): ẋ = −x/τ + w
+        A[i, i] -= inv_tau[i]
+    for i in range(n):
+        for jj in range(n):
+            A[i, jj] *= T
+    for i in range(n):
+        if i < 9:
+            for jj in range(n):
+                s = 0.0
+                for k in range(n):
+                    s += A[i, k] * A[k, jj]
+                Phi[i, jj] = ((1.0 if i == jj else 0.0) + A[i, jj]) + 0.5 * s
+        else:
+            for jj in range(n):
+                Phi[i, jj] = 0.0
+            Phi[i, i] = (1.0 + A[i, i]) + 0.5 * (A[i, i] * A[i, i])
+
+
+@nb.njit(cache=True)
+def _propagate(P, Phi, qd, T, M, out):
+    """out = Φ P Φᵀ + diag(qd) T; M = Φ P (both n×n, written). Rows 9.. of Φ are diagonal."""
+    n = P.shape[0]
+    for i in range(n):
+        if i < 9:
+            for jj in range(n):
+                s = 0.0
+                for k in range(n):
+                    s += Phi[i, k] * P[k, jj]
+                M[i, jj] = s
+        else:
+            d = Phi[i, i]
+            for jj in range(n):
+                M[i, jj] = d * P[i, jj]
+    for i in range(n):
+        for jj in range(n):
+            if jj < 9:
+                s = 0.0
+                for k in range(n):
+                    s += M[i, k] * Phi[jj, k]
+                out[i, jj] = s
+            else:
+                out[i, jj] = M[i, jj] * Phi[jj, jj]
+        out[i, i] += qd[i] * T
+
+
+@nb.njit(cache=True)
+def _pack(P, row):
+    """Upper triangle of P (row-major) into ``row``."""
+    n = P.shape[0]
+    idx = 0
+    for i in range(n):
+        for jj in range(i, n):
+            row[idx] = P[i, jj]
+            idx += 1
+
+
+@nb.njit(cache=True)
+def _unpack(row, P):
+    n = P.shape[0]
+    idx = 0
+    for i in range(n):
+        for jj in range(i, n):
+            P[i, jj] = row[idx]
+            P[jj, i] = row[idx]
+            idx += 1
+
+
+@nb.njit(cache=True)
+def packed_diag(pp, n):
+    """Diagonals (M, n) of packed upper-triangle covariances (M, n(n+1)/2)."""
+    out = np.empty((pp.shape[0], n))
+    for j in range(pp.shape[0]):
+        idx = 0
+        for i in range(n):
+            out[j, i] = pp[j, idx]
+            idx += n - i
+    return out
+
+
+@nb.njit(cache=True)
+def unpack_all(pp, n):
+    """Full covariances (M, n, n) from packed upper triangles."""
+    out = np.empty((pp.shape[0], n, n))
+    for j in range(pp.shape[0]):
+        _unpack(pp[j], out[j])
+    return out
+
+
+@nb.njit(cache=True)
+def _update_rows(x, P, H, z, r, gate, kind, run, rejected, nis_row, ph):
     """Scalar updates for the rows of one measurement type with the innovation gate and its
     lock-out protection: after MAX_REJECT_RUN epochs with a rejection the gate is lifted.
-    ``kind`` indexes ``run``/``rejected``; normalized innovations go to ``nis_row``."""
+    ``kind`` indexes ``run``/``rejected``; normalized innovations go to ``nis_row``; ``ph`` (n,) is work space.
+    In place and without allocation: P ← P − k (P h)ᵀ with k = P h / s."""
+    n = P.shape[0]
     g_eff = gate if run[kind] < MAX_REJECT_RUN else 0.0
     any_rej = False
-    for i in range(H.shape[0]):
-        ok, nz = _scalar_update(x, P, H[i], z[i], r[i], g_eff)
-        nis_row[i] = nz
-        if not ok:
+    for row in range(H.shape[0]):
+        hph = 0.0
+        hx = 0.0
+        for i in range(n):
+            acc = 0.0
+            for jj in range(n):
+                acc += P[i, jj] * H[row, jj]
+            ph[i] = acc
+        for i in range(n):
+            hph += H[row, i] * ph[i]
+            hx += H[row, i] * x[i]
+        s = hph + r[row]
+        nu = z[row] - hx
+        nis_row[row] = nu / np.sqrt(s)
+        if g_eff > 0 and nu * nu > g_eff * g_eff * s:
             rejected[kind] += 1
             any_rej = True
+            continue
+        for i in range(n):
+            k_i = ph[i] / s
+            x[i] += k_i * nu
+            for jj in range(n):
+                P[i, jj] -= k_i * ph[jj]
     run[kind] = run[kind] + 1 if any_rej else 0
 
 
 @nb.njit(cache=True)
-def _scalar_update(x, P, h, z, r, gate):
-    """One scalar measurement z = h·x + noise(r). Returns accepted (bool) and normalized innovation.
+def forward(imu, mdl, ldv, gnss, st):
+    """Run the forward filter. See the Python wrapper :func:`ldvsurvey.nav.filter.run_filter`.
 
-    ``gate`` ≤ 0 accepts every measurement."""
-    ph = P @ h
-    s = h @ ph + r
-    nu = z - h @ x
-    if gate > 0 and nu * nu > gate * gate * s:
-        return False, nu / np.sqrt(s)
-    k = ph / s
-    x += k * nu
-    P -= np.outer(k, ph)
-    return True, nu / np.sqrt(s)
-
-
-@nb.njit(cache=True)
-def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
-            decim, p0, qd, zupt_epoch, zupt_sigma,
-            ldv_ok, nu_f, nu_u, ldv_par0, l_ldv, ldv_sigma, ldv_up, aug_idx,
-            g_t, g_pos, g_sig, l_gnss, gate, bias0, a_fwd, inv_tau, i_sz):
-    """Run the forward filter. See the Python wrapper :func:`ldvsurvey.nav.filter.run_filter`."""
+    Returns, per IMU sample: q (N, 4), v (N, 3), pos (N, 3), f_U (N,) the up specific force as
+    integrated, f_EN (N, 2) float32 its horizontal components (only for the smoother's attitude
+    correction of f_U), fb (N,) (C_s^n b̂_a)_U; per epoch (M+1): packed P⁺, Φ inputs, Δt, dx, LDV
+    parameters, biases, normalized innovations (M+1, 9); rejections (3,); z-gyro scale (M+1,)."""
+    t, dth, dvel, c_bs = imu.t, imu.dth, imu.dvel, imu.c_bs
+    xi, eta, dg = imu.xi, imu.eta, imu.dg
+    decim, qd, inv_tau, i_sz, gate = mdl.decim, mdl.qd, mdl.inv_tau, mdl.i_sz, mdl.gate
+    nu_f, nu_u, ldv_ok, l_ldv, aug_idx, a_fwd = ldv.nu_f, ldv.nu_u, ldv.ok, ldv.lever, ldv.aug_idx, ldv.a_fwd
+    ldv_up = ldv.up
+    g_t, g_pos, g_sig, l_gnss = gnss.t, gnss.pos, gnss.sig, gnss.lever
     n_s = len(t)
-    n = len(p0)
+    n = len(mdl.p0)
     m = n_s // decim
     q_out = np.empty((n_s, 4))
     v_out = np.empty((n_s, 3))
     p_out = np.empty((n_s, 3))
-    f_out = np.empty((n_s, 3))  # mean specific force in n over each interval, as integrated
-    fb_out = np.empty(n_s)  # its up component of the accelerometer-bias correction (C_s^n b̂_a)_U
-    phis = np.empty((m + 1, n, n))
-    pplus = np.empty((m + 1, n, n))
+    fu_out = np.empty(n_s)  # up specific force in n over each interval, as integrated
+    fen_out = np.empty((n_s, 2), dtype=np.float32)  # its E, N components (for the smoother's φ × f)
+    fb_out = np.empty(n_s)  # up component of the accelerometer-bias correction (C_s^n b̂_a)_U
+    pp = np.empty((m + 1, n * (n + 1) // 2))
+    fin = np.zeros((m + 1, N_FIN))
     dts = np.zeros(m + 1)
     dxs = np.zeros((m + 1, n))
     par_out = np.empty((m + 1, 5))
@@ -95,17 +244,24 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
     rejected = np.zeros(3, dtype=np.int64)
     run = np.zeros(3, dtype=np.int64)  # consecutive epochs with a rejection, per measurement type
 
-    q, v, pos = q0.copy(), v0.copy(), pos0.copy()
+    q, v, pos = st.q.copy(), st.v.copy(), st.pos.copy()
     v_prev, pos_prev = v.copy(), pos.copy()
     dth_prev, dv_prev = dth[0].copy(), dvel[0].copy()
-    b_g, b_a = bias0[:3].copy(), bias0[3:].copy()
+    a_th = np.empty(3)
+    a_dv = np.empty(3)
+    f_n = np.empty(3)
+    b_g, b_a = st.bias[:3].copy(), st.bias[3:].copy()
     s_z = 0.0  # z-gyro scale-factor estimate (state i_sz when ≥ 0)
     wz_sum = 0.0
     sz_out = np.zeros(m + 1)
-    par = ldv_par0.copy()  # K_f, eta_L, phi_L, K_u
-    P = np.diag(p0)
-    pplus[0] = P
-    phis[0] = np.eye(n)
+    par = ldv.par0.copy()  # K_f, eta_L, phi_L, K_u
+    P = np.diag(mdl.p0)
+    Pm = np.empty((n, n))
+    Phi = np.empty((n, n))
+    M = np.empty((n, n))
+    ph = np.empty(n)
+    x = np.zeros(n)
+    _pack(P, pp[0])
     par_out[0] = par
     bias_out[0, :3], bias_out[0, 3:] = b_g, b_a
     has_g = len(xi) > 0
@@ -131,12 +287,17 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
     gc = np.eye(3)
     gsig = np.zeros(2)
     rotating = False
-    for kk in range(0, n_s, max(1, n_s // 50)):  # identity C_b^s (fixed IMU): skip the products
-        if np.abs(c_bs[kk] - np.eye(3)).max() > 0.0:
-            rotating = True
-            break
+    if c_bs.shape[0] > 1:
+        for kk in range(0, n_s, max(1, n_s // 50)):  # identity C_b^s (fixed IMU): skip the products
+            if np.abs(c_bs[kk] - np.eye(3)).max() > 0.0:
+                rotating = True
+                break
     cdb = c_db(par[1], par[2])  # LDV mounting; changes only at feedback
-    c_bn_prev = q_to_c(q) @ c_bs[0] if rotating else q_to_c(q)
+    c_sn = np.empty((3, 3))
+    c_bn = np.empty((3, 3))
+    c_bn_prev = np.empty((3, 3))
+    q_to_c_into(q, c_sn)
+    _body(c_sn, c_bs, 0, rotating, c_bn_prev)
     j = 0
     for k in range(n_s):
         dt = t[k] - t_prev
@@ -144,21 +305,24 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         gx = xi[k] if has_g else 0.0
         ge = eta[k] if has_g else 0.0
         gd = dg[k] if has_g else 0.0
-        a_th = dth[k] - b_g * dt
+        for i in range(3):
+            a_th[i] = dth[k, i] - b_g[i] * dt
         if i_sz >= 0:  # z-gyro scale factor: ω̃_z = (1 + s_z) ω_z
             a_th[2] -= s_z * a_th[2]
             wz_sum += a_th[2]
-        a_dv = dvel[k] - b_a * dt
-        q_new, v_new, p_new, f_n = mech_step(q, v, pos, v_prev, pos_prev, a_th, a_dv, dth_prev, dv_prev,
-                                             dt, gx, ge, gd)
-        v_prev, pos_prev = v, pos
-        q, v, pos = q_new, v_new, p_new
-        dth_prev, dv_prev = a_th, a_dv
-        fsum += f_n * dt
-        f_out[k] = f_n
-        c_sn = q_to_c(q)
+        for i in range(3):
+            a_dv[i] = dvel[k, i] - b_a[i] * dt
+        mech_step_into(q, v, pos, v_prev, pos_prev, a_th, a_dv, dth_prev, dv_prev, dt, gx, ge, gd, f_n)
+        for i in range(3):
+            dth_prev[i] = a_th[i]
+            dv_prev[i] = a_dv[i]
+            fsum[i] += f_n[i] * dt
+        fu_out[k] = f_n[2]
+        fen_out[k, 0] = f_n[0]
+        fen_out[k, 1] = f_n[1]
+        q_to_c_into(q, c_sn)
         fb_out[k] = c_sn[2, 0] * b_a[0] + c_sn[2, 1] * b_a[1] + c_sn[2, 2] * b_a[2]
-        c_bn = c_sn @ c_bs[k] if rotating else c_sn
+        _body(c_sn, c_bs, k, rotating, c_bn)
         if ldv_ok[k]:
             vd1 = nu_f[k] * par[0]
             vd2 = (nu_u[k] * par[3]) if ldv_up else 0.0
@@ -203,7 +367,6 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             lnu[0] += nu_f[k]
             lnu[1] += nu_u[k] if ldv_up else 0.0
             ln += 1
-        c_bn_prev = c_bn
         while gi < n_g and g_t[gi] <= t[k]:
             # GNSS fix at g_t[gi] in (t[k-1], t[k]]: residual INS − GNSS at the antenna, local metres
             rm, rn = radii_nb(pos[0])
@@ -212,38 +375,39 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
             gz[0] = (pos[1] - g_pos[gi, 1]) * (rn + pos[2]) * np.cos(pos[0]) + lev[0] - v[0] * back
             gz[1] = (pos[0] - g_pos[gi, 0]) * (rm + pos[2]) + lev[1] - v[1] * back
             gz[2] = pos[2] - g_pos[gi, 2] + lev[2] - v[2] * back
-            gc = c_bn.copy()
+            gc[:, :] = c_bn
             gsig[0], gsig[1] = g_sig[gi, 0], g_sig[gi, 1]
             g_pending = True
             gi += 1
-        q_out[k] = q
-        v_out[k] = v
-        p_out[k] = pos
+        c_bn, c_bn_prev = c_bn_prev, c_bn  # this sample's body attitude is the next one's previous
         if (k + 1) % decim != 0:
+            for i in range(4):
+                q_out[k, i] = q[i]
+            for i in range(3):
+                v_out[k, i] = v[i]
+                p_out[k, i] = pos[i]
             continue
         # ---- filter epoch ----
         j += 1
         T = t[k] - t_epoch
         t_epoch = t[k]
-        F = np.zeros((n, n))
-        F[:15, :15] = build_f(15, c_sn, fsum / T, v, pos[0], pos[2])[:15, :15]
-        if i_sz >= 0:  # φ̇ = −C_s^n δω^s, δω^s = [0, 0, δs_z ω_z]
-            for i in range(3):
-                F[i, i_sz] = -c_sn[i, 2] * wz_sum / T
-        for i in range(n):  # first-order Gauss–Markov states (bias instability): ẋ = −x/τ + w
-            F[i, i] -= inv_tau[i]
-        Phi = discretize(F, T)
-        P = Phi @ P @ Phi.T
-        for i in range(n):
-            P[i, i] += qd[i] * T
-        phis[j] = Phi
+        fj = fin[j]
+        for i in range(3):
+            for jj in range(3):
+                fj[3 * i + jj] = c_sn[i, jj]
+            fj[9 + i] = fsum[i] / T
+            fj[12 + i] = v[i]
+        fj[15], fj[16], fj[17] = pos[0], pos[2], wz_sum / T
+        _phi_into(fj, T, inv_tau, i_sz, Phi)
+        _propagate(P, Phi, qd, T, M, Pm)
+        P, Pm = Pm, P
         dts[j] = T
-        x = np.zeros(n)
-        if zupt_epoch[j]:
+        x[:] = 0.0
+        if mdl.zupt[j]:
             H = np.zeros((3, n))
             for i in range(3):
                 H[i, 3 + i] = 1.0
-            _gated_rows(x, P, H, v, np.full(3, zupt_sigma ** 2), gate, 0, run, rejected, nis[j, 0:3])
+            _update_rows(x, P, H, v, np.full(3, mdl.zupt_sigma ** 2), gate, 0, run, rejected, nis[j, 0:3], ph)
         if ln > 0:
             z = lz / ln
             v_l = lvl / ln
@@ -264,7 +428,7 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
                 for a in range(5):
                     if aug_idx[a] >= 0:
                         H[i, aug_idx[a]] = cols[i, a]
-            _gated_rows(x, P, H, z, ldv_sigma ** 2 / ln, gate, 1, run, rejected, nis[j, 3:6])
+            _update_rows(x, P, H, z, ldv.sigma ** 2 / ln, gate, 1, run, rejected, nis[j, 3:6], ph)
         if g_pending:
             hphi = skew_nb(gc @ l_gnss)
             H = np.zeros((3, n))
@@ -272,25 +436,30 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
                 H[i, 0:3] = hphi[i]
                 H[i, 6 + i] = 1.0
             r_g = np.array([gsig[0] ** 2, gsig[0] ** 2, gsig[1] ** 2])
-            _gated_rows(x, P, H, gz, r_g, gate, 2, run, rejected, nis[j, 6:9])
+            _update_rows(x, P, H, gz, r_g, gate, 2, run, rejected, nis[j, 6:9], ph)
             g_pending = False
-        P = 0.5 * (P + P.T)
+        for i in range(n):  # P ← (P + Pᵀ)/2
+            for jj in range(i + 1, n):
+                a = 0.5 * (P[i, jj] + P[jj, i])
+                P[i, jj] = a
+                P[jj, i] = a
         # ---- feedback ----
-        q, v, pos, v_prev, pos_prev, b_g, b_a = feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
-        if aug_idx[0] >= 0:
-            par[0] -= x[aug_idx[0]]
-        if aug_idx[1] >= 0:
-            par[1] -= x[aug_idx[1]]
-        if aug_idx[2] >= 0:
-            par[2] -= x[aug_idx[2]]
-        if aug_idx[3] >= 0:
-            par[3] -= x[aug_idx[3]]
-        if aug_idx[4] >= 0:
-            par[4] -= x[aug_idx[4]]
+        q2, v2, p2, vp2, pp2, bg2, ba2 = feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
+        q[:] = q2
+        v[:] = v2
+        pos[:] = p2
+        v_prev[:] = vp2
+        pos_prev[:] = pp2
+        b_g[:] = bg2
+        b_a[:] = ba2
+        for a in range(5):
+            if aug_idx[a] >= 0:
+                par[a] -= x[aug_idx[a]]
         cdb = c_db(par[1], par[2])
-        c_bn_prev = q_to_c(q) @ c_bs[k] if rotating else q_to_c(q)
+        q_to_c_into(q, c_sn)
+        _body(c_sn, c_bs, k, rotating, c_bn_prev)
         dxs[j] = x
-        pplus[j] = P
+        _pack(P, pp[j])
         par_out[j] = par
         bias_out[j, :3], bias_out[j, 3:] = b_g, b_a
         fsum[:] = 0.0
@@ -306,71 +475,133 @@ def forward(t, dth, dvel, c_bs, q0, v0, pos0, xi, eta, dg,
         la = 0.0
         lc[:, :] = 0.0
         ln = 0
-        q_out[k] = q
-        v_out[k] = v
-        p_out[k] = pos
-    return q_out, v_out, p_out, f_out, fb_out, phis, pplus, dts, dxs, par_out, bias_out, nis, rejected, sz_out
+        for i in range(4):
+            q_out[k, i] = q[i]
+        for i in range(3):
+            v_out[k, i] = v[i]
+            p_out[k, i] = pos[i]
+    return (q_out, v_out, p_out, fu_out, fen_out, fb_out, pp, fin, dts, dxs, par_out, bias_out, nis, rejected,
+            sz_out)
+
+
+@nb.njit(cache=True, inline="always")
+def _body(c_sn, c_bs, k, rotating, out):
+    """out = C_b^n = C_s^n C_b^s[k] (a copy of C_s^n for a fixed IMU)."""
+    if rotating:
+        cb = c_bs[k]
+        for i in range(3):
+            for jj in range(3):
+                out[i, jj] = c_sn[i, 0] * cb[0, jj] + c_sn[i, 1] * cb[1, jj] + c_sn[i, 2] * cb[2, jj]
+    else:
+        for i in range(3):
+            for jj in range(3):
+                out[i, jj] = c_sn[i, jj]
 
 
 @nb.njit(cache=True)
-def rts(phis, pplus, dts, dxs, qd):
+def rts(pp, fin, dts, dxs, qd, inv_tau, i_sz, keep_cov):
     """Rauch-Tung-Striebel smoother over the stored closed-loop forward pass.
 
-    Returns x_s (M+1, n): smoothed error of the post-feedback nominal at each epoch,
-    and P_s (M+1, n, n).
+    Φ_{j+1} is rebuilt from ``fin`` and P⁻_{j+1} = Φ P⁺_j Φᵀ + Q T recomputed, as in the forward pass.
+    Returns x_s (M+1, n): smoothed error of the post-feedback nominal at each epoch; the 1-σ
+    (M+1, n) of P_s; and P_s (M+1, n, n) when ``keep_cov`` (else an empty (0, n, n)).
     """
-    m1, n, _ = pplus.shape
+    m1 = pp.shape[0]
+    n = dxs.shape[1]
     xs = np.zeros((m1, n))
-    ps = np.empty((m1, n, n))
-    ps[m1 - 1] = pplus[m1 - 1]
+    sig = np.empty((m1, n))
+    ps_all = np.empty((m1 if keep_cov else 0, n, n))
+    Ps = np.empty((n, n))
+    Pp = np.empty((n, n))
+    Phi = np.empty((n, n))
+    M = np.empty((n, n))
+    pm = np.empty((n, n))
+    tmp = np.empty(n)
+    _unpack(pp[m1 - 1], Ps)
+    for i in range(n):
+        sig[m1 - 1, i] = np.sqrt(max(Ps[i, i], 0.0))
+    if keep_cov:
+        ps_all[m1 - 1] = Ps
     for j in range(m1 - 2, -1, -1):
-        Phi = phis[j + 1]
-        pm = Phi @ pplus[j] @ Phi.T
-        for i in range(n):
-            pm[i, i] += qd[i] * dts[j + 1]
+        _unpack(pp[j], Pp)
+        _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, Phi)
+        _propagate(Pp, Phi, qd, dts[j + 1], M, pm)
         # A = P⁺_j Φᵀ (P⁻_{j+1})⁻¹  ⇒  Aᵀ = solve(P⁻, Φ P⁺_j)
-        at = np.linalg.solve(pm, Phi @ pplus[j])
-        a = at.T
-        xs[j] = a @ (xs[j + 1] + dxs[j + 1])
-        ps[j] = pplus[j] + a @ (ps[j + 1] - pm) @ at
-    return xs, ps
+        at = np.linalg.solve(pm, M)
+        for i in range(n):
+            tmp[i] = xs[j + 1, i] + dxs[j + 1, i]
+        for i in range(n):
+            s = 0.0
+            for k in range(n):
+                s += at[k, i] * tmp[k]
+            xs[j, i] = s
+        # P_s(j) = P⁺_j + A (P_s(j+1) − P⁻_{j+1}) Aᵀ
+        for i in range(n):
+            for k in range(n):
+                pm[i, k] = Ps[i, k] - pm[i, k]
+        Ps = Pp + at.T @ pm @ at
+        for i in range(n):
+            sig[j, i] = np.sqrt(max(Ps[i, i], 0.0))
+        if keep_cov:
+            ps_all[j] = Ps
+    return xs, sig, ps_all
 
 
 @nb.njit(cache=True)
-def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f, fb):
-    """Correct the forward nominal at every sample with the smoothed error interpolated in time
-    from x_s(j−1) to x_s(j) + dx_j (the post-update sample of epoch j takes x_s(j)).
+def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, fu, fen, fb):
+    """Correct the forward nominal at every sample, in place, with the smoothed error interpolated
+    in time from x_s(j−1) to x_s(j) + dx_j (the post-update sample of epoch j takes x_s(j)).
 
-    The specific force f (n frame, per interval) gets the same attitude correction,
-    f ← (I + [φ×]) f, and the smoothed accelerometer-bias correction, f ← f − C_s^n δ∇;
-    ``fb`` (the up component of C_s^n b̂_a) gets + (C_s^n δ∇)_U."""
+    The up specific force f_U (n frame, per interval) gets the same attitude correction,
+    f ← (I + [φ×]) f (with the E, N components ``fen``), and the smoothed accelerometer-bias
+    correction, f ← f − C_s^n δ∇; ``fb`` (the up component of C_s^n b̂_a) gets + (C_s^n δ∇)_U."""
     n_s = len(t)
-    q2 = np.empty_like(q)
-    v2 = np.empty_like(v)
-    p2 = np.empty_like(p)
-    f2 = np.empty_like(f)
-    fb2 = np.empty_like(fb)
     x = np.zeros(15)
     for k in range(n_s):
         if k < m * decim:
             j = k // decim + 1
             if (k + 1) % decim == 0:
-                x[:] = xs[j, :15]
+                for i in range(15):
+                    x[i] = xs[j, i]
             else:
                 ta, tb = ep_t[j - 1], ep_t[j]
                 w = (t[k] - ta) / (tb - ta) if tb > ta else 1.0
-                x[:] = (1.0 - w) * xs[j - 1, :15] + w * (xs[j, :15] + dxs[j, :15])
+                for i in range(15):
+                    x[i] = (1.0 - w) * xs[j - 1, i] + w * (xs[j, i] + dxs[j, i])
         else:
-            x[:] = xs[m, :15]
-        qc = qmul(q_rotvec(x[0:3]), q[k])
-        q2[k] = qc / np.sqrt(np.sum(qc * qc))
-        v2[k] = v[k] - x[3:6]
+            for i in range(15):
+                x[i] = xs[m, i]
+        cc, ss = _rv(x[0], x[1], x[2])
+        a0, a1, a2, a3 = cc, ss * x[0], ss * x[1], ss * x[2]
+        w_, x_, y_, z_ = q[k, 0], q[k, 1], q[k, 2], q[k, 3]
+        n0 = a0 * w_ - a1 * x_ - a2 * y_ - a3 * z_
+        n1 = a0 * x_ + a1 * w_ + a2 * z_ - a3 * y_
+        n2 = a0 * y_ - a1 * z_ + a2 * w_ + a3 * x_
+        n3 = a0 * z_ + a1 * y_ - a2 * x_ + a3 * w_
+        nq = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+        n0, n1, n2, n3 = n0 / nq, n1 / nq, n2 / nq, n3 / nq
+        q[k, 0], q[k, 1], q[k, 2], q[k, 3] = n0, n1, n2, n3
+        for i in range(3):
+            v[k, i] -= x[3 + i]
         rm, rn = radii_nb(p[k, 0])
-        p2[k, 0] = p[k, 0] - x[7] / (rm + p[k, 2])
-        p2[k, 1] = p[k, 1] - x[6] / ((rn + p[k, 2]) * np.cos(p[k, 0]))
-        p2[k, 2] = p[k, 2] - x[8]
-        c = q_to_c(q2[k])
-        da = c @ x[12:15]
-        f2[k] = f[k] + cross(x[0:3], f[k]) - da
-        fb2[k] = fb[k] + da[2]
-    return q2, v2, p2, f2, fb2
+        p0, p2 = p[k, 0], p[k, 2]
+        p[k, 0] = p0 - x[7] / (rm + p2)
+        p[k, 1] = p[k, 1] - x[6] / ((rn + p2) * np.cos(p0))
+        p[k, 2] = p2 - x[8]
+        # (C_s^n δ∇)_U with the corrected attitude: its third row
+        c20 = 2 * (n1 * n3 - n0 * n2)
+        c21 = 2 * (n2 * n3 + n0 * n1)
+        c22 = 1 - 2 * (n1 * n1 + n2 * n2)
+        da = c20 * x[12] + c21 * x[13] + c22 * x[14]
+        fu[k] = fu[k] + (x[0] * np.float64(fen[k, 1]) - x[1] * np.float64(fen[k, 0])) - da
+        fb[k] = fb[k] + da
+
+
+@nb.njit(cache=True, inline="always")
+def _rv(a0, a1, a2):
+    """(c, s) of the quaternion [c, s a] of rotation vector a (as :func:`attitude.q_rotvec`)."""
+    n2 = a0 * a0 + a1 * a1 + a2 * a2
+    if n2 < 1e-16:
+        return 1.0 - n2 / 8.0, 0.5 - n2 / 48.0
+    a = np.sqrt(n2)
+    return np.cos(a / 2), np.sin(a / 2) / a
