@@ -30,7 +30,7 @@ import numpy as np
 
 from ldvsurvey.nav.attitude import cross, q_rotvec, q_to_c, qmul
 from ldvsurvey.nav.earth import radii_nb
-from ldvsurvey.nav.errmodel import build_f, c_db, discretize, skew_nb
+from ldvsurvey.nav.errmodel import build_f_into, c_db, skew_nb
 from ldvsurvey.nav.mech import mech_step_into, q_to_c_into
 
 
@@ -76,15 +76,9 @@ def _phi_into(fin, T, inv_tau, i_sz, Phi):
     Rows 9.. of F (biases, LDV and scale-factor states) hold only their diagonal (−1/τ), so the
     square needs the full sum only in the first nine rows."""
     n = Phi.shape[0]
-    c_sn = np.empty((3, 3))
-    for i in range(3):
-        for jj in range(3):
-            c_sn[i, jj] = fin[3 * i + jj]
-    F15 = build_f(15, c_sn, fin[9:12], fin[12:15], fin[15], fin[16])
+    c_sn = fin[0:9].reshape((3, 3))
     A = np.zeros((n, n))
-    for i in range(15):
-        for jj in range(15):
-            A[i, jj] = F15[i, jj]
+    build_f_into(A, c_sn, fin[9], fin[10], fin[11], fin[12], fin[13], fin[14], fin[15], fin[16])
     if i_sz >= 0:  # φ̇ = −C_s^n δω^s, δω^s = [0, 0, δs_z ω_z]
         for i in range(3):
             A[i, i_sz] = -c_sn[i, 2] * fin[17]
@@ -93,13 +87,17 @@ def _phi_into(fin, T, inv_tau, i_sz, Phi):
     for i in range(n):
         for jj in range(n):
             A[i, jj] *= T
+    sq = np.zeros(n)
     for i in range(n):
         if i < 9:
+            sq[:] = 0.0
+            for k in range(n):  # row i of A², skipping the zeros of A (about half)
+                aik = A[i, k]
+                if aik != 0.0:
+                    for jj in range(n):
+                        sq[jj] += aik * A[k, jj]
             for jj in range(n):
-                s = 0.0
-                for k in range(n):
-                    s += A[i, k] * A[k, jj]
-                Phi[i, jj] = ((1.0 if i == jj else 0.0) + A[i, jj]) + 0.5 * s
+                Phi[i, jj] = ((1.0 if i == jj else 0.0) + A[i, jj]) + 0.5 * sq[jj]
         else:
             for jj in range(n):
                 Phi[i, jj] = 0.0
@@ -113,23 +111,26 @@ def _propagate(P, Phi, qd, T, M, out):
     for i in range(n):
         if i < 9:
             for jj in range(n):
-                s = 0.0
-                for k in range(n):
-                    s += Phi[i, k] * P[k, jj]
-                M[i, jj] = s
+                M[i, jj] = 0.0
+            for k in range(n):
+                f = Phi[i, k]
+                if f != 0.0:
+                    for jj in range(n):
+                        M[i, jj] += f * P[k, jj]
         else:
             d = Phi[i, i]
             for jj in range(n):
                 M[i, jj] = d * P[i, jj]
-    for i in range(n):
-        for jj in range(n):
+    for i in range(n):  # Φ P Φᵀ is symmetric: the upper triangle, mirrored
+        for jj in range(i, n):
             if jj < 9:
                 s = 0.0
                 for k in range(n):
                     s += M[i, k] * Phi[jj, k]
-                out[i, jj] = s
             else:
-                out[i, jj] = M[i, jj] * Phi[jj, jj]
+                s = M[i, jj] * Phi[jj, jj]
+            out[i, jj] = s
+            out[jj, i] = s
         out[i, i] += qd[i] * T
 
 
@@ -185,17 +186,23 @@ def _update_rows(x, P, H, z, r, gate, kind, run, rejected, nis_row, ph):
     n = P.shape[0]
     g_eff = gate if run[kind] < MAX_REJECT_RUN else 0.0
     any_rej = False
+    nz = np.empty(n, dtype=np.int64)
     for row in range(H.shape[0]):
+        n_nz = 0  # H rows are sparse (a few attitude, velocity or position and LDV columns)
+        for jj in range(n):
+            if H[row, jj] != 0.0:
+                nz[n_nz] = jj
+                n_nz += 1
         hph = 0.0
         hx = 0.0
         for i in range(n):
             acc = 0.0
-            for jj in range(n):
-                acc += P[i, jj] * H[row, jj]
+            for a in range(n_nz):
+                acc += P[i, nz[a]] * H[row, nz[a]]
             ph[i] = acc
-        for i in range(n):
-            hph += H[row, i] * ph[i]
-            hx += H[row, i] * x[i]
+        for a in range(n_nz):
+            hph += H[row, nz[a]] * ph[nz[a]]
+            hx += H[row, nz[a]] * x[nz[a]]
         s = hph + r[row]
         nu = z[row] - hx
         nis_row[row] = nu / np.sqrt(s)
@@ -516,6 +523,9 @@ def rts(pp, fin, dts, dxs, qd, inv_tau, i_sz, keep_cov):
     Phi = np.empty((n, n))
     M = np.empty((n, n))
     pm = np.empty((n, n))
+    L = np.empty((n, n))
+    at = np.empty((n, n))
+    E = np.empty((n, n))
     tmp = np.empty(n)
     _unpack(pp[m1 - 1], Ps)
     for i in range(n):
@@ -526,8 +536,8 @@ def rts(pp, fin, dts, dxs, qd, inv_tau, i_sz, keep_cov):
         _unpack(pp[j], Pp)
         _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, Phi)
         _propagate(Pp, Phi, qd, dts[j + 1], M, pm)
-        # A = P⁺_j Φᵀ (P⁻_{j+1})⁻¹  ⇒  Aᵀ = solve(P⁻, Φ P⁺_j)
-        at = np.linalg.solve(pm, M)
+        # A = P⁺_j Φᵀ (P⁻_{j+1})⁻¹  ⇒  Aᵀ = (P⁻)⁻¹ Φ P⁺_j, by Cholesky (P⁻ is symmetric positive definite)
+        _chol_solve(pm, M, L, at)
         for i in range(n):
             tmp[i] = xs[j + 1, i] + dxs[j + 1, i]
         for i in range(n):
@@ -535,16 +545,71 @@ def rts(pp, fin, dts, dxs, qd, inv_tau, i_sz, keep_cov):
             for k in range(n):
                 s += at[k, i] * tmp[k]
             xs[j, i] = s
-        # P_s(j) = P⁺_j + A (P_s(j+1) − P⁻_{j+1}) Aᵀ
+        # P_s(j) = P⁺_j + A (P_s(j+1) − P⁻_{j+1}) Aᵀ, with D = P_s(j+1) − P⁻ and E = D Aᵀ
         for i in range(n):
             for k in range(n):
                 pm[i, k] = Ps[i, k] - pm[i, k]
-        Ps = Pp + at.T @ pm @ at
+        for i in range(n):
+            for k in range(n):
+                E[i, k] = 0.0
+            for r in range(n):
+                d = pm[i, r]
+                for k in range(n):
+                    E[i, k] += d * at[r, k]
+        for i in range(n):  # symmetric: the upper triangle, mirrored
+            for k in range(i, n):
+                s = 0.0
+                for r in range(n):
+                    s += at[r, i] * E[r, k]
+                s += Pp[i, k]
+                Ps[i, k] = s
+                Ps[k, i] = s
         for i in range(n):
             sig[j, i] = np.sqrt(max(Ps[i, i], 0.0))
         if keep_cov:
             ps_all[j] = Ps
     return xs, sig, ps_all
+
+
+@nb.njit(cache=True)
+def _chol_solve(S, B, L, X):
+    """X = S⁻¹ B for symmetric positive definite S (n×n) and B (n×m), through S = L Lᵀ (L written).
+
+    Falls back to LU (numpy's solve) when S is not numerically positive definite."""
+    n = S.shape[0]
+    for jj in range(n):
+        d = S[jj, jj]
+        for k in range(jj):
+            d -= L[jj, k] * L[jj, k]
+        if not d > 0.0:
+            X[:, :] = np.linalg.solve(S, B)
+            return
+        d = np.sqrt(d)
+        L[jj, jj] = d
+        for i in range(jj + 1, n):
+            s = S[i, jj]
+            for k in range(jj):
+                s -= L[i, k] * L[jj, k]
+            L[i, jj] = s / d
+    m = B.shape[1]
+    for i in range(n):  # L Y = B, row by row (all columns at once)
+        for c in range(m):
+            X[i, c] = B[i, c]
+        for k in range(i):
+            lik = L[i, k]
+            for c in range(m):
+                X[i, c] -= lik * X[k, c]
+        d = L[i, i]
+        for c in range(m):
+            X[i, c] /= d
+    for i in range(n - 1, -1, -1):  # Lᵀ X = Y
+        for k in range(i + 1, n):
+            lki = L[k, i]
+            for c in range(m):
+                X[i, c] -= lki * X[k, c]
+        d = L[i, i]
+        for c in range(m):
+            X[i, c] /= d
 
 
 @nb.njit(cache=True)
