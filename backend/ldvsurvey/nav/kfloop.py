@@ -28,9 +28,9 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
-from ldvsurvey.nav.attitude import cross, q_rotvec, q_to_c, qmul
+from ldvsurvey.nav.attitude import q_rotvec, qmul
 from ldvsurvey.nav.earth import radii_nb
-from ldvsurvey.nav.errmodel import build_f_into, c_db, skew_nb
+from ldvsurvey.nav.errmodel import build_f_into, c_db
 from ldvsurvey.nav.mech import mech_step_into, q_to_c_into
 
 
@@ -44,6 +44,35 @@ def feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a):
     rm, rn = radii_nb(pos[0])
     dpos = np.array([x[7] / (rm + pos[2]), x[6] / ((rn + pos[2]) * np.cos(pos[0])), x[8]])
     return (q, v - x[3:6], pos - dpos, v_prev - x[3:6], pos_prev - dpos, b_g + x[9:12], b_a + x[12:15])
+
+
+@nb.njit(cache=True)
+def _feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a):
+    """:func:`feedback` in place, without allocation."""
+    c, s = _rv(x[0], x[1], x[2])
+    a0, a1, a2, a3 = c, s * x[0], s * x[1], s * x[2]
+    w, qx, qy, qz = q[0], q[1], q[2], q[3]
+    n0 = a0 * w - a1 * qx - a2 * qy - a3 * qz
+    n1 = a0 * qx + a1 * w + a2 * qz - a3 * qy
+    n2 = a0 * qy - a1 * qz + a2 * w + a3 * qx
+    n3 = a0 * qz + a1 * qy - a2 * qx + a3 * w
+    nq = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+    q[0], q[1], q[2], q[3] = n0 / nq, n1 / nq, n2 / nq, n3 / nq
+    rm, rn = radii_nb(pos[0])
+    d0 = x[7] / (rm + pos[2])
+    d1 = x[6] / ((rn + pos[2]) * np.cos(pos[0]))
+    d2 = x[8]
+    for i in range(3):
+        v[i] -= x[3 + i]
+        v_prev[i] -= x[3 + i]
+        b_g[i] += x[9 + i]
+        b_a[i] += x[12 + i]
+    pos[0] -= d0
+    pos[1] -= d1
+    pos[2] -= d2
+    pos_prev[0] -= d0
+    pos_prev[1] -= d1
+    pos_prev[2] -= d2
 
 
 MAX_REJECT_RUN = 5  #: epochs of consecutive rejections after which a measurement is taken anyway
@@ -178,15 +207,15 @@ def unpack_all(pp, n):
 
 
 @nb.njit(cache=True)
-def _update_rows(x, P, H, z, r, gate, kind, run, rejected, nis_row, ph):
+def _update_rows(x, P, H, z, r, gate, kind, run, rejected, nis_row, ph, nz):
     """Scalar updates for the rows of one measurement type with the innovation gate and its
     lock-out protection: after MAX_REJECT_RUN epochs with a rejection the gate is lifted.
-    ``kind`` indexes ``run``/``rejected``; normalized innovations go to ``nis_row``; ``ph`` (n,) is work space.
+    ``kind`` indexes ``run``/``rejected``; normalized innovations go to ``nis_row``; ``ph`` (n,) float and
+    ``nz`` (n,) int are work space.
     In place and without allocation: P ← P − k (P h)ᵀ with k = P h / s."""
     n = P.shape[0]
     g_eff = gate if run[kind] < MAX_REJECT_RUN else 0.0
     any_rej = False
-    nz = np.empty(n, dtype=np.int64)
     for row in range(H.shape[0]):
         n_nz = 0  # H rows are sparse (a few attitude, velocity or position and LDV columns)
         for jj in range(n):
@@ -267,7 +296,14 @@ def forward(imu, mdl, ldv, gnss, st):
     Phi = np.empty((n, n))
     M = np.empty((n, n))
     ph = np.empty(n)
+    nz = np.empty(n, dtype=np.int64)
     x = np.zeros(n)
+    H = np.zeros((3, n))
+    r3 = np.empty(3)
+    zl = np.empty(3)
+    ub = np.empty((3, 5))
+    zupt_r = mdl.zupt_sigma ** 2
+    ldv_r = ldv.sigma ** 2
     _pack(P, pp[0])
     par_out[0] = par
     bias_out[0, :3], bias_out[0, 3:] = b_g, b_a
@@ -378,10 +414,12 @@ def forward(imu, mdl, ldv, gnss, st):
             # GNSS fix at g_t[gi] in (t[k-1], t[k]]: residual INS − GNSS at the antenna, local metres
             rm, rn = radii_nb(pos[0])
             back = t[k] - g_t[gi]
-            lev = c_bn @ l_gnss
-            gz[0] = (pos[1] - g_pos[gi, 1]) * (rn + pos[2]) * np.cos(pos[0]) + lev[0] - v[0] * back
-            gz[1] = (pos[0] - g_pos[gi, 0]) * (rm + pos[2]) + lev[1] - v[1] * back
-            gz[2] = pos[2] - g_pos[gi, 2] + lev[2] - v[2] * back
+            lev0 = c_bn[0, 0] * l_gnss[0] + c_bn[0, 1] * l_gnss[1] + c_bn[0, 2] * l_gnss[2]
+            lev1 = c_bn[1, 0] * l_gnss[0] + c_bn[1, 1] * l_gnss[1] + c_bn[1, 2] * l_gnss[2]
+            lev2 = c_bn[2, 0] * l_gnss[0] + c_bn[2, 1] * l_gnss[1] + c_bn[2, 2] * l_gnss[2]
+            gz[0] = (pos[1] - g_pos[gi, 1]) * (rn + pos[2]) * np.cos(pos[0]) + lev0 - v[0] * back
+            gz[1] = (pos[0] - g_pos[gi, 0]) * (rm + pos[2]) + lev1 - v[1] * back
+            gz[2] = pos[2] - g_pos[gi, 2] + lev2 - v[2] * back
             gc[:, :] = c_bn
             gsig[0], gsig[1] = g_sig[gi, 0], g_sig[gi, 1]
             g_pending = True
@@ -411,39 +449,55 @@ def forward(imu, mdl, ldv, gnss, st):
         dts[j] = T
         x[:] = 0.0
         if mdl.zupt[j]:
-            H = np.zeros((3, n))
+            H[:, :] = 0.0
             for i in range(3):
                 H[i, 3 + i] = 1.0
-            _update_rows(x, P, H, v, np.full(3, mdl.zupt_sigma ** 2), gate, 0, run, rejected, nis[j, 0:3], ph)
+                r3[i] = zupt_r
+            _update_rows(x, P, H, v, r3, gate, 0, run, rejected, nis[j, 0:3], ph, nz)
         if ln > 0:
-            z = lz / ln
-            v_l = lvl / ln
-            vd = lvd / ln
-            cb = lc / ln
-            ch = c_db(par[1] + par[4] * la / ln, par[2]) if use_k else cdb
-            cols = np.zeros((3, 5))
-            cols[:, 0] = -cb @ (ch @ np.array([0.0, lnu[0] / ln, 0.0]))
-            cols[:, 1] = -cb @ (ch @ cross(np.array([1.0, 0.0, 0.0]), vd))
-            cols[:, 2] = -cb @ cross(np.array([0.0, 0.0, 1.0]), ch @ vd)
-            cols[:, 3] = -cb @ (ch @ np.array([0.0, 0.0, lnu[1] / ln]))
-            cols[:, 4] = -cb @ (ch @ cross(np.array([1.0, 0.0, 0.0]), lvda / ln))
-            hphi = -skew_nb(v_l)
-            H = np.zeros((3, n))
             for i in range(3):
-                H[i, 0:3] = hphi[i]
-                H[i, 3 + i] = 1.0
+                zl[i] = lz[i] / ln
+                r3[i] = ldv_r[i] / ln
+            v_l0, v_l1, v_l2 = lvl[0] / ln, lvl[1] / ln, lvl[2] / ln
+            vd1, vd2 = lvd[1] / ln, lvd[2] / ln
+            ch = c_db(par[1] + par[4] * la / ln, par[2]) if use_k else cdb
+            # the LDV columns, each −C̄_b^n (C_d^b u): u = ∂V^d/∂(s_f, η_L, φ_L, s_u, k_η) in the frames below
+            #   s_f: [0, ν̄_f, 0] (d); η_L: e_1 × V̄^d = [0, −vd2, vd1] (d); φ_L: e_3 × (C_d^b V̄^d) (b);
+            #   s_u: [0, 0, ν̄_u] (d); k_η: e_1 × mean(V^d a_f) = [0, −Σvd2 a/n, Σvd1 a/n] (d)
+            nu0, nu1 = lnu[0] / ln, lnu[1] / ln
+            w0 = ch[0, 1] * vd1 + ch[0, 2] * vd2
+            w1 = ch[1, 1] * vd1 + ch[1, 2] * vd2
+            ka, kb = -lvda[2] / ln, lvda[1] / ln
+            for r in range(3):
+                ub[r, 0] = ch[r, 1] * nu0
+                ub[r, 1] = ch[r, 1] * (-vd2) + ch[r, 2] * vd1
+                ub[r, 3] = ch[r, 2] * nu1
+                ub[r, 4] = ch[r, 1] * ka + ch[r, 2] * kb
+            ub[0, 2], ub[1, 2], ub[2, 2] = -w1, w0, 0.0
+            H[:, :] = 0.0
+            for i in range(3):
                 for a in range(5):
                     if aug_idx[a] >= 0:
-                        H[i, aug_idx[a]] = cols[i, a]
-            _update_rows(x, P, H, z, ldv.sigma ** 2 / ln, gate, 1, run, rejected, nis[j, 3:6], ph)
+                        H[i, aug_idx[a]] = -((lc[i, 0] / ln) * ub[0, a] + (lc[i, 1] / ln) * ub[1, a]
+                                             + (lc[i, 2] / ln) * ub[2, a])
+                H[i, 3 + i] = 1.0
+            # attitude: −[v̄_l ×]
+            H[0, 1], H[0, 2] = v_l2, -v_l1
+            H[1, 0], H[1, 2] = -v_l2, v_l0
+            H[2, 0], H[2, 1] = v_l1, -v_l0
+            _update_rows(x, P, H, zl, r3, gate, 1, run, rejected, nis[j, 3:6], ph, nz)
         if g_pending:
-            hphi = skew_nb(gc @ l_gnss)
-            H = np.zeros((3, n))
+            la0 = gc[0, 0] * l_gnss[0] + gc[0, 1] * l_gnss[1] + gc[0, 2] * l_gnss[2]
+            la1 = gc[1, 0] * l_gnss[0] + gc[1, 1] * l_gnss[1] + gc[1, 2] * l_gnss[2]
+            la2 = gc[2, 0] * l_gnss[0] + gc[2, 1] * l_gnss[1] + gc[2, 2] * l_gnss[2]
+            H[:, :] = 0.0
+            H[0, 1], H[0, 2] = -la2, la1  # [(C_b^n l) ×]
+            H[1, 0], H[1, 2] = la2, -la0
+            H[2, 0], H[2, 1] = -la1, la0
             for i in range(3):
-                H[i, 0:3] = hphi[i]
                 H[i, 6 + i] = 1.0
-            r_g = np.array([gsig[0] ** 2, gsig[0] ** 2, gsig[1] ** 2])
-            _update_rows(x, P, H, gz, r_g, gate, 2, run, rejected, nis[j, 6:9], ph)
+            r3[0], r3[1], r3[2] = gsig[0] ** 2, gsig[0] ** 2, gsig[1] ** 2
+            _update_rows(x, P, H, gz, r3, gate, 2, run, rejected, nis[j, 6:9], ph, nz)
             g_pending = False
         for i in range(n):  # P ← (P + Pᵀ)/2
             for jj in range(i + 1, n):
@@ -451,14 +505,7 @@ def forward(imu, mdl, ldv, gnss, st):
                 P[i, jj] = a
                 P[jj, i] = a
         # ---- feedback ----
-        q2, v2, p2, vp2, pp2, bg2, ba2 = feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
-        q[:] = q2
-        v[:] = v2
-        pos[:] = p2
-        v_prev[:] = vp2
-        pos_prev[:] = pp2
-        b_g[:] = bg2
-        b_a[:] = ba2
+        _feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
         for a in range(5):
             if aug_idx[a] >= 0:
                 par[a] -= x[aug_idx[a]]
