@@ -345,16 +345,17 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     lin = kfloop.LdvIn(ldv_ok, nu_f, nu_u, par0, l_ldv, np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, a_f)
     gin = kfloop.GnssIn(g_t, g_pos, g_sig, l_g)
     st = kfloop.Start(np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), b0)
-    (q, v, p, f_u, f_en, f_b, pp, fin, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(imu, mdl, lin, gin, st)
+    (q, v, p, f_u, f_en, f_b, ck, upd, sig_f, fin, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(
+        imu, mdl, lin, gin, st)
+    zs = float(cfg.zupt_sigma_mps)
     if smooth:
-        xs, sig_ep, ps = kfloop.rts(pp, fin, dts, dxs, qd, inv_tau, i_sz, keep_cov)
-        del pp, fin
+        xs, sig_ep, ps = kfloop.rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zs, keep_cov)
         kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f_u, f_en, f_b)
     else:
         xs = np.zeros_like(dxs)
-        sig_ep = np.sqrt(np.maximum(kfloop.packed_diag(pp, n), 0.0))
-        ps = kfloop.unpack_all(pp, n) if keep_cov else None
-    del f_en
+        sig_ep = sig_f
+        ps = kfloop.forward_covs(ck, upd, fin, dts, qd, inv_tau, i_sz, aug_idx, zs) if keep_cov else None
+    del f_en, ck, upd, fin
     ep_bias = bias + xs[:, 9:15]
     ldv_params = {}
     for a in AUG_NAMES:

@@ -186,65 +186,123 @@ def _unpack(row, P):
 
 
 @nb.njit(cache=True)
-def packed_diag(pp, n):
-    """Diagonals (M, n) of packed upper-triangle covariances (M, n(n+1)/2)."""
-    out = np.empty((pp.shape[0], n))
-    for j in range(pp.shape[0]):
-        idx = 0
-        for i in range(n):
-            out[j, i] = pp[j, idx]
-            idx += n - i
-    return out
+def _cov_row(P, H, row, r, ph, nz):
+    """P h and s = hᵀ P h + r for row ``row`` of H (its non-zeros only); ph (n,) written. Returns s."""
+    n = P.shape[0]
+    n_nz = 0  # H rows are sparse (a few attitude, velocity or position and LDV columns)
+    for jj in range(n):
+        if H[row, jj] != 0.0:
+            nz[n_nz] = jj
+            n_nz += 1
+    hph = 0.0
+    for i in range(n):
+        acc = 0.0
+        for a in range(n_nz):
+            acc += P[i, nz[a]] * H[row, nz[a]]
+        ph[i] = acc
+    for a in range(n_nz):
+        hph += H[row, nz[a]] * ph[nz[a]]
+    return hph + r
 
 
 @nb.njit(cache=True)
-def unpack_all(pp, n):
-    """Full covariances (M, n, n) from packed upper triangles."""
-    out = np.empty((pp.shape[0], n, n))
-    for j in range(pp.shape[0]):
-        _unpack(pp[j], out[j])
-    return out
+def _cov_apply(P, ph, s):
+    """P ← P − k (P h)ᵀ with k = P h / s (in place)."""
+    n = P.shape[0]
+    for i in range(n):
+        k_i = ph[i] / s
+        for jj in range(n):
+            P[i, jj] -= k_i * ph[jj]
 
 
 @nb.njit(cache=True)
-def _update_rows(x, P, H, z, r, gate, kind, run, rejected, nis_row, ph, nz):
+def _update_rows(x, P, H, z, r, gate, kind, run, rejected, nis_row, ph, nz, taken):
     """Scalar updates for the rows of one measurement type with the innovation gate and its
     lock-out protection: after MAX_REJECT_RUN epochs with a rejection the gate is lifted.
-    ``kind`` indexes ``run``/``rejected``; normalized innovations go to ``nis_row``; ``ph`` (n,) float and
-    ``nz`` (n,) int are work space.
-    In place and without allocation: P ← P − k (P h)ᵀ with k = P h / s."""
+    ``kind`` indexes ``run``/``rejected``; normalized innovations go to ``nis_row``, 1/0 (taken or
+    rejected) to ``taken``; ``ph`` (n,) float and ``nz`` (n,) int are work space. In place, no allocation."""
     n = P.shape[0]
     g_eff = gate if run[kind] < MAX_REJECT_RUN else 0.0
     any_rej = False
     for row in range(H.shape[0]):
-        n_nz = 0  # H rows are sparse (a few attitude, velocity or position and LDV columns)
-        for jj in range(n):
-            if H[row, jj] != 0.0:
-                nz[n_nz] = jj
-                n_nz += 1
-        hph = 0.0
+        s = _cov_row(P, H, row, r[row], ph, nz)
         hx = 0.0
         for i in range(n):
-            acc = 0.0
-            for a in range(n_nz):
-                acc += P[i, nz[a]] * H[row, nz[a]]
-            ph[i] = acc
-        for a in range(n_nz):
-            hph += H[row, nz[a]] * ph[nz[a]]
-            hx += H[row, nz[a]] * x[nz[a]]
-        s = hph + r[row]
+            hx += H[row, i] * x[i]
         nu = z[row] - hx
         nis_row[row] = nu / np.sqrt(s)
         if g_eff > 0 and nu * nu > g_eff * g_eff * s:
             rejected[kind] += 1
             any_rej = True
+            taken[row] = 0.0
             continue
+        taken[row] = 1.0
         for i in range(n):
-            k_i = ph[i] / s
-            x[i] += k_i * nu
-            for jj in range(n):
-                P[i, jj] -= k_i * ph[jj]
+            x[i] += ph[i] / s * nu
+        _cov_apply(P, ph, s)
     run[kind] = run[kind] + 1 if any_rej else 0
+
+
+#: per-epoch record of the measurement updates, enough to redo them on the covariance alone:
+#: [0] ZUPT done, [1:4] its rows taken; [4] LDV done, [5:8] rows taken, [8:11] r, [11:14] v̄_l
+#: (attitude columns), [14:29] LDV-state columns H[i, aug] (i·5 + a); [29] GNSS done, [30:33] rows
+#: taken, [33:36] C_b^n l (attitude columns), [36:39] r
+N_UPD = 39
+#: epochs between stored covariances: the smoother redoes the ones between (bit for bit)
+CK_EVERY = 64
+
+
+@nb.njit(cache=True)
+def _redo_updates(P, rec, aug_idx, zupt_r, H, ph, nz):
+    """The measurement updates of one epoch on the covariance alone, from its record."""
+    n = P.shape[0]
+    if rec[0] != 0.0:
+        H[:, :] = 0.0
+        for i in range(3):
+            H[i, 3 + i] = 1.0
+        for row in range(3):
+            if rec[1 + row] != 0.0:
+                s = _cov_row(P, H, row, zupt_r, ph, nz)
+                _cov_apply(P, ph, s)
+    if rec[4] != 0.0:
+        H[:, :] = 0.0
+        for i in range(3):
+            for a in range(5):
+                if aug_idx[a] >= 0:
+                    H[i, aug_idx[a]] = rec[14 + 5 * i + a]
+            H[i, 3 + i] = 1.0
+        v_l0, v_l1, v_l2 = rec[11], rec[12], rec[13]
+        H[0, 1], H[0, 2] = v_l2, -v_l1
+        H[1, 0], H[1, 2] = -v_l2, v_l0
+        H[2, 0], H[2, 1] = v_l1, -v_l0
+        for row in range(3):
+            if rec[5 + row] != 0.0:
+                s = _cov_row(P, H, row, rec[8 + row], ph, nz)
+                _cov_apply(P, ph, s)
+    if rec[29] != 0.0:
+        la0, la1, la2 = rec[33], rec[34], rec[35]
+        H[:, :] = 0.0
+        H[0, 1], H[0, 2] = -la2, la1
+        H[1, 0], H[1, 2] = la2, -la0
+        H[2, 0], H[2, 1] = -la1, la0
+        for i in range(3):
+            H[i, 6 + i] = 1.0
+        for row in range(3):
+            if rec[30 + row] != 0.0:
+                s = _cov_row(P, H, row, rec[36 + row], ph, nz)
+                _cov_apply(P, ph, s)
+    _symmetrize(P)
+
+
+@nb.njit(cache=True)
+def _symmetrize(P):
+    """P ← (P + Pᵀ)/2 in place."""
+    n = P.shape[0]
+    for i in range(n):
+        for jj in range(i + 1, n):
+            a = 0.5 * (P[i, jj] + P[jj, i])
+            P[i, jj] = a
+            P[jj, i] = a
 
 
 @nb.njit(cache=True)
@@ -270,7 +328,9 @@ def forward(imu, mdl, ldv, gnss, st):
     fu_out = np.empty(n_s)  # up specific force in n over each interval, as integrated
     fen_out = np.empty((n_s, 2), dtype=np.float32)  # its E, N components (for the smoother's φ × f)
     fb_out = np.empty(n_s)  # up component of the accelerometer-bias correction (C_s^n b̂_a)_U
-    pp = np.empty((m + 1, n * (n + 1) // 2))
+    ck = np.empty((m // CK_EVERY + 1, n * (n + 1) // 2))  # P⁺ every CK_EVERY epochs (packed)
+    upd = np.zeros((m + 1, N_UPD))
+    sig_f = np.empty((m + 1, n))  # forward 1-σ
     fin = np.zeros((m + 1, N_FIN))
     dts = np.zeros(m + 1)
     dxs = np.zeros((m + 1, n))
@@ -304,7 +364,9 @@ def forward(imu, mdl, ldv, gnss, st):
     ub = np.empty((3, 5))
     zupt_r = mdl.zupt_sigma ** 2
     ldv_r = ldv.sigma ** 2
-    _pack(P, pp[0])
+    _pack(P, ck[0])
+    for i in range(n):
+        sig_f[0, i] = np.sqrt(max(P[i, i], 0.0))
     par_out[0] = par
     bias_out[0, :3], bias_out[0, 3:] = b_g, b_a
     has_g = len(xi) > 0
@@ -453,7 +515,9 @@ def forward(imu, mdl, ldv, gnss, st):
             for i in range(3):
                 H[i, 3 + i] = 1.0
                 r3[i] = zupt_r
-            _update_rows(x, P, H, v, r3, gate, 0, run, rejected, nis[j, 0:3], ph, nz)
+            rec = upd[j]
+            rec[0] = 1.0
+            _update_rows(x, P, H, v, r3, gate, 0, run, rejected, nis[j, 0:3], ph, nz, rec[1:4])
         if ln > 0:
             for i in range(3):
                 zl[i] = lz[i] / ln
@@ -485,7 +549,15 @@ def forward(imu, mdl, ldv, gnss, st):
             H[0, 1], H[0, 2] = v_l2, -v_l1
             H[1, 0], H[1, 2] = -v_l2, v_l0
             H[2, 0], H[2, 1] = v_l1, -v_l0
-            _update_rows(x, P, H, zl, r3, gate, 1, run, rejected, nis[j, 3:6], ph, nz)
+            rec = upd[j]
+            rec[4] = 1.0
+            for i in range(3):
+                rec[8 + i] = r3[i]
+                for a in range(5):
+                    if aug_idx[a] >= 0:
+                        rec[14 + 5 * i + a] = H[i, aug_idx[a]]
+            rec[11], rec[12], rec[13] = v_l0, v_l1, v_l2
+            _update_rows(x, P, H, zl, r3, gate, 1, run, rejected, nis[j, 3:6], ph, nz, rec[5:8])
         if g_pending:
             la0 = gc[0, 0] * l_gnss[0] + gc[0, 1] * l_gnss[1] + gc[0, 2] * l_gnss[2]
             la1 = gc[1, 0] * l_gnss[0] + gc[1, 1] * l_gnss[1] + gc[1, 2] * l_gnss[2]
@@ -497,13 +569,13 @@ def forward(imu, mdl, ldv, gnss, st):
             for i in range(3):
                 H[i, 6 + i] = 1.0
             r3[0], r3[1], r3[2] = gsig[0] ** 2, gsig[0] ** 2, gsig[1] ** 2
-            _update_rows(x, P, H, gz, r3, gate, 2, run, rejected, nis[j, 6:9], ph, nz)
+            rec = upd[j]
+            rec[29] = 1.0
+            rec[33], rec[34], rec[35] = la0, la1, la2
+            rec[36], rec[37], rec[38] = r3[0], r3[1], r3[2]
+            _update_rows(x, P, H, gz, r3, gate, 2, run, rejected, nis[j, 6:9], ph, nz, rec[30:33])
             g_pending = False
-        for i in range(n):  # P ← (P + Pᵀ)/2
-            for jj in range(i + 1, n):
-                a = 0.5 * (P[i, jj] + P[jj, i])
-                P[i, jj] = a
-                P[jj, i] = a
+        _symmetrize(P)
         # ---- feedback ----
         _feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
         for a in range(5):
@@ -513,7 +585,10 @@ def forward(imu, mdl, ldv, gnss, st):
         q_to_c_into(q, c_sn)
         _body(c_sn, c_bs, k, rotating, c_bn_prev)
         dxs[j] = x
-        _pack(P, pp[j])
+        if j % CK_EVERY == 0:
+            _pack(P, ck[j // CK_EVERY])
+        for i in range(n):
+            sig_f[j, i] = np.sqrt(max(P[i, i], 0.0))
         par_out[j] = par
         bias_out[j, :3], bias_out[j, 3:] = b_g, b_a
         fsum[:] = 0.0
@@ -534,8 +609,8 @@ def forward(imu, mdl, ldv, gnss, st):
         for i in range(3):
             v_out[k, i] = v[i]
             p_out[k, i] = pos[i]
-    return (q_out, v_out, p_out, fu_out, fen_out, fb_out, pp, fin, dts, dxs, par_out, bias_out, nis, rejected,
-            sz_out)
+    return (q_out, v_out, p_out, fu_out, fen_out, fb_out, ck, upd, sig_f, fin, dts, dxs, par_out, bias_out, nis,
+            rejected, sz_out)
 
 
 @nb.njit(cache=True, inline="always")
@@ -553,20 +628,60 @@ def _body(c_sn, c_bs, k, rotating, out):
 
 
 @nb.njit(cache=True)
-def rts(pp, fin, dts, dxs, qd, inv_tau, i_sz, keep_cov):
+def _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws):
+    """P⁺ of the epochs b·CK_EVERY … into ``blk`` (K, n, n), redone from the checkpoint of block b.
+    Returns the number of epochs filled. ``ws``: (3, n, n) work space."""
+    m1 = dts.shape[0]
+    n = blk.shape[1]
+    j0 = b * CK_EVERY
+    j1 = min(j0 + CK_EVERY, m1)
+    _unpack(ck[b], blk[0])
+    Phi, M = ws[0], ws[1]
+    H = np.zeros((3, n))
+    ph = np.empty(n)
+    nz = np.empty(n, dtype=np.int64)
+    for e in range(j0 + 1, j1):
+        _phi_into(fin[e], dts[e], inv_tau, i_sz, Phi)
+        P = blk[e - j0]
+        _propagate(blk[e - j0 - 1], Phi, qd, dts[e], M, P)
+        _redo_updates(P, upd[e], aug_idx, zupt_r, H, ph, nz)
+    return j1 - j0
+
+
+@nb.njit(cache=True)
+def forward_covs(ck, upd, fin, dts, qd, inv_tau, i_sz, aug_idx, zupt_sigma):
+    """The forward P⁺ (M+1, n, n) of every epoch, redone from the checkpoints."""
+    zupt_r = zupt_sigma ** 2
+    m1 = dts.shape[0]
+    n = len(qd)
+    out = np.empty((m1, n, n))
+    blk = np.empty((CK_EVERY, n, n))
+    ws = np.empty((3, n, n))
+    for b in range(ck.shape[0]):
+        cnt = _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws)
+        out[b * CK_EVERY:b * CK_EVERY + cnt] = blk[:cnt]
+    return out
+
+
+@nb.njit(cache=True)
+def rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zupt_sigma, keep_cov):
     """Rauch-Tung-Striebel smoother over the stored closed-loop forward pass.
 
-    Φ_{j+1} is rebuilt from ``fin`` and P⁻_{j+1} = Φ P⁺_j Φᵀ + Q T recomputed, as in the forward pass.
+    Works backwards block by block: the forward P⁺ of a block's epochs is redone from its
+    checkpoint and the epochs' update records (the same arithmetic as the forward pass, so the same
+    numbers), Φ_{j+1} is rebuilt from ``fin`` and P⁻_{j+1} = Φ P⁺_j Φᵀ + Q T recomputed.
     Returns x_s (M+1, n): smoothed error of the post-feedback nominal at each epoch; the 1-σ
     (M+1, n) of P_s; and P_s (M+1, n, n) when ``keep_cov`` (else an empty (0, n, n)).
     """
-    m1 = pp.shape[0]
+    zupt_r = zupt_sigma ** 2
+    m1 = dts.shape[0]
     n = dxs.shape[1]
     xs = np.zeros((m1, n))
     sig = np.empty((m1, n))
     ps_all = np.empty((m1 if keep_cov else 0, n, n))
+    blk = np.empty((CK_EVERY, n, n))
+    ws = np.empty((3, n, n))
     Ps = np.empty((n, n))
-    Pp = np.empty((n, n))
     Phi = np.empty((n, n))
     M = np.empty((n, n))
     pm = np.empty((n, n))
@@ -575,40 +690,46 @@ def rts(pp, fin, dts, dxs, qd, inv_tau, i_sz, keep_cov):
     E = np.empty((n, n))
     a_ = np.empty((n, n))
     tmp = np.empty(n)
-    _unpack(pp[m1 - 1], Ps)
-    for i in range(n):
-        sig[m1 - 1, i] = np.sqrt(max(Ps[i, i], 0.0))
-    if keep_cov:
-        ps_all[m1 - 1] = Ps
-    for j in range(m1 - 2, -1, -1):
-        _unpack(pp[j], Pp)
-        _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, Phi)
-        _propagate(Pp, Phi, qd, dts[j + 1], M, pm)
-        # A = P⁺_j Φᵀ (P⁻_{j+1})⁻¹  ⇒  Aᵀ = (P⁻)⁻¹ Φ P⁺_j, by Cholesky (P⁻ is symmetric positive definite)
-        _chol_solve(pm, M, L, at)
-        for i in range(n):
-            tmp[i] = xs[j + 1, i] + dxs[j + 1, i]
-        for i in range(n):
-            s = 0.0
-            for k in range(n):
-                s += at[k, i] * tmp[k]
-            xs[j, i] = s
-        # P_s(j) = P⁺_j + A (P_s(j+1) − P⁻_{j+1}) Aᵀ, with D = P_s(j+1) − P⁻ and E = D Aᵀ
-        for i in range(n):
-            for k in range(n):
-                pm[i, k] = Ps[i, k] - pm[i, k]
-        np.dot(pm, at, E)  # BLAS: at n ≈ 20 twice as fast as loops
-        for i in range(n):
-            for k in range(n):
-                a_[i, k] = at[k, i]
-        np.dot(a_, E, Ps)
-        for i in range(n):
-            for k in range(n):
-                Ps[i, k] += Pp[i, k]
-        for i in range(n):
-            sig[j, i] = np.sqrt(max(Ps[i, i], 0.0))
-        if keep_cov:
-            ps_all[j] = Ps
+    n_blk = ck.shape[0]
+    for b in range(n_blk - 1, -1, -1):
+        cnt = _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws)
+        j0 = b * CK_EVERY
+        for j in range(j0 + cnt - 1, j0 - 1, -1):
+            Pp = blk[j - j0]
+            if j == m1 - 1:
+                Ps[:, :] = Pp
+                for i in range(n):
+                    sig[j, i] = np.sqrt(max(Ps[i, i], 0.0))
+                if keep_cov:
+                    ps_all[j] = Ps
+                continue
+            _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, Phi)
+            _propagate(Pp, Phi, qd, dts[j + 1], M, pm)
+            # A = P⁺_j Φᵀ (P⁻_{j+1})⁻¹  ⇒  Aᵀ = (P⁻)⁻¹ Φ P⁺_j, by Cholesky (P⁻ is symmetric positive definite)
+            _chol_solve(pm, M, L, at)
+            for i in range(n):
+                tmp[i] = xs[j + 1, i] + dxs[j + 1, i]
+            for i in range(n):
+                s = 0.0
+                for k in range(n):
+                    s += at[k, i] * tmp[k]
+                xs[j, i] = s
+            # P_s(j) = P⁺_j + A (P_s(j+1) − P⁻_{j+1}) Aᵀ, with D = P_s(j+1) − P⁻ and E = D Aᵀ
+            for i in range(n):
+                for k in range(n):
+                    pm[i, k] = Ps[i, k] - pm[i, k]
+            np.dot(pm, at, E)  # BLAS: at n ≈ 20 twice as fast as loops
+            for i in range(n):
+                for k in range(n):
+                    a_[i, k] = at[k, i]
+            np.dot(a_, E, Ps)
+            for i in range(n):
+                for k in range(n):
+                    Ps[i, k] += Pp[i, k]
+            for i in range(n):
+                sig[j, i] = np.sqrt(max(Ps[i, i], 0.0))
+            if keep_cov:
+                ps_all[j] = Ps
     return xs, sig, ps_all
 
 
