@@ -83,8 +83,9 @@ MAX_REJECT_RUN = 5  #: epochs of consecutive rejections after which a measuremen
 ImuIn = namedtuple("ImuIn", "t dth dvel c_bs xi eta dg")
 #: the error model: decim (IMU samples per epoch), p0 (n,) prior variances, qd (n,) PSDs, inv_tau (n,)
 #: 1/τ of Gauss–Markov states (1/s), zupt (M+1,) bool epochs standing still, zupt_sigma (m/s),
-#: gate (σ, 0 = off), i_sz (index of the z-gyro scale-factor state, −1: none)
-Model = namedtuple("Model", "decim p0 qd inv_tau zupt zupt_sigma gate i_sz")
+#: gate (σ, 0 = off), i_sz (index of the z-gyro scale-factor state, −1: none), full (False: keep only the
+#: attitude per sample; velocity, position and specific force come back empty)
+Model = namedtuple("Model", "decim p0 qd inv_tau zupt zupt_sigma gate i_sz full")
 #: LDV: ok (N,) bool, nu_f, nu_u (N,) m/s, par0 (5,) [s_f, η_L, φ_L, s_u, k_η], lever (3,) m,
 #: sigma (3,) m/s per sample, up (2-D LDV), aug_idx (5,) state index of each LDV state (−1: none),
 #: a_fwd (N,) or empty: forward acceleration for the pitch compliance (m/s²)
@@ -323,11 +324,13 @@ def forward(imu, mdl, ldv, gnss, st):
     n = len(mdl.p0)
     m = n_s // decim
     q_out = np.empty((n_s, 4))
-    v_out = np.empty((n_s, 3))
-    p_out = np.empty((n_s, 3))
-    fu_out = np.empty(n_s)  # up specific force in n over each interval, as integrated
-    fen_out = np.empty((n_s, 2), dtype=np.float32)  # its E, N components (for the smoother's φ × f)
-    fb_out = np.empty(n_s)  # up component of the accelerometer-bias correction (C_s^n b̂_a)_U
+    n_o = n_s if mdl.full else 0  # attitude only: no per-sample velocity, position or specific force
+    v_out = np.empty((n_o, 3))
+    p_out = np.empty((n_o, 3))
+    fu_out = np.empty(n_o)  # up specific force in n over each interval, as integrated
+    fen_out = np.empty((n_o, 2), dtype=np.float32)  # its E, N components (for the smoother's φ × f)
+    fb_out = np.empty(n_o)  # up component of the accelerometer-bias correction (C_s^n b̂_a)_U
+    full = mdl.full
     ck = np.empty((m // CK_EVERY + 1, n * (n + 1) // 2))  # P⁺ every CK_EVERY epochs (packed)
     upd = np.zeros((m + 1, N_UPD))
     sig_f = np.empty((m + 1, n))  # forward 1-σ
@@ -422,11 +425,12 @@ def forward(imu, mdl, ldv, gnss, st):
             dth_prev[i] = a_th[i]
             dv_prev[i] = a_dv[i]
             fsum[i] += f_n[i] * dt
-        fu_out[k] = f_n[2]
-        fen_out[k, 0] = f_n[0]
-        fen_out[k, 1] = f_n[1]
         q_to_c_into(q, c_sn)
-        fb_out[k] = c_sn[2, 0] * b_a[0] + c_sn[2, 1] * b_a[1] + c_sn[2, 2] * b_a[2]
+        if full:
+            fu_out[k] = f_n[2]
+            fen_out[k, 0] = f_n[0]
+            fen_out[k, 1] = f_n[1]
+            fb_out[k] = c_sn[2, 0] * b_a[0] + c_sn[2, 1] * b_a[1] + c_sn[2, 2] * b_a[2]
         _body(c_sn, c_bs, k, rotating, c_bn)
         if ldv_ok[k]:
             vd1 = nu_f[k] * par[0]
@@ -491,8 +495,9 @@ def forward(imu, mdl, ldv, gnss, st):
             for i in range(4):
                 q_out[k, i] = q[i]
             for i in range(3):
-                v_out[k, i] = v[i]
-                p_out[k, i] = pos[i]
+                if full:
+                    v_out[k, i] = v[i]
+                    p_out[k, i] = pos[i]
             continue
         # ---- filter epoch ----
         j += 1
@@ -607,8 +612,9 @@ def forward(imu, mdl, ldv, gnss, st):
         for i in range(4):
             q_out[k, i] = q[i]
         for i in range(3):
-            v_out[k, i] = v[i]
-            p_out[k, i] = pos[i]
+            if full:
+                v_out[k, i] = v[i]
+                p_out[k, i] = pos[i]
     return (q_out, v_out, p_out, fu_out, fen_out, fb_out, ck, upd, sig_f, fin, dts, dxs, par_out, bias_out, nis,
             rejected, sz_out)
 
@@ -781,8 +787,10 @@ def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, fu, fen, fb):
 
     The up specific force f_U (n frame, per interval) gets the same attitude correction,
     f ← (I + [φ×]) f (with the E, N components ``fen``), and the smoothed accelerometer-bias
-    correction, f ← f − C_s^n δ∇; ``fb`` (the up component of C_s^n b̂_a) gets + (C_s^n δ∇)_U."""
+    correction, f ← f − C_s^n δ∇; ``fb`` (the up component of C_s^n b̂_a) gets + (C_s^n δ∇)_U.
+    Empty v, p, f (an attitude-only run): only q is corrected."""
     n_s = len(t)
+    full = len(v) == n_s
     x = np.zeros(15)
     for k in range(n_s):
         if k < m * decim:
@@ -808,6 +816,8 @@ def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, fu, fen, fb):
         nq = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
         n0, n1, n2, n3 = n0 / nq, n1 / nq, n2 / nq, n3 / nq
         q[k, 0], q[k, 1], q[k, 2], q[k, 3] = n0, n1, n2, n3
+        if not full:
+            continue
         for i in range(3):
             v[k, i] -= x[3 + i]
         rm, rn = radii_nb(p[k, 0])

@@ -151,7 +151,8 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     cfg = pipeline_cfg(ldv_aug=aug)
     aid = ldv_aid(inp)
     aid.accel_fwd_mps2 = a_f
-    sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg)
+    sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg,
+                   attitude_only=True)  # its use: the LDV states and the attitude
     p = sol.ldv_params
     pk, spk = p.get("pitch_k", (0.0, None)) if k_obs else (0.0, None)
     # GNSS errors are time-correlated (and unmodelled IMU errors show in the GNSS residuals the same

@@ -187,8 +187,10 @@ def pipeline_cfg(**kw) -> FilterConfig:
 
 
 def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssAid | None = None,
-             cfg: FilterConfig | None = None, smooth: bool = True, zupt: bool = True) -> NavSolution:
-    """Coarse alignment then the filter (ZUPT in still periods) with the given aids."""
+             cfg: FilterConfig | None = None, smooth: bool = True, zupt: bool = True,
+             attitude_only: bool = False) -> NavSolution:
+    """Coarse alignment then the filter (ZUPT in still periods) with the given aids (``attitude_only``:
+    see :func:`ldvsurvey.nav.filter.run_filter`)."""
     c0 = initial_attitude(inp, cbs)
     if inp.gravity is not None and inp.v0_n is None:  # a static alignment levels to the plumb line
         from ldvsurvey.nav.attitude import skew
@@ -203,7 +205,7 @@ def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssA
                                   pos_sigma0_m=max(cfg.pos_sigma0_m, MOVING_POS_SIGMA0_M))
     return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q_from_c(c0), v0, inp.pos0, inp.noise, cfg,
                       c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth,
-                      gravity=inp.gravity)
+                      gravity=inp.gravity, attitude_only=attitude_only)
 
 
 def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:
