@@ -634,9 +634,11 @@ def _body(c_sn, c_bs, k, rotating, out):
 
 
 @nb.njit(cache=True)
-def _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws):
-    """P⁺ of the epochs b·CK_EVERY … into ``blk`` (K, n, n), redone from the checkpoint of block b.
-    Returns the number of epochs filled. ``ws``: (3, n, n) work space."""
+def _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws, blk_m, blk_pm):
+    """P⁺ of the epochs b·CK_EVERY … into ``blk`` (K, n, n), redone from the checkpoint of block b;
+    with Φ_e P⁺_{e−1} into ``blk_m`` and P⁻_e into ``blk_pm`` (index e − b·CK_EVERY; both (K, n, n),
+    or (0, n, n): not kept). Returns the number of epochs filled. ``ws``: (3, n, n) work space."""
+    keep = blk_m.shape[0] > 0
     m1 = dts.shape[0]
     n = blk.shape[1]
     j0 = b * CK_EVERY
@@ -650,6 +652,9 @@ def _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, w
         _phi_into(fin[e], dts[e], inv_tau, i_sz, Phi)
         P = blk[e - j0]
         _propagate(blk[e - j0 - 1], Phi, qd, dts[e], M, P)
+        if keep:  # what the smoother's step j = e − 1 needs: Φ P⁺_j and P⁻_{j+1}
+            blk_m[e - j0] = M
+            blk_pm[e - j0] = P
         _redo_updates(P, upd[e], aug_idx, zupt_r, H, ph, nz)
     return j1 - j0
 
@@ -663,8 +668,9 @@ def forward_covs(ck, upd, fin, dts, qd, inv_tau, i_sz, aug_idx, zupt_sigma):
     out = np.empty((m1, n, n))
     blk = np.empty((CK_EVERY, n, n))
     ws = np.empty((3, n, n))
+    none = np.empty((0, n, n))
     for b in range(ck.shape[0]):
-        cnt = _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws)
+        cnt = _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws, none, none)
         out[b * CK_EVERY:b * CK_EVERY + cnt] = blk[:cnt]
     return out
 
@@ -696,9 +702,11 @@ def rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zupt_sigma, keep_cov
     E = np.empty((n, n))
     a_ = np.empty((n, n))
     tmp = np.empty(n)
+    blk_m = np.empty((CK_EVERY, n, n))
+    blk_pm = np.empty((CK_EVERY, n, n))
     n_blk = ck.shape[0]
     for b in range(n_blk - 1, -1, -1):
-        cnt = _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws)
+        cnt = _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws, blk_m, blk_pm)
         j0 = b * CK_EVERY
         for j in range(j0 + cnt - 1, j0 - 1, -1):
             Pp = blk[j - j0]
@@ -709,8 +717,12 @@ def rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zupt_sigma, keep_cov
                 if keep_cov:
                     ps_all[j] = Ps
                 continue
-            _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, Phi)
-            _propagate(Pp, Phi, qd, dts[j + 1], M, pm)
+            if j + 1 < j0 + cnt:  # redone with the block
+                M[:, :] = blk_m[j + 1 - j0]
+                pm[:, :] = blk_pm[j + 1 - j0]
+            else:  # epoch j + 1 opens the next block
+                _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, Phi)
+                _propagate(Pp, Phi, qd, dts[j + 1], M, pm)
             # A = P⁺_j Φᵀ (P⁻_{j+1})⁻¹  ⇒  Aᵀ = (P⁻)⁻¹ Φ P⁺_j, by Cholesky (P⁻ is symmetric positive definite)
             _chol_solve(pm, M, L, at)
             for i in range(n):
