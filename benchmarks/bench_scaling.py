@@ -184,7 +184,8 @@ def write_doc(rows: list[dict]) -> None:
             per_h = f"{r['s_per_h']:.2f}"
         else:
             wall, per_h = f"{r['wall_s']:.1f} s", f"{r['s_per_h']:.2f}"
-        cpu_h = f"{r['cpu_s_per_h']:.2f} s" if r.get("cpu_s_per_h") is not None and r["ok"] else "–"
+        cpu = r.get("cpu_s")
+        cpu_h = f"{cpu / r['log_h']:.2f} s" if cpu is not None and r["ok"] else "–"
         lines.append(f"| {r['what']} | {r['mode']} | {r['log_h']:.2f} h | {r['rate_hz']:g} Hz | "
                      f"{wall} | {per_h} | {cpu_h} | {'≥ ' if not r['ok'] else ''}{r['rss_mb']:.0f} MB |")
     lines += ["", "![Wall time against log length](performance-scaling.png)"]
