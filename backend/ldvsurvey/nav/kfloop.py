@@ -6,10 +6,13 @@ the measurement updates happen there. Between epochs the LDV residual v̂_head �
 averaged; a GNSS fix is brought to the epoch (back-dated by v̂·Δt). Scalar sequential updates
 with an innovation gate; after each epoch the estimate is fed back and the error state reset.
 
-Stored per epoch for the smoother (nothing per IMU sample): P⁺ as its upper triangle, the
-handful of numbers Φ is built from (Φ itself is rebuilt in the backward pass, bit for bit),
-Δt and the feedback dx (see :mod:`ldvsurvey.nav.filter` for the smoothing algebra). Memory is
-thus ~(n(n+1)/2 + 2n + 40)·8 bytes per epoch whatever the IMU rate.
+Stored for the smoother (nothing per IMU sample): per epoch the 18 numbers Φ is built from,
+Δt, the feedback dx and a record of the measurement updates (:data:`N_UPD` numbers: which rows
+were taken, their H entries and variances); P⁺ itself (upper triangle) only every
+:data:`CK_EVERY` epochs. The smoother redoes the covariances of each block from its checkpoint
+with the same arithmetic, so the same numbers bit for bit, and runs backwards through it (see
+:mod:`ldvsurvey.nav.filter` for the smoothing algebra). Memory is thus about (2n + 60)·8 bytes
+per epoch whatever the IMU rate.
 
 Inputs come grouped (:class:`ImuIn`, :class:`Model`, :class:`LdvIn`, :class:`GnssIn`,
 :class:`Start`): named tuples of arrays and scalars that numba compiles as they are.
