@@ -39,37 +39,71 @@ def build_f(n, c_sn, f_n, v, lat, h):
     lat : rad. h : m.
     """
     F = np.zeros((n, n))
+    build_f_into(F, c_sn, f_n[0], f_n[1], f_n[2], v[0], v[1], v[2], lat, h)
+    return F
+
+
+@nb.njit(cache=True)
+def build_f_into(F, c_sn, f0, f1, f2, ve, vn, vu, lat, h):
+    """Write the 15 base-state block of F (see :func:`build_f`) into ``F``, which holds zeros there
+    (no allocation: the filter builds one F per epoch). f: specific force in n (m/s²), v: ENU (m/s)."""
     rm, rn = radii_nb(lat)
     rmh, rnh = rm + h, rn + h
     sl, cl = np.sin(lat), np.cos(lat)
     tl = sl / cl
-    ve, vn, vu = v[0], v[1], v[2]
-    w_ie = np.array([0.0, OMEGA_IE * cl, OMEGA_IE * sl])
-    w_en = np.array([-vn / rmh, ve / rnh, ve * tl / rnh])
-    w_in = w_ie + w_en
-    # ∂δω_en/∂δv, ∂δω_ie/∂δp, ∂δω_en/∂δp (δp in metres E, N, U)
-    m_v = np.zeros((3, 3))
-    m_v[0, 1] = -1.0 / rmh
-    m_v[1, 0] = 1.0 / rnh
-    m_v[2, 0] = tl / rnh
-    m_iep = np.zeros((3, 3))
-    m_iep[1, 1] = -OMEGA_IE * sl / rmh
-    m_iep[2, 1] = OMEGA_IE * cl / rmh
-    m_enp = np.zeros((3, 3))
-    m_enp[0, 2] = vn / rmh ** 2
-    m_enp[1, 2] = -ve / rnh ** 2
-    m_enp[2, 1] = ve / (cl * cl) / (rmh * rnh)
-    m_enp[2, 2] = -ve * tl / rnh ** 2
-    F[0:3, 0:3] = -skew_nb(w_in)
-    F[0:3, 3:6] = m_v
-    F[0:3, 6:9] = m_iep + m_enp
-    F[0:3, 9:12] = -c_sn
-    sv = skew_nb(v)
-    F[3:6, 0:3] = skew_nb(f_n)
-    F[3:6, 3:6] = -skew_nb(2.0 * w_ie + w_en) + sv @ m_v
-    F[3:6, 6:9] = sv @ (2.0 * m_iep + m_enp)
+    wie1, wie2 = OMEGA_IE * cl, OMEGA_IE * sl
+    wen0, wen1, wen2 = -vn / rmh, ve / rnh, ve * tl / rnh
+    wi0, wi1, wi2 = wen0, wie1 + wen1, wie2 + wen2
+    # ∂δω_en/∂δv (m_v), ∂δω_ie/∂δp (m_iep), ∂δω_en/∂δp (m_enp), δp in metres E, N, U
+    mv01, mv10, mv20 = -1.0 / rmh, 1.0 / rnh, tl / rnh
+    mi11, mi21 = -OMEGA_IE * sl / rmh, OMEGA_IE * cl / rmh
+    me02, me12 = vn / rmh ** 2, -ve / rnh ** 2
+    me21, me22 = ve / (cl * cl) / (rmh * rnh), -ve * tl / rnh ** 2
+    # F[0:3, 0:3] = −[ω_in×]
+    F[0, 1], F[0, 2] = wi2, -wi1
+    F[1, 0], F[1, 2] = -wi2, wi0
+    F[2, 0], F[2, 1] = wi1, -wi0
+    # F[0:3, 3:6] = m_v
+    F[0, 4] = mv01
+    F[1, 3] = mv10
+    F[2, 3] = mv20
+    # F[0:3, 6:9] = m_iep + m_enp
+    F[0, 8] = me02
+    F[1, 7] = mi11
+    F[1, 8] = me12
+    F[2, 7] = mi21 + me21
+    F[2, 8] = me22
+    for i in range(3):
+        for jj in range(3):
+            F[i, 9 + jj] = -c_sn[i, jj]
+            F[3 + i, 12 + jj] = c_sn[i, jj]
+    # F[3:6, 0:3] = [f×]
+    F[3, 1], F[3, 2] = -f2, f1
+    F[4, 0], F[4, 2] = f2, -f0
+    F[5, 0], F[5, 1] = -f1, f0
+    # F[3:6, 3:6] = −[(2ω_ie + ω_en)×] + [v×] m_v, with [v×] = [[0, −vu, vn], [vu, 0, −ve], [−vn, ve, 0]]
+    k0, k1, k2 = wen0, 2.0 * wie1 + wen1, 2.0 * wie2 + wen2
+    F[3, 3] = (-vu) * mv10 + vn * mv20
+    F[3, 4] = k2
+    F[3, 5] = -k1
+    F[4, 3] = -k2 + (-ve) * mv20
+    F[4, 4] = vu * mv01
+    F[4, 5] = k0
+    F[5, 3] = k1 + ve * mv10
+    F[5, 4] = -k0 + (-vn) * mv01
+    F[5, 5] = 0.0
+    # F[3:6, 6:9] = [v×] (2 m_iep + m_enp)
+    n02, n11, n12, n21, n22 = me02, 2.0 * mi11, me12, 2.0 * mi21 + me21, me22
+    F[3, 6] = 0.0
+    F[3, 7] = (-vu) * n11 + vn * n21
+    F[3, 8] = (-vu) * n12 + vn * n22
+    F[4, 6] = 0.0
+    F[4, 7] = (-ve) * n21
+    F[4, 8] = vu * n02 + (-ve) * n22
+    F[5, 6] = 0.0
+    F[5, 7] = ve * n11
+    F[5, 8] = (-vn) * n02 + ve * n12
     F[5, 8] += 2.0 * normal_gravity_nb(lat, h) / np.sqrt(rm * rn)
-    F[3:6, 12:15] = c_sn
     for i in range(3):
         F[6 + i, 3 + i] = 1.0
     F[6, 6] = vu / rnh - vn * tl / rmh
@@ -77,7 +111,6 @@ def build_f(n, c_sn, f_n, v, lat, h):
     F[6, 8] = -ve / rnh
     F[7, 7] = vu / rmh
     F[7, 8] = -vn / rmh
-    return F
 
 
 @nb.njit(cache=True)

@@ -162,7 +162,6 @@ class NavSolution:
     q_sn: np.ndarray  # (N, 4)
     v_n: np.ndarray  # (N, 3)
     pos: np.ndarray  # (N, 3) lat_rad, lon_rad, h_m
-    sigma: np.ndarray  # (N, 9): φ E/N/U (rad), δv (m/s), δp E/N/U (m)
     c_bs: np.ndarray | None
     smoothed: bool
     ldv_params: dict  # name -> (value, sigma)
@@ -181,15 +180,31 @@ class NavSolution:
     f_u_mps2: np.ndarray | None = None
     #: (C_s^n b̂_a)_U, m/s²: the accelerometer-bias correction removed from f_u_mps2 (add it back for raw f_U)
     f_u_bias_mps2: np.ndarray | None = None
-    #: time tags of f_u_mps2: interval mid-times (t_{k−1} + t_k)/2, s
-    f_t_s: np.ndarray | None = None
     #: (estimate, 1-σ) of the z-gyro scale factor (dimensionless) when it is a state
     gyro_scale_z: tuple | None = None
 
-    def c_bn(self) -> np.ndarray:
-        """Body attitude C_b^n at every sample (C_s^n C_b^s for a rotating IMU)."""
-        c = c_from_q(self.q_sn)
-        return c if self.c_bs is None else c @ self.c_bs
+    @property
+    def f_t_s(self) -> np.ndarray:
+        """Time tags of f_u_mps2: interval mid-times (t_{k−1} + t_k)/2, s (the first interval as long
+        as the second)."""
+        t = self.t_s
+        return t - 0.5 * np.diff(t, prepend=2 * t[0] - t[1])
+
+    def sigma_at(self, idx=slice(None)) -> np.ndarray:
+        """1-σ (K, 9) at the samples ``idx`` (index, slice or mask): φ E/N/U (rad), δv (m/s),
+        δp E/N/U (m), interpolated linearly in time between the filter epochs."""
+        t = self.t_s[idx]
+        return np.column_stack([np.interp(t, self.epoch_t_s, self.epoch_sigma[:, i]) for i in range(9)])
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """:meth:`sigma_at` every sample, (N, 9) (computed on each access: index with sigma_at)."""
+        return self.sigma_at()
+
+    def c_bn(self, idx=slice(None)) -> np.ndarray:
+        """Body attitude C_b^n at the samples ``idx`` (all by default; C_s^n C_b^s for a rotating IMU)."""
+        c = c_from_q(self.q_sn[idx])
+        return c if self.c_bs is None else c @ self.c_bs[idx]
 
 
 def ldv_spikes(v_mps, ok, threshold_mps: float = 0.3, half_width: int = 4) -> np.ndarray:
@@ -271,7 +286,7 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     zupt[0] = False
     if ldv is None:
         ldv_ok = np.zeros(n_s, dtype=np.bool_)
-        nu_f = nu_u = np.zeros(n_s)
+        nu_f = nu_u = np.zeros(0)  # never read: no sample is usable
         par0 = np.array([1.0, 0.0, 0.0, 1.0, 0.0])
         l_ldv = np.zeros(3)
         up = False
@@ -280,7 +295,7 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
         ldv_ok = np.ascontiguousarray(ldv.ok, dtype=np.bool_)
         nu_f = np.ascontiguousarray(ldv.nu_f_mps, dtype=float)
         up = ldv.nu_u_mps is not None
-        nu_u = np.ascontiguousarray(ldv.nu_u_mps if up else np.zeros(n_s), dtype=float)
+        nu_u = np.ascontiguousarray(ldv.nu_u_mps, dtype=float) if up else np.zeros(0)  # 1-D: never read
         par0 = np.array([1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up,
                          ldv.pitch_k_rad_per_mps2], float)
         l_ldv = np.asarray(ldv.lever_arm_m, float)
@@ -298,17 +313,15 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
         g_pos = np.ascontiguousarray(np.column_stack([gnss.lat_rad[ok], gnss.lon_rad[ok], gnss.h_m[ok]]))
         g_sig = np.ascontiguousarray(np.column_stack([gnss.sigma_h_m[ok], gnss.sigma_v_m[ok]]))
         l_g = np.asarray(gnss.lever_arm_m, float)
-    if c_bs is None:
-        c_bs_arr = np.broadcast_to(np.eye(3), (n_s, 3, 3))
-    else:
-        c_bs_arr = c_bs
+    c_bs_arr = np.eye(3)[None] if c_bs is None else np.ascontiguousarray(c_bs, dtype=float)  # (1, 3, 3): fixed
     return (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-            g_t, g_pos, g_sig, l_g, np.ascontiguousarray(c_bs_arr, dtype=float), a_f, inv_tau, i_sz)
+            g_t, g_pos, g_sig, l_g, c_bs_arr, a_f, inv_tau, i_sz)
 
 
 def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cfg: FilterConfig | None = None,
                c_bs=None, zupt_intervals=(), ldv: LdvAid | None = None, gnss: GnssAid | None = None,
-               gravity=None, smooth: bool = True, bias0=None, keep_cov: bool = False) -> NavSolution:
+               gravity=None, smooth: bool = True, bias0=None, keep_cov: bool = False,
+               attitude_only: bool = False) -> NavSolution:
     """Forward closed-loop filter, then (optionally) the RTS smoother.
 
     Parameters
@@ -318,6 +331,8 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     c_bs : (N, 3, 3) C_b^s per sample for a rotating IMU (None: s = b); C_b^n = C_s^n C_b^s.
     zupt_intervals : [(t_start, t_end)] in s where the vehicle stands still.
     gravity : optional (xi_rad, eta_rad, dg_mps2) per sample for the gravity model.
+    attitude_only : keep only the attitude per sample (v_n, pos, f_u_mps2, f_u_bias_mps2 come back
+        empty): for a run whose use is its parameters and attitude, at 40 % of the memory.
     """
     cfg = cfg or FilterConfig()
     t = np.ascontiguousarray(t_s, dtype=float)
@@ -327,19 +342,25 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
-    (q, v, p, f_n, f_b, phis, pplus, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(
-        t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr,
-        np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), xi, eta, dg,
-        decim, p0, qd, zupt, cfg.zupt_sigma_mps, ldv_ok, nu_f, nu_u, par0, l_ldv,
-        np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, g_t, g_pos, g_sig, l_g, cfg.gate_sigma, b0, a_f, inv_tau, i_sz)
+    imu = kfloop.ImuIn(t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr,
+                       xi, eta, dg)
+    mdl = kfloop.Model(decim, p0, qd, inv_tau, zupt, float(cfg.zupt_sigma_mps), float(cfg.gate_sigma), i_sz,
+                       not attitude_only)
+    lin = kfloop.LdvIn(ldv_ok, nu_f, nu_u, par0, l_ldv, np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, a_f)
+    gin = kfloop.GnssIn(g_t, g_pos, g_sig, l_g)
+    st = kfloop.Start(np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), b0)
+    (q, v, p, f_u, f_en, f_b, ck, upd, sig_f, fin, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(
+        imu, mdl, lin, gin, st)
+    zs = float(cfg.zupt_sigma_mps)
     if smooth:
-        xs, ps = kfloop.rts(phis, pplus, dts, dxs, qd)
-        q, v, p, f_n, f_b = kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f_n, f_b)
+        xs, sig_ep, ps = kfloop.rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zs, keep_cov)
+        kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f_u, f_en, f_b)
     else:
-        xs, ps = np.zeros_like(dxs), pplus
-    sig_ep = np.sqrt(np.maximum(np.einsum("kii->ki", ps), 0.0))
+        xs = np.zeros_like(dxs)
+        sig_ep = sig_f
+        ps = kfloop.forward_covs(ck, upd, fin, dts, qd, inv_tau, i_sz, aug_idx, zs) if keep_cov else None
+    del f_en, ck, upd, fin
     ep_bias = bias + xs[:, 9:15]
-    sigma = np.column_stack([np.interp(t, ep_t, sig_ep[:, i]) for i in range(9)])
     ldv_params = {}
     for a in AUG_NAMES:
         i = AUG_NAMES.index(a)
@@ -356,12 +377,11 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     jb = 0 if smooth else -1
     gyro_b = bias[jb, :3] + xs[jb, 9:12]
     acc_b = bias[jb, 3:] + xs[jb, 12:15]
-    return NavSolution(t_s=t, q_sn=q, v_n=v, pos=p, sigma=sigma, c_bs=c_bs, smoothed=smooth,
+    return NavSolution(t_s=t, q_sn=q, v_n=v, pos=p, c_bs=c_bs, smoothed=smooth,
                        ldv_params=ldv_params, gyro_bias_rps=gyro_b, accel_bias_mps2=acc_b,
                        epoch_t_s=ep_t, epoch_sigma=sig_ep, normalized_innovations=nis,
                        rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},
                        epoch_index=np.arange(m + 1) * decim - 1, epoch_bias=ep_bias,
                        epoch_cov=ps if keep_cov else None,
-                       f_u_mps2=np.ascontiguousarray(f_n[:, 2]), f_u_bias_mps2=f_b,
-                       f_t_s=t - 0.5 * np.diff(t, prepend=2 * t[0] - t[1]),
+                       f_u_mps2=f_u, f_u_bias_mps2=f_b,
                        gyro_scale_z=None if i_sz < 0 else (float(sz[jb] + xs[jb, i_sz]), float(sig_ep[jb, i_sz])))

@@ -59,6 +59,116 @@ def mech_step(q, v, pos, v_prev, pos_prev, dth, dv, dth_prev, dv_prev, dt, xi, e
     return q_new, v_new, np.array([lat_new, lon_new, h_new]), dv_n / dt
 
 
+@nb.njit(cache=True, inline="always")
+def q_to_c_into(q, c):
+    """C (3×3, written into ``c``) of the unit quaternion q = [w, x, y, z] (as :func:`attitude.q_to_c`)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    c[0, 0] = 1 - 2 * (y * y + z * z)
+    c[0, 1] = 2 * (x * y - w * z)
+    c[0, 2] = 2 * (x * z + w * y)
+    c[1, 0] = 2 * (x * y + w * z)
+    c[1, 1] = 1 - 2 * (x * x + z * z)
+    c[1, 2] = 2 * (y * z - w * x)
+    c[2, 0] = 2 * (x * z - w * y)
+    c[2, 1] = 2 * (y * z + w * x)
+    c[2, 2] = 1 - 2 * (x * x + y * y)
+
+
+@nb.njit(cache=True, inline="always")
+def _rotvec_sc(a0, a1, a2):
+    """(c, s) of the quaternion [c, s a] of rotation vector a (as :func:`attitude.q_rotvec`)."""
+    n2 = a0 * a0 + a1 * a1 + a2 * a2
+    if n2 < 1e-16:
+        return 1.0 - n2 / 8.0, 0.5 - n2 / 48.0
+    a = np.sqrt(n2)
+    return np.cos(a / 2), np.sin(a / 2) / a
+
+
+@nb.njit(cache=True)
+def mech_step_into(q, v, pos, v_prev, pos_prev, dth, dv, dth_prev, dv_prev, dt, xi, eta, dg, f_n):
+    """:func:`mech_step` in place and without allocation (the same arithmetic, term by term).
+
+    On return q, v, pos hold the state at the end of the interval, v_prev, pos_prev the state at
+    its start, and f_n (3,) the mean specific force in n (m/s²). dth, dv, dth_prev, dv_prev: (3,).
+    """
+    t0, t1, t2 = dth[0], dth[1], dth[2]
+    u0, u1, u2 = dv[0], dv[1], dv[2]
+    p0, p1, p2 = dth_prev[0], dth_prev[1], dth_prev[2]
+    r0, r1, r2 = dv_prev[0], dv_prev[1], dv_prev[2]
+    # coning: φ = Δθ + Δθ_prev × Δθ / 12
+    ph0 = t0 + (p1 * t2 - p2 * t1) / 12.0
+    ph1 = t1 + (p2 * t0 - p0 * t2) / 12.0
+    ph2 = t2 + (p0 * t1 - p1 * t0) / 12.0
+    # rotation and sculling: Δv + ½ Δθ × Δv + (Δθ_prev × Δv + Δv_prev × Δθ) / 12
+    b0 = u0 + 0.5 * (t1 * u2 - t2 * u1) + ((p1 * u2 - p2 * u1) + (r1 * t2 - r2 * t1)) / 12.0
+    b1 = u1 + 0.5 * (t2 * u0 - t0 * u2) + ((p2 * u0 - p0 * u2) + (r2 * t0 - r0 * t2)) / 12.0
+    b2 = u2 + 0.5 * (t0 * u1 - t1 * u0) + ((p0 * u1 - p1 * u0) + (r0 * t1 - r1 * t0)) / 12.0
+    vm0 = 1.5 * v[0] - 0.5 * v_prev[0]
+    vm1 = 1.5 * v[1] - 0.5 * v_prev[1]
+    vm2 = 1.5 * v[2] - 0.5 * v_prev[2]
+    lat_mid = 1.5 * pos[0] - 0.5 * pos_prev[0]
+    h_mid = 1.5 * pos[2] - 0.5 * pos_prev[2]
+    rm, rn = radii_nb(lat_mid)
+    sl, cl = np.sin(lat_mid), np.cos(lat_mid)
+    wie1, wie2 = OMEGA_IE * cl, OMEGA_IE * sl
+    wen0 = -vm1 / (rm + h_mid)
+    wen1 = vm0 / (rn + h_mid)
+    wen2 = vm0 * sl / cl / (rn + h_mid)
+    wi0, wi1, wi2 = wen0, wie1 + wen1, wie2 + wen2
+    gam = normal_gravity_nb(lat_mid, h_mid)
+    g0, g1, g2 = -gam * eta, -gam * xi, -(gam + dg)
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    c00 = 1 - 2 * (y * y + z * z)
+    c01 = 2 * (x * y - w * z)
+    c02 = 2 * (x * z + w * y)
+    c10 = 2 * (x * y + w * z)
+    c11 = 1 - 2 * (x * x + z * z)
+    c12 = 2 * (y * z - w * x)
+    c20 = 2 * (x * z - w * y)
+    c21 = 2 * (y * z + w * x)
+    c22 = 1 - 2 * (x * x + y * y)
+    d0 = c00 * b0 + c01 * b1 + c02 * b2
+    d1 = c10 * b0 + c11 * b1 + c12 * b2
+    d2 = c20 * b0 + c21 * b1 + c22 * b2
+    # n-frame rotation over the interval: Δv_n − ½ (ω_in dt) × Δv_n
+    a0, a1, a2 = wi0 * dt, wi1 * dt, wi2 * dt
+    e0 = d0 - 0.5 * (a1 * d2 - a2 * d1)
+    e1 = d1 - 0.5 * (a2 * d0 - a0 * d2)
+    e2 = d2 - 0.5 * (a0 * d1 - a1 * d0)
+    # Coriolis: (2 ω_ie + ω_en) × v_mid
+    k0, k1, k2 = wen0, 2.0 * wie1 + wen1, 2.0 * wie2 + wen2
+    vn0 = v[0] + e0 + (g0 - (k1 * vm2 - k2 * vm1)) * dt
+    vn1 = v[1] + e1 + (g1 - (k2 * vm0 - k0 * vm2)) * dt
+    vn2 = v[2] + e2 + (g2 - (k0 * vm1 - k1 * vm0)) * dt
+    vb0, vb1, vb2 = 0.5 * (v[0] + vn0), 0.5 * (v[1] + vn1), 0.5 * (v[2] + vn2)
+    h_new = pos[2] + vb2 * dt
+    hbar = 0.5 * (pos[2] + h_new)
+    lat_new = pos[0] + vb1 / (rm + hbar) * dt
+    latbar = 0.5 * (pos[0] + lat_new)
+    lon_new = pos[1] + vb0 / ((rn + hbar) * np.cos(latbar)) * dt
+    # q_new = q(−ω_in dt) ⊗ (q ⊗ q(φ))
+    cb, sb = _rotvec_sc(ph0, ph1, ph2)
+    qb0, qb1, qb2, qb3 = cb, sb * ph0, sb * ph1, sb * ph2
+    m0 = w * qb0 - x * qb1 - y * qb2 - z * qb3
+    m1 = w * qb1 + x * qb0 + y * qb3 - z * qb2
+    m2 = w * qb2 - x * qb3 + y * qb0 + z * qb1
+    m3 = w * qb3 + x * qb2 - y * qb1 + z * qb0
+    ca, sa = _rotvec_sc(-a0, -a1, -a2)
+    qa0, qa1, qa2, qa3 = ca, -sa * a0, -sa * a1, -sa * a2
+    n0 = qa0 * m0 - qa1 * m1 - qa2 * m2 - qa3 * m3
+    n1 = qa0 * m1 + qa1 * m0 + qa2 * m3 - qa3 * m2
+    n2 = qa0 * m2 - qa1 * m3 + qa2 * m0 + qa3 * m1
+    n3 = qa0 * m3 + qa1 * m2 - qa2 * m1 + qa3 * m0
+    nq = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3)
+    q[0], q[1], q[2], q[3] = n0 / nq, n1 / nq, n2 / nq, n3 / nq
+    for i in range(3):
+        v_prev[i] = v[i]
+        pos_prev[i] = pos[i]
+    v[0], v[1], v[2] = vn0, vn1, vn2
+    pos[0], pos[1], pos[2] = lat_new, lon_new, h_new
+    f_n[0], f_n[1], f_n[2] = e0 / dt, e1 / dt, e2 / dt
+
+
 @nb.njit(cache=True)
 def _run(t, dth, dvel, q0, v0, pos0, xi, eta, dg, h_ref, vu_ref):
     n = len(t)

@@ -151,7 +151,8 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     cfg = pipeline_cfg(ldv_aug=aug)
     aid = ldv_aid(inp)
     aid.accel_fwd_mps2 = a_f
-    sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg)
+    sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg,
+                   attitude_only=True)  # its use: the LDV states and the attitude
     p = sol.ldv_params
     pk, spk = p.get("pitch_k", (0.0, None)) if k_obs else (0.0, None)
     # GNSS errors are time-correlated (and unmodelled IMU errors show in the GNSS residuals the same
@@ -174,13 +175,13 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     # tracks, slope of the height residual (no compliance: it shows what a constant mounting gives)
     if progress:
         progress("calibration: closed form", 0.8)
-    c_bn = sol.c_bn()
     k = (inp.t_s >= a) & (inp.t_s <= b)
+    c_bn = sol.c_bn(k)  # over the window only
     t = inp.t_s[k]
     g = log.gnss
     gk = np.isin(g.fix, fixes) & (g.t_s >= a) & (g.t_s <= b) & np.isfinite(g.lat_deg)
     lev = np.asarray(log.manifest.gnss.lever_arm_m, float)
-    c_fix = attitude_at(sol, g.t_s[gk], c_bn)
+    c_fix = attitude_at(sol, g.t_s[gk])
     lev_n = c_fix @ lev
     lat_r, lon_r = g.lat_deg[gk] * RAD, g.lon_deg[gk] * RAD
     e, n = local_metres(lat_r[0], lon_r[0], lat_r, lon_r)
@@ -189,7 +190,7 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     pitch, heading, scale = nom.pitch_deg * RAD, nom.heading_deg * RAD, nom.scale
     nu_u = inp.nu_u_mps[k] if up else None
     for _ in range(3):
-        dr = _dead_reckon(t, c_bn[k], inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], scale, pitch, heading, 1.0)
+        dr = _dead_reckon(t, c_bn, inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], scale, pitch, heading, 1.0)
         drg = np.column_stack([np.interp(g.t_s[gk], t, dr[:, i]) for i in range(3)])
         drg -= drg[0]
         d2 = drg[:, :2]
@@ -219,7 +220,7 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
         cal.closed_form["note_compliance"] = ("pitch compliance not estimated: the window holds less than 10 s "
                                               "of acceleration above 0.3 m/s²; none is applied")
     # 3) the calibrated dead-reckoning track over the window, from the first fix
-    dr = _dead_reckon(t, c_bn[k], inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], cal.scale, cal.pitch_rad,
+    dr = _dead_reckon(t, c_bn, inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], cal.scale, cal.pitch_rad,
                       cal.heading_rad, cal.scale_up, cal.pitch_k_rad_per_mps2, a_f[k])
     t_first = g.t_s[gk][0]
     dr -= np.column_stack([np.interp(t_first, t, dr[:, i]) for i in range(3)])

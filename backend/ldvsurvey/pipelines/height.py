@@ -68,7 +68,6 @@ def run(logs, params, progress) -> PipelineResult:
     progress("navigation (INS/LDV, no GNSS)", 0.5)
     aid = ldv_aid_of(inp, setup)
     sol = navigate(inp, cbs=setup.cbs, ldv=aid)
-    c_bn = sol.c_bn()
     sol_raw = sol
     if est is not None:  # the same chain without the tilt compensation (α = β = 0)
         progress("navigation without the tilt compensation", 0.7)
@@ -86,7 +85,7 @@ def run(logs, params, progress) -> PipelineResult:
     nu_u = ldv.v_up_mps[inside] if ldv.v_up_mps is not None else None
     h0 = params["initial_h_m"] if params["initial_h_m"] is not None else float(inp.pos0[2])
     lever = m.ldv.lever_arm_m
-    c_l = attitude_at(sol, t_l, c_bn)
+    c_l = attitude_at(sol, t_l)
     pk = setup.pitch_k_rad_per_mps2
     a_l = forward_accel_mps2(t_l, nu_f / scale, ok) if pk else None
     # LDV gaps are bridged by the INS's vertical velocity (smoothed, LDV-aided) at the IMU centre
@@ -105,7 +104,7 @@ def run(logs, params, progress) -> PipelineResult:
     g = log.gnss
     if g is not None:
         ref = np.isin(g.fix, (4, 2)) & np.isfinite(g.h_m) & (g.t_s >= t_l[0]) & (g.t_s <= t_l[-1])
-        h_ref = antenna_to_imu_h(log, attitude_at(sol, g.t_s, c_bn))
+        h_ref = antenna_to_imu_h(log, attitude_at(sol, g.t_s))
         err = np.interp(g.t_s[ref], t_l, h) - h_ref[ref]
         err_raw = np.interp(g.t_s[ref], t_l, h_raw) - h_ref[ref]
         st, st_raw = error_stats(err), error_stats(err_raw)

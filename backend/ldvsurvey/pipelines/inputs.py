@@ -187,8 +187,10 @@ def pipeline_cfg(**kw) -> FilterConfig:
 
 
 def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssAid | None = None,
-             cfg: FilterConfig | None = None, smooth: bool = True, zupt: bool = True) -> NavSolution:
-    """Coarse alignment then the filter (ZUPT in still periods) with the given aids."""
+             cfg: FilterConfig | None = None, smooth: bool = True, zupt: bool = True,
+             attitude_only: bool = False) -> NavSolution:
+    """Coarse alignment then the filter (ZUPT in still periods) with the given aids (``attitude_only``:
+    see :func:`ldvsurvey.nav.filter.run_filter`)."""
     c0 = initial_attitude(inp, cbs)
     if inp.gravity is not None and inp.v0_n is None:  # a static alignment levels to the plumb line
         from ldvsurvey.nav.attitude import skew
@@ -203,7 +205,7 @@ def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssA
                                   pos_sigma0_m=max(cfg.pos_sigma0_m, MOVING_POS_SIGMA0_M))
     return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q_from_c(c0), v0, inp.pos0, inp.noise, cfg,
                       c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth,
-                      gravity=inp.gravity)
+                      gravity=inp.gravity, attitude_only=attitude_only)
 
 
 def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:
@@ -221,14 +223,19 @@ def antenna_to_imu_h(log: DriveLog, c_bn_at_fix: np.ndarray) -> np.ndarray:
 
 
 def attitude_at(sol: NavSolution, t_s: np.ndarray, c_bn_all: np.ndarray | None = None) -> np.ndarray:
-    """C_b^n at arbitrary times (nearest-neighbour quaternion interpolation, then normalised mix)."""
-    c_all = sol.c_bn() if c_bn_all is None else c_bn_all
-    q = q_from_c(c_all)
-    # keep the quaternion sign continuous before interpolating
-    flip = np.cumprod(np.where(np.sum(q[1:] * q[:-1], axis=1) < 0, -1.0, 1.0))
-    q[1:] *= flip[:, None]
-    qi = np.column_stack([np.interp(t_s, sol.t_s, q[:, i]) for i in range(4)])
-    return c_from_q(qi)
+    """C_b^n at arbitrary times: the quaternions of the two samples around each time (the second
+    one's sign made continuous with the first) interpolated linearly, then normalised (times
+    outside the solution take its first or last sample). ``c_bn_all``: the solution's C_b^n at
+    every sample when already at hand (else computed at the neighbouring samples only)."""
+    t = sol.t_s
+    ts = np.asarray(t_s, float)
+    k = np.clip(np.searchsorted(t, ts, side="right") - 1, 0, len(t) - 2)
+    ca = sol.c_bn(k) if c_bn_all is None else c_bn_all[k]
+    cb = sol.c_bn(k + 1) if c_bn_all is None else c_bn_all[k + 1]
+    qa, qb = q_from_c(ca), q_from_c(cb)
+    qb *= np.where(np.sum(qa * qb, axis=1) < 0, -1.0, 1.0)[:, None]
+    w = np.clip((ts - t[k]) / (t[k + 1] - t[k]), 0.0, 1.0)[:, None]
+    return c_from_q(qa + w * (qb - qa))
 
 
 def local_metres(lat0, lon0, lat, lon):

@@ -85,8 +85,8 @@ def run(logs, params, progress) -> PipelineResult:
     horiz, vert, n_ref = errors_vs_gnss(log, sol)
     step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(sol.t_s))))))
     sl = slice(step - 1, None, step)
-    p, r, hd = euler_from_c_bn(sol.c_bn()[sl])
-    sg = sol.sigma[sl]
+    p, r, hd = euler_from_c_bn(sol.c_bn(sl))
+    sg = sol.sigma_at(sl)
     table = {"t_s": sol.t_s[sl], "lat_deg": sol.pos[sl, 0] * DEG, "lon_deg": sol.pos[sl, 1] * DEG,
              "h_m": sol.pos[sl, 2], "v_e_mps": sol.v_n[sl, 0], "v_n_mps": sol.v_n[sl, 1], "v_u_mps": sol.v_n[sl, 2],
              "pitch_deg": p * DEG, "roll_deg": r * DEG, "heading_deg": hd * DEG,

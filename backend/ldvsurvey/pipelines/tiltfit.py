@@ -53,12 +53,13 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     stops = find_stops(st.t_s, st.eta_rad)
     est = None
     if len(st.t_s) >= 100:
-        sol = navigate(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True)
+        sol = navigate(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True, attitude_only=True)
         est = _tilt_from(st, sol, st.still, stops)
     later = [(a, b) for a, b in inp.still if a >= inp.static_end_s - 1e-6]
     if (est is None or not est.observable) and later:
         stops_all = find_stops(inp.t_s, inp.eta_rad)
-        sol = navigate(inp, cbs=c_bs_of(inp), ldv=ldv_aid(inp), cfg=pipeline_cfg(), smooth=True)
+        sol = navigate(inp, cbs=c_bs_of(inp), ldv=ldv_aid(inp), cfg=pipeline_cfg(), smooth=True,
+                       attitude_only=True)  # the tilt needs the attitude and the bias σ only
         est2 = _tilt_from(inp, sol, inp.still, stops_all)
         if est2.observable or est is None:
             est, stops = est2, stops_all
