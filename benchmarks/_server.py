@@ -18,8 +18,12 @@ def start(args, env_extra: dict) -> tuple[subprocess.Popen, str, Path]:
         port = s.getsockname()[1]
     data = Path(tempfile.mkdtemp())
     env = {**os.environ, "LDVSURVEY_DATA_DIR": str(data), **env_extra}
-    proc = subprocess.Popen([sys.executable, *[a.format(port=port) for a in args]], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, *[a.format(port=port) for a in args]],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     base = f"http://127.0.0.1:{port}"
     for _ in range(150):
         try:

@@ -17,19 +17,24 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
 def main(repeats=7):
+    from _server import start
     from playwright.sync_api import sync_playwright
 
-    from _server import start
     from tests.bundles import make_bundle
 
     srv, base, _ = start(["-m", "ldvsurvey.cli", "serve", "--port", "{port}"], {"LDVSURVEY_DEMO_MODE": "1"})
     try:
         for seed in range(3):
-            httpx.post(base + "/api/logs", files=[("files", (n, d)) for n, d in
-                                                   make_bundle(seed=seed, n_imu=500).items()], timeout=60)
+            httpx.post(
+                base + "/api/logs",
+                files=[("files", (n, d)) for n, d in make_bundle(seed=seed, n_imu=500).items()],
+                timeout=60,
+            )
         with sync_playwright() as p:
-            b = p.chromium.launch(executable_path="/usr/bin/chromium", args=[
-                "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
+            b = p.chromium.launch(
+                executable_path="/usr/bin/chromium",
+                args=["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"],
+            )
             fcp, table, transferred = [], [], []
             for _ in range(repeats):
                 ctx = b.new_context()  # cold: nothing cached
@@ -47,11 +52,15 @@ def main(repeats=7):
                 transferred.append(t["bytes"])
                 ctx.close()
             b.close()
-        print(f"cold first contentful paint: median {statistics.median(fcp):.3f} s, max {max(fcp):.3f} s "
-              f"over {repeats} fresh contexts (target <= 1 s)")
+        print(
+            f"cold first contentful paint: median {statistics.median(fcp):.3f} s, max {max(fcp):.3f} s "
+            f"over {repeats} fresh contexts (target <= 1 s)"
+        )
         print(f"logs table filled by:        median {statistics.median(table):.3f} s")
-        print(f"bytes transferred (cold):    {statistics.median(transferred) / 1024:.0f} KiB "
-              "(plotly is fetched later, when a page has a plot)")
+        print(
+            f"bytes transferred (cold):    {statistics.median(transferred) / 1024:.0f} KiB "
+            "(plotly is fetched later, when a page has a plot)"
+        )
     finally:
         srv.terminate()
         srv.wait(timeout=20)

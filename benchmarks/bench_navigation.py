@@ -39,20 +39,41 @@ def main():
     c0 = coarse_align(sim.dtheta_rad[:30000], sim.dvel_mps[:30000], sc.road.lat0_rad)
     pos0 = np.array([sc.road.lat0_rad, sc.road.lon0_rad, sc.road.h0_m])
     sig = np.array([FIX_SIGMA.get(int(f), (np.nan, np.nan)) for f in sim.gnss_fix])
-    gnss = GnssAid(sim.gnss_t_s, sim.gnss_lat_deg * RAD, sim.gnss_lon_deg * RAD, sim.gnss_h_m, sig[:, 0], sig[:, 1],
-                   sc.gnss_lever_m)
+    gnss = GnssAid(
+        sim.gnss_t_s,
+        sim.gnss_lat_deg * RAD,
+        sim.gnss_lon_deg * RAD,
+        sim.gnss_h_m,
+        sig[:, 0],
+        sig[:, 1],
+        sc.gnss_lever_m,
+    )
     ldv = LdvAid(sim.ldv_quality >= 100, sim.ldv_v_fwd, sim.ldv_v_up, lever_arm_m=sc.ldv.lever_arm_m)
     noise = ImuNoise(0.003, 20, 0.0005, 5)
     for aug in ((), ("scale", "pitch", "heading")):
         cfg = FilterConfig(ldv_aug=aug)
 
-        def run(smooth):
-            return run_filter(imu.t_s, sim.dtheta_rad, sim.dvel_mps, q_from_c(c0), np.zeros(3), pos0, noise, cfg,
-                              zupt_intervals=[(sc.t0_s, sc.t0_s + 300)], ldv=ldv, gnss=gnss, smooth=smooth)
+        def run(smooth, cfg=cfg):
+            return run_filter(
+                imu.t_s,
+                sim.dtheta_rad,
+                sim.dvel_mps,
+                q_from_c(c0),
+                np.zeros(3),
+                pos0,
+                noise,
+                cfg,
+                zupt_intervals=[(sc.t0_s, sc.t0_s + 300)],
+                ldv=ldv,
+                gnss=gnss,
+                smooth=smooth,
+            )
 
         run(True)  # compile (cached on disk after the first run)
         med, lo, hi = timed(lambda: run(False))
-        print(f"{15 + len(aug)} states, forward filter only, {n} samples: median {med:.2f} s (min {lo:.2f}, max {hi:.2f})")
+        print(
+            f"{15 + len(aug)} states, forward filter only, {n} samples: median {med:.2f} s (min {lo:.2f}, max {hi:.2f})"
+        )
         med, lo, hi = timed(lambda: run(True))
         print(f"{15 + len(aug)} states, forward + RTS smoother: median {med:.2f} s (min {lo:.2f}, max {hi:.2f})")
     med, lo, hi = timed(lambda: mechanize(imu.t_s, sim.dtheta_rad, sim.dvel_mps, q_from_c(c0), np.zeros(3), pos0))

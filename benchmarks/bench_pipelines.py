@@ -8,10 +8,10 @@ import sys
 import time
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import PIPELINES
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 
 
 def logs_for(name):
@@ -23,8 +23,9 @@ def logs_for(name):
         raise SystemExit(f"no benchmark log for {name}")
     t0 = time.perf_counter()
     log = parse_files(bundle_files(simulate(sc, seed=1)))
-    print(f"  (simulated and parsed the one-hour log in {time.perf_counter() - t0:.1f} s, "
-          f"{len(log.imu.t_s)} IMU samples)")
+    print(
+        f"  (simulated and parsed the one-hour log in {time.perf_counter() - t0:.1f} s, {len(log.imu.t_s)} IMU samples)"
+    )
     return [log]
 
 
@@ -41,8 +42,10 @@ def main(names):
             t0 = time.perf_counter()
             run_pipeline(PIPELINES[name], logs, {})
             times.append(time.perf_counter() - t0)
-        print(f"{name}: median {statistics.median(times):.2f} s (min {min(times):.2f}, max {max(times):.2f}) "
-              f"for one hour at 100 Hz")
+        print(
+            f"{name}: median {statistics.median(times):.2f} s (min {min(times):.2f}, max {max(times):.2f}) "
+            f"for one hour at 100 Hz"
+        )
 
 
 if __name__ == "__main__":

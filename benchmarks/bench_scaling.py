@@ -126,9 +126,12 @@ def save(rows: list[dict]) -> None:
 def _put(rows: list[dict], row: dict) -> None:
     key = ("hours", "rate_hz", "what", "mode")
     rows[:] = [r for r in rows if tuple(r[k] for k in key) != tuple(row[k] for k in key)] + [row]
-    print(f"{row['what']:>9} {row['mode']:>4} {row['hours']:g} h {row['rate_hz']:g} Hz: {row['wall_s']:7.1f} s "
-          f"({row['s_per_h']:.2f} s/h), CPU {row.get('cpu_s', float('nan')):.1f} s, "
-          f"peak RSS {row['rss_mb']:.0f} MB{'' if row['ok'] else '  FAILED'}", flush=True)
+    print(
+        f"{row['what']:>9} {row['mode']:>4} {row['hours']:g} h {row['rate_hz']:g} Hz: {row['wall_s']:7.1f} s "
+        f"({row['s_per_h']:.2f} s/h), CPU {row.get('cpu_s', float('nan')):.1f} s, "
+        f"peak RSS {row['rss_mb']:.0f} MB{'' if row['ok'] else '  FAILED'}",
+        flush=True,
+    )
 
 
 def _best(cmd: list[str], env: dict, repeat: int) -> tuple[float, float, int, str, float, list[float]]:
@@ -139,8 +142,15 @@ def _best(cmd: list[str], env: dict, repeat: int) -> tuple[float, float, int, st
     return (*best, [round(r[0], 2) for r in runs])
 
 
-def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool, repeat: int = 1,
-          with_load: bool = False, warm_cache: str | None = None) -> None:
+def bench(
+    hours: list[float],
+    rate: float,
+    pipelines: list[str],
+    cold: bool,
+    repeat: int = 1,
+    with_load: bool = False,
+    warm_cache: str | None = None,
+) -> None:
     sys.path.insert(0, str(HERE))
     from simlogs import bundle_path
 
@@ -148,13 +158,28 @@ def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool, rep
     py = sys.executable
     for h in hours:
         bundle = bundle_path(h, rate)
-        wall, rss, rc, text, cpu, walls = _best([py, "-c", INGEST, str(bundle)] + (["--load"] if with_load else []),
-                                                _env(None), repeat)
+        wall, rss, rc, text, cpu, walls = _best(
+            [py, "-c", INGEST, str(bundle)] + (["--load"] if with_load else []), _env(None), repeat
+        )
         info = json.loads(text.strip().splitlines()[-1]) if rc == 0 else {}
         info["walls_s"] = walls
         log_h = info.get("duration_s", h * 3600.0) / 3600.0
-        _put(rows, dict(hours=h, rate_hz=rate, what="ingest", mode="warm", ok=rc == 0, wall_s=wall, rss_mb=rss, cpu_s=cpu,
-                        log_h=log_h, s_per_h=(info.get("parse_s", 0) + info.get("store_s", 0)) / log_h, **info))
+        _put(
+            rows,
+            dict(
+                hours=h,
+                rate_hz=rate,
+                what="ingest",
+                mode="warm",
+                ok=rc == 0,
+                wall_s=wall,
+                rss_mb=rss,
+                cpu_s=cpu,
+                log_h=log_h,
+                s_per_h=(info.get("parse_s", 0) + info.get("store_s", 0)) / log_h,
+                **info,
+            ),
+        )
         modes = [("warm", warm_cache)] + ([("cold", "fresh")] if cold and h == min(hours) else [])
         for name in pipelines:
             for mode, cache in modes:
@@ -164,9 +189,24 @@ def bench(hours: list[float], rate: float, pipelines: list[str], cold: bool, rep
                     for s in SETS.get(name, []):
                         cmd += ["--set", s]
                     wall, rss, rc, text, cpu, walls = _best(cmd, _env(cache_dir), repeat if mode == "warm" else 1)
-                _put(rows, dict(hours=h, rate_hz=rate, what=name, mode=mode, ok=rc == 0, wall_s=wall, rss_mb=rss,
-                                cpu_s=cpu, cpu_s_per_h=cpu / log_h,
-                                log_h=log_h, s_per_h=wall / log_h, error=text[-600:] if rc else "", walls_s=walls))
+                _put(
+                    rows,
+                    dict(
+                        hours=h,
+                        rate_hz=rate,
+                        what=name,
+                        mode=mode,
+                        ok=rc == 0,
+                        wall_s=wall,
+                        rss_mb=rss,
+                        cpu_s=cpu,
+                        cpu_s_per_h=cpu / log_h,
+                        log_h=log_h,
+                        s_per_h=wall / log_h,
+                        error=text[-600:] if rc else "",
+                        walls_s=walls,
+                    ),
+                )
         save(rows)
 
 
@@ -179,21 +219,28 @@ def _machine() -> str:
                 break
     except OSError:
         pass
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
-                            text=True).stdout.strip()
+    commit = subprocess.run(
+        ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
+    ).stdout.strip()
     return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, commit {commit or '?'}"
 
 
 def write_doc(rows: list[dict]) -> None:
     rows = sorted(rows, key=lambda r: (r["what"] != "ingest", r["what"], r["rate_hz"], r["hours"], r["mode"]))
-    lines = [f"Measured on {_machine()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.", "",
-             "| step | mode | log | IMU rate | wall time | s per hour of log | CPU user+sys per hour | peak RSS |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"Measured on {_machine()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.",
+        "",
+        "| step | mode | log | IMU rate | wall time | s per hour of log | CPU user+sys per hour | peak RSS |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         if not r["ok"]:
             last = [ln for ln in r.get("error", "").splitlines() if ln.strip()][-1:] or [""]
-            wall = f"stopped above {MAX_RSS_MB / 1024:.0f} GB" if r["rss_mb"] >= MAX_RSS_MB else \
-                f"failed: {last[0][:90].replace('|', '/')}"
+            wall = (
+                f"stopped above {MAX_RSS_MB / 1024:.0f} GB"
+                if r["rss_mb"] >= MAX_RSS_MB
+                else f"failed: {last[0][:90].replace('|', '/')}"
+            )
             per_h = "–"
         elif r["what"] == "ingest":
             wall = f"{r['parse_s'] + r['store_s']:.2f} s (process {r['wall_s']:.1f} s)"
@@ -202,8 +249,10 @@ def write_doc(rows: list[dict]) -> None:
             wall, per_h = f"{r['wall_s']:.1f} s", f"{r['s_per_h']:.2f}"
         cpu = r.get("cpu_s")
         cpu_h = f"{cpu / r['log_h']:.2f} s" if cpu is not None and r["ok"] else "–"
-        lines.append(f"| {r['what']} | {r['mode']} | {r['log_h']:.2f} h | {r['rate_hz']:g} Hz | "
-                     f"{wall} | {per_h} | {cpu_h} | {'≥ ' if not r['ok'] else ''}{r['rss_mb']:.0f} MB |")
+        lines.append(
+            f"| {r['what']} | {r['mode']} | {r['log_h']:.2f} h | {r['rate_hz']:g} Hz | "
+            f"{wall} | {per_h} | {cpu_h} | {'≥ ' if not r['ok'] else ''}{r['rss_mb']:.0f} MB |"
+        )
     lines += ["", "![Wall time against log length](performance-scaling.png)"]
     _plot(rows)
     text = DOC.read_text()
@@ -217,14 +266,29 @@ def _plot(rows: list[dict]) -> None:
 
     fig = go.Figure()
     for what in sorted({r["what"] for r in rows}):
-        pts = sorted((r["log_h"], r["wall_s"] if what != "ingest" else r["parse_s"] + r["store_s"], r["rate_hz"])
-                     for r in rows if r["what"] == what and r["mode"] == "warm" and r["ok"])
+        pts = sorted(
+            (r["log_h"], r["wall_s"] if what != "ingest" else r["parse_s"] + r["store_s"], r["rate_hz"])
+            for r in rows
+            if r["what"] == what and r["mode"] == "warm" and r["ok"]
+        )
         if pts:
-            fig.add_trace(go.Scatter(x=[p[0] for p in pts], y=[p[1] for p in pts], mode="lines+markers", name=what,
-                                     text=[f"{p[2]:g} Hz" for p in pts]))
-    fig.update_layout(title="Warm wall time against log length (fresh process per run)",
-                      xaxis_title="log length (h)", yaxis_title="wall time (s)", width=800, height=480,
-                      template="plotly_white")
+            fig.add_trace(
+                go.Scatter(
+                    x=[p[0] for p in pts],
+                    y=[p[1] for p in pts],
+                    mode="lines+markers",
+                    name=what,
+                    text=[f"{p[2]:g} Hz" for p in pts],
+                )
+            )
+    fig.update_layout(
+        title="Warm wall time against log length (fresh process per run)",
+        xaxis_title="log length (h)",
+        yaxis_title="wall time (s)",
+        width=800,
+        height=480,
+        template="plotly_white",
+    )
     try:
         fig.write_image(str(PLOT))
     except Exception as exc:  # kaleido missing or no Chrome: a self-contained HTML instead
@@ -240,17 +304,31 @@ def main() -> None:
     ap.add_argument("--pipelines", nargs="*", default=["navigate", "gravity", "calibrate"])
     ap.add_argument("--no-cold", action="store_true", help="skip the cold (empty cache) runs")
     ap.add_argument("--repeat", type=int, default=1, help="warm runs per figure; the fastest is kept")
-    ap.add_argument("--load", action="store_true", help="also time loading the stored log back (the job side: "
-                    "load_s; the peak RSS then covers both, ingest_rss_mb the ingest alone)")
+    ap.add_argument(
+        "--load",
+        action="store_true",
+        help="also time loading the stored log back (the job side: "
+        "load_s; the peak RSS then covers both, ingest_rss_mb the ingest alone)",
+    )
     ap.add_argument("--doc", action="store_true", help="write docs/performance.md and the plot")
     ap.add_argument("--max-rss-gb", type=float, default=MAX_RSS_MB / 1024, help="stop a child above this RSS")
-    ap.add_argument("--numba-cache", default=None, help="numba cache directory of the warm runs (default: the "
-                    "installation's); warm it first, e.g. with one run")
+    ap.add_argument(
+        "--numba-cache",
+        default=None,
+        help="numba cache directory of the warm runs (default: the installation's); warm it first, e.g. with one run",
+    )
     a = ap.parse_args()
     globals()["MAX_RSS_MB"] = a.max_rss_gb * 1024
     if a.hours:
-        bench(a.hours, a.rate, a.pipelines, cold=not a.no_cold, repeat=a.repeat, with_load=a.load,
-              warm_cache=a.numba_cache)
+        bench(
+            a.hours,
+            a.rate,
+            a.pipelines,
+            cold=not a.no_cold,
+            repeat=a.repeat,
+            with_load=a.load,
+            warm_cache=a.numba_cache,
+        )
     if a.doc:
         write_doc(load())
 

@@ -17,11 +17,11 @@ import time
 import numpy as np
 
 from ldvsurvey.io.drivelog import parse_files
+from ldvsurvey.pipelines.base import run_pipeline
+from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim import truth as TR
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.registry import get
 
 A = np.pi / 180 / 3600
 
@@ -62,17 +62,23 @@ def main(seed=1, minutes=40.0, over=None):
 
             cosd = u @ c_db(sc.ldv.pitch_rad, sc.ldv.heading_rad)[:, 1]
             k_eff = sc.ldv.scale * np.sum(cosd * tr["speed_mps"]) / np.sum(tr["speed_mps"])
-            print(f"  effective scale K·cos δ = {k_eff:.7f} (K = {sc.ldv.scale:.7f}): "
-                  f"scale error vs effective {s['ldv_scale'] - k_eff:+.2e}")
-            print(f"  pitch error {ep / A:+.2f}″ (1-σ {np.radians(s['ldv_pitch_deg_sigma']) / A:.2f}″), "
-                  f"heading error {eh / A:+.2f}″ (1-σ {np.radians(s['ldv_heading_deg_sigma']) / A:.2f}″), "
-                  f"scale error {s['ldv_scale'] - sc.ldv.scale:+.2e} (1-σ {s['ldv_scale_sigma']:.2e}), "
-                  f"compliance {s['ldv_pitch_k_rad_per_mps2']} ± {s['ldv_pitch_k_rad_per_mps2_sigma']} rad/(m/s²)")
+            print(
+                f"  effective scale K·cos δ = {k_eff:.7f} (K = {sc.ldv.scale:.7f}): "
+                f"scale error vs effective {s['ldv_scale'] - k_eff:+.2e}"
+            )
+            print(
+                f"  pitch error {ep / A:+.2f}″ (1-σ {np.radians(s['ldv_pitch_deg_sigma']) / A:.2f}″), "
+                f"heading error {eh / A:+.2f}″ (1-σ {np.radians(s['ldv_heading_deg_sigma']) / A:.2f}″), "
+                f"scale error {s['ldv_scale'] - sc.ldv.scale:+.2e} (1-σ {s['ldv_scale_sigma']:.2e}), "
+                f"compliance {s['ldv_pitch_k_rad_per_mps2']} ± {s['ldv_pitch_k_rad_per_mps2_sigma']} rad/(m/s²)"
+            )
         else:
             h = r.tables["height"]
             e = h["h_m"] - np.interp(h["t_s"], sim.imu.t_s, sim.imu.h_m)
-            print(f"  height vs truth: std {np.std(e):.3f} m, max {np.abs(e).max():.3f} m; vs fix-4 GNSS: std "
-                  f"{s.get('std_error_m_fix4')} m, max {s.get('max_error_m_fix4')} m (n={s.get('n_reference_fix4')})")
+            print(
+                f"  height vs truth: std {np.std(e):.3f} m, max {np.abs(e).max():.3f} m; vs fix-4 GNSS: std "
+                f"{s.get('std_error_m_fix4')} m, max {s.get('max_error_m_fix4')} m (n={s.get('n_reference_fix4')})"
+            )
 
 
 if __name__ == "__main__":

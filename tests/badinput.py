@@ -105,7 +105,7 @@ def case(name):
         _manifest(f, lambda m: m["imu"].__setitem__("rate_hz", "100 Hz"))
         exp = dict(file="manifest.json", line=None, field="imu.rate_hz")
     elif name == "manifest_bad_json":
-        f["manifest.json"] = f["manifest.json"].replace(b'"platform"', b'platform', 1)
+        f["manifest.json"] = f["manifest.json"].replace(b'"platform"', b"platform", 1)
         exp = dict(file="manifest.json", line=None, field=None)
     elif name == "missing_file":
         del f["ldv.csv"]
@@ -136,11 +136,28 @@ def case(name):
     return f, exp
 
 
-CASES = ["missing_column", "misspelled_column", "non_numeric_cell", "nan_cell", "inf_cell",
-         "empty_cell", "short_row", "empty_imu", "empty_ldv_header_only", "time_backwards",
-         "time_repeats", "manifest_key_missing", "manifest_wrong_type", "manifest_unit_as_string",
-         "manifest_bad_json", "missing_file", "nmea_bad_altitude", "nmea_time_backwards",
-         "fd_without_optics", "both_v_fwd_and_fd"]
+CASES = [
+    "missing_column",
+    "misspelled_column",
+    "non_numeric_cell",
+    "nan_cell",
+    "inf_cell",
+    "empty_cell",
+    "short_row",
+    "empty_imu",
+    "empty_ldv_header_only",
+    "time_backwards",
+    "time_repeats",
+    "manifest_key_missing",
+    "manifest_wrong_type",
+    "manifest_unit_as_string",
+    "manifest_bad_json",
+    "missing_file",
+    "nmea_bad_altitude",
+    "nmea_time_backwards",
+    "fd_without_optics",
+    "both_v_fwd_and_fd",
+]
 
 
 def truncated_zip() -> bytes:

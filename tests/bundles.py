@@ -18,11 +18,19 @@ MANIFEST = {
     "date": "2023-03-20",
     "platform": "vehicle",
     "imu": {"rate_hz": 100, "rotating": False, "gyro_bias_dph": 0.003, "accel_bias_ug": 20},
-    "ldv": {"kind": "2d", "rate_hz": 100, "min_quality": 100,
-            "nominal": {"pitch_deg": 0.0, "heading_deg": 0.0, "scale": 1.0},
-            "optics": {"wavelength_nm": 1064.0, "beam_angle_deg": 10.0,
-                       "surface_angle_deg": 30.0, "refractive_index": 1.00027},
-            "lever_arm_m": [0.0, 0.0, -0.8]},
+    "ldv": {
+        "kind": "2d",
+        "rate_hz": 100,
+        "min_quality": 100,
+        "nominal": {"pitch_deg": 0.0, "heading_deg": 0.0, "scale": 1.0},
+        "optics": {
+            "wavelength_nm": 1064.0,
+            "beam_angle_deg": 10.0,
+            "surface_angle_deg": 30.0,
+            "refractive_index": 1.00027,
+        },
+        "lever_arm_m": [0.0, 0.0, -0.8],
+    },
     "gnss": {"lever_arm_m": [0.0, 0.5, 1.6]},
     "initial": {"lat_deg": 28.4861, "lon_deg": 113.0623, "h_m": 120.0, "static_s": 300},
     "vendor_extra": {"kept": True},
@@ -43,10 +51,13 @@ def make_arrays(n_imu=2000, rate=100.0, t0=30000.0, n_gnss=None, seed=0, rotatin
     }
     n_gnss = n_gnss or int(n_imu / rate) + 1
     tg = t0 + np.arange(n_gnss, dtype=float)
-    arr["gnss"] = {"t": tg, "lat": 28.4861 + rng.normal(0, 1e-4, n_gnss),
-                   "lon": 113.0623 + rng.normal(0, 1e-4, n_gnss),
-                   "h": 120 + rng.normal(0, 1, n_gnss),
-                   "fix": np.where(np.arange(n_gnss) % 7 == 3, 2, 4)}
+    arr["gnss"] = {
+        "t": tg,
+        "lat": 28.4861 + rng.normal(0, 1e-4, n_gnss),
+        "lon": 113.0623 + rng.normal(0, 1e-4, n_gnss),
+        "h": 120 + rng.normal(0, 1, n_gnss),
+        "fix": np.where(np.arange(n_gnss) % 7 == 3, 2, 4),
+    }
     return arr
 
 
@@ -58,8 +69,13 @@ def make_bundle(seed=0, n_imu=2000, manifest=None, gnss=True, fd=False, rotating
     files = {
         "manifest.json": manifest_json(m),
         "imu.csv": imu_csv(a["t"], a["dtheta"], a["dvel"], a["turn"], comment="test IMU"),
-        "ldv.csv": ldv_csv(a["t"], v_fwd_mps=None if fd else a["v_fwd"], v_up_mps=a["v_up"],
-                           quality=a["quality"], fd_hz=a["v_fwd"] * 1e5 if fd else None),
+        "ldv.csv": ldv_csv(
+            a["t"],
+            v_fwd_mps=None if fd else a["v_fwd"],
+            v_up_mps=a["v_up"],
+            quality=a["quality"],
+            fd_hz=a["v_fwd"] * 1e5 if fd else None,
+        ),
     }
     if gnss:
         g = a["gnss"]

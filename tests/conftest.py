@@ -9,8 +9,14 @@ def settings(tmp_path, monkeypatch):
     from ldvsurvey.settings import Settings
 
     url = os.environ.get("LDVSURVEY_TEST_DATABASE_URL")
-    s = Settings(data_dir=tmp_path / "data", database_url=url or None, auth_enabled=False,
-                 max_upload_bytes=5 * 1024 * 1024, max_unzipped_bytes=50 * 1024 * 1024, uploads_per_minute=1000)
+    s = Settings(
+        data_dir=tmp_path / "data",
+        database_url=url or None,
+        auth_enabled=False,
+        max_upload_bytes=5 * 1024 * 1024,
+        max_unzipped_bytes=50 * 1024 * 1024,
+        uploads_per_minute=1000,
+    )
     if url:  # a shared server database: start from empty tables
         from tests.helpers.db import reset_database
 

@@ -14,8 +14,13 @@ def _compose(env):
     exe = shutil.which("docker-compose")
     if exe is None:
         pytest.fail("Debian's docker-compose is not installed (scripts/setup.sh installs it)")
-    return subprocess.run([exe, "-f", str(ROOT / "docker-compose.yml"), "config"], capture_output=True, text=True,
-                          env={**os.environ, **env}, cwd=ROOT)
+    return subprocess.run(
+        [exe, "-f", str(ROOT / "docker-compose.yml"), "config"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, **env},
+        cwd=ROOT,
+    )
 
 
 def test_compose_file_validates_and_scales_workers():
@@ -29,8 +34,13 @@ def test_compose_file_validates_and_scales_workers():
 
 def test_compose_fails_fast_without_secrets():
     env = {k: v for k, v in os.environ.items() if k not in ("POSTGRES_PASSWORD", "LDVSURVEY_ADMIN_PASSWORD")}
-    r = subprocess.run([shutil.which("docker-compose") or "docker-compose", "-f", str(ROOT / "docker-compose.yml"),
-                        "config"], capture_output=True, text=True, env=env, cwd=ROOT)
+    r = subprocess.run(
+        [shutil.which("docker-compose") or "docker-compose", "-f", str(ROOT / "docker-compose.yml"), "config"],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
+    )
     assert r.returncode != 0 and "POSTGRES_PASSWORD" in (r.stderr + r.stdout)
 
 

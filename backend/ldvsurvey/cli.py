@@ -24,8 +24,10 @@ def _cmd_validate(args) -> int:
     if report["gnss"] is not None:  # the per-run timeline is for the dashboard, not the terminal
         report["gnss"].pop("fix_timeline", None)
     m = log.manifest
-    print(f"{args.bundle}: valid {m.format} bundle '{m.name}' ({m.platform}, LDV {m.ldv.kind}, "
-          f"IMU {'rotating' if m.imu.rotating else 'fixed'}), {report['duration_s']:.1f} s")
+    print(
+        f"{args.bundle}: valid {m.format} bundle '{m.name}' ({m.platform}, LDV {m.ldv.kind}, "
+        f"IMU {'rotating' if m.imu.rotating else 'fixed'}), {report['duration_s']:.1f} s"
+    )
     if args.json:
         print(json.dumps(report, indent=2))
     for w in log.warnings:
@@ -122,8 +124,9 @@ def _cmd_import(args) -> int:
     from ldvsurvey.io.importers import build_bundle, parse_partial_manifest
     from ldvsurvey.io.writers import write_bundle
 
-    sources = [_parse_source(role, spec) for role, spec in (("imu", args.imu), ("gnss", args.gnss), ("ldv", args.ldv))
-               if spec]
+    sources = [
+        _parse_source(role, spec) for role, spec in (("imu", args.imu), ("gnss", args.gnss), ("ldv", args.ldv)) if spec
+    ]
     mpath = Path(args.manifest)
     if not mpath.is_file():
         raise BundleError("no such file", file=args.manifest, field="--manifest")
@@ -142,9 +145,11 @@ def _cmd_import(args) -> int:
         if os.path.exists(tmp):
             os.unlink(tmp)
     s = result.summary
-    print(f"{out}: {', '.join(f['role'] + '=' + f['format'] for f in s['files'])}; {s['date']}, "
-          f"t {s['time_span_s'][0]:.3f}-{s['time_span_s'][1]:.3f} s; IMU {s['rates_hz']['imu']} Hz "
-          f"(axes {s['imu_axes']}, static tilt {s['static_tilt_deg']:.2f} deg), LDV {s['rates_hz']['ldv']} Hz")
+    print(
+        f"{out}: {', '.join(f['role'] + '=' + f['format'] for f in s['files'])}; {s['date']}, "
+        f"t {s['time_span_s'][0]:.3f}-{s['time_span_s'][1]:.3f} s; IMU {s['rates_hz']['imu']} Hz "
+        f"(axes {s['imu_axes']}, static tilt {s['static_tilt_deg']:.2f} deg), LDV {s['rates_hz']['ldv']} Hz"
+    )
     for w in result.warnings:
         print(f"warning: {w}", file=sys.stderr)
     return 0
@@ -153,13 +158,16 @@ def _cmd_import(args) -> int:
 def _cmd_warmup(args) -> int:
     from ldvsurvey.pipelines.warmup import warmup
 
-    report = warmup(args.pipeline or None, variants=not args.no_variants,
-                    log=lambda line: print(line, file=sys.stderr, flush=True))
+    report = warmup(
+        args.pipeline or None, variants=not args.no_variants, log=lambda line: print(line, file=sys.stderr, flush=True)
+    )
     if args.json:
         print(json.dumps(report.as_dict(), indent=2))
     else:
-        print(f"numba cache {report.cache_dir}: {report.compiled} signature(s) compiled, "
-              f"{report.cache_hits} loaded from the cache, {report.elapsed_s:.1f} s")
+        print(
+            f"numba cache {report.cache_dir}: {report.compiled} signature(s) compiled, "
+            f"{report.cache_hits} loaded from the cache, {report.elapsed_s:.1f} s"
+        )
     for name in report.not_cached:
         print(f"warning: {name} is compiled in every process (no cache=True)", file=sys.stderr)
     missed = [r.pipeline for r in report.runs if not r.ok and not r.parameters]
@@ -215,10 +223,13 @@ def _cmd_user(args) -> int:
             print(f"user '{u.username}' created{' (admin)' if args.admin else ''}")
         elif args.action == "list":
             for u in ustore.list_users(s):
-                flags = [f for f, on in (("admin", u["is_admin"]), ("demo", u["is_demo"]),
-                                         ("disabled", u["disabled"])) if on]
-                print(f"{u['id']}\t{u['username']}\t{','.join(flags) or '-'}\t"
-                      f"{'; '.join(p['name'] for p in u['projects']) or '-'}")
+                flags = [
+                    f for f, on in (("admin", u["is_admin"]), ("demo", u["is_demo"]), ("disabled", u["disabled"])) if on
+                ]
+                print(
+                    f"{u['id']}\t{u['username']}\t{','.join(flags) or '-'}\t"
+                    f"{'; '.join(p['name'] for p in u['projects']) or '-'}"
+                )
         elif args.action in ("disable", "enable"):
             ustore.set_disabled(s, ustore.find_user(s, args.username), args.action == "disable")
             print(f"user '{args.username}' {args.action}d")
@@ -265,8 +276,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("bundles", nargs="+", metavar="BUNDLE")
     r.add_argument("--out", required=True, help="output folder for summary.json and the CSV tables")
     r.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a pipeline parameter")
-    r.add_argument("--format", choices=("csv", "geojson", "kml"), default="csv",
-                   help="also write the tables with positions as GeoJSON or KML (the CSV tables are always written)")
+    r.add_argument(
+        "--format",
+        choices=("csv", "geojson", "kml"),
+        default="csv",
+        help="also write the tables with positions as GeoJSON or KML (the CSV tables are always written)",
+    )
     r.set_defaults(func=_cmd_run)
 
     d = sub.add_parser("demo", help="write a simulated bundle (the product's own simulator)")
@@ -276,18 +291,26 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--duration-s", type=float, default=None, help="override the scenario's length")
     d.set_defaults(func=_cmd_demo)
 
-    im = sub.add_parser("import", help="turn field recordings (novatel, ubx, kf-gins, nmea, csv, native) into a "
-                                       "validated bundle .zip")
+    im = sub.add_parser(
+        "import", help="turn field recordings (novatel, ubx, kf-gins, nmea, csv, native) into a validated bundle .zip"
+    )
     im.add_argument("--imu", required=True, metavar="FORMAT:FILE")
     im.add_argument("--gnss", metavar="FORMAT:FILE")
     im.add_argument("--ldv", metavar="FORMAT:FILE")
-    im.add_argument("--manifest", required=True, metavar="PARTIAL.json",
-                    help="what no recording holds: LDV kind and mounting, lever arms, platform, import options")
+    im.add_argument(
+        "--manifest",
+        required=True,
+        metavar="PARTIAL.json",
+        help="what no recording holds: LDV kind and mounting, lever arms, platform, import options",
+    )
     im.add_argument("--out", required=True, metavar="BUNDLE.zip")
     im.set_defaults(func=_cmd_import)
 
-    w = sub.add_parser("warmup", help="compile the numerical core into the on-disk cache by running every "
-                                      "pipeline once on a tiny simulated log (scripts/setup.sh does this)")
+    w = sub.add_parser(
+        "warmup",
+        help="compile the numerical core into the on-disk cache by running every "
+        "pipeline once on a tiny simulated log (scripts/setup.sh does this)",
+    )
     w.add_argument("--pipeline", action="append", metavar="NAME", help="only this pipeline (repeatable)")
     w.add_argument("--no-variants", action="store_true", help="skip the non-default choice parameters")
     w.add_argument("--json", action="store_true", help="print the runs and the compile/cache counts as JSON")
@@ -301,8 +324,11 @@ def build_parser() -> argparse.ArgumentParser:
     x = ua.add_parser("add", help="create a user (asks for the password unless --password-env)")
     x.add_argument("username")
     x.add_argument("--admin", action="store_true", help="may manage users and projects and sees every project")
-    x.add_argument("--project", action="append", help="make them a member (name or id; repeatable); "
-                                                      "without it they get a project of their own")
+    x.add_argument(
+        "--project",
+        action="append",
+        help="make them a member (name or id; repeatable); without it they get a project of their own",
+    )
     x.add_argument("--password-env", metavar="VAR", help="read the password from this environment variable")
     ua.add_parser("list", help="users, flags and projects")
     for act in ("disable", "enable"):

@@ -7,8 +7,9 @@ from pathlib import Path
 from ldvsurvey.errors import ParameterError
 
 
-def write_demo(directory: str | Path, scenario: str = "height", seed: int = 1,
-               duration_s: float | None = None) -> list[Path]:
+def write_demo(
+    directory: str | Path, scenario: str = "height", seed: int = 1, duration_s: float | None = None
+) -> list[Path]:
     """Write a simulated bundle to ``directory`` (the four files), its truth to ``directory/truth``
     and, when the scenario has a gravity field with deflections, the ICGEM grids ``xi.gdf``,
     ``eta.gdf`` (arcsec) and ``dg.gdf`` (mGal) to ``directory/grids``."""
@@ -17,8 +18,9 @@ def write_demo(directory: str | Path, scenario: str = "height", seed: int = 1,
     from ldvsurvey.sim.catalog import REALISTIC, SCENARIOS, by_name
 
     if scenario not in SCENARIOS:
-        raise ParameterError(f"unknown scenario '{scenario}' (known: {', '.join(sorted(SCENARIOS))})",
-                             field="--scenario")
+        raise ParameterError(
+            f"unknown scenario '{scenario}' (known: {', '.join(sorted(SCENARIOS))})", field="--scenario"
+        )
     kw = {}
     if duration_s:
         if "minutes" not in inspect.signature(SCENARIOS[scenario]).parameters:
@@ -80,8 +82,9 @@ def load_demo_survey(database_url: str, data_dir: Path, enqueue) -> list[int]:
             log_id = row.id
             job = s.scalar(select(Job).where(Job.pipeline == pipeline))
             if job is None or log_id not in job.log_ids:
-                job = Job(pipeline=pipeline, log_ids=[log_id], parameters={}, status="queued", stage="queued",
-                          progress=0.0)
+                job = Job(
+                    pipeline=pipeline, log_ids=[log_id], parameters={}, status="queued", stage="queued", progress=0.0
+                )
                 s.add(job)
                 s.flush()
                 new_job = job.id

@@ -23,8 +23,7 @@ class InputError(Exception):
 
     status_code = 422
 
-    def __init__(self, message: str, *, file: str | None = None,
-                 line: int | None = None, field: str | None = None):
+    def __init__(self, message: str, *, file: str | None = None, line: int | None = None, field: str | None = None):
         self.message = message
         self.file = file
         self.line = line
@@ -44,8 +43,7 @@ class InputError(Exception):
 
     def to_dict(self) -> dict:
         """JSON-ready description (used by the API error body)."""
-        return {"message": self.message, "file": self.file, "line": self.line,
-                "field": self.field, "detail": str(self)}
+        return {"message": self.message, "file": self.file, "line": self.line, "field": self.field, "detail": str(self)}
 
 
 class BundleError(InputError):

@@ -11,13 +11,21 @@ export async function api(path, opts = {}) {
   const r = await fetch(path, { credentials: "same-origin", ...opts, headers });
   if (!r.ok) {
     let body = {};
-    try { body = await r.json(); } catch (e) { /* not JSON */ }
+    try {
+      body = await r.json();
+    } catch (e) {
+      /* not JSON */
+    }
     const d = body.detail;
-    const msg = typeof d === "string" ? d
-      : Array.isArray(d) ? d.map((x) => `${(x.loc || []).slice(1).join(".")}: ${x.msg}`).join("; ")
-        : `${r.status} ${r.statusText}`;
+    const msg =
+      typeof d === "string"
+        ? d
+        : Array.isArray(d)
+          ? d.map((x) => `${(x.loc || []).slice(1).join(".")}: ${x.msg}`).join("; ")
+          : `${r.status} ${r.statusText}`;
     const err = new Error(msg);
-    err.body = body; err.status = r.status;
+    err.body = body;
+    err.status = r.status;
     throw err;
   }
   if (r.status === 204) return null;

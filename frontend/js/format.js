@@ -1,5 +1,5 @@
 // Numbers and results as people read them.
-export const ARCSEC_PER_RAD = 180 * 3600 / Math.PI;
+export const ARCSEC_PER_RAD = (180 * 3600) / Math.PI;
 
 export function num(x, digits = 6) {
   if (x === null || x === undefined || x === "") return "–";
@@ -12,10 +12,10 @@ export function num(x, digits = 6) {
   return String(Number(v.toPrecision(p)));
 }
 
-export const fixed = (x, d = 2) => (x === null || x === undefined || Number.isNaN(Number(x)))
-  ? "–" : Number(x).toFixed(d);
+export const fixed = (x, d = 2) =>
+  x === null || x === undefined || Number.isNaN(Number(x)) ? "–" : Number(x).toFixed(d);
 
-export const pct = (share, d = 1) => (share === null || share === undefined) ? "–" : `${fixed(100 * share, d)} %`;
+export const pct = (share, d = 1) => (share === null || share === undefined ? "–" : `${fixed(100 * share, d)} %`);
 
 // a summary value with its unit spelt out; angles in radians also in arcseconds
 export function quantity(key, v) {
@@ -24,5 +24,14 @@ export function quantity(key, v) {
   return num(v);
 }
 
-export const FIX_NAMES = { 0: "0 no fix", 1: "1 GPS", 2: "2 DGPS", 3: "3 PPS", 4: "4 RTK fixed", 5: "5 RTK float",
-  6: "6 dead reckoning", 7: "7 manual", 8: "8 simulation" };
+export const FIX_NAMES = {
+  0: "0 no fix",
+  1: "1 GPS",
+  2: "2 DGPS",
+  3: "3 PPS",
+  4: "4 RTK fixed",
+  5: "5 RTK float",
+  6: "6 dead reckoning",
+  7: "7 manual",
+  8: "8 simulation",
+};

@@ -17,50 +17,87 @@ function formData(files, manifestText, projectId) {
 
 async function post(path, fd) {
   const r = await fetch(path, {
-    method: "POST", body: fd, credentials: "same-origin",
+    method: "POST",
+    body: fd,
+    credentials: "same-origin",
     headers: session.csrf ? { "X-CSRF-Token": session.csrf } : {},
   });
   let body = {};
-  try { body = await r.json(); } catch (e) { /* not JSON */ }
+  try {
+    body = await r.json();
+  } catch (e) {
+    /* not JSON */
+  }
   return { ok: r.ok, status: r.status, body };
 }
 
 function refused(status, body) {
   const e = body.error || {};
-  return html`<div class="error" id="upload-error">Import refused (${status}): ${body.detail || e.message || ""}
+  return html`<div class="error" id="upload-error">
+    Import refused (${status}): ${body.detail || e.message || ""}
     ${e.file ? html`file: ${e.file}` : ""}${e.line ? html`, line ${e.line}` : ""}
     ${e.field ? html`, field ${e.field}` : ""}
-    </div>`;
+  </div>`;
 }
 
 function hms(t) {
-  const s = ((t % 86400) + 86400) % 86400, day = Math.floor(t / 86400);
+  const s = ((t % 86400) + 86400) % 86400,
+    day = Math.floor(t / 86400);
   const p = (x) => String(Math.floor(x)).padStart(2, "0");
   return `${p(s / 3600)}:${p((s % 3600) / 60)}:${p(s % 60)} UTC${day ? ` (+${day} d)` : ""}`;
 }
 
 function preview(p) {
-  const [t0, t1] = p.time_span_s, r = p.rates_hz;
+  const [t0, t1] = p.time_span_s,
+    r = p.rates_hz;
   const gnss = r.gnss === null ? "none" : `${num(r.gnss, 2)} Hz`;
-  return html`<div class="card" id="import-preview"><h3>Import foreign recordings</h3>
-    <table id="import-files"><tr><th>file</th><th>format</th><th>data</th></tr>
-    ${p.files.map((f) => html`<tr><td>${f.name}</td><td class="fmt">${f.format}</td><td>${f.role}</td></tr>`)}</table>
-    <p id="import-span">Date ${p.date}, ${hms(t0)} to ${hms(t1)}: ${num((t1 - t0) / 60, 1)} min
-      (t ${num(t0, 3)}–${num(t1, 3)} s)</p>
-    <p id="import-rates">Rates: IMU ${num(r.imu, 1)} Hz · LDV ${num(r.ldv, 1)} Hz · GNSS ${gnss}
-      · IMU axes ${p.imu_axes} (static tilt ${num(p.static_tilt_deg, 2)}°)</p>
-    ${p.warnings.length
-      ? html`<ul class="warn" id="import-warnings">${p.warnings.map((w) => html`<li>${w}</li>`)}</ul>` : ""}
-    ${p.gnss_track.length ? html`<div id="import-track" class="plot"></div>`
-      : html`<p id="import-track">No GNSS recording: no track to show.</p>`}
-    <button id="import-confirm">Confirm import</button> <button id="import-cancel">Cancel</button></div>`;
+  return html`<div class="card" id="import-preview">
+    <h3>Import foreign recordings</h3>
+    <table id="import-files">
+      <tr>
+        <th>file</th>
+        <th>format</th>
+        <th>data</th>
+      </tr>
+      ${p.files.map(
+        (f) =>
+          html`<tr>
+            <td>${f.name}</td>
+            <td class="fmt">${f.format}</td>
+            <td>${f.role}</td>
+          </tr>`,
+      )}
+    </table>
+    <p id="import-span">
+      Date ${p.date}, ${hms(t0)} to ${hms(t1)}: ${num((t1 - t0) / 60, 1)} min (t ${num(t0, 3)}–${num(t1, 3)} s)
+    </p>
+    <p id="import-rates">
+      Rates: IMU ${num(r.imu, 1)} Hz · LDV ${num(r.ldv, 1)} Hz · GNSS ${gnss} · IMU axes ${p.imu_axes} (static tilt
+      ${num(p.static_tilt_deg, 2)}°)
+    </p>
+    ${
+      p.warnings.length
+        ? html`<ul class="warn" id="import-warnings">
+            ${p.warnings.map((w) => html`<li>${w}</li>`)}
+          </ul>`
+        : ""
+    }
+    ${
+      p.gnss_track.length
+        ? html`<div id="import-track" class="plot"></div>`
+        : html`<p id="import-track">No GNSS recording: no track to show.</p>`
+    }
+    <button id="import-confirm">Confirm import</button> <button id="import-cancel">Cancel</button>
+  </div>`;
 }
 
 function drawTrack(track) {
-  const lon = track.map((c) => c[0]), lat = track.map((c) => c[1]);
+  const lon = track.map((c) => c[0]),
+    lat = track.map((c) => c[1]);
   const lat0 = lat.reduce((a, b) => a + b, 0) / lat.length;
   return draw($("#import-track"), [{ x: lon, y: lat, mode: "lines", name: "GNSS track" }], {
-    margin: { t: 20, r: 10, b: 40, l: 60 }, height: 320,
+    margin: { t: 20, r: 10, b: 40, l: 60 },
+    height: 320,
     xaxis: { title: { text: "longitude (°)" } },
     yaxis: { title: { text: "latitude (°)" }, scaleanchor: "x", scaleratio: 1 / Math.cos((lat0 * Math.PI) / 180) },
   });
@@ -73,16 +110,26 @@ export async function importFlow(files, { projectId, message, done }) {
   const manifestText = jsonFile ? await jsonFile.text() : "";
   message(html`Recognising the recordings…`);
   const pv = await post("/api/imports/preview", formData(recordings, manifestText));
-  if (!pv.ok) { message(refused(pv.status, pv.body)); return; }
+  if (!pv.ok) {
+    message(refused(pv.status, pv.body));
+    return;
+  }
   message(preview(pv.body));
   if (pv.body.gnss_track.length) drawTrack(pv.body.gnss_track).catch(() => {});
   $("#import-cancel").addEventListener("click", () => message(""));
   $("#import-confirm").addEventListener("click", async () => {
     $("#import-confirm").disabled = true;
     const res = await post("/api/imports", formData(recordings, manifestText, projectId));
-    if (!res.ok) { message(refused(res.status, res.body)); return; }
-    message(html`<p class="ok" id="upload-ok">${res.body.duplicate ? "Already stored" : "Imported and stored"}:
-      <a href="#/logs/${res.body.id}">${res.body.name}</a> (originals kept beside the bundle)</p>`);
+    if (!res.ok) {
+      message(refused(res.status, res.body));
+      return;
+    }
+    message(
+      html`<p class="ok" id="upload-ok">
+        ${res.body.duplicate ? "Already stored" : "Imported and stored"}:
+        <a href="#/logs/${res.body.id}">${res.body.name}</a> (originals kept beside the bundle)
+      </p>`,
+    );
     if (done) done();
   });
 }

@@ -11,9 +11,14 @@ const ACTIVE = ["queued", "running"];
 export async function jobPage(ctx, app, id) {
   let j = await api(`/api/jobs/${id}`);
   if (!ctx.alive) return;
-  render(app, html`<h2>Job ${id}: ${j.pipeline} <span id="jobstatus"></span></h2>
-    <p><a href="#/logs/${j.log_ids[0]}">back to the log</a></p>
-    <div id="jobstate"></div><div id="results"></div><div id="jobinfo"></div>`);
+  render(
+    app,
+    html`<h2>Job ${id}: ${j.pipeline} <span id="jobstatus"></span></h2>
+      <p><a href="#/logs/${j.log_ids[0]}">back to the log</a></p>
+      <div id="jobstate"></div>
+      <div id="results"></div>
+      <div id="jobinfo"></div>`,
+  );
   showState(j);
   showInfo(j);
   if (j.status === "succeeded") return showResults(ctx, j);
@@ -31,40 +36,115 @@ export async function jobPage(ctx, app, id) {
 function showState(j) {
   render($("#jobstatus"), html`<span class="status-${j.status}">${j.status}</span>`);
   const running = ACTIVE.includes(j.status);
-  render($("#jobstate"), html`<div class="card" id="state">
-    ${running ? html`<progress value="${j.progress}" max="100"></progress> <span id="jobstage">${j.stage}</span>` : ""}
-    ${j.status === "failed" ? html`<p class="error" id="joberror">${j.error || "failed"}</p>` : ""}
-    ${j.status === "cancelled" ? html`<p>Cancelled${j.stage && j.stage !== "cancelled" ? html` (${j.stage})` : ""}.
-      No results.</p>` : ""}
-    ${j.status === "succeeded" ? html`<p class="ok">Finished ${j.finished_at ? j.finished_at.slice(0, 19) : ""}
-      after ${j.attempts} attempt${j.attempts === 1 ? "" : "s"}.</p>` : ""}</div>`);
+  render(
+    $("#jobstate"),
+    html`<div class="card" id="state">
+      ${running ? html`<progress value="${j.progress}" max="100"></progress> <span id="jobstage">${j.stage}</span>` : ""}
+      ${j.status === "failed" ? html`<p class="error" id="joberror">${j.error || "failed"}</p>` : ""}
+      ${
+        j.status === "cancelled"
+          ? html`<p>Cancelled${j.stage && j.stage !== "cancelled" ? html` (${j.stage})` : ""}. No results.</p>`
+          : ""
+      }
+      ${
+        j.status === "succeeded"
+          ? html`<p class="ok">
+              Finished ${j.finished_at ? j.finished_at.slice(0, 19) : ""} after ${j.attempts}
+              attempt${j.attempts === 1 ? "" : "s"}.
+            </p>`
+          : ""
+      }
+    </div>`,
+  );
 }
 
 function showInfo(j) {
   const params = (j.summary && j.summary.parameters) || j.parameters || {};
-  render($("#jobinfo"), html`
-    <div class="card" id="job-parameters"><h3>Parameters</h3>
-      ${Object.keys(params).length ? fields(params) : html`<p>defaults</p>`}</div>
-    <div class="card" id="job-inputs"><h3>Inputs</h3><table><tr><th>log</th><th>file</th><th>bytes</th>
-      <th>SHA-256</th></tr>${(j.inputs || []).map((i) => i.files.map((f) => html`<tr><td>
-      <a href="#/logs/${i.log_id}">${i.name}</a></td><td>${f.name}</td><td>${num(f.size_bytes)}</td>
-      <td><code class="hash">${f.sha256}</code></td></tr>`))}</table></div>
-    <div class="card" id="job-warnings"><h3>Warnings</h3>${(j.warnings || []).length
-    ? html`<ul>${j.warnings.map((w) => html`<li>${w}</li>`)}</ul>` : html`<p>none</p>`}</div>
-    <div class="card" id="job-stages"><h3>Stage log</h3><table><tr><th>attempt</th><th>t (s)</th><th>stage</th>
-      <th>progress (%)</th></tr>${(j.stage_log || []).map((e) => html`<tr><td>${e.attempt}</td><td>${num(e.t_s, 4)}
-      </td><td>${e.stage}</td><td>${num(e.progress)}</td></tr>`)}</table></div>`);
+  render(
+    $("#jobinfo"),
+    html` <div class="card" id="job-parameters">
+        <h3>Parameters</h3>
+        ${Object.keys(params).length ? fields(params) : html`<p>defaults</p>`}
+      </div>
+      <div class="card" id="job-inputs">
+        <h3>Inputs</h3>
+        <table>
+          <tr>
+            <th>log</th>
+            <th>file</th>
+            <th>bytes</th>
+            <th>SHA-256</th>
+          </tr>
+          ${(j.inputs || []).map((i) =>
+            i.files.map(
+              (f) =>
+                html`<tr>
+                  <td>
+                    <a href="#/logs/${i.log_id}">${i.name}</a>
+                  </td>
+                  <td>${f.name}</td>
+                  <td>${num(f.size_bytes)}</td>
+                  <td><code class="hash">${f.sha256}</code></td>
+                </tr>`,
+            ),
+          )}
+        </table>
+      </div>
+      <div class="card" id="job-warnings">
+        <h3>Warnings</h3>
+        ${
+          (j.warnings || []).length
+            ? html`<ul>
+                ${j.warnings.map((w) => html`<li>${w}</li>`)}
+              </ul>`
+            : html`<p>none</p>`
+        }
+      </div>
+      <div class="card" id="job-stages">
+        <h3>Stage log</h3>
+        <table>
+          <tr>
+            <th>attempt</th>
+            <th>t (s)</th>
+            <th>stage</th>
+            <th>progress (%)</th>
+          </tr>
+          ${(j.stage_log || []).map(
+            (e) =>
+              html`<tr>
+                <td>${e.attempt}</td>
+                <td>${num(e.t_s, 4)}</td>
+                <td>${e.stage}</td>
+                <td>${num(e.progress)}</td>
+              </tr>`,
+          )}
+        </table>
+      </div>`,
+  );
 }
 
 async function showResults(ctx, j) {
   const files = await api(`/api/jobs/${j.id}/files`);
   if (!ctx.alive) return;
   const views = j.views || []; // the server's view registry (api/views.py): name, title, units, files
-  render($("#results"), html`<div class="card" id="downloads">${files.map((f) => html`<a class="dl" download
-    href="/api/jobs/${j.id}/files/${encodeURIComponent(f.name)}"><button>${f.name}</button></a> `)}</div>
-    ${summaryCard(j)}
-    ${views.map((v) => html`<div class="card"><div class="plot" id="view-${v.name}" data-view="${v.name}"
-      aria-label="${v.title} (${v.units})"></div></div>`)}`);
+  render(
+    $("#results"),
+    html`<div class="card" id="downloads">
+        ${files.map(
+          (f) =>
+            html`<a class="dl" download href="/api/jobs/${j.id}/files/${encodeURIComponent(f.name)}"
+              ><button>${f.name}</button></a
+            > `,
+        )}
+      </div>
+      ${summaryCard(j)}
+      ${views.map(
+        (v) =>
+          html`<div class="card">
+            <div class="plot" id="view-${v.name}" data-view="${v.name}" aria-label="${v.title} (${v.units})"></div>
+          </div>`,
+      )}`,
+  );
   await Promise.all(views.map((v) => drawView(ctx, j.id, v.name)));
 }
 
@@ -80,7 +160,8 @@ async function drawView(ctx, id, v, x0, x1) {
   }
   if (!el.dataset.bound) {
     el.dataset.bound = "1";
-    el.on("plotly_relayout", (ev) => { // zoom: fetch detail for the visible range
+    el.on("plotly_relayout", (ev) => {
+      // zoom: fetch detail for the visible range
       if (ev["xaxis.range[0]"] !== undefined) drawView(ctx, id, v, ev["xaxis.range[0]"], ev["xaxis.range[1]"]);
       else if (ev["xaxis.autorange"]) drawView(ctx, id, v);
     });

@@ -7,28 +7,65 @@ import { dropZone } from "./upload.js";
 export async function logsPage(ctx, app) {
   const projects = (session.me && session.me.project_list) || [];
   const q = new URLSearchParams(location.hash.split("?")[1] || "");
-  render(app, html`<h2>Drive logs</h2>
-  <div id="upload"></div>
-  <p class="hint">An upload goes to the project chosen in the filter below, or to your own project.</p>
-  <form id="filters" class="row">
-    <label>Project <select id="f-project"><option value="">all</option>
-      ${projects.map((p) => html`<option value="${p.id}" ${q.get("project") === String(p.id) ? "selected" : ""}>
-      ${p.name}</option>`)}</select></label>
-    <label>Platform <select id="f-platform"><option value="">all</option>
-      ${["vehicle", "vessel"].map((p) => html`<option ${q.get("platform") === p ? "selected" : ""}>${p}</option>`)}
-      </select></label>
-    <label>Surveyed from <input type="date" id="f-from" value="${q.get("from") || ""}"></label>
-    <label>to <input type="date" id="f-to" value="${q.get("to") || ""}"></label>
-  </form>
-  <table id="logs"><thead><tr><th>name</th><th>project</th><th>date</th><th>duration</th><th>platform</th>
-    <th>LDV</th><th>quality</th><th></th></tr></thead><tbody><tr><td colspan="8">Loading…</td></tr></tbody></table>`);
+  render(
+    app,
+    html`<h2>Drive logs</h2>
+      <div id="upload"></div>
+      <p class="hint">An upload goes to the project chosen in the filter below, or to your own project.</p>
+      <form id="filters" class="row">
+        <label
+          >Project
+          <select id="f-project">
+            <option value="">all</option>
+            ${projects.map(
+              (p) =>
+                html`<option value="${p.id}" ${q.get("project") === String(p.id) ? "selected" : ""}>${p.name}</option>`,
+            )}
+          </select></label
+        >
+        <label
+          >Platform
+          <select id="f-platform">
+            <option value="">all</option>
+            ${["vehicle", "vessel"].map((p) => html`<option ${q.get("platform") === p ? "selected" : ""}>${p}</option>`)}
+          </select></label
+        >
+        <label>Surveyed from <input type="date" id="f-from" value="${q.get("from") || ""}" /></label>
+        <label>to <input type="date" id="f-to" value="${q.get("to") || ""}" /></label>
+      </form>
+      <table id="logs">
+        <thead>
+          <tr>
+            <th>name</th>
+            <th>project</th>
+            <th>date</th>
+            <th>duration</th>
+            <th>platform</th>
+            <th>LDV</th>
+            <th>quality</th>
+            <th></th>
+          </tr>
+        </thead>
+        <tbody>
+          <tr>
+            <td colspan="8">Loading…</td>
+          </tr>
+        </tbody>
+      </table>`,
+  );
   const names = Object.fromEntries(projects.map((p) => [p.id, p.name]));
   const refresh = () => refreshLogs(ctx, names);
   dropZone($("#upload"), { projectId: () => $("#f-project").value || null, done: refresh });
   $("#filters").addEventListener("change", () => {
     const p = new URLSearchParams();
-    [["project", "#f-project"], ["platform", "#f-platform"], ["from", "#f-from"], ["to", "#f-to"]]
-      .forEach(([k, sel]) => { if ($(sel).value) p.set(k, $(sel).value); });
+    [
+      ["project", "#f-project"],
+      ["platform", "#f-platform"],
+      ["from", "#f-from"],
+      ["to", "#f-to"],
+    ].forEach(([k, sel]) => {
+      if ($(sel).value) p.set(k, $(sel).value);
+    });
     history.replaceState(null, "", `#/logs${p.toString() ? "?" + p : ""}`);
     refresh();
   });
@@ -44,24 +81,39 @@ async function refreshLogs(ctx, names) {
   const logs = await api(`/api/logs?${p}`);
   if (!ctx.alive) return;
   const tb = $("#logs tbody");
-  render(tb, logs.length ? logs.map((l) => row(l, names)) : html`<tr><td colspan="8">No logs${
-    p.toString() ? " match the filters" : " yet"}.</td></tr>`);
-  $$("button.del", tb).forEach((btn) => btn.addEventListener("click", async () => {
-    if (!confirm("Delete this log, its files and results?")) return;
-    await api(`/api/logs/${btn.dataset.id}`, { method: "DELETE" });
-    refreshLogs(ctx, names);
-  }));
+  render(
+    tb,
+    logs.length
+      ? logs.map((l) => row(l, names))
+      : html`<tr>
+          <td colspan="8">No logs${p.toString() ? " match the filters" : " yet"}.</td>
+        </tr>`,
+  );
+  $$("button.del", tb).forEach((btn) =>
+    btn.addEventListener("click", async () => {
+      if (!confirm("Delete this log, its files and results?")) return;
+      await api(`/api/logs/${btn.dataset.id}`, { method: "DELETE" });
+      refreshLogs(ctx, names);
+    }),
+  );
 }
 
 function row(l, names) {
   const b = l.badges || {};
   const lowq = b.ldv_below_min_quality_share;
-  return html`<tr data-id="${l.id}"><td><a href="#/logs/${l.id}">${l.name || "(unnamed)"}</a></td>
-    <td>${names[l.project_id] || "–"}</td><td>${l.survey_date}</td><td>${fixed(l.duration_s / 60, 1)} min</td>
-    <td>${l.platform}</td><td>${l.ldv_kind}${l.imu_rotating ? " · rotating IMU" : ""}</td>
-    <td><span class="badge ${b.imu_gaps ? "warn" : ""}">IMU gaps ${b.imu_gaps ?? "–"}</span>
+  return html`<tr data-id="${l.id}">
+    <td><a href="#/logs/${l.id}">${l.name || "(unnamed)"}</a></td>
+    <td>${names[l.project_id] || "–"}</td>
+    <td>${l.survey_date}</td>
+    <td>${fixed(l.duration_s / 60, 1)} min</td>
+    <td>${l.platform}</td>
+    <td>${l.ldv_kind}${l.imu_rotating ? " · rotating IMU" : ""}</td>
+    <td>
+      <span class="badge ${b.imu_gaps ? "warn" : ""}">IMU gaps ${b.imu_gaps ?? "–"}</span>
       <span class="badge">RTK ${pct(b.gnss_rtk_fixed_share, 0)}</span>
       <span class="badge ${lowq > 0.05 ? "warn" : ""}">LDV low-q ${pct(lowq)}</span>
-      ${b.warnings ? html`<span class="badge warn">${b.warnings} warnings</span>` : ""}</td>
-    <td><button class="del" data-id="${l.id}">delete</button></td></tr>`;
+      ${b.warnings ? html`<span class="badge warn">${b.warnings} warnings</span>` : ""}
+    </td>
+    <td><button class="del" data-id="${l.id}">delete</button></td>
+  </tr>`;
 }

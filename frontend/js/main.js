@@ -25,10 +25,15 @@ const ROUTES = [
 
 function header() {
   const me = session.me;
-  render($("#who"), me && me.user ? html`<a href="#/account" id="account-link">${me.user}</a>
-    ${me.demo ? html`<span class="badge">demo account</span>` : ""}
-    ${me.admin ? html`<a href="#/admin" id="admin-link">Admin</a>` : ""}
-    <button id="logout" class="link">Log out</button>` : html``);
+  render(
+    $("#who"),
+    me && me.user
+      ? html`<a href="#/account" id="account-link">${me.user}</a>
+          ${me.demo ? html`<span class="badge">demo account</span>` : ""}
+          ${me.admin ? html`<a href="#/admin" id="admin-link">Admin</a>` : ""}
+          <button id="logout" class="link">Log out</button>`
+      : html``,
+  );
   const out = $("#logout");
   if (out) {
     out.addEventListener("click", async () => {
@@ -51,7 +56,11 @@ async function route() {
       await show(ctx, m);
     } catch (e) {
       if (ctx.alive) {
-        if (e.status === 401) { setSession(null); header(); return loginPage(ctx, app, onLogin); }
+        if (e.status === 401) {
+          setSession(null);
+          header();
+          return loginPage(ctx, app, onLogin);
+        }
         render(app, html`<p class="error">${e.message}</p>`);
       }
     }

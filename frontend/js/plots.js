@@ -9,7 +9,10 @@ export function plotly() {
       s.src = "/vendor/plotly.min.js";
       s.async = true;
       s.onload = () => resolve(window.Plotly);
-      s.onerror = () => { loading = null; reject(new Error("could not load the plotting library")); };
+      s.onerror = () => {
+        loading = null;
+        reject(new Error("could not load the plotting library"));
+      };
       document.head.appendChild(s);
     });
   }

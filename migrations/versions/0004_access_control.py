@@ -4,6 +4,7 @@ Revision ID: 0004
 Revises: 0003
 Create Date: 2026-11-21
 """
+
 import sqlalchemy as sa
 from alembic import op
 
@@ -50,15 +51,22 @@ def upgrade() -> None:
         sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
     )
     with op.batch_alter_table("logs") as b:
-        b.add_column(sa.Column("project_id", sa.Integer, sa.ForeignKey("projects.id", ondelete="CASCADE",
-                                                                      name="fk_logs_project"), nullable=True))
+        b.add_column(
+            sa.Column(
+                "project_id",
+                sa.Integer,
+                sa.ForeignKey("projects.id", ondelete="CASCADE", name="fk_logs_project"),
+                nullable=True,
+            )
+        )
     with op.batch_alter_table("jobs") as b:
         b.add_column(sa.Column("user_id", sa.Integer, nullable=True))
     # the same bundle may live in several projects: uniqueness of the content is per project
     bind = op.get_bind()
     if bind.dialect.name == "sqlite":  # the inline constraint of 0001 is unnamed there
-        with op.batch_alter_table("logs", recreate="always",
-                                  naming_convention={"uq": "uq_%(table_name)s_%(column_0_name)s"}) as b:
+        with op.batch_alter_table(
+            "logs", recreate="always", naming_convention={"uq": "uq_%(table_name)s_%(column_0_name)s"}
+        ) as b:
             b.drop_constraint("uq_logs_sha256", type_="unique")
             b.create_unique_constraint("uq_logs_project_sha256", ["project_id", "sha256"])
     else:

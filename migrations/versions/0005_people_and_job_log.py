@@ -5,6 +5,7 @@ Revision ID: 0005_people
 Revises: 0004
 Create Date: 2026-11-23
 """
+
 import sqlalchemy as sa
 from alembic import op
 

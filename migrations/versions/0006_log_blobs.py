@@ -4,6 +4,7 @@ Revision ID: 0006_log_blobs
 Revises: 0005_people
 Create Date: 2026-11-23
 """
+
 import sqlalchemy as sa
 from alembic import op
 

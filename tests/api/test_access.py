@@ -12,8 +12,14 @@ from tests.bundles import make_bundle
 
 @pytest.fixture
 def secured(settings):
-    st = settings.model_copy(update={"auth_enabled": True, "admin_user": "admin", "admin_password": "s3cret-admin",
-                                     "max_active_jobs_per_user": 2})
+    st = settings.model_copy(
+        update={
+            "auth_enabled": True,
+            "admin_user": "admin",
+            "admin_password": "s3cret-admin",
+            "max_active_jobs_per_user": 2,
+        }
+    )
     app = create_app(st)
     url = app.state.database_url
     with session_scope(url) as s:
@@ -37,9 +43,14 @@ def test_other_project_sees_nothing(secured):
     c, ha, hb, log_a, job_a = secured
     assert [lg["id"] for lg in c.get("/api/logs", headers=ha).json()] == [log_a]
     assert c.get("/api/logs", headers=hb).json() == []
-    for path in (f"/api/logs/{log_a}", f"/api/logs/{log_a}/files/imu.csv", f"/api/jobs/{job_a}",
-                 f"/api/jobs/{job_a}/files", f"/api/jobs/{job_a}/files/summary.json",
-                 f"/api/jobs/{job_a}/views/height"):
+    for path in (
+        f"/api/logs/{log_a}",
+        f"/api/logs/{log_a}/files/imu.csv",
+        f"/api/jobs/{job_a}",
+        f"/api/jobs/{job_a}/files",
+        f"/api/jobs/{job_a}/files/summary.json",
+        f"/api/jobs/{job_a}/views/height",
+    ):
         assert c.get(path, headers=hb).status_code == 404, path
         assert c.get(path, headers=ha).status_code in (200, 404, 409), path  # A may (file may not exist yet)
     assert c.get(f"/api/logs/{log_a}/files/imu.csv", headers=ha).status_code == 200
@@ -50,8 +61,12 @@ def test_other_project_sees_nothing(secured):
     assert c.delete(f"/api/logs/{log_a}", headers=hb).status_code == 404
     assert c.get(f"/api/logs/{log_a}", headers=ha).status_code == 200  # still there
     # uploading into somebody else's project is refused
-    r = c.post("/api/logs", headers=hb, data={"project_id": "1"},
-               files=[("files", (n, d, "x")) for n, d in make_bundle(seed=32).items()])
+    r = c.post(
+        "/api/logs",
+        headers=hb,
+        data={"project_id": "1"},
+        files=[("files", (n, d, "x")) for n, d in make_bundle(seed=32).items()],
+    )
     assert r.status_code == 404
 
 
@@ -97,6 +112,10 @@ def test_admin_from_environment_sees_all(secured):
 
 def test_job_quota_per_user(secured):
     c, ha, hb, log_a, _ = secured
-    codes = [c.post(f"/api/logs/{log_a}/jobs", headers=ha,
-                    json={"pipeline": "height", "parameters": {"output_rate_hz": 1}}).status_code for _ in range(4)]
+    codes = [
+        c.post(
+            f"/api/logs/{log_a}/jobs", headers=ha, json={"pipeline": "height", "parameters": {"output_rate_hz": 1}}
+        ).status_code
+        for _ in range(4)
+    ]
     assert 429 in codes  # at most 2 queued or running per user here

@@ -90,7 +90,7 @@ def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
         stack.append(n)
         for d in sorted(graph.get(n, ())):
             if state.get(d) == "open":
-                return stack[stack.index(d):] + [d]
+                return stack[stack.index(d) :] + [d]
             if d not in state and (c := visit(d)):
                 return c
         stack.pop()
@@ -119,8 +119,10 @@ def test_views_come_from_the_registry(client):
     assert [v["name"] for v in listed] == list(VIEWS)
     assert {v["pipeline"] for v in listed} <= set(PIPELINES)
     assert all(v["title"] and v["units"] and v["files"] for v in listed)
-    assert [v["name"] for v in client.get("/api/views", params={"pipeline": "height"}).json()] == \
-        ["height", "height_error"]
+    assert [v["name"] for v in client.get("/api/views", params={"pipeline": "height"}).json()] == [
+        "height",
+        "height_error",
+    ]
     with pytest.raises(ValueError):
         view("height", "height", "again", "m", ("height.csv",))(lambda v: {})
     with pytest.raises(RuntimeError, match="without declaring"):

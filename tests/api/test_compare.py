@@ -17,8 +17,9 @@ def _coincidence(lines: dict) -> bytes:
 
 @pytest.fixture
 def jobs(client):
-    log_id = client.post("/api/logs", files=[("files", (n, d, "x")) for n, d in
-                                              make_bundle(seed=70, n_imu=300).items()]).json()["id"]
+    log_id = client.post(
+        "/api/logs", files=[("files", (n, d, "x")) for n, d in make_bundle(seed=70, n_imu=300).items()]
+    ).json()["id"]
     d = np.arange(0.0, 1000.0 + 1e-9, 10.0)
     ref = {"L1": (d, 5 * np.sin(d / 100)), "L2": (d, np.cos(d / 80))}
     # job b: L1 offset by +0.5 mGal on a shorter stretch; L2 on a grid 5 m off, linear in d
@@ -28,8 +29,15 @@ def jobs(client):
     ids = []
     with session_scope(client.app_state.database_url) as s:
         for lines in (ref, other):
-            j = Job(pipeline="gravity", log_ids=[log_id], parameters={}, status="succeeded", stage="done",
-                    progress=100, summary={})
+            j = Job(
+                pipeline="gravity",
+                log_ids=[log_id],
+                parameters={},
+                status="succeeded",
+                stage="done",
+                progress=100,
+                summary={},
+            )
             s.add(j)
             s.flush()
             s.add(JobFile(job_id=j.id, name="coincidence.csv", size_bytes=1, content=_coincidence(lines)))
@@ -49,7 +57,7 @@ def test_compare_statistics_and_csv(client, jobs):
     truth = 0.001 * d[k] - np.cos(d[k] / 80)
     assert st["L2"]["n_common"] == k.sum()
     assert st["L2"]["mean_mgal"] == pytest.approx(truth.mean(), abs=1e-5)
-    assert st["L2"]["rms_mgal"] == pytest.approx(np.sqrt(np.mean(truth ** 2)), abs=1e-5)
+    assert st["L2"]["rms_mgal"] == pytest.approx(np.sqrt(np.mean(truth**2)), abs=1e-5)
     assert st["all"]["n_common"] == 61 + k.sum()
     csv = client.get(f"/api/compare/csv?jobs={a},{b}")
     assert csv.status_code == 200 and csv.headers["content-type"].startswith("text/csv")

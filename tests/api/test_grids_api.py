@@ -67,8 +67,10 @@ def test_uploaded_grid_drives_a_job(client, small_drive):
     r = client.post("/api/logs", files=[("files", ("b.zip", bundle, "application/zip"))])
     assert r.status_code == 201, r.text
     log_id = r.json()["id"]
-    r = client.post(f"/api/logs/{log_id}/jobs", json={"pipeline": "navigate", "parameters": {
-        "aiding": "gnss", "dov": "grid", "dov_grid_id": gid}})
+    r = client.post(
+        f"/api/logs/{log_id}/jobs",
+        json={"pipeline": "navigate", "parameters": {"aiding": "gnss", "dov": "grid", "dov_grid_id": gid}},
+    )
     assert r.status_code == 201, r.text
     j = _wait(client, r.json()["id"])
     assert j["status"] == "succeeded", j["error"]
@@ -76,7 +78,12 @@ def test_uploaded_grid_drives_a_job(client, small_drive):
     assert dov["source"] == "xi.gdf, eta.gdf"
     assert dov["xi_arcsec_max"] == pytest.approx(5.0) and dov["eta_arcsec_max"] == pytest.approx(3.0)
     # an unknown id fails the job with the field named
-    r = client.post(f"/api/logs/{log_id}/jobs", json={"pipeline": "navigate", "parameters": {
-        "aiding": "gnss", "dov": "grid", "dov_grid_id": "0123456789abcdef01234567"}})
+    r = client.post(
+        f"/api/logs/{log_id}/jobs",
+        json={
+            "pipeline": "navigate",
+            "parameters": {"aiding": "gnss", "dov": "grid", "dov_grid_id": "0123456789abcdef01234567"},
+        },
+    )
     j = _wait(client, r.json()["id"])
     assert j["status"] == "failed" and "dov_grid_id" in j["error"]

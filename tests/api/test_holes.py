@@ -37,8 +37,9 @@ def test_many_member_bomb_refused_before_inflating(settings, bomb, max_members):
     from ldvsurvey.api.app import create_app
 
     # the production limits (2 GiB unpacked, 512 MiB upload): the archive fits both
-    st = settings.model_copy(update={"max_unzipped_bytes": 2 << 30, "max_upload_bytes": 512 * MiB,
-                                     "max_zip_members": max_members})
+    st = settings.model_copy(
+        update={"max_unzipped_bytes": 2 << 30, "max_upload_bytes": 512 * MiB, "max_zip_members": max_members}
+    )
     assert 1.0e6 < len(bomb) < 1.5e6
     with TestClient(create_app(st)) as c:
         tracemalloc.start()
@@ -55,10 +56,13 @@ def test_many_member_bomb_refused_before_inflating(settings, bomb, max_members):
         assert c.get("/api/logs").json() == []
 
 
-@pytest.mark.parametrize("make,needle", [
-    (lambda: zip_bytes({**make_bundle(seed=40, n_imu=300), **{f"x{k}.txt": b"x" for k in range(80)}}), "entries"),
-    (lambda: zip_bytes({**make_bundle(seed=41, n_imu=300), "pad.bin": b"\0" * (3 * MiB)}), "bomb"),
-])
+@pytest.mark.parametrize(
+    "make,needle",
+    [
+        (lambda: zip_bytes({**make_bundle(seed=40, n_imu=300), **{f"x{k}.txt": b"x" for k in range(80)}}), "entries"),
+        (lambda: zip_bytes({**make_bundle(seed=41, n_imu=300), "pad.bin": b"\0" * (3 * MiB)}), "bomb"),
+    ],
+)
 def test_archive_judged_by_its_directory(client, make, needle):
     r = client.post("/api/logs", files=[("files", ("b.zip", make(), "application/zip"))])
     assert r.status_code == 413 and needle in r.json()["detail"], r.text
@@ -66,8 +70,9 @@ def test_archive_judged_by_its_directory(client, make, needle):
 
 def test_unknown_member_named_but_not_inflated(client):
     files = make_bundle(seed=42, n_imu=300)
-    r = client.post("/api/logs", files=[("files", ("b.zip", zip_bytes({**files, "notes.txt": b"hello"}),
-                                                   "application/zip"))])
+    r = client.post(
+        "/api/logs", files=[("files", ("b.zip", zip_bytes({**files, "notes.txt": b"hello"}), "application/zip"))]
+    )
     assert r.status_code == 201, r.text
     assert any("notes.txt" in w for w in r.json()["quality"]["warnings"])
     assert {f["name"] for f in client.get(f"/api/logs/{r.json()['id']}").json()["files"]} == set(files)
@@ -99,8 +104,9 @@ def test_large_answers_are_gzipped(client):
 
 def test_delete_answers_after_commit(client):
     for seed in range(3):
-        log_id = client.post("/api/logs", files=[("files", (n, d, "x")) for n, d in
-                                                  make_bundle(seed=50 + seed, n_imu=300).items()]).json()["id"]
+        log_id = client.post(
+            "/api/logs", files=[("files", (n, d, "x")) for n, d in make_bundle(seed=50 + seed, n_imu=300).items()]
+        ).json()["id"]
         assert client.delete(f"/api/logs/{log_id}").status_code == 204
         assert client.get(f"/api/logs/{log_id}").status_code == 404
 
@@ -143,8 +149,14 @@ def test_deleting_a_log_stops_its_running_job(client, monkeypatch, capfd):
     log_id = client.post("/api/logs", files=[("files", (n, d, "x")) for n, d in files.items()]).json()["id"]
     url = client.app_state.database_url
     with session_scope(url) as s:
-        j = Job(pipeline="tilt", log_ids=[log_id], parameters={"output_rate_hz": 1}, status="queued",
-                stage="queued", progress=0)
+        j = Job(
+            pipeline="tilt",
+            log_ids=[log_id],
+            parameters={"output_rate_hz": 1},
+            status="queued",
+            stage="queued",
+            progress=0,
+        )
         s.add(j)
         s.flush()
         job_id = j.id

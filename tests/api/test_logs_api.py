@@ -97,12 +97,15 @@ def test_bad_bundle_422_and_nothing_stored(client, db_counts, name):
     assert db_counts() == EMPTY
 
 
-@pytest.mark.parametrize("make,status", [
-    (badinput.truncated_zip, 422),
-    (lambda: badinput.traversal_zip("../../etc/passwd"), 422),
-    (lambda: badinput.traversal_zip("/abs/path"), 422),
-    (lambda: badinput.bomb_zip(60 * 1024 * 1024), 413),
-])
+@pytest.mark.parametrize(
+    "make,status",
+    [
+        (badinput.truncated_zip, 422),
+        (lambda: badinput.traversal_zip("../../etc/passwd"), 422),
+        (lambda: badinput.traversal_zip("/abs/path"), 422),
+        (lambda: badinput.bomb_zip(60 * 1024 * 1024), 413),
+    ],
+)
 def test_bad_zip(client, db_counts, make, status):
     r = _post_zip(client, make())
     assert r.status_code == status, r.text
@@ -121,8 +124,13 @@ def test_empty_upload_and_mixed_upload(client, db_counts):
     r = client.post("/api/logs", files=[])
     assert r.status_code == 422
     files = make_bundle(seed=26)
-    r = client.post("/api/logs", files=[("files", ("b.zip", zip_bytes(files), "application/zip")),
-                                        ("files", ("imu.csv", files["imu.csv"], "text/csv"))])
+    r = client.post(
+        "/api/logs",
+        files=[
+            ("files", ("b.zip", zip_bytes(files), "application/zip")),
+            ("files", ("imu.csv", files["imu.csv"], "text/csv")),
+        ],
+    )
     assert r.status_code == 422 and "not both" in r.json()["detail"]
     assert db_counts() == EMPTY
 
@@ -146,15 +154,18 @@ def test_list_filters_by_project_platform_and_date(settings):
     with TestClient(app) as c:
         p2 = c.post("/api/admin/projects", json={"name": "second"}, headers=h).json()["id"]
         made = {}
-        for seed, (date, platform, project) in enumerate([("2023-03-20", "vehicle", None),
-                                                          ("2024-06-01", "vessel", None),
-                                                          ("2024-07-15", "vehicle", p2)]):
+        for seed, (date, platform, project) in enumerate(
+            [("2023-03-20", "vehicle", None), ("2024-06-01", "vessel", None), ("2024-07-15", "vehicle", p2)]
+        ):
             m = copy.deepcopy(MANIFEST)
             m["date"], m["platform"] = date, platform
             data = {"project_id": str(project)} if project else {}
-            r = c.post("/api/logs", headers=h, data=data,
-                       files=[("files", (n, d, "x")) for n, d in make_bundle(seed=80 + seed, n_imu=300,
-                                                                             manifest=m).items()])
+            r = c.post(
+                "/api/logs",
+                headers=h,
+                data=data,
+                files=[("files", (n, d, "x")) for n, d in make_bundle(seed=80 + seed, n_imu=300, manifest=m).items()],
+            )
             assert r.status_code == 201, r.text
             made[(date, platform)] = r.json()["id"]
 

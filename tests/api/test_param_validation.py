@@ -23,8 +23,13 @@ def api(tmp_path_factory):
 
     if os.environ.get("LDVSURVEY_TEST_DATABASE_URL"):
         pytest.skip("uses its own SQLite database")
-    st = Settings(data_dir=tmp_path_factory.mktemp("data"), auth_enabled=False, uploads_per_minute=10000,
-                  max_upload_bytes=5 * 1024 * 1024, max_unzipped_bytes=50 * 1024 * 1024)
+    st = Settings(
+        data_dir=tmp_path_factory.mktemp("data"),
+        auth_enabled=False,
+        uploads_per_minute=10000,
+        max_upload_bytes=5 * 1024 * 1024,
+        max_unzipped_bytes=50 * 1024 * 1024,
+    )
     queued = []
     app = create_app(st)
     with pytest.MonkeyPatch.context() as mp:
@@ -46,8 +51,10 @@ def upload(c, **kw) -> int:
 
 
 def submit(c, log_id, pipeline, parameters=None, log_ids=()):
-    return c.post(f"/api/logs/{log_id}/jobs", json={"pipeline": pipeline, "parameters": parameters or {},
-                                                    "log_ids": list(log_ids)})
+    return c.post(
+        f"/api/logs/{log_id}/jobs",
+        json={"pipeline": pipeline, "parameters": parameters or {}, "log_ids": list(log_ids)},
+    )
 
 
 def _alt(prop):
@@ -124,27 +131,30 @@ def test_out_of_range_value_is_422_naming_the_field(api, rotating_log, pipeline,
     assert api.queued == []
 
 
-@pytest.mark.parametrize("pipeline,params,field", [
-    # tried by a user (issue 16): each was accepted or ended in an internal error
-    ("gravity", {"fir_length_s": -5}, "fir_length_s"),
-    ("gravity", {"fir_length_s": 0}, "fir_length_s"),
-    ("gravity", {"fir_length_s": "0"}, "fir_length_s"),
-    ("tilt", {"output_rate_hz": 0}, "output_rate_hz"),
-    ("dov", {"degree": -1}, "degree"),
-    ("dov", {"degree": 100000}, "degree"),
-    ("dov", {"degree": 2191}, "degree"),
-    ("height", {"ldv_scale": -3}, "ldv_scale"),
-    ("navigate", {"ldv_scale": "-3"}, "ldv_scale"),
-    # structured strings and lists
-    ("gravity", {"lines": "100-50"}, "lines"),
-    ("gravity", {"lines": "a-b"}, "lines"),
-    ("gravity", {"gnss_fixes": "3"}, "gnss_fixes"),
-    ("calibrate", {"calibration_window": "30010"}, "calibration_window"),
-    ("calibrate", {"calibration_window": [30009.0, 30001.0]}, "calibration_window"),
-    ("dov", {"compensation_steps_arcmin": [1.0, -2.5]}, "compensation_steps_arcmin"),
-    ("dov", {"compensation_updates_s": []}, "compensation_updates_s"),
-    ("height", {"fir": 3}, "fir"),  # unknown key
-])
+@pytest.mark.parametrize(
+    "pipeline,params,field",
+    [
+        # tried by a user (issue 16): each was accepted or ended in an internal error
+        ("gravity", {"fir_length_s": -5}, "fir_length_s"),
+        ("gravity", {"fir_length_s": 0}, "fir_length_s"),
+        ("gravity", {"fir_length_s": "0"}, "fir_length_s"),
+        ("tilt", {"output_rate_hz": 0}, "output_rate_hz"),
+        ("dov", {"degree": -1}, "degree"),
+        ("dov", {"degree": 100000}, "degree"),
+        ("dov", {"degree": 2191}, "degree"),
+        ("height", {"ldv_scale": -3}, "ldv_scale"),
+        ("navigate", {"ldv_scale": "-3"}, "ldv_scale"),
+        # structured strings and lists
+        ("gravity", {"lines": "100-50"}, "lines"),
+        ("gravity", {"lines": "a-b"}, "lines"),
+        ("gravity", {"gnss_fixes": "3"}, "gnss_fixes"),
+        ("calibrate", {"calibration_window": "30010"}, "calibration_window"),
+        ("calibrate", {"calibration_window": [30009.0, 30001.0]}, "calibration_window"),
+        ("dov", {"compensation_steps_arcmin": [1.0, -2.5]}, "compensation_steps_arcmin"),
+        ("dov", {"compensation_updates_s": []}, "compensation_updates_s"),
+        ("height", {"fir": 3}, "fir"),  # unknown key
+    ],
+)
 def test_reported_bad_values_are_422(api, rotating_log, pipeline, params, field):
     r = submit(api, rotating_log, pipeline, params)
     assert r.status_code == 422, r.text
@@ -154,9 +164,10 @@ def test_reported_bad_values_are_422(api, rotating_log, pipeline, params, field)
 
 def test_valid_values_at_the_limits_pass(api, rotating_log):
     """The door is not closed: in-range values, given as JSON or as form strings, are queued."""
-    for params in ({"degree": 2190, "output_rate_hz": 100}, {"degree": "2", "grid_step_arcmin": "2.5",
-                                                              "compensation": "false",
-                                                              "compensation_steps_arcmin": "1,5"}):
+    for params in (
+        {"degree": 2190, "output_rate_hz": 100},
+        {"degree": "2", "grid_step_arcmin": "2.5", "compensation": "false", "compensation_steps_arcmin": "1,5"},
+    ):
         r = submit(api, rotating_log, "dov", params)
         assert r.status_code == 201, r.text
     r = submit(api, rotating_log, "tilt", {"output_rate_hz": 0.5, "ldv_scale": 1.001})
@@ -183,10 +194,22 @@ def test_inapplicable_pipelines_are_refused_with_the_reason(api):
     refused = [
         (fixed, "tilt", {}, (), "imu.rotating", "rotating IMU"),
         (fixed, "damping", {}, (), "platform", "vessels"),
-        (fixed, "calibrate", {"calibration_window": [29000.0, 29500.0]}, (), "calibration_window",
-         "not inside the log"),
-        (fixed, "height", {"calibration_window": [30005.0, t_end + 60]}, (), "calibration_window",
-         "not inside the log"),
+        (
+            fixed,
+            "calibrate",
+            {"calibration_window": [29000.0, 29500.0]},
+            (),
+            "calibration_window",
+            "not inside the log",
+        ),
+        (
+            fixed,
+            "height",
+            {"calibration_window": [30005.0, t_end + 60]},
+            (),
+            "calibration_window",
+            "not inside the log",
+        ),
         (fixed, "height", {"output_rate_hz": 500}, (), "output_rate_hz", "above the IMU rate"),
         (nognss, "calibrate", {}, (), "BUNDLE", "gnss.nmea"),
         (nognss, "dov", {}, (), "BUNDLE", "gnss.nmea"),
@@ -205,9 +228,14 @@ def test_inapplicable_pipelines_are_refused_with_the_reason(api):
     assert api.queued == []
     # the same logs with pipelines that apply are accepted (the refusals above are not blanket ones)
     vessel = upload(api, seed=5, manifest=_vessel_manifest())
-    accepted = [(vessel, "damping", {}, ()), (fixed, "height", {"output_rate_hz": 100}, ()),
-                (nognss, "height", {}, ()), (lined, "gravity", {"lines": "30001-30004,30005-30009"}, ()),
-                (lined, "gravity", {}, (fixed,)), (fixed, "calibrate", {"calibration_window": [30002, 30009]}, ())]
+    accepted = [
+        (vessel, "damping", {}, ()),
+        (fixed, "height", {"output_rate_hz": 100}, ()),
+        (nognss, "height", {}, ()),
+        (lined, "gravity", {"lines": "30001-30004,30005-30009"}, ()),
+        (lined, "gravity", {}, (fixed,)),
+        (fixed, "calibrate", {"calibration_window": [30002, 30009]}, ()),
+    ]
     for log_id, pipe, params, others in accepted:
         r = submit(api, log_id, pipe, params, others)
         assert r.status_code == 201, (pipe, params, r.text)

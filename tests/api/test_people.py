@@ -20,9 +20,15 @@ def _files(seed):
 
 @pytest.fixture
 def st(settings):
-    return settings.model_copy(update={"auth_enabled": True, "admin_user": ADMIN["username"],
-                                       "admin_password": ADMIN["password"], "login_failures_per_account": 5,
-                                       "login_failures_per_client": 12})
+    return settings.model_copy(
+        update={
+            "auth_enabled": True,
+            "admin_user": ADMIN["username"],
+            "admin_password": ADMIN["password"],
+            "login_failures_per_account": 5,
+            "login_failures_per_client": 12,
+        }
+    )
 
 
 def login(c, username, password):
@@ -37,14 +43,18 @@ def test_admin_creates_user_and_project_user_sees_only_that(st):
         p = c.post("/api/admin/projects", json={"name": "Levelling 2026"}, headers=h)
         assert p.status_code == 201, p.text
         pid = p.json()["id"]
-        u = c.post("/api/admin/users", json={"username": "carol", "password": "carol-password",
-                                              "project_ids": [pid]}, headers=h)
+        u = c.post(
+            "/api/admin/users",
+            json={"username": "carol", "password": "carol-password", "project_ids": [pid]},
+            headers=h,
+        )
         assert u.status_code == 201, u.text
         assert [x["name"] for x in u.json()["projects"]] == ["Levelling 2026"]
-        assert c.post("/api/admin/users", json={"username": "carol", "password": "another-pw"},
-                      headers=h).status_code == 409
-        assert c.post("/api/admin/users", json={"username": "dave", "password": "short"},
-                      headers=h).status_code == 422
+        assert (
+            c.post("/api/admin/users", json={"username": "carol", "password": "another-pw"}, headers=h).status_code
+            == 409
+        )
+        assert c.post("/api/admin/users", json={"username": "dave", "password": "short"}, headers=h).status_code == 422
         # an admin's upload without project_id goes to a project of theirs, not nowhere
         own = c.post("/api/logs", files=_files(60), headers=h)
         assert own.status_code == 201 and own.json()["project_id"] is not None
@@ -65,14 +75,21 @@ def test_admin_creates_user_and_project_user_sees_only_that(st):
 def test_password_change_and_disable(st):
     with TestClient(create_app(st)) as c:
         _, h = login(c, **ADMIN)
-        uid = c.post("/api/admin/users", json={"username": "erin", "password": "erin-password"},
-                     headers=h).json()["id"]
+        uid = c.post("/api/admin/users", json={"username": "erin", "password": "erin-password"}, headers=h).json()["id"]
         c.post("/api/logout", headers=h)
         _, he = login(c, "erin", "erin-password")
-        assert c.post("/api/password", json={"old_password": "nope", "new_password": "erin-new-password"},
-                      headers=he).status_code == 403
-        assert c.post("/api/password", json={"old_password": "erin-password", "new_password": "erin-new-password"},
-                      headers=he).status_code == 200
+        assert (
+            c.post(
+                "/api/password", json={"old_password": "nope", "new_password": "erin-new-password"}, headers=he
+            ).status_code
+            == 403
+        )
+        assert (
+            c.post(
+                "/api/password", json={"old_password": "erin-password", "new_password": "erin-new-password"}, headers=he
+            ).status_code
+            == 200
+        )
         assert c.get("/api/me").status_code == 401  # every session ended
         assert login(c, "erin", "erin-password")[0].status_code == 401
         r, he = login(c, "erin", "erin-new-password")
@@ -93,7 +110,7 @@ def test_tokens_listed_named_expiring_revocable(st):
         assert made.status_code == 201
         secret, tid = made.json()["token"], made.json()["id"]
         exp = dt.datetime.fromisoformat(made.json()["expires_at"])
-        assert abs((exp - dt.datetime.now(dt.timezone.utc)).total_seconds() - 30 * 86400) < 120
+        assert abs((exp - dt.datetime.now(dt.UTC)).total_seconds() - 30 * 86400) < 120
         listed = c.get("/api/tokens").json()
         assert [t["name"] for t in listed] == ["field laptop"] and "token" not in listed[0]
         bearer = {"Authorization": f"Bearer {secret}"}
@@ -105,7 +122,7 @@ def test_tokens_listed_named_expiring_revocable(st):
         _, h = login(c, **ADMIN)
         old = c.post("/api/tokens", json={"name": "old", "expires_days": 1}, headers=h).json()
         with session_scope(c.app.state.database_url) as s:
-            s.get(ApiToken, old["id"]).expires_at = dt.datetime.now(dt.timezone.utc) - dt.timedelta(seconds=1)
+            s.get(ApiToken, old["id"]).expires_at = dt.datetime.now(dt.UTC) - dt.timedelta(seconds=1)
         assert c.get("/api/logs", headers={"Authorization": f"Bearer {old['token']}"}).status_code == 401
         assert [t["expired"] for t in c.get("/api/tokens").json()] == [True]
 
@@ -122,8 +139,14 @@ def test_login_throttle_per_account_not_fooled_by_forwarded_for(st):
         assert r.status_code == 200
         c.post("/api/logout", headers=hf)
         # a rotating X-Forwarded-For does not reset anything
-        codes = [c.post("/api/login", json={"username": "frank", "password": f"guess{k}"},
-                        headers={"X-Forwarded-For": f"10.0.{k}.1"}).status_code for k in range(8)]
+        codes = [
+            c.post(
+                "/api/login",
+                json={"username": "frank", "password": f"guess{k}"},
+                headers={"X-Forwarded-For": f"10.0.{k}.1"},
+            ).status_code
+            for k in range(8)
+        ]
         assert codes[:5] == [401] * 5 and set(codes[5:]) == {429}
         assert login(c, "frank", "frank-password")[0].status_code == 429  # the account waits
         assert login(c, **ADMIN)[0].status_code == 200  # other accounts do not
@@ -143,15 +166,17 @@ def test_forwarded_for_believed_only_from_configured_proxy(st):
     trusted = st.model_copy(update={"trusted_proxies": "127.0.0.1"})
     with TestClient(create_app(trusted), client=("127.0.0.1", 50000)) as c:
         for k in range(12):
-            c.post("/api/login", json={"username": f"u{k}", "password": "x"},
-                   headers={"X-Forwarded-For": "203.0.113.7"})
+            c.post(
+                "/api/login", json={"username": f"u{k}", "password": "x"}, headers={"X-Forwarded-For": "203.0.113.7"}
+            )
         blocked = c.post("/api/login", json=ADMIN, headers={"X-Forwarded-For": "203.0.113.7"})
         other = c.post("/api/login", json=ADMIN, headers={"X-Forwarded-For": "198.51.100.2"})
         assert blocked.status_code == 429 and other.status_code == 200
     with TestClient(create_app(st), client=("127.0.0.1", 50000)) as c:  # no proxy configured: header ignored
         for k in range(12):
-            c.post("/api/login", json={"username": f"v{k}", "password": "x"},
-                   headers={"X-Forwarded-For": f"203.0.113.{k}"})
+            c.post(
+                "/api/login", json={"username": f"v{k}", "password": "x"}, headers={"X-Forwarded-For": f"203.0.113.{k}"}
+            )
         assert c.post("/api/login", json=ADMIN, headers={"X-Forwarded-For": "198.51.100.9"}).status_code == 429
 
 

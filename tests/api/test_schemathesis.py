@@ -16,8 +16,15 @@ except ImportError:  # schemathesis 3
 @pytest.fixture(scope="module")
 def api_schema(tmp_path_factory):
     d = tmp_path_factory.mktemp("schema")
-    app = create_app(Settings(data_dir=d, auth_enabled=False, run_consumer=False, uploads_per_minute=100000,
-                              max_upload_bytes=2 * 1024 * 1024))
+    app = create_app(
+        Settings(
+            data_dir=d,
+            auth_enabled=False,
+            run_consumer=False,
+            uploads_per_minute=100000,
+            max_upload_bytes=2 * 1024 * 1024,
+        )
+    )
     return schemathesis.openapi.from_asgi("/openapi.json", app)
 
 
@@ -25,6 +32,7 @@ def test_no_server_error_on_any_operation(api_schema):
     ops = [r.ok() for r in api_schema.get_all_operations()]
     assert len(ops) >= 15
     for op in ops:
+
         @given(case=op.as_strategy())
         @settings(max_examples=25, deadline=None, suppress_health_check=list(HealthCheck), database=None)
         def check(case):

@@ -16,14 +16,17 @@ CHROMIUM = "/usr/bin/chromium"
 def _serve(tmp_path_factory, extra: dict):
     port = free_port()
     data = tmp_path_factory.mktemp("srv")
-    env = {**os.environ, "LDVSURVEY_DATA_DIR": str(data), "LDVSURVEY_MAX_UPLOAD_BYTES": str(200 * 1024 * 1024),
-           **extra}
+    env = {**os.environ, "LDVSURVEY_DATA_DIR": str(data), "LDVSURVEY_MAX_UPLOAD_BYTES": str(200 * 1024 * 1024), **extra}
     for k in ("LDVSURVEY_DATABASE_URL", "LDVSURVEY_REDIS_URL", "LDVSURVEY_DEMO_MODE", "LDVSURVEY_AUTH_ENABLED"):
         if k not in extra:
             env.pop(k, None)
     log = open(data / "server.log", "w")
-    proc = subprocess.Popen([sys.executable, "-m", "ldvsurvey.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
-                            env=env, stdout=log, stderr=subprocess.STDOUT)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "ldvsurvey.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
+        env=env,
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
     base = f"http://127.0.0.1:{port}"
     if not wait_healthy(base, proc=proc):
         proc.kill()
@@ -56,9 +59,19 @@ def browser():
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, headless=True,
-                              args=["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                                    "--disable-background-networking", "--disable-component-update", "--disable-sync"])
+        b = p.chromium.launch(
+            executable_path=CHROMIUM,
+            headless=True,
+            args=[
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-quic",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+            ],
+        )
         yield b
         b.close()
 

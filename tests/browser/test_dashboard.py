@@ -19,7 +19,8 @@ pytestmark = pytest.mark.browser
 def drop_files(page, name_bytes: dict):
     """Dispatch a real drop event carrying File objects onto the drop zone."""
     payload = {n: base64.b64encode(b).decode() for n, b in name_bytes.items()}
-    page.evaluate("""(files) => {
+    page.evaluate(
+        """(files) => {
         const dt = new DataTransfer();
         for (const [name, b64] of Object.entries(files)) {
             const bin = Uint8Array.from(atob(b64), c => c.charCodeAt(0));
@@ -28,7 +29,9 @@ def drop_files(page, name_bytes: dict):
         const zone = document.getElementById('drop');
         zone.dispatchEvent(new DragEvent('dragover', {dataTransfer: dt, bubbles: true}));
         zone.dispatchEvent(new DragEvent('drop', {dataTransfer: dt, bubbles: true}));
-    }""", payload)
+    }""",
+        payload,
+    )
 
 
 def wait_job(base, job_id, timeout_s=240):
@@ -108,8 +111,7 @@ def test_upload_run_height_plot_and_download(server, page, height_zip):
 
 def test_gravity_lines_and_coincidence_table(server, page, gravity_zip):
     page.goto(server + "/#/logs")
-    page.set_input_files("#pick", files=[{"name": "gravity.zip", "mimeType": "application/zip",
-                                          "buffer": gravity_zip}])
+    page.set_input_files("#pick", files=[{"name": "gravity.zip", "mimeType": "application/zip", "buffer": gravity_zip}])
     page.wait_for_selector("#upload-ok", timeout=60_000)
     page.click("#upload-ok a")
     page.wait_for_selector("#pipe")

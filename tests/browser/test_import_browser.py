@@ -50,7 +50,9 @@ def test_drop_foreign_files_preview_then_confirm(server, page, recordings):
     n_points = page.evaluate("document.getElementById('import-track').data[0].x.length")
     assert n_points == int((sim.gnss_fix > 0).sum())
     shot(page, "import-preview")
-    assert not [lg for lg in httpx.get(server + "/api/logs").json() if lg["name"] == "KF-GINS drive dropped in the browser"]
+    assert not [
+        lg for lg in httpx.get(server + "/api/logs").json() if lg["name"] == "KF-GINS drive dropped in the browser"
+    ]
     page.click("#import-confirm")
     page.wait_for_selector("#upload-ok", timeout=60000)
     logs = [lg for lg in httpx.get(server + "/api/logs").json() if lg["name"] == "KF-GINS drive dropped in the browser"]

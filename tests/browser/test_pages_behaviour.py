@@ -14,8 +14,11 @@ FRONTEND = Path(__file__).resolve().parents[2] / "frontend"
 
 
 def upload(base, seed) -> int:
-    r = httpx.post(base + "/api/logs", files=[("files", (n, d, "x")) for n, d in
-                                               make_bundle(seed=seed, n_imu=300).items()], timeout=60)
+    r = httpx.post(
+        base + "/api/logs",
+        files=[("files", (n, d, "x")) for n, d in make_bundle(seed=seed, n_imu=300).items()],
+        timeout=60,
+    )
     assert r.status_code in (200, 201), r.text
     return r.json()["id"]
 
@@ -31,15 +34,18 @@ def finished(base, job_id, timeout_s=60):
 
 def test_old_page_does_not_write_into_the_next(server, page):
     a, b = upload(server, 92), upload(server, 93)
-    job = httpx.post(f"{server}/api/logs/{a}/jobs", json={"pipeline": "height", "parameters": {"dov": "none"}}
-                     ).json()["id"]
+    job = httpx.post(f"{server}/api/logs/{a}/jobs", json={"pipeline": "height", "parameters": {"dov": "none"}}).json()[
+        "id"
+    ]
     finished(server, job)
     # log A's job list answers late (1.5 s): by then the page shows log B
-    page.add_init_script("""(() => {
+    page.add_init_script(
+        """(() => {
         const real = window.fetch;
-        window.fetch = (url, opts) => String(url).includes('/api/jobs?log_id=%d')
+        window.fetch = (url, opts) => String(url).includes('/api/jobs?log_id=LOG_A')
             ? new Promise((ok) => setTimeout(() => ok(real(url, opts)), 1500)) : real(url, opts);
-    })();""" % a)
+    })();""".replace("LOG_A", str(a))
+    )
     page.goto(f"{server}/#/logs/{a}")
     page.wait_for_selector("#pipe")
     page.evaluate("(b) => { location.hash = '#/logs/' + b; }", b)
@@ -55,8 +61,9 @@ def test_old_page_does_not_write_into_the_next(server, page):
 def test_failed_job_page_says_why(server, page):
     log_id = upload(server, 94)
     # passes the door (height applies to this log) and fails in the worker: too short for a calibration
-    job = httpx.post(f"{server}/api/logs/{log_id}/jobs", json={"pipeline": "height", "parameters": {"dov": "none"}}
-                     ).json()["id"]
+    job = httpx.post(
+        f"{server}/api/logs/{log_id}/jobs", json={"pipeline": "height", "parameters": {"dov": "none"}}
+    ).json()["id"]
     j = finished(server, job)
     assert j["status"] == "failed"
     page.goto(f"{server}/#/jobs/{job}")
@@ -73,8 +80,11 @@ def test_failed_job_page_says_why(server, page):
     # long errors wrap inside the table instead of running over it
     page.goto(f"{server}/#/logs/{log_id}")
     page.wait_for_selector(f"tr[data-job='{job}'] .error")
-    over = page.evaluate("""(id) => { const td = document.querySelector(`tr[data-job='${id}'] td.err`);
-        return td.scrollWidth - td.clientWidth; }""", job)
+    over = page.evaluate(
+        """(id) => { const td = document.querySelector(`tr[data-job='${id}'] td.err`);
+        return td.scrollWidth - td.clientWidth; }""",
+        job,
+    )
     assert over <= 1
     shot(page, "failed-job-row")
 

@@ -54,8 +54,11 @@ def test_admin_makes_user_and_project_user_sees_only_that(auth_server, page):
     # one log in the new project, one in the admin's own (upload without project_id)
     c = api_as(auth_server, *ADMIN)
     pid = next(p["id"] for p in c.get("/api/projects").json() if p["name"] == "Field 2026")
-    ok = c.post("/api/logs", data={"project_id": str(pid)},
-                files=[("files", (n, d, "x")) for n, d in make_bundle(seed=90, n_imu=300).items()])
+    ok = c.post(
+        "/api/logs",
+        data={"project_id": str(pid)},
+        files=[("files", (n, d, "x")) for n, d in make_bundle(seed=90, n_imu=300).items()],
+    )
     mine = c.post("/api/logs", files=[("files", (n, d, "x")) for n, d in make_bundle(seed=91, n_imu=300).items()])
     c.close()
     assert ok.status_code == 201 and mine.status_code == 201

@@ -11,8 +11,11 @@ pytestmark = pytest.mark.browser
 
 def test_form_offers_only_applicable_pipelines_and_names_a_bad_field(server, page):
     # a vehicle with a fixed IMU and a 2-D LDV: no tilt (needs a rotating IMU), no damping (vessels)
-    r = httpx.post(server + "/api/logs", files=[("files", (n, d, "x")) for n, d in
-                                                 make_bundle(seed=71, n_imu=300).items()], timeout=60)
+    r = httpx.post(
+        server + "/api/logs",
+        files=[("files", (n, d, "x")) for n, d in make_bundle(seed=71, n_imu=300).items()],
+        timeout=60,
+    )
     assert r.status_code in (200, 201), r.text
     log_id = r.json()["id"]
     page.goto(f"{server}/#/logs/{log_id}")
@@ -27,8 +30,11 @@ def test_form_offers_only_applicable_pipelines_and_names_a_bad_field(server, pag
     scale = page.locator("[data-p='ldv_scale']")
     assert scale.get_attribute("type") == "number"
     assert float(scale.get_attribute("min")) == 0.5 and float(scale.get_attribute("max")) == 1.5
-    assert page.eval_on_selector_all("select[data-p='dov'] option", "os => os.map(o => o.value)") == \
-        ["none", "egm2008", "grid"]
+    assert page.eval_on_selector_all("select[data-p='dov'] option", "os => os.map(o => o.value)") == [
+        "none",
+        "egm2008",
+        "grid",
+    ]
     before = len(httpx.get(f"{server}/api/jobs?log_id={log_id}").json())
     scale.fill("-3")
     page.click("#start")

@@ -26,8 +26,15 @@ OUT = Path("docs/examples")
 
 def main():
     road = Road(28.4861 * RAD, 113.0623 * RAD, 120.0, 1000.0, Ramps(30 * RAD))
-    sc = Scenario(name="example", road=road, segments=[Static(12.0)], static_s=12.0, ldv_rate_hz=10.0,
-                  date="2023-03-20", t0_s=30000.0)
+    sc = Scenario(
+        name="example",
+        road=road,
+        segments=[Static(12.0)],
+        static_s=12.0,
+        ldv_rate_hz=10.0,
+        date="2023-03-20",
+        t0_s=30000.0,
+    )
     sim = simulate(sc, seed=2)
     day = dt.date.fromisoformat(sc.date)
     files = bundle_files(sim)
@@ -43,32 +50,43 @@ def main():
     kf = OUT / "kf-gins"
     kf.mkdir(exist_ok=True)
     (kf / "imu.txt").write_bytes(kfgins_imu(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, day))
-    (kf / "gnss.txt").write_bytes(kfgins_gnss(sim.gnss_t_s, sim.gnss_lat_deg, sim.gnss_lon_deg, sim.gnss_h_m,
-                                              sim.gnss_fix, day))
+    (kf / "gnss.txt").write_bytes(
+        kfgins_gnss(sim.gnss_t_s, sim.gnss_lat_deg, sim.gnss_lon_deg, sim.gnss_h_m, sim.gnss_fix, day)
+    )
     from tests.io.test_import_novatel import HG1700_AG58, ascii_log
 
     nv = OUT / "novatel"
     nv.mkdir(exist_ok=True)
     (nv / "span.log").write_bytes(ascii_log(sim, day, np.eye(3), HG1700_AG58))
-    from tests.io.test_import_ubx import esf_raw_frames, nav_pvt_frames
     from tests.io.test_import_helpers import rfu_to_frd
+    from tests.io.test_import_ubx import esf_raw_frames, nav_pvt_frames
 
     _, s0 = sow_of_midnight(day)
     ub = OUT / "ubx"
     ub.mkdir(exist_ok=True)
     tag = np.round((sim.imu.t_s + s0) * 1000).astype(np.int64)
     dt_s = 1.0 / sc.imu_rate_hz
-    (ub / "receiver.ubx").write_bytes(esf_raw_frames(tag, rfu_to_frd(sim.dtheta_rad) / dt_s,
-                                                     rfu_to_frd(sim.dvel_mps) / dt_s)
-                                      + nav_pvt_frames(sim, day, np.round((sim.gnss_t_s + s0) * 1000).astype(np.int64)))
+    (ub / "receiver.ubx").write_bytes(
+        esf_raw_frames(tag, rfu_to_frd(sim.dtheta_rad) / dt_s, rfu_to_frd(sim.dvel_mps) / dt_s)
+        + nav_pvt_frames(sim, day, np.round((sim.gnss_t_s + s0) * 1000).astype(np.int64))
+    )
     nm = OUT / "nmea"
     nm.mkdir(exist_ok=True)
     from ldvsurvey.io.nmea import format_gga
 
     lines = []
     for k, t in enumerate(sim.gnss_t_s):
-        lines.append(format_gga(float(t), float(sim.gnss_lat_deg[k]), float(sim.gnss_lon_deg[k]),
-                                float(sim.gnss_h_m[k]) + 16.9, -16.9, int(sim.gnss_fix[k]), talker="GP"))
+        lines.append(
+            format_gga(
+                float(t),
+                float(sim.gnss_lat_deg[k]),
+                float(sim.gnss_lon_deg[k]),
+                float(sim.gnss_h_m[k]) + 16.9,
+                -16.9,
+                int(sim.gnss_fix[k]),
+                talker="GP",
+            )
+        )
         if k == 0:
             lines.append(sentence("GPRMC,082000.00,A,2829.1660,N,11303.7380,E,0.0,30.0,200323,,,A"))
     (nm / "receiver.nmea").write_bytes(("\r\n".join(lines) + "\r\n").encode())
@@ -82,17 +100,34 @@ def main():
     f_flu = np.column_stack([f[:, 1], -f[:, 0], f[:, 2]])
     rows = ["time_ms;gx_dps;gy_dps;gz_dps;ax_g;ay_g;az_g"]
     for t, a, b in zip(sim.imu.t_s, np.degrees(w_flu), f_flu / 9.80665):
-        rows.append(f"{unix0_ms + int(round(t * 1000))};" + ";".join(f"{x:.9g}" for x in a) + ";"
-                    + ";".join(f"{x:.9g}" for x in b))
+        rows.append(
+            f"{unix0_ms + int(round(t * 1000))};"
+            + ";".join(f"{x:.9g}" for x in a)
+            + ";"
+            + ";".join(f"{x:.9g}" for x in b)
+        )
     (cs / "imu.csv").write_text("\n".join(rows) + "\n")
     p = dict(partial)
     p["date"] = None
     p.pop("date")
-    p["import"] = {"imu": {"axes": "FLU", "csv": {
-        "delimiter": ";", "header": True, "time": {"column": "time_ms", "kind": "unix", "unit": "ms"},
-        "columns": {"dtheta_x": {"column": "gx_dps", "unit": "deg/s"}, "dtheta_y": {"column": "gy_dps", "unit": "deg/s"},
-                    "dtheta_z": {"column": "gz_dps", "unit": "deg/s"}, "dvel_x": {"column": "ax_g", "unit": "g"},
-                    "dvel_y": {"column": "ay_g", "unit": "g"}, "dvel_z": {"column": "az_g", "unit": "g"}}}}}
+    p["import"] = {
+        "imu": {
+            "axes": "FLU",
+            "csv": {
+                "delimiter": ";",
+                "header": True,
+                "time": {"column": "time_ms", "kind": "unix", "unit": "ms"},
+                "columns": {
+                    "dtheta_x": {"column": "gx_dps", "unit": "deg/s"},
+                    "dtheta_y": {"column": "gy_dps", "unit": "deg/s"},
+                    "dtheta_z": {"column": "gz_dps", "unit": "deg/s"},
+                    "dvel_x": {"column": "ax_g", "unit": "g"},
+                    "dvel_y": {"column": "ay_g", "unit": "g"},
+                    "dvel_z": {"column": "az_g", "unit": "g"},
+                },
+            },
+        }
+    }
     (cs / "partial.json").write_text(json.dumps(p, indent=2) + "\n")
 
 

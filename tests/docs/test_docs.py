@@ -33,8 +33,13 @@ def test_shell_examples_run(page, tmp_path):
     wrapper = bindir / "ldv-survey"
     wrapper.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m ldvsurvey.cli "$@"\n')
     wrapper.chmod(0o755)
-    env = {**os.environ, "PATH": f"{bindir}:{os.environ.get('PATH', '')}", "PYTHONPATH": str(ROOT / "backend"),
-           "PORT": str(free_port()), "LDVSURVEY_DATA_DIR": str(tmp_path / "data")}
+    env = {
+        **os.environ,
+        "PATH": f"{bindir}:{os.environ.get('PATH', '')}",
+        "PYTHONPATH": str(ROOT / "backend"),
+        "PORT": str(free_port()),
+        "LDVSURVEY_DATA_DIR": str(tmp_path / "data"),
+    }
     for k in ("LDVSURVEY_DATABASE_URL", "LDVSURVEY_REDIS_URL"):
         env.pop(k, None)
     script = "set -euo pipefail\n" + "\n".join(shell_blocks(page))
@@ -80,8 +85,9 @@ def test_every_pipeline_parameter_is_documented_with_its_default():
         for p in pipe.params:
             row = re.search(rf"^\| `{re.escape(p.name)}` \| ([^|]+) \|", sec, re.M)
             assert row, f"{pipe.name}: parameter {p.name} not documented"
-            assert row.group(1).strip() == str(p.default), f"{pipe.name}.{p.name}: documented default " \
-                                                           f"{row.group(1).strip()!r}, code {p.default!r}"
+            assert row.group(1).strip() == str(p.default), (
+                f"{pipe.name}.{p.name}: documented default {row.group(1).strip()!r}, code {p.default!r}"
+            )
 
 
 def test_the_link_check_itself_catches_bad_links(tmp_path):

@@ -22,11 +22,15 @@ def recordings():
     partial = manifest(sim)
     for k in ("format",):
         partial.pop(k)
-    return sim, {
-        "imu.txt": kfgins_imu(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, day),
-        "gnss.txt": kfgins_gnss(sim.gnss_t_s, sim.gnss_lat_deg, sim.gnss_lon_deg, sim.gnss_h_m, sim.gnss_fix, day),
-        "ldv.csv": files["ldv.csv"],
-    }, partial
+    return (
+        sim,
+        {
+            "imu.txt": kfgins_imu(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, day),
+            "gnss.txt": kfgins_gnss(sim.gnss_t_s, sim.gnss_lat_deg, sim.gnss_lon_deg, sim.gnss_h_m, sim.gnss_fix, day),
+            "ldv.csv": files["ldv.csv"],
+        },
+        partial,
+    )
 
 
 def _multipart(files):
@@ -39,7 +43,10 @@ def test_preview_detects_formats_span_rates_track(client, recordings, db_counts)
     assert r.status_code == 200, r.text
     p = r.json()
     assert {(f["name"], f["format"], f["role"]) for f in p["files"]} == {
-        ("imu.txt", "kf-gins", "imu"), ("gnss.txt", "kf-gins", "gnss"), ("ldv.csv", "native", "ldv")}
+        ("imu.txt", "kf-gins", "imu"),
+        ("gnss.txt", "kf-gins", "gnss"),
+        ("ldv.csv", "native", "ldv"),
+    }
     assert p["time_span_s"][0] == pytest.approx(min(sim.imu.t_s[0], sim.ldv_t_s[0], sim.gnss_t_s[0]), abs=1e-9)
     assert p["time_span_s"][1] == pytest.approx(max(sim.imu.t_s[-1], sim.ldv_t_s[-1], sim.gnss_t_s[-1]), abs=1e-9)
     assert p["rates_hz"] == {"imu": 100.0, "ldv": 100.0, "gnss": 1.0}
@@ -54,8 +61,15 @@ def test_import_stores_bundle_and_originals(client, recordings, db_counts):
     assert r.status_code == 201, r.text
     log_id = r.json()["id"]
     names = {f["name"] for f in client.get(f"/api/logs/{log_id}").json()["files"]}
-    assert names == {"manifest.json", "imu.csv", "ldv.csv", "gnss.nmea", "original-imu.txt", "original-gnss.txt",
-                     "original-ldv.csv"}
+    assert names == {
+        "manifest.json",
+        "imu.csv",
+        "ldv.csv",
+        "gnss.nmea",
+        "original-imu.txt",
+        "original-gnss.txt",
+        "original-ldv.csv",
+    }
     for name, data in files.items():
         got = client.get(f"/api/logs/{log_id}/files/original-{name}")
         assert got.content == data and got.headers["x-content-sha256"] == hashlib.sha256(data).hexdigest()
@@ -93,12 +107,15 @@ def test_job_download_as_geojson_and_kml(client, recordings):
     sim, files, partial = recordings
     r = client.post("/api/imports", files=_multipart(files), data={"manifest": json.dumps(partial)})
     log_id = r.json()["id"]
-    log = parse_files({n: client.get(f"/api/logs/{log_id}/files/{n}").content
-                       for n in ("manifest.json", "imu.csv", "ldv.csv", "gnss.nmea")})
+    log = parse_files(
+        {
+            n: client.get(f"/api/logs/{log_id}/files/{n}").content
+            for n in ("manifest.json", "imu.csv", "ldv.csv", "gnss.nmea")
+        }
+    )
     res = run_pipeline(get("navigate"), [log], {"aiding": "ldv+gnss"})
     with session_scope(client.app_state.database_url) as s:
-        job = Job(pipeline="navigate", log_ids=[log_id], parameters={}, status="succeeded", stage="done",
-                  progress=1.0)
+        job = Job(pipeline="navigate", log_ids=[log_id], parameters={}, status="succeeded", stage="done", progress=1.0)
         s.add(job)
         s.flush()
         for name, content in result_files(res).items():
@@ -126,15 +143,24 @@ def test_formats_hint_and_partial_manifest_as_a_json_file(client):
     from pathlib import Path
 
     ex = Path(__file__).resolve().parents[2] / "docs" / "examples"
-    files = {"imu.csv": (ex / "csv" / "imu.csv").read_bytes(), "receiver.nmea": (ex / "nmea" / "receiver.nmea").read_bytes(),
-             "ldv.csv": (ex / "ldv.csv").read_bytes(), "partial.json": (ex / "csv" / "partial.json").read_bytes()}
+    files = {
+        "imu.csv": (ex / "csv" / "imu.csv").read_bytes(),
+        "receiver.nmea": (ex / "nmea" / "receiver.nmea").read_bytes(),
+        "ldv.csv": (ex / "ldv.csv").read_bytes(),
+        "partial.json": (ex / "csv" / "partial.json").read_bytes(),
+    }
     r = client.post("/api/imports/preview", files=_multipart(files))
     assert r.status_code == 422 and r.json()["error"]["file"] == "imu.csv"  # a CSV is not guessed
-    r = client.post("/api/imports/preview", files=_multipart(files), data={"formats": json.dumps({"imu.csv": "csv:imu"})})
+    r = client.post(
+        "/api/imports/preview", files=_multipart(files), data={"formats": json.dumps({"imu.csv": "csv:imu"})}
+    )
     assert r.status_code == 200, r.text
     p = r.json()
     assert {(f["name"], f["format"], f["role"]) for f in p["files"]} == {
-        ("imu.csv", "csv", "imu"), ("receiver.nmea", "nmea", "gnss"), ("ldv.csv", "native", "ldv")}
+        ("imu.csv", "csv", "imu"),
+        ("receiver.nmea", "nmea", "gnss"),
+        ("ldv.csv", "native", "ldv"),
+    }
     assert p["imu_axes"] == "FLU" and p["date"] == "2023-03-20" and p["rates_hz"]["imu"] == 100.0
     r = client.post("/api/imports/preview", files=_multipart(files), data={"formats": json.dumps({"imu.csv": "sbf"})})
     assert r.status_code == 422 and r.json()["error"]["file"] == "formats"
@@ -154,6 +180,10 @@ def test_admin_import_without_project_lands_in_their_own_project(settings, recor
         own = c.post("/api/imports", files=_multipart(files), data={"manifest": json.dumps(partial)}, headers=h)
         assert own.status_code == 201, own.text
         assert own.json()["project_id"] is not None
-        missing = c.post("/api/imports", files=_multipart(files), data={"manifest": json.dumps(partial),
-                                                                        "project_id": "999"}, headers=h)
+        missing = c.post(
+            "/api/imports",
+            files=_multipart(files),
+            data={"manifest": json.dumps(partial), "project_id": "999"},
+            headers=h,
+        )
         assert missing.status_code == 404

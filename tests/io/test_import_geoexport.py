@@ -11,9 +11,14 @@ from ldvsurvey.cli import main
 from ldvsurvey.io.writers import table_geojson, table_kml
 from ldvsurvey.pipelines.base import table_csv
 
-SUMMARY = {"pipeline": "gravity", "software_version": "0.1.0", "format_version": "ldv-drive-log/1",
-           "inputs": [{"bundle": "b", "file": "imu.csv", "sha256": "ab" * 32}], "parameters": {"fir_length_s": 150.0},
-           "lines": [{"name": "L1", "rms_mgal": 0.4}, {"name": "L2", "rms_mgal": 0.5}]}
+SUMMARY = {
+    "pipeline": "gravity",
+    "software_version": "0.1.0",
+    "format_version": "ldv-drive-log/1",
+    "inputs": [{"bundle": "b", "file": "imu.csv", "sha256": "ab" * 32}],
+    "parameters": {"fir_length_s": 150.0},
+    "lines": [{"name": "L1", "rms_mgal": 0.4}, {"name": "L2", "rms_mgal": 0.5}],
+}
 
 
 def _gravity_table():
@@ -21,8 +26,16 @@ def _gravity_table():
     t = 30000.0 + np.arange(n)
     lat = 28.4 + 1e-4 * np.arange(n)
     lon = 113.0 + 2e-4 * np.arange(n)
-    return {"t_s": t, "line": ["L1"] * 100 + ["L2"] * 100, "distance_m": np.arange(n) * 15.0, "lat_deg": lat,
-            "lon_deg": lon, "h_m": np.full(n, 150.0), "dg_raw_mgal": np.sin(t), "dg_mgal": np.cos(t)}
+    return {
+        "t_s": t,
+        "line": ["L1"] * 100 + ["L2"] * 100,
+        "distance_m": np.arange(n) * 15.0,
+        "lat_deg": lat,
+        "lon_deg": lon,
+        "h_m": np.full(n, 150.0),
+        "dg_raw_mgal": np.sin(t),
+        "dg_mgal": np.cos(t),
+    }
 
 
 def test_geojson_lines_and_points_valid_and_lon_lat():
@@ -88,8 +101,19 @@ def test_cli_run_writes_geojson(tmp_path):
 
     sim = simulate(catalog.drive(minutes=2.5, static_s=30.0), seed=8)
     write_bundle(bundle_files(sim), tmp_path / "b.zip")
-    rc = main(["run", "navigate", str(tmp_path / "b.zip"), "--out", str(tmp_path / "out"), "--format", "geojson",
-               "--set", "aiding=ldv+gnss"])
+    rc = main(
+        [
+            "run",
+            "navigate",
+            str(tmp_path / "b.zip"),
+            "--out",
+            str(tmp_path / "out"),
+            "--format",
+            "geojson",
+            "--set",
+            "aiding=ldv+gnss",
+        ]
+    )
     assert rc == 0
     fc = json.loads((tmp_path / "out" / "trajectory.geojson").read_text())
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())

@@ -33,8 +33,10 @@ def rfu_to_frd(v: np.ndarray) -> np.ndarray:
 def kfgins_imu(t_s, dtheta_rfu, dvel_rfu, day) -> bytes:
     """KF-GINS IMU text: SOW, dθ x y z (rad), dv x y z (m/s), front-right-down axes."""
     th, dv = rfu_to_frd(dtheta_rfu), rfu_to_frd(dvel_rfu)
-    rows = [f"{s} {a[0]!r} {a[1]!r} {a[2]!r} {b[0]!r} {b[1]!r} {b[2]!r}"
-            for s, a, b in zip(sow_text(t_s, day), th.tolist(), dv.tolist())]
+    rows = [
+        f"{s} {a[0]!r} {a[1]!r} {a[2]!r} {b[0]!r} {b[1]!r} {b[2]!r}"
+        for s, a, b in zip(sow_text(t_s, day), th.tolist(), dv.tolist())
+    ]
     return ("\n".join(rows) + "\n").encode()
 
 

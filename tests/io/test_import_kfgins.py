@@ -12,10 +12,10 @@ import pytest
 
 from ldvsurvey.cli import main
 from ldvsurvey.io.drivelog import load_bundle, parse_files
-from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu
 
 R_EARTH_M = 6.371e6
@@ -30,8 +30,9 @@ def drive(tmp_path_factory):
     day = dt.date.fromisoformat(sc.date)
     d = tmp_path_factory.mktemp("kfgins")
     (d / "imu.txt").write_bytes(kfgins_imu(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, day))
-    (d / "gnss.txt").write_bytes(kfgins_gnss(sim.gnss_t_s, sim.gnss_lat_deg, sim.gnss_lon_deg, sim.gnss_h_m,
-                                             sim.gnss_fix, day))
+    (d / "gnss.txt").write_bytes(
+        kfgins_gnss(sim.gnss_t_s, sim.gnss_lat_deg, sim.gnss_lon_deg, sim.gnss_h_m, sim.gnss_fix, day)
+    )
     (d / "ldv.csv").write_bytes(files["ldv.csv"])
     partial = json.loads(files["manifest.json"])
     for key in ("format",):  # what the recordings hold is taken from them
@@ -46,8 +47,21 @@ def drive(tmp_path_factory):
 def imported(drive):
     _, _, d = drive
     out = d / "bundle.zip"
-    rc = main(["import", "--imu", f"kf-gins:{d / 'imu.txt'}", "--gnss", f"kf-gins:{d / 'gnss.txt'}",
-               "--ldv", f"native:{d / 'ldv.csv'}", "--manifest", str(d / "partial.json"), "--out", str(out)])
+    rc = main(
+        [
+            "import",
+            "--imu",
+            f"kf-gins:{d / 'imu.txt'}",
+            "--gnss",
+            f"kf-gins:{d / 'gnss.txt'}",
+            "--ldv",
+            f"native:{d / 'ldv.csv'}",
+            "--manifest",
+            str(d / "partial.json"),
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     return load_bundle(out)
 
@@ -100,8 +114,19 @@ def test_swapped_axes_are_refused_naming_the_axis(drive, tmp_path):
     partial["import"] = {"imu": {"axes": "RFU"}}
     (tmp_path / "p.json").write_text(json.dumps(partial))
     out = tmp_path / "b.zip"
-    rc = main(["import", "--imu", f"kf-gins:{d / 'imu.txt'}", "--ldv", f"native:{d / 'ldv.csv'}",
-               "--manifest", str(tmp_path / "p.json"), "--out", str(out)])
+    rc = main(
+        [
+            "import",
+            "--imu",
+            f"kf-gins:{d / 'imu.txt'}",
+            "--ldv",
+            f"native:{d / 'ldv.csv'}",
+            "--manifest",
+            str(tmp_path / "p.json"),
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 2 and not out.exists()
 
 
@@ -113,8 +138,13 @@ def test_swapped_axes_message(drive):
     partial = json.loads((d / "partial.json").read_text())
     partial["import"] = {"imu": {"axes": "RFU"}}
     with pytest.raises(BundleError) as e:
-        build_bundle([Source("imu", "kf-gins", "imu.txt", (d / "imu.txt").read_bytes()),
-                      Source("ldv", "native", "ldv.csv", (d / "ldv.csv").read_bytes())], partial)
+        build_bundle(
+            [
+                Source("imu", "kf-gins", "imu.txt", (d / "imu.txt").read_bytes()),
+                Source("ldv", "native", "ldv.csv", (d / "ldv.csv").read_bytes()),
+            ],
+            partial,
+        )
     msg = str(e.value)
     assert "imu.txt" in msg and "-z axis" in msg and "swapped" in msg
 
@@ -140,8 +170,13 @@ def test_missing_date_is_a_clear_error(drive):
     partial = json.loads((d / "partial.json").read_text())
     partial.pop("date")
     with pytest.raises(BundleError) as e:
-        build_bundle([Source("imu", "kf-gins", "imu.txt", (d / "imu.txt").read_bytes()),
-                      Source("ldv", "native", "ldv.csv", (d / "ldv.csv").read_bytes())], partial)
+        build_bundle(
+            [
+                Source("imu", "kf-gins", "imu.txt", (d / "imu.txt").read_bytes()),
+                Source("ldv", "native", "ldv.csv", (d / "ldv.csv").read_bytes()),
+            ],
+            partial,
+        )
     assert e.value.field == "date"
 
 

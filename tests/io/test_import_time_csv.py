@@ -49,8 +49,13 @@ def test_log_across_midnight_and_the_gps_week_roll_over():
     """Saturday 2023-01-14: UTC midnight at t = 86400, the GPS week ends 18 s earlier (SOW wraps to 0)."""
     day = dt.date(2023, 1, 14)
     t = np.round(86300.0 + np.arange(1, 20001) * 0.01, 2)  # 86300.01 ... 86500.00
-    files = build_bundle([Source("imu", "kf-gins", "imu.txt", _static_kfgins(t, day)),
-                          Source("ldv", "native", "ldv.csv", _ldv(t[::10]))], {**PARTIAL, "date": "2023-01-14"}).files
+    files = build_bundle(
+        [
+            Source("imu", "kf-gins", "imu.txt", _static_kfgins(t, day)),
+            Source("ldv", "native", "ldv.csv", _ldv(t[::10])),
+        ],
+        {**PARTIAL, "date": "2023-01-14"},
+    ).files
     log = parse_files(files)
     np.testing.assert_array_equal(log.imu.t_s, t)  # keeps counting past 86400, across the week wrap
     np.testing.assert_allclose(log.imu.dvel_mps[:, 2], G * 0.01)
@@ -68,10 +73,18 @@ def test_nmea_across_midnight_takes_the_date_from_rmc():
     lines.append("$GPGGA,000011.00,2806.00,N,11300.00,E,4,10,0.9,40.0,M,-16.5,M,,*00")  # bad checksum: skipped
     nmea = ("\r\n".join(lines) + "\r\n").encode()
     ti = np.round(86389.0 + np.arange(1, 2201) * 0.01, 2)
-    imu = ("t,dtheta_x,dtheta_y,dtheta_z,dvel_x,dvel_y,dvel_z\n"
-           + "".join(f"{float(x)!r},0,0,0,0,0,{G * 0.01!r}\n" for x in ti)).encode()
-    res = build_bundle([Source("imu", "native", "imu.csv", imu), Source("gnss", "nmea", "rx.nmea", nmea),
-                        Source("ldv", "native", "ldv.csv", _ldv(ti[::10]))], dict(PARTIAL))
+    imu = (
+        "t,dtheta_x,dtheta_y,dtheta_z,dvel_x,dvel_y,dvel_z\n"
+        + "".join(f"{float(x)!r},0,0,0,0,0,{G * 0.01!r}\n" for x in ti)
+    ).encode()
+    res = build_bundle(
+        [
+            Source("imu", "native", "imu.csv", imu),
+            Source("gnss", "nmea", "rx.nmea", nmea),
+            Source("ldv", "native", "ldv.csv", _ldv(ti[::10])),
+        ],
+        dict(PARTIAL),
+    )
     log = parse_files(res.files)
     assert str(log.manifest.date) == "2023-03-20"
     np.testing.assert_array_equal(log.gnss.t_s, t)
@@ -91,14 +104,33 @@ def test_csv_column_map_with_rates_units_axes_and_unix_time():
     w_flu = np.column_stack([w_rfu[:, 1], -w_rfu[:, 0], w_rfu[:, 2]])
     f_flu = np.column_stack([f_rfu[:, 1], -f_rfu[:, 0], f_rfu[:, 2]])
     text = "time_ms;gx;gy;gz;ax;ay;az\n" + "".join(
-        f"{unix0_ms + int(round(t * 1000))};" + ";".join(repr(float(x)) for x in np.degrees(w)) + ";"
-        + ";".join(repr(float(x)) for x in a / G) + "\n" for t, w, a in zip(t_bundle, w_flu, f_flu))
-    partial = {**PARTIAL, "import": {"imu": {"axes": "FLU", "csv": {
-        "delimiter": ";", "time": {"column": "time_ms", "kind": "unix", "unit": "ms"},
-        "columns": {**{f"dtheta_{a}": {"column": f"g{a}", "unit": "deg/s"} for a in "xyz"},
-                    **{f"dvel_{a}": {"column": f"a{a}", "unit": "g"} for a in "xyz"}}}}}}
-    res = build_bundle([Source("imu", "csv", "imu.txt", text.encode()),
-                        Source("ldv", "native", "ldv.csv", _ldv(t_bundle[::4]))], partial)
+        f"{unix0_ms + int(round(t * 1000))};"
+        + ";".join(repr(float(x)) for x in np.degrees(w))
+        + ";"
+        + ";".join(repr(float(x)) for x in a / G)
+        + "\n"
+        for t, w, a in zip(t_bundle, w_flu, f_flu)
+    )
+    partial = {
+        **PARTIAL,
+        "import": {
+            "imu": {
+                "axes": "FLU",
+                "csv": {
+                    "delimiter": ";",
+                    "time": {"column": "time_ms", "kind": "unix", "unit": "ms"},
+                    "columns": {
+                        **{f"dtheta_{a}": {"column": f"g{a}", "unit": "deg/s"} for a in "xyz"},
+                        **{f"dvel_{a}": {"column": f"a{a}", "unit": "g"} for a in "xyz"},
+                    },
+                },
+            }
+        },
+    }
+    res = build_bundle(
+        [Source("imu", "csv", "imu.txt", text.encode()), Source("ldv", "native", "ldv.csv", _ldv(t_bundle[::4]))],
+        partial,
+    )
     log = parse_files(res.files)
     assert str(log.manifest.date) == "2024-02-29" and log.manifest.imu.rate_hz == 200.0
     np.testing.assert_allclose(log.imu.t_s, t_bundle, atol=1e-9)
@@ -107,9 +139,19 @@ def test_csv_column_map_with_rates_units_axes_and_unix_time():
 
 
 def test_csv_errors_name_file_line_field():
-    partial = {**PARTIAL, "date": "2023-03-20", "import": {"imu": {"csv": {
-        "time": {"column": 1, "kind": "bundle"},
-        "columns": {f"dtheta_{a}": i + 2 for i, a in enumerate("xyz")} | {f"dvel_{a}": i + 5 for i, a in enumerate("xyz")}}}}}
+    partial = {
+        **PARTIAL,
+        "date": "2023-03-20",
+        "import": {
+            "imu": {
+                "csv": {
+                    "time": {"column": 1, "kind": "bundle"},
+                    "columns": {f"dtheta_{a}": i + 2 for i, a in enumerate("xyz")}
+                    | {f"dvel_{a}": i + 5 for i, a in enumerate("xyz")},
+                }
+            }
+        },
+    }
     text = b"t,a,b,c,d,e,f\n1.0,0,0,0,0,0,0.098\n1.01,0,0,zz,0,0,0.098\n"
     with pytest.raises(BundleError) as e:
         build_bundle([Source("imu", "csv", "imu.txt", text), Source("ldv", "native", "ldv.csv", _ldv([1.0]))], partial)
@@ -127,15 +169,22 @@ def test_unknown_format_and_time_going_backwards():
     day = dt.date(2023, 3, 20)
     data = _static_kfgins([100.0, 100.01, 100.005, 100.02], day)
     with pytest.raises(BundleError) as e:
-        build_bundle([Source("imu", "kf-gins", "imu.txt", data), Source("ldv", "native", "ldv.csv", _ldv([100.0]))],
-                     {**PARTIAL, "date": "2023-03-20"})
+        build_bundle(
+            [Source("imu", "kf-gins", "imu.txt", data), Source("ldv", "native", "ldv.csv", _ldv([100.0]))],
+            {**PARTIAL, "date": "2023-03-20"},
+        )
     assert (e.value.file, e.value.line) == ("imu.txt", 3)
 
 
 def test_leap_table_warning_after_its_validity():
     day = gpstime.LEAP_TABLE_VALID_TO + dt.timedelta(days=10)
     t = np.round(1000.0 + np.arange(1, 301) * 0.01, 2)
-    res = build_bundle([Source("imu", "kf-gins", "imu.txt", _static_kfgins(t, day)),
-                        Source("ldv", "native", "ldv.csv", _ldv(t[::10]))], {**PARTIAL, "date": day.isoformat()})
+    res = build_bundle(
+        [
+            Source("imu", "kf-gins", "imu.txt", _static_kfgins(t, day)),
+            Source("ldv", "native", "ldv.csv", _ldv(t[::10])),
+        ],
+        {**PARTIAL, "date": day.isoformat()},
+    )
     assert any("leap-second table" in w for w in res.warnings)
     assert json.loads(res.files["manifest.json"])["import"]["provenance"]["gps_minus_utc_s"] == 18

@@ -20,8 +20,8 @@ from tests.io.test_import_helpers import rfu_to_frd, sow_of_midnight
 pyubx2 = pytest.importorskip("pyubx2")
 from pyubx2 import GET, UBXMessage  # noqa: E402
 
-GYRO_LSB = math.radians(2.0 ** -12)  # u-blox interface description: ESF data types 14/13/5, 2^-12 deg/s
-ACC_LSB = 2.0 ** -10  # types 16/17/18, 2^-10 m/s^2
+GYRO_LSB = math.radians(2.0**-12)  # u-blox interface description: ESF data types 14/13/5, 2^-12 deg/s
+ACC_LSB = 2.0**-10  # types 16/17/18, 2^-10 m/s^2
 
 
 def esf_raw_frames(t_tag_ms, rates_frd, acc_frd):
@@ -45,12 +45,33 @@ def nav_pvt_frames(sim, day, itow_ms, sep_m=-16.9):
             continue
         tod = int(round(float(t)))
         hh, mm, ss = tod // 3600, tod // 60 % 60, tod % 60
-        msg = UBXMessage("NAV", "NAV-PVT", GET, iTOW=int(itow_ms[k]), year=day.year, month=day.month, day=day.day,
-                         hour=hh, min=mm, second=ss, validDate=1, validTime=1, fullyResolved=1, fixType=3,
-                         gnssFixOk=1, diffSoln=1 if f in (2, 4, 5) else 0, carrSoln={4: 2, 5: 1}.get(f, 0),
-                         numSV=20, lon=float(sim.gnss_lon_deg[k]), lat=float(sim.gnss_lat_deg[k]),
-                         height=int(round(sim.gnss_h_m[k] * 1000)),
-                         hMSL=int(round((sim.gnss_h_m[k] - sep_m) * 1000)), hAcc=20, vAcc=30, pDOP=1.2)
+        msg = UBXMessage(
+            "NAV",
+            "NAV-PVT",
+            GET,
+            iTOW=int(itow_ms[k]),
+            year=day.year,
+            month=day.month,
+            day=day.day,
+            hour=hh,
+            min=mm,
+            second=ss,
+            validDate=1,
+            validTime=1,
+            fullyResolved=1,
+            fixType=3,
+            gnssFixOk=1,
+            diffSoln=1 if f in (2, 4, 5) else 0,
+            carrSoln={4: 2, 5: 1}.get(f, 0),
+            numSV=20,
+            lon=float(sim.gnss_lon_deg[k]),
+            lat=float(sim.gnss_lat_deg[k]),
+            height=int(round(sim.gnss_h_m[k] * 1000)),
+            hMSL=int(round((sim.gnss_h_m[k] - sep_m) * 1000)),
+            hAcc=20,
+            vAcc=30,
+            pDOP=1.2,
+        )
         out += msg.serialize()
     return bytes(out)
 
@@ -73,8 +94,14 @@ def test_esf_raw_and_nav_pvt_round_trip(sim):
     m.pop("format")
     m.pop("date")  # NAV-PVT states the date
     m["imu"].pop("rate_hz")
-    res = build_bundle([Source("imu", "ubx", "esf.ubx", imu), Source("gnss", "ubx", "pvt.ubx", gnss),
-                        Source("ldv", "native", "ldv.csv", files["ldv.csv"])], m)
+    res = build_bundle(
+        [
+            Source("imu", "ubx", "esf.ubx", imu),
+            Source("gnss", "ubx", "pvt.ubx", gnss),
+            Source("ldv", "native", "ldv.csv", files["ldv.csv"]),
+        ],
+        m,
+    )
     log, native = parse_files(res.files), parse_files(files)
     assert str(log.manifest.date) == sim.scenario.date
     np.testing.assert_array_equal(log.imu.t_s, native.imu.t_s)  # ms tags: the simulation's 10 ms steps exactly
@@ -98,9 +125,16 @@ def test_missing_axis_names_the_message():
 
 
 def test_bad_checksum_frame_is_skipped():
-    good = b"".join(UBXMessage(b"\x10", b"\x03", GET, payload=struct.pack("<I", 0) + b"".join(
-        struct.pack("<II", (100 & 0xFFFFFF) | (d << 24), tag) for d in (14, 13, 5, 16, 17, 18))).serialize()
-        for tag in (1000, 1010, 1020))
+    good = b"".join(
+        UBXMessage(
+            b"\x10",
+            b"\x03",
+            GET,
+            payload=struct.pack("<I", 0)
+            + b"".join(struct.pack("<II", (100 & 0xFFFFFF) | (d << 24), tag) for d in (14, 13, 5, 16, 17, 18)),
+        ).serialize()
+        for tag in (1000, 1010, 1020)
+    )
     bad = bytearray(good)
     bad[len(good) // 3 - 1] ^= 0xFF  # first frame's checksum
     part = get_importer("ubx").read(bytes(bad), "esf.ubx", "imu", {})
@@ -120,7 +154,8 @@ def test_esf_meas_gives_the_same_increments(sim):
     for k, tag in enumerate(tags):
         payload = struct.pack("<IHH", int(tag), 6 << 11, 0) + b"".join(
             struct.pack("<I", (int(v) & 0xFFFFFF) | (dtype << 24))
-            for dtype, v in ((14, g[k, 0]), (13, g[k, 1]), (5, g[k, 2]), (16, a[k, 0]), (17, a[k, 1]), (18, a[k, 2])))
+            for dtype, v in ((14, g[k, 0]), (13, g[k, 1]), (5, g[k, 2]), (16, a[k, 0]), (17, a[k, 1]), (18, a[k, 2]))
+        )
         out += UBXMessage(b"\x10", b"\x02", GET, payload=payload).serialize()
     part = get_importer("ubx").read(bytes(out), "meas.ubx", "imu", {})
     np.testing.assert_array_equal(part.stamps.values, tags / 1000.0)

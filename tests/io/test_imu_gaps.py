@@ -11,9 +11,9 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.writers import imu_csv
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.mech import mechanize
+from ldvsurvey.pipelines.inputs import nav_inputs
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.inputs import nav_inputs
 
 
 @pytest.fixture(scope="module")
@@ -33,8 +33,14 @@ def _nav(sim, imu):
     """Free-inertial position (rad, rad, m) from the true initial state."""
     k0 = 0
     q0 = q_from_c(sim.imu.c_bn[k0])
-    _, _, pos = mechanize(imu.t_s, imu.dtheta_rad, imu.dvel_mps, q0, sim.imu.v_n[k0],
-                          [sim.imu.lat_rad[k0], sim.imu.lon_rad[k0], sim.imu.h_m[k0]])
+    _, _, pos = mechanize(
+        imu.t_s,
+        imu.dtheta_rad,
+        imu.dvel_mps,
+        q0,
+        sim.imu.v_n[k0],
+        [sim.imu.lat_rad[k0], sim.imu.lon_rad[k0], sim.imu.h_m[k0]],
+    )
     return pos
 
 
@@ -75,7 +81,7 @@ def test_a_row_that_accumulated_the_gap_is_split_evenly(drive):
     assert log.imu.bridged_rows == 2 and any("split evenly" in x for x in log.warnings)
     # the integrated increments are kept exactly
     np.testing.assert_allclose(log.imu.dvel_mps.sum(axis=0), sim.dvel_mps.sum(axis=0), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(log.imu.dvel_mps[i - 2:i + 1], np.repeat(dv[i:i + 1] / 3, 3, axis=0), atol=1e-15)
+    np.testing.assert_allclose(log.imu.dvel_mps[i - 2 : i + 1], np.repeat(dv[i : i + 1] / 3, 3, axis=0), atol=1e-15)
 
 
 def test_long_gap_is_refused_naming_file_line_and_time(drive):

@@ -32,8 +32,10 @@ def _survey(n: int = 400, seed: int = 3) -> list[str]:
         sep = "" if k % 5 == 0 else f"{rng.uniform(-40, 40):.3f}"
         talker = "GP" if k % 2 else "GN"
         if fix:
-            body = (f"{talker}GGA,{t},{la},{'N' if lat >= 0 else 'S'},{lo},{'E' if lon >= 0 else 'W'},{fix},"
-                    f"{rng.integers(4, 30):02d},{rng.uniform(0.5, 3):.1f},{rng.uniform(-50, 3000):.4f},M,{sep},M,,")
+            body = (
+                f"{talker}GGA,{t},{la},{'N' if lat >= 0 else 'S'},{lo},{'E' if lon >= 0 else 'W'},{fix},"
+                f"{rng.integers(4, 30):02d},{rng.uniform(0.5, 3):.1f},{rng.uniform(-50, 3000):.4f},M,{sep},M,,"
+            )
         else:
             body = f"{talker}GGA,{t},,,,,0,00,,,M,,M,,"
         lines.append(sentence(body))
@@ -75,13 +77,25 @@ def _corrupt(field_index: int, value: str, at: int = 250):
     return "\r\n".join(lines).encode(), i + 1
 
 
-@pytest.mark.parametrize("index,value,field", [
-    (1, "2316x0.00", "time"), (1, "", "time"), (1, "256000.00", "time"),
-    (2, "12a4.5", "latitude"), (4, "", "latitude"), (5, "Q", "lon_dir"),
-    (6, "", "fix_quality"), (6, "4.5", "fix_quality"),
-    (9, "12a.5", "altitude"), (9, "", "altitude"), (9, "nan", "altitude"),
-    (11, "inf", "geoid_separation"), (7, "x", "num_sats"), (8, "1;5", "hdop"),
-])
+@pytest.mark.parametrize(
+    "index,value,field",
+    [
+        (1, "2316x0.00", "time"),
+        (1, "", "time"),
+        (1, "256000.00", "time"),
+        (2, "12a4.5", "latitude"),
+        (4, "", "latitude"),
+        (5, "Q", "lon_dir"),
+        (6, "", "fix_quality"),
+        (6, "4.5", "fix_quality"),
+        (9, "12a.5", "altitude"),
+        (9, "", "altitude"),
+        (9, "nan", "altitude"),
+        (11, "inf", "geoid_separation"),
+        (7, "x", "num_sats"),
+        (8, "1;5", "hdop"),
+    ],
+)
 def test_a_bad_field_deep_in_a_long_file_names_its_line_and_field(index, value, field):
     data, line = _corrupt(index, value)
     with pytest.raises(BundleError) as e:

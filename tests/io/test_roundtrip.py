@@ -38,8 +38,10 @@ def test_fd_hz_converted_with_the_optics():
     v = c0 * fd / (2 * 1.00027 * f_i * np.sin(np.radians(5.0)))
     np.testing.assert_allclose(log.ldv.v_fwd_mps, v / np.cos(np.radians(30.0)), rtol=1e-13)
     assert log.ldv.source == "fd_hz"
-    np.testing.assert_allclose(fd_to_v_fwd(np.array([1e6]), log.manifest.ldv.optics),
-                               [1064e-9 * 1e6 / (2 * 1.00027 * np.sin(np.radians(5))) / np.cos(np.radians(30))])
+    np.testing.assert_allclose(
+        fd_to_v_fwd(np.array([1e6]), log.manifest.ldv.optics),
+        [1064e-9 * 1e6 / (2 * 1.00027 * np.sin(np.radians(5))) / np.cos(np.radians(30))],
+    )
 
 
 def test_nmea_round_trip_with_fix_changes_and_midnight():
@@ -61,10 +63,32 @@ def test_nmea_round_trip_with_fix_changes_and_midnight():
 
 
 def test_nmea_bad_checksum_skipped_and_counted_and_talkers_mixed():
-    good = nmea_text(np.array([100.0, 101.0, 102.0]), np.full(3, 10.0), np.full(3, 20.0),
-                     np.full(3, 5.0), np.full(3, 4), talker="GP", extra_sentences=False).decode().splitlines()
-    gn = nmea_text(np.array([103.0]), np.full(1, 10.0), np.full(1, 20.0), np.full(1, 5.0),
-                   np.full(1, 4), talker="GN", extra_sentences=False).decode().splitlines()
+    good = (
+        nmea_text(
+            np.array([100.0, 101.0, 102.0]),
+            np.full(3, 10.0),
+            np.full(3, 20.0),
+            np.full(3, 5.0),
+            np.full(3, 4),
+            talker="GP",
+            extra_sentences=False,
+        )
+        .decode()
+        .splitlines()
+    )
+    gn = (
+        nmea_text(
+            np.array([103.0]),
+            np.full(1, 10.0),
+            np.full(1, 20.0),
+            np.full(1, 5.0),
+            np.full(1, 4),
+            talker="GN",
+            extra_sentences=False,
+        )
+        .decode()
+        .splitlines()
+    )
     corrupt = good[1][:-2] + ("00" if not good[1].endswith("00") else "11")
     lines = [good[0], corrupt, good[2], gn[0], "$GPRMC,unknown*00", "$PUBX,00,foo*7F"]
     g = parse_nmea(("\n".join(lines)).encode(), t_ref_s=100.0)
@@ -111,8 +135,9 @@ def test_exactly_repeated_row_is_dropped_and_counted():
     a = make_arrays(n_imu=500, seed=8)
     idx = np.r_[np.arange(300), 299, np.arange(300, 500)]
     files = make_bundle(seed=8, n_imu=500)
-    files["ldv.csv"] = ldv_csv(a["t"][idx], v_fwd_mps=a["v_fwd"][idx], v_up_mps=a["v_up"][idx],
-                               quality=a["quality"][idx])
+    files["ldv.csv"] = ldv_csv(
+        a["t"][idx], v_fwd_mps=a["v_fwd"][idx], v_up_mps=a["v_up"][idx], quality=a["quality"][idx]
+    )
     log = parse_files(files)
     assert log.ldv.duplicated_rows == 1 and len(log.ldv.t_s) == 500
 

@@ -27,7 +27,7 @@ def _irregular(data: bytes) -> bytes:
     """The same rows with a comment line and a blank line inside the data (the exact reader's case)."""
     lines = data.split(b"\n")
     hdr = next(i for i, ln in enumerate(lines) if ln and not ln.startswith(b"#"))
-    return b"\n".join(lines[:hdr + 5] + [b"# a remark in the middle", b""] + lines[hdr + 5:])
+    return b"\n".join(lines[: hdr + 5] + [b"# a remark in the middle", b""] + lines[hdr + 5 :])
 
 
 @pytest.mark.parametrize("as_path", [False, True])
@@ -41,8 +41,9 @@ def test_one_pass_and_exact_reader_agree(tmp_path, as_path, monkeypatch):
     monkeypatch.setattr(csvtable, "_read_exact", lambda *a: calls.append(1) or exact(*a))
     a = read_numeric_csv(regular if as_path else data, "imu.csv", IMU_COLUMNS, groups={"dv": IMU_COLUMNS[4:]})
     assert calls == []  # the regular file took the one-pass way
-    b = read_numeric_csv(irregular if as_path else irregular.read_bytes(), "imu.csv", IMU_COLUMNS,
-                         groups={"dv": IMU_COLUMNS[4:]})
+    b = read_numeric_csv(
+        irregular if as_path else irregular.read_bytes(), "imu.csv", IMU_COLUMNS, groups={"dv": IMU_COLUMNS[4:]}
+    )
     assert calls == [1]
     for n in IMU_COLUMNS:
         np.testing.assert_array_equal(a.columns[n], b.columns[n])
@@ -113,8 +114,8 @@ def test_refused_zip_leaves_no_folder(tmp_path):
     raw = bytearray(liar.read_bytes())
     # shrink the declared size in the central directory entry of imu.csv
     cd = raw.find(b"imu.csv", raw.find(b"PK\x01\x02")) - 46
-    assert raw[cd:cd + 4] == b"PK\x01\x02"
-    raw[cd + 24:cd + 28] = (info.file_size // 2).to_bytes(4, "little")
+    assert raw[cd : cd + 4] == b"PK\x01\x02"
+    raw[cd + 24 : cd + 28] = (info.file_size // 2).to_bytes(4, "little")
     liar.write_bytes(bytes(raw))
     with pytest.raises((TooLargeError, BundleError)):
         stage_zip(liar, 10**9, parent=parent)
@@ -122,26 +123,36 @@ def test_refused_zip_leaves_no_folder(tmp_path):
 
 
 def _modules_after(code: str) -> set[str]:
-    out = subprocess.run([sys.executable, "-c", code + "\nimport sys, json; print(json.dumps(sorted(sys.modules)))"],
-                         capture_output=True, text=True, check=True,
-                         env={"PYTHONPATH": str(ROOT / "backend"), "PATH": "/usr/bin:/bin"})
+    out = subprocess.run(
+        [sys.executable, "-c", code + "\nimport sys, json; print(json.dumps(sorted(sys.modules)))"],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={"PYTHONPATH": str(ROOT / "backend"), "PATH": "/usr/bin:/bin"},
+    )
     return set(json.loads(out.stdout.strip().splitlines()[-1]))
 
 
 def test_validate_imports_no_numerical_core(tmp_path):
     folder = write_bundle(make_bundle(seed=7), tmp_path / "bundle")
     mods = _modules_after(f"from ldvsurvey.cli import main; assert main(['validate', {str(folder)!r}]) == 0")
-    heavy = {m for m in mods if m.split(".")[0] in ("scipy", "numba", "pandas", "sqlalchemy", "fastapi")
-             or m.startswith(("ldvsurvey.nav", "ldvsurvey.pipelines"))}
+    heavy = {
+        m
+        for m in mods
+        if m.split(".")[0] in ("scipy", "numba", "pandas", "sqlalchemy", "fastapi")
+        or m.startswith(("ldvsurvey.nav", "ldvsurvey.pipelines"))
+    }
     assert heavy == set()
 
 
 def test_registry_imports_a_pipeline_only_when_used():
     from ldvsurvey.pipelines.registry import MODULES
 
-    mods = _modules_after("from ldvsurvey.pipelines.registry import get, PIPELINES\n"
-                          "assert list(PIPELINES) and 'height' in PIPELINES\n"
-                          "assert get('height').name == 'height'")
+    mods = _modules_after(
+        "from ldvsurvey.pipelines.registry import get, PIPELINES\n"
+        "assert list(PIPELINES) and 'height' in PIPELINES\n"
+        "assert get('height').name == 'height'"
+    )
     assert "ldvsurvey.pipelines.height" in mods
     others = {m for n, m in MODULES.items() if n != "height" and m in mods}
     # what height itself needs may come along; the rest must not

@@ -20,6 +20,7 @@ def errors(sol, imu, idx=None):
     idx = slice(None) if idx is None else idx
     phi = attitude_error_rad(sol.c_bn()[idx], imu.c_bn[idx])
     dv = sol.v_n[idx] - imu.v_n[idx]
-    dp = enu_offset_m(imu.lat_rad[idx], imu.lon_rad[idx], imu.h_m[idx],
-                      sol.pos[idx, 0], sol.pos[idx, 1], sol.pos[idx, 2])
+    dp = enu_offset_m(
+        imu.lat_rad[idx], imu.lon_rad[idx], imu.h_m[idx], sol.pos[idx, 0], sol.pos[idx, 1], sol.pos[idx, 2]
+    )
     return phi, dv, dp

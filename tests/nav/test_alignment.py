@@ -28,9 +28,18 @@ def test_coarse_and_fine_alignment_limits():
         c0 = coarse_align(dth, dv, lat)
         pos0 = np.array([lat, road.lon0_rad, road.h0_m])
         cfg = FilterConfig(att_sigma0_rad=(0.01 * RAD, 0.01 * RAD, 1 * RAD))
-        sol = run_filter(imu.t_s, dth, dv, q_from_c(c0), np.zeros(3), pos0,
-                         ImuNoise(eps_dph, nabla_ug, 0.0001, 2.0), cfg,
-                         zupt_intervals=[(imu.t_s[0] - 1, imu.t_s[-1])], smooth=False)
+        sol = run_filter(
+            imu.t_s,
+            dth,
+            dv,
+            q_from_c(c0),
+            np.zeros(3),
+            pos0,
+            ImuNoise(eps_dph, nabla_ug, 0.0001, 2.0),
+            cfg,
+            zupt_intervals=[(imu.t_s[0] - 1, imu.t_s[-1])],
+            smooth=False,
+        )
         phi = attitude_error_rad(sol.c_bn()[-1], imu.c_bn[-1])
         heading_limit = eps_dph * RAD / 3600 / (OMEGA_IE * np.cos(lat))
         level_limit = nabla_ug * 1e-6

@@ -15,8 +15,8 @@ pysh = pytest.importorskip("pyshtools")
 
 def _pysh_point(model, lat, lon):
     coeffs = np.zeros((2, model.n_max + 1, model.n_max + 1))
-    coeffs[0, :, :model.m_max + 1] = model.c
-    coeffs[1, :, :model.m_max + 1] = model.s
+    coeffs[0, :, : model.m_max + 1] = model.c
+    coeffs[1, :, : model.m_max + 1] = model.s
     phi = np.radians(lat)
     rn = A_M / np.sqrt(1 - E2 * np.sin(phi) ** 2)
     x, z = rn * np.cos(phi), rn * (1 - E2) * np.sin(phi)
@@ -84,12 +84,15 @@ def _gdf(**drop):
     return write_gdf(lat, lon, np.zeros((len(lat), len(lon))), "deflection_eta", "arcsec")
 
 
-@pytest.mark.parametrize("defect,expect", [
-    ("missing_keyword", "latitude_parallels"),
-    ("wrong_count", "grid points but the header promises"),
-    ("no_end", "end_of_head"),
-    ("text_value", "not numeric"),
-])
+@pytest.mark.parametrize(
+    "defect,expect",
+    [
+        ("missing_keyword", "latitude_parallels"),
+        ("wrong_count", "grid points but the header promises"),
+        ("no_end", "end_of_head"),
+        ("text_value", "not numeric"),
+    ],
+)
 def test_malformed_gdf(defect, expect):
     data = _gdf().decode()
     if defect == "missing_keyword":
@@ -118,8 +121,21 @@ def test_constant_dov_schuler_response():
     w_in = np.column_stack([np.zeros(n), OMEGA_IE * np.cos(lat), OMEGA_IE * np.sin(lat)])
     eps = 10 * ARCSEC
     for coriolis in (False, True):
-        to, dn, de, _ = propagate(t, lat, np.zeros(n), np.zeros(n), f_n, w_in, gam, np.full(n, eps), np.zeros(n),
-                                  0.09, True, np.zeros(3), coriolis)
+        to, dn, de, _ = propagate(
+            t,
+            lat,
+            np.zeros(n),
+            np.zeros(n),
+            f_n,
+            w_in,
+            gam,
+            np.full(n, eps),
+            np.zeros(n),
+            0.09,
+            True,
+            np.zeros(3),
+            coriolis,
+        )
         ref = schuler_constant_dov(to, eps, lat0)
         # the analytic response ignores Earth rotation: tight over the first half period, and the
         # Earth-rate (Foucault) coupling stays within 5 % of the peak over two periods

@@ -34,14 +34,15 @@ def test_radii_and_ecef_from_the_ellipse_geometry():
     for lat_deg in (0.0, 28.18, 34.3, 45.0, 61.7, 89.9):
         lat = lat_deg * RAD
         beta = np.arctan((b / a) * np.tan(lat))
-        m = (a ** 2 * np.sin(beta) ** 2 + b ** 2 * np.cos(beta) ** 2) ** 1.5 / (a * b)
+        m = (a**2 * np.sin(beta) ** 2 + b**2 * np.cos(beta) ** 2) ** 1.5 / (a * b)
         n = a * np.cos(beta) / np.cos(lat)
         rm, rn = earth.radii(lat)
         assert rm == pytest.approx(m, rel=1e-12) and rn == pytest.approx(n, rel=1e-12)
         h, lon = 500.0, 109.1 * RAD
         rho, z = a * np.cos(beta) + h * np.cos(lat), b * np.sin(beta) + h * np.sin(lat)
-        np.testing.assert_allclose(earth.lla_to_ecef(lat, lon, h), [rho * np.cos(lon), rho * np.sin(lon), z],
-                                   rtol=0, atol=1e-6)
+        np.testing.assert_allclose(
+            earth.lla_to_ecef(lat, lon, h), [rho * np.cos(lon), rho * np.sin(lon), z], rtol=0, atol=1e-6
+        )
     assert earth.radii(0.0)[0] == pytest.approx(6335439.327, abs=1e-3)
     assert earth.radii(0.0)[1] == pytest.approx(6378137.000, abs=1e-3)
     assert earth.radii(np.pi / 2)[0] == pytest.approx(6399593.626, abs=1e-3)

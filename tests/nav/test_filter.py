@@ -27,11 +27,17 @@ def mc_setup():
 def _run_seed(sc, m, imu, seed, smooth):
     rng = np.random.default_rng(100 + seed)
     noise = ImuNoise(gyro_bias_dph=0.01, accel_bias_ug=50.0, gyro_arw_dprh=0.002, accel_vrw_ug_rthz=20.0)
-    err = ImuErrors(rng.normal(0, noise.gyro_bias_rps, 3), rng.normal(0, noise.accel_bias_mps2, 3),
-                    noise.arw_psd, noise.vrw_psd)
+    err = ImuErrors(
+        rng.normal(0, noise.gyro_bias_rps, 3), rng.normal(0, noise.accel_bias_mps2, 3), noise.arw_psd, noise.vrw_psd
+    )
     dth, dv = err.apply(imu.dtheta_rad, imu.dvel_mps, 0.01, rng)
-    cfg = FilterConfig(att_sigma0_rad=(60 * ARCSEC, 60 * ARCSEC, 0.2 * RAD), vel_sigma0_mps=0.05,
-                       pos_sigma0_m=1.0, ldv_sigma_mps=(0.01, 0.01, 0.01), gate_sigma=0.0)
+    cfg = FilterConfig(
+        att_sigma0_rad=(60 * ARCSEC, 60 * ARCSEC, 0.2 * RAD),
+        vel_sigma0_mps=0.05,
+        pos_sigma0_m=1.0,
+        ldv_sigma_mps=(0.01, 0.01, 0.01),
+        gate_sigma=0.0,
+    )
     # initial errors drawn from P0
     tr0 = m.truth(np.array([imu.t_s[0] - 0.01]))
     c_true = tr0["c_tn"][0] @ sc.ldv.c_bt()
@@ -39,26 +45,32 @@ def _run_seed(sc, m, imu, seed, smooth):
     c0 = (np.eye(3) - skew(phi0)) @ c_true
     dp = rng.normal(0, cfg.pos_sigma0_m, 3)
     rm, rn = radii(tr0["lat_rad"][0])
-    pos0 = np.array([tr0["lat_rad"][0] + dp[1] / rm, tr0["lon_rad"][0] + dp[0] / (rn * np.cos(tr0["lat_rad"][0])),
-                     tr0["h_m"][0] + dp[2]])
+    pos0 = np.array(
+        [
+            tr0["lat_rad"][0] + dp[1] / rm,
+            tr0["lon_rad"][0] + dp[0] / (rn * np.cos(tr0["lat_rad"][0])),
+            tr0["h_m"][0] + dp[2],
+        ]
+    )
     v0 = tr0["v_n"][0] + rng.normal(0, cfg.vel_sigma0_mps, 3)
     vf, vu = ldv_measure(m, imu.t_s, sc.ldv, rng)
     tg = np.arange(np.ceil(imu.t_s[0]), imu.t_s[-1], 1.0)
-    glat, glon, gh, fix = gnss_fixes(m, tg, sc.ldv.c_bt(), sc.gnss_lever_m, lambda t: np.full(len(t), 4), rng,
-                                     white_only=True)
+    glat, glon, gh, fix = gnss_fixes(
+        m, tg, sc.ldv.c_bt(), sc.gnss_lever_m, lambda t: np.full(len(t), 4), rng, white_only=True
+    )
     s_h, s_v = FIX_SIGMA[4]
     gnss = GnssAid(tg, glat * RAD, glon * RAD, gh, np.full(len(tg), s_h), np.full(len(tg), s_v), sc.gnss_lever_m)
     ldv = LdvAid(np.ones(len(imu.t_s), bool), vf, vu, lever_arm_m=sc.ldv.lever_arm_m)
-    sol = run_filter(imu.t_s, dth, dv, q_from_c(c0), v0, pos0, noise, cfg, ldv=ldv, gnss=gnss,
-                     smooth=smooth, keep_cov=True)
+    sol = run_filter(
+        imu.t_s, dth, dv, q_from_c(c0), v0, pos0, noise, cfg, ldv=ldv, gnss=gnss, smooth=smooth, keep_cov=True
+    )
     return sol, err
 
 
 def _nees(sol, imu, err):
     idx = sol.epoch_index[1::5]
     phi, dvel, dpos = errors(sol, imu, idx)
-    db = np.column_stack([err.gyro_bias_rps - sol.epoch_bias[1::5, :3],
-                          err.accel_bias_mps2 - sol.epoch_bias[1::5, 3:]])
+    db = np.column_stack([err.gyro_bias_rps - sol.epoch_bias[1::5, :3], err.accel_bias_mps2 - sol.epoch_bias[1::5, 3:]])
     e = np.column_stack([phi, dvel, dpos, db])
     cov = sol.epoch_cov[1::5, :15, :15]
     return np.einsum("ki,ki->k", e, np.linalg.solve(cov, e[..., None])[..., 0])
@@ -83,17 +95,25 @@ def test_smoother_beats_forward(mc_setup):
     smo, _ = _run_seed(sc, m, imu, 0, smooth=True)
     ef, es = errors(fwd, imu), errors(smo, imu)
     for a, b in zip(ef, es):  # attitude, velocity, position
-        assert np.sqrt(np.mean(b ** 2)) < np.sqrt(np.mean(a ** 2))
+        assert np.sqrt(np.mean(b**2)) < np.sqrt(np.mean(a**2))
     assert np.all(smo.sigma[:, :9].mean(axis=0) <= fwd.sigma[:, :9].mean(axis=0))
 
 
 @pytest.mark.slow
 def test_gnss_denied_30_minutes_with_2d_ldv():
     """Gravimetry-paper budget: 30 min without GNSS, horizontal ≤ 10 m, height ≤ 2 m."""
-    ldv = LdvSpecSim(pitch_rad=0.2 * RAD, heading_rad=-0.3 * RAD, scale=1.001, scale_up=1.001,
-                     noise_mps=0.01, kind="2d")
-    sc = catalog.drive(minutes=50, speed_mps=12, ldv=ldv, gyro_bias_dph=0.003, accel_bias_ug=20.0,
-                       gyro_arw_dprh=0.0005, accel_vrw_ug_rthz=5.0)
+    ldv = LdvSpecSim(
+        pitch_rad=0.2 * RAD, heading_rad=-0.3 * RAD, scale=1.001, scale_up=1.001, noise_mps=0.01, kind="2d"
+    )
+    sc = catalog.drive(
+        minutes=50,
+        speed_mps=12,
+        ldv=ldv,
+        gyro_bias_dph=0.003,
+        accel_bias_ug=20.0,
+        gyro_arw_dprh=0.0005,
+        accel_vrw_ug_rthz=5.0,
+    )
     t_out = 300.0 + 15 * 60.0
     sc.fix_schedule = [(t_out, 1e9, 0)]
     sim = simulate(sc, seed=7)
@@ -104,13 +124,31 @@ def test_gnss_denied_30_minutes_with_2d_ldv():
     aid = LdvAid(ok, sim.ldv_v_fwd, sim.ldv_v_up, lever_arm_m=ldv.lever_arm_m)
     fix = sim.gnss_fix
     sig = np.array([FIX_SIGMA.get(int(f), (np.nan, np.nan)) for f in fix])
-    gnss = GnssAid(sim.gnss_t_s, sim.gnss_lat_deg * RAD, sim.gnss_lon_deg * RAD, sim.gnss_h_m,
-                   sig[:, 0], sig[:, 1], sc.gnss_lever_m)
+    gnss = GnssAid(
+        sim.gnss_t_s,
+        sim.gnss_lat_deg * RAD,
+        sim.gnss_lon_deg * RAD,
+        sim.gnss_h_m,
+        sig[:, 0],
+        sig[:, 1],
+        sc.gnss_lever_m,
+    )
     cfg = FilterConfig(ldv_aug=("scale", "pitch", "heading"), att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2 * RAD))
     pos0 = np.array([sc.road.lat0_rad, sc.road.lon0_rad, sc.road.h0_m])
-    sol = run_filter(imu.t_s, sim.dtheta_rad, sim.dvel_mps, q_from_c(c0), np.zeros(3), pos0,
-                     ImuNoise(0.003, 20.0, 0.0005, 5.0), cfg, zupt_intervals=[(sc.t0_s, sc.t0_s + 300)],
-                     ldv=aid, gnss=gnss, smooth=False)
+    sol = run_filter(
+        imu.t_s,
+        sim.dtheta_rad,
+        sim.dvel_mps,
+        q_from_c(c0),
+        np.zeros(3),
+        pos0,
+        ImuNoise(0.003, 20.0, 0.0005, 5.0),
+        cfg,
+        zupt_intervals=[(sc.t0_s, sc.t0_s + 300)],
+        ldv=aid,
+        gnss=gnss,
+        smooth=False,
+    )
     denied = imu.t_s > sc.t0_s + t_out
     assert imu.t_s[denied][-1] - imu.t_s[denied][0] >= 30 * 60 - 60
     _, _, dp = errors(sol, imu)

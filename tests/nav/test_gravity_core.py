@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 from scipy.signal import filtfilt
 
-from ldvsurvey.nav.coincidence import (along_track, common_points, crossovers, internal_coincidence,
-                                       total_from_lines)
+from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence, total_from_lines
 from ldvsurvey.nav.earth import MGAL, OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.gravity import disturbance_mps2, fir_taps, zero_phase_lowpass
 
@@ -114,7 +113,7 @@ def test_velocity_gaps_cost_only_their_own_samples():
     f_minus_g = a_vehicle + dg_true  # what the accelerometer adds beyond normal gravity
     ok = np.ones(len(t), bool)
     for a in rng.integers(20000, 180000, 40):  # 40 drop-outs of 0.2-3 s
-        ok[a:a + rng.integers(20, 300)] = False
+        ok[a : a + rng.integers(20, 300)] = False
     v_meas_bad = np.where(ok, v_meas, rng.normal(0, 5, len(t)))  # garbage values inside
 
     def gravity(v):
@@ -146,8 +145,9 @@ def test_bridge_ties_both_edges_and_keeps_data():
 def test_noise_floor_matches_monte_carlo(length_s):
     """σ of white sensor noise after the zero-phase FIR, against simulated noise through the same FIR."""
     rng = np.random.default_rng(7)
-    floor = noise_floor_mgal(length_s, accel_noise_ug_rthz=5.0, ldv_noise_mps=0.01, ldv_rate_hz=20.0,
-                             height_noise_m=0.02, gnss_rate_hz=1.0)
+    floor = noise_floor_mgal(
+        length_s, accel_noise_ug_rthz=5.0, ldv_noise_mps=0.01, ldv_rate_hz=20.0, height_noise_m=0.02, gnss_rate_hz=1.0
+    )
     n_s = 400_000
     fs = 10.0  # accelerometer: per-sample σ = N·√fs (the simulator's and the filter's convention)
     acc = rng.normal(0, 5e-6 * 9.80665 * np.sqrt(fs), n_s)
@@ -161,8 +161,9 @@ def test_noise_floor_matches_monte_carlo(length_s):
     assert got_acc == pytest.approx(floor["accel_mgal"], rel=0.08)
     assert got_ldv == pytest.approx(floor["ldv_mgal"], rel=0.08)
     assert got_h == pytest.approx(floor["gnss_height_mgal"], rel=0.15)
-    assert floor["total_mgal"] == pytest.approx(np.sqrt(floor["accel_mgal"] ** 2 + floor["ldv_mgal"] ** 2
-                                                        + floor["gnss_height_mgal"] ** 2))
+    assert floor["total_mgal"] == pytest.approx(
+        np.sqrt(floor["accel_mgal"] ** 2 + floor["ldv_mgal"] ** 2 + floor["gnss_height_mgal"] ** 2)
+    )
 
 
 def test_noise_floor_of_the_issue_example():

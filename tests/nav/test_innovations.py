@@ -8,7 +8,7 @@ from ldvsurvey.nav.innovations import integrated_autocorrelation, variance_infla
 
 
 def _ar1(n, phi, rng, sigma=1.0):
-    w = rng.normal(0.0, sigma * np.sqrt(1 - phi ** 2), n)
+    w = rng.normal(0.0, sigma * np.sqrt(1 - phi**2), n)
     return lfilter([1.0], [1.0, -phi], w, zi=[phi * rng.normal(0.0, sigma)])[0]
 
 

@@ -38,8 +38,9 @@ def _gravity_difference(ours):
     """pyins' normal gravity keeps only the first-order height term: its difference to ours, as Δv (RFU) per DT."""
     lat, h = ours.lat_rad, ours.h_m
     sl2 = np.sin(lat) ** 2
-    g_pyins = (pyins_earth.GE * (1 + pyins_earth.F * sl2) / np.sqrt(1 - pyins_earth.E2 * sl2)
-               * (1 - 2 * h / pyins_earth.A))
+    g_pyins = (
+        pyins_earth.GE * (1 + pyins_earth.F * sl2) / np.sqrt(1 - pyins_earth.E2 * sl2) * (1 - 2 * h / pyins_earth.A)
+    )
     return np.einsum("kji,kj->ki", ours.c_bn, np.column_stack([0 * h, 0 * h, (g_pyins - normal_gravity(lat, h)) * DT]))
 
 
@@ -58,11 +59,17 @@ def test_increments_match_pyins_with_body_attitude():
     """The body-attitude effect (stance, crab, squat, roll in curves, 1–2 Hz bounce) makes the body
     rates differ from the travel frame's; pyins, given the same body attitude, agrees."""
     from ldvsurvey.sim.body import BodyModel
-    from ldvsurvey.sim.effects import BodyAttitude, DEG
+    from ldvsurvey.sim.effects import DEG, BodyAttitude
 
     _, m, t = _drive()
-    spec = BodyAttitude(stance_pitch_rad=0.4 * DEG, crab_rad=-0.3 * DEG, squat_rad_per_g=2.5 * DEG,
-                        roll_rad_per_g=2.0 * DEG, bounce_rad=0.05 * DEG, bounce_hz=(1.4, 1.9))
+    spec = BodyAttitude(
+        stance_pitch_rad=0.4 * DEG,
+        crab_rad=-0.3 * DEG,
+        squat_rad_per_g=2.5 * DEG,
+        roll_rad_per_g=2.0 * DEG,
+        bounce_rad=0.05 * DEG,
+        bounce_hz=(1.4, 1.9),
+    )
     body = BodyModel(spec, m, 0.35 * np.pi / 180, -0.25 * np.pi / 180, np.random.default_rng(1))
     ours = simulate_imu(m, t, body)
     rigid = simulate_imu(m, t, body.c_db.T)

@@ -8,6 +8,7 @@ the former whole-log quaternion interpolation (written out here) against ``attit
 
 import numpy as np
 import pytest
+
 from ldvsurvey.nav import kfloop
 from ldvsurvey.nav.attitude import c_from_q, q_from_c, skew
 from ldvsurvey.nav.earth import ARCSEC
@@ -21,7 +22,6 @@ from ldvsurvey.sim.sensors import (
     gnss_fixes,
     ldv_measure,
 )
-
 from tests.nav.helpers import truth_imu
 
 RAD = np.pi / 180
@@ -30,21 +30,24 @@ RAD = np.pi / 180
 @pytest.fixture(scope="module")
 def case():
     """6 min: 60 s still, then driving; LDV with three calibration states, GNSS at 1 Hz, the gate on."""
-    sc = catalog.drive(minutes=6, static_s=60, ldv=LdvSpecSim(noise_mps=0.01, pitch_rad=0.3 * RAD,
-                                                              heading_rad=-0.2 * RAD, scale=1.002))
+    sc = catalog.drive(
+        minutes=6, static_s=60, ldv=LdvSpecSim(noise_mps=0.01, pitch_rad=0.3 * RAD, heading_rad=-0.2 * RAD, scale=1.002)
+    )
     m, imu = truth_imu(sc)
     rng = np.random.default_rng(3)
     noise = ImuNoise(gyro_bias_dph=0.01, accel_bias_ug=50.0, gyro_arw_dprh=0.002, accel_vrw_ug_rthz=20.0)
-    err = ImuErrors(rng.normal(0, noise.gyro_bias_rps, 3), rng.normal(0, noise.accel_bias_mps2, 3),
-                    noise.arw_psd, noise.vrw_psd)
+    err = ImuErrors(
+        rng.normal(0, noise.gyro_bias_rps, 3), rng.normal(0, noise.accel_bias_mps2, 3), noise.arw_psd, noise.vrw_psd
+    )
     dth, dv = err.apply(imu.dtheta_rad, imu.dvel_mps, 0.01, rng)
     tr0 = m.truth(np.array([imu.t_s[0] - 0.01]))
     c0 = (np.eye(3) - skew(np.array([30, -20, 600]) * ARCSEC)) @ tr0["c_tn"][0] @ sc.ldv.c_bt()
     pos0 = np.array([tr0["lat_rad"][0], tr0["lon_rad"][0], tr0["h_m"][0]])
     vf, vu = ldv_measure(m, imu.t_s, sc.ldv, rng)
     tg = np.arange(np.ceil(imu.t_s[0]), imu.t_s[-1], 1.0)
-    glat, glon, gh, _ = gnss_fixes(m, tg, sc.ldv.c_bt(), sc.gnss_lever_m, lambda t: np.full(len(t), 4), rng,
-                                   white_only=True)
+    glat, glon, gh, _ = gnss_fixes(
+        m, tg, sc.ldv.c_bt(), sc.gnss_lever_m, lambda t: np.full(len(t), 4), rng, white_only=True
+    )
     s_h, s_v = FIX_SIGMA[4]
     gnss = GnssAid(tg, glat * RAD, glon * RAD, gh, np.full(len(tg), s_h), np.full(len(tg), s_v), sc.gnss_lever_m)
     ldv = LdvAid(np.ones(len(imu.t_s), bool), vf, vu, lever_arm_m=sc.ldv.lever_arm_m)

@@ -50,15 +50,25 @@ def _moving(imu):
 def test_f_u_matches_truth_on_rotating_imu(rotating_drive):
     sc, imu, cbs, f_true, tr0, c0_s = rotating_drive
     pos0 = np.array([tr0["lat_rad"][0], tr0["lon_rad"][0], tr0["h_m"][0]])
-    sol = run_filter(imu.t_s, imu.dtheta_rad, imu.dvel_mps, q_from_c(c0_s), tr0["v_n"][0], pos0,
-                     ImuNoise(), FilterConfig(), c_bs=cbs, smooth=False)
+    sol = run_filter(
+        imu.t_s,
+        imu.dtheta_rad,
+        imu.dvel_mps,
+        q_from_c(c0_s),
+        tr0["v_n"][0],
+        pos0,
+        ImuNoise(),
+        FilterConfig(),
+        c_bs=cbs,
+        smooth=False,
+    )
     assert sol.f_u_mps2.shape == imu.t_s.shape
     np.testing.assert_allclose(sol.f_t_s[1:], 0.5 * (imu.t_s[1:] + imu.t_s[:-1]), atol=1e-9)
     mv = _moving(imu)
     err = (sol.f_u_mps2 - f_true)[mv] / MGAL
     # the free-inertial vertical drifts a little (no aiding): the attitude stays within an arcsecond,
     # so f_U can be off by φ×f_h ≲ 5e-6 rad × 1 m/s² = 0.5 mGal at most
-    assert np.sqrt(np.mean(err ** 2)) < 0.2, np.sqrt(np.mean(err ** 2))
+    assert np.sqrt(np.mean(err**2)) < 0.2, np.sqrt(np.mean(err**2))
     assert np.abs(err).max() < 1.0
     # the rotation matters here: the old recomputation (true mid-interval attitude plus ½Δθ×Δv)
     # fails the same bound
@@ -87,13 +97,35 @@ def test_f_u_smoothed_follows_the_smoothed_attitude(rotating_drive):
     gnss = GnssAid(tg, lat, lon, h, np.full(len(tg), 0.02), np.full(len(tg), 0.02))
     cfg = FilterConfig(att_sigma0_rad=(200 * RAD / 3600, 200 * RAD / 3600, 0.1 * RAD))
     noise = ImuNoise(gyro_bias_dph=0.003, accel_bias_ug=20.0, gyro_arw_dprh=0.0005, accel_vrw_ug_rthz=5.0)
-    fwd = run_filter(imu.t_s, imu.dtheta_rad, imu.dvel_mps, q_from_c(c0), tr0["v_n"][0], pos0, noise, cfg,
-                     c_bs=cbs, gnss=gnss, smooth=False)
-    smo = run_filter(imu.t_s, imu.dtheta_rad, imu.dvel_mps, q_from_c(c0), tr0["v_n"][0], pos0, noise, cfg,
-                     c_bs=cbs, gnss=gnss, smooth=True)
+    fwd = run_filter(
+        imu.t_s,
+        imu.dtheta_rad,
+        imu.dvel_mps,
+        q_from_c(c0),
+        tr0["v_n"][0],
+        pos0,
+        noise,
+        cfg,
+        c_bs=cbs,
+        gnss=gnss,
+        smooth=False,
+    )
+    smo = run_filter(
+        imu.t_s,
+        imu.dtheta_rad,
+        imu.dvel_mps,
+        q_from_c(c0),
+        tr0["v_n"][0],
+        pos0,
+        noise,
+        cfg,
+        c_bs=cbs,
+        gnss=gnss,
+        smooth=True,
+    )
     acc = (imu.t_s < imu.t_s[0] + 150.0) & _moving(imu)  # before the GNSS has levelled the forward filter
     e_f = (fwd.f_u_mps2 - f_true)[acc] / MGAL
     e_s = (smo.f_u_mps2 - f_true)[acc] / MGAL
-    assert np.sqrt(np.mean(e_s ** 2)) < 0.5 * np.sqrt(np.mean(e_f ** 2))
+    assert np.sqrt(np.mean(e_s**2)) < 0.5 * np.sqrt(np.mean(e_f**2))
     # and the bias correction is reported so the raw f_U can be rebuilt
     assert smo.f_u_bias_mps2.shape == imu.t_s.shape

@@ -8,10 +8,10 @@ import pytest
 from ldvsurvey.cli import main
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.writers import write_bundle
-from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 
 SCHULER_S = 2 * np.pi * np.sqrt(6.371e6 / 9.8)
 
@@ -62,7 +62,9 @@ def test_zero_current_delayed_state_and_conventional_close():
     assert d["rms_velocity_error_mps"] < 3 * c["rms_velocity_error_mps"] + 0.01
     assert c["rms_velocity_error_mps"] < 0.3 * u["rms_velocity_error_mps"]
     assert d["rms_velocity_error_mps"] < 0.3 * u["rms_velocity_error_mps"]
-    assert c["rms_position_error_m"] < u["rms_position_error_m"] and d["rms_position_error_m"] < u["rms_position_error_m"]
+    assert (
+        c["rms_position_error_m"] < u["rms_position_error_m"] and d["rms_position_error_m"] < u["rms_position_error_m"]
+    )
 
 
 def test_bad_input_exits_2(tmp_path, capsys):

@@ -7,10 +7,10 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.gdf import write_gdf
 from ldvsurvey.io.writers import imu_csv
-from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 
 
 @pytest.fixture(scope="module")
@@ -57,22 +57,31 @@ def test_grid_compensation_against_the_simulators_point_mass_field(tmp_path):
     from ldvsurvey.sim import truth as TR
     from ldvsurvey.sim.effects import Effects
 
-    sc = catalog.realistic_drive(seed=3, effects=Effects.only("gravity_field", 3), minutes=9.0, static_s=120.0,
-                                 speed_mps=25.0)
+    sc = catalog.realistic_drive(
+        seed=3, effects=Effects.only("gravity_field", 3), minutes=9.0, static_s=120.0, speed_mps=25.0
+    )
     sim = simulate(sc, with_nodov=True)
     grids = TR.grid_files(sim)
     for n in ("xi.gdf", "eta.gdf"):
         (tmp_path / n).write_bytes(grids[n])
     (tmp_path / "imu_nodov.csv").write_bytes(imu_csv(sim.imu.t_s, *sim.imu_nodov))
-    res = run_pipeline(get("dov"), [parse_files(bundle_files(sim))],
-                       {"dov_grid": f"{tmp_path / 'xi.gdf'},{tmp_path / 'eta.gdf'}",
-                        "imu_nodov": str(tmp_path / "imu_nodov.csv"), "compensation": False})
+    res = run_pipeline(
+        get("dov"),
+        [parse_files(bundle_files(sim))],
+        {
+            "dov_grid": f"{tmp_path / 'xi.gdf'},{tmp_path / 'eta.gdf'}",
+            "imu_nodov": str(tmp_path / "imu_nodov.csv"),
+            "compensation": False,
+        },
+    )
     tab = res.tables["dov"]
     # the DOV along the track the pipeline used is the simulator's field there (grid interpolation only)
     t = tab["t_s"]
-    xi, eta, _ = sim.extras["gravity_field"](np.interp(t, sim.imu.t_s, sim.imu.lat_rad),
-                                             np.interp(t, sim.imu.t_s, sim.imu.lon_rad),
-                                             np.full(len(t), float(np.mean(sim.imu.h_m))))
+    xi, eta, _ = sim.extras["gravity_field"](
+        np.interp(t, sim.imu.t_s, sim.imu.lat_rad),
+        np.interp(t, sim.imu.t_s, sim.imu.lon_rad),
+        np.full(len(t), float(np.mean(sim.imu.h_m))),
+    )
     arcsec = np.pi / 180 / 3600
     assert np.abs(tab["xi_arcsec"] - xi / arcsec).max() < 0.5 and np.abs(tab["eta_arcsec"] - eta / arcsec).max() < 0.5
     assert np.hypot(xi, eta).max() / arcsec > 5.0

@@ -12,6 +12,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+
 from ldvsurvey.nav.earth import MGAL, normal_gravity
 from ldvsurvey.nav.gravity import zero_phase_lowpass
 from ldvsurvey.pipelines.gravity_chains import gnss_chain
@@ -34,13 +35,22 @@ def synthetic(duration_s=3000.0, v0_mps=0.2, gaps=(), sigma_h_m=0.015, seed=5):
     v_u = v0_mps + 3.0 * w * np.cos(w * t)
     f_u = np.r_[0.0, np.diff(v_u) * FS_HZ] + normal_gravity(LAT, h) + dg
     tm = np.r_[t[0], 0.5 * (t[1:] + t[:-1])]
-    f_u[1:] += (normal_gravity(LAT, 200.0 + v0_mps * tm[1:] + 3.0 * np.sin(w * tm[1:]))
-                - normal_gravity(LAT, h[1:]))  # γ at the interval's middle
+    f_u[1:] += normal_gravity(LAT, 200.0 + v0_mps * tm[1:] + 3.0 * np.sin(w * tm[1:])) - normal_gravity(
+        LAT, h[1:]
+    )  # γ at the interval's middle
     f_u[1:] += 10.0 * MGAL * np.sin(2 * np.pi * tm[1:] / 900.0) - dg[1:]
     pos = np.column_stack([np.full(n, LAT), np.full(n, 0.2), h])
     v_n = np.column_stack([np.zeros(n), np.zeros(n), v_u])
-    sol = SimpleNamespace(t_s=t, pos=pos, v_n=v_n, q_sn=np.tile([1.0, 0, 0, 0], (n, 1)), c_bs=None,
-                          f_u_mps2=f_u, f_u_bias_mps2=np.zeros(n), accel_bias_mps2=np.zeros(3))
+    sol = SimpleNamespace(
+        t_s=t,
+        pos=pos,
+        v_n=v_n,
+        q_sn=np.tile([1.0, 0, 0, 0], (n, 1)),
+        c_bs=None,
+        f_u_mps2=f_u,
+        f_u_bias_mps2=np.zeros(n),
+        accel_bias_mps2=np.zeros(3),
+    )
     tg = np.arange(1.0, duration_s - 1.0, 1.0)
     hg = np.interp(tg, t, h) + rng.normal(0.0, sigma_h_m, len(tg))
     fix = np.full(len(tg), 4)
@@ -116,11 +126,24 @@ def test_frame_tilt_recovered_from_the_chain_difference():
     a_e = 0.3 * np.sin(2 * np.pi * t / 400.0) + 0.1 * np.sin(2 * np.pi * t / 170.0)
     a_n = 0.3 * np.cos(2 * np.pi * t / 530.0)
     xi, eta = 20e-6, -60e-6  # rad
-    base = {"t_s": t, "lat": np.full(len(t), LAT), "lon": 0.2 + 1e-6 * t, "h": np.zeros(len(t)),
-            "speed": np.full(len(t), 15.0), "fs": fs, "bridged": np.zeros(len(t), bool), "screened": 0}
+    base = {
+        "t_s": t,
+        "lat": np.full(len(t), LAT),
+        "lon": 0.2 + 1e-6 * t,
+        "h": np.zeros(len(t)),
+        "speed": np.full(len(t), 15.0),
+        "fs": fs,
+        "bridged": np.zeros(len(t), bool),
+        "screened": 0,
+    }
     ldv = {**base, "dg": dg + rng.normal(0, 2e-5, len(t)), "kind": "ldv"}
-    gnss = {**base, "dg": dg + xi * a_n + eta * a_e + rng.normal(0, 5e-5, len(t)), "a_n": a_n, "a_e": a_e,
-            "kind": "gnss"}
+    gnss = {
+        **base,
+        "dg": dg + xi * a_n + eta * a_e + rng.normal(0, 5e-5, len(t)),
+        "a_n": a_n,
+        "a_e": a_e,
+        "kind": "gnss",
+    }
     lines = [("L1", 0, 200.0, 2900.0), ("L2", 0, 3100.0, 5800.0)]
     ra = evaluate([ldv], lines, FIR_S, 10.0, 75.0, strict=False)
     rb = evaluate([gnss], lines, FIR_S, 10.0, 75.0, strict=False)
@@ -144,9 +167,18 @@ def test_a_comparison_line_without_any_value_is_reported_not_a_crash():
     x = np.where(t < 1400, 15.0 * t, np.where(t < 2700, 21000.0 - 15.0 * t, 15.0 * t - 40500.0))
     dg = 1e-4 * np.sin(2 * np.pi * x / 5000.0)
     dg_blocked = np.where((t > 1300) & (t < 2800), np.nan, dg)
-    ch = {"t_s": t, "dg": dg_blocked, "lat": np.full(len(t), LAT), "lon": 0.2 + x / 6.4e6, "h": np.zeros(len(t)),
-          "speed": np.full(len(t), 15.0), "fs": fs, "bridged": ~np.isfinite(dg_blocked), "screened": 0,
-          "kind": "gnss"}
+    ch = {
+        "t_s": t,
+        "dg": dg_blocked,
+        "lat": np.full(len(t), LAT),
+        "lon": 0.2 + x / 6.4e6,
+        "h": np.zeros(len(t)),
+        "speed": np.full(len(t), 15.0),
+        "fs": fs,
+        "bridged": ~np.isfinite(dg_blocked),
+        "screened": 0,
+        "kind": "gnss",
+    }
     lines = [("L1", 0, 50.0, 650.0), ("L2", 0, 1450.0, 2050.0), ("L3", 0, 2750.0 + 100.0, 3350.0)]
     res = evaluate([ch], lines, FIR_S, 10.0, 75.0, strict=False)
     by = {p[0]: p for p in res["per_line"]}

@@ -12,8 +12,6 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.gravity import navigation_log
 from ldvsurvey.pipelines.gravity_chains import ldv_chain
@@ -21,6 +19,8 @@ from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_report import evaluate
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 
 FIR_S = 150.0
 
@@ -37,8 +37,9 @@ def test_drift_floor_matches_the_true_drift(seed):
     assert s["total_mgal"] >= comb - 3 * spread
     # the true drift through the same processing
     params = get("gravity").resolve({})
-    inp, setup, sol = run_navigation(navigation_log(log), {**params, "aiding": "ldv", "smooth": True},
-                                     lambda *a, **k: None)
+    inp, setup, sol = run_navigation(
+        navigation_log(log), {**params, "aiding": "ldv", "smooth": True}, lambda *a, **k: None
+    )
     ch = ldv_chain(inp, sol, setup)
     bz = np.interp(ch["t_s"], sim.imu.t_s, sim.extras["imu_errors"]["accel_gm_mps2"][:, 2])
     ch.update(dg=bz.copy(), dg_static=bz.copy(), still=inp.still)

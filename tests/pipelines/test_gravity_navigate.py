@@ -6,14 +6,14 @@ import pytest
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL, enu_offset_m
 from ldvsurvey.nav.gravity import zero_phase_lowpass
-from ldvsurvey.sim.fields import ConstantField
-from ldvsurvey.sim.motion import Static
-from ldvsurvey.sim.road import Ramps, Road
-from ldvsurvey.sim.scenario import Scenario, bundle_files, simulate
 from ldvsurvey.pipelines.base import Progress, run_pipeline
 from ldvsurvey.pipelines.gravity import ldv_chain
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.sim.fields import ConstantField
+from ldvsurvey.sim.motion import Static
+from ldvsurvey.sim.road import Ramps, Road
+from ldvsurvey.sim.scenario import Scenario, bundle_files, simulate
 
 
 @pytest.fixture(scope="module")
@@ -44,8 +44,9 @@ def test_internal_coincidence_and_truth(gravity_sim, gravity_result):
     on = np.array([x != "" for x in g["line"]])
     im = sim.imu
     tm = 0.5 * (im.t_s[1:] + im.t_s[:-1])
-    true = sim.scenario.gravity_field.dg_mgal(0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]),
-                                              0.5 * (im.lon_rad[1:] + im.lon_rad[:-1]))
+    true = sim.scenario.gravity_field.dg_mgal(
+        0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]), 0.5 * (im.lon_rad[1:] + im.lon_rad[:-1])
+    )
     tf = zero_phase_lowpass(true * MGAL, 150.0, 100.0) / MGAL
     e = g["dg_mgal"][on] - np.interp(g["t_s"][on], tm, tf)
     e = e[np.isfinite(e)]
@@ -69,8 +70,9 @@ def test_sins_gnss_comparison_present_and_close(gravity_sim, gravity_result):
     on = np.array([x != "" for x in t["line"]])
     im = sim.imu
     tm = 0.5 * (im.t_s[1:] + im.t_s[:-1])
-    true = sim.scenario.gravity_field.dg_mgal(0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]),
-                                              0.5 * (im.lon_rad[1:] + im.lon_rad[:-1]))
+    true = sim.scenario.gravity_field.dg_mgal(
+        0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]), 0.5 * (im.lon_rad[1:] + im.lon_rad[:-1])
+    )
     tf = zero_phase_lowpass(true * MGAL, 150.0, 100.0) / MGAL
     e = t["dg_sins_gnss_mgal"][on] - np.interp(t["t_s"][on], tm, tf)
     e = e[np.isfinite(e)]
@@ -92,8 +94,9 @@ def test_navigation_within_budget(gravity_sim):
     tr = r.tables["trajectory"]
     im = sim.imu
     k = np.searchsorted(im.t_s, tr["t_s"])
-    d = enu_offset_m(im.lat_rad[k], im.lon_rad[k], im.h_m[k], np.radians(tr["lat_deg"]),
-                     np.radians(tr["lon_deg"]), tr["h_m"])
+    d = enu_offset_m(
+        im.lat_rad[k], im.lon_rad[k], im.h_m[k], np.radians(tr["lat_deg"]), np.radians(tr["lon_deg"]), tr["h_m"]
+    )
     assert np.hypot(d[:, 0], d[:, 1]).max() <= 10.0
     assert np.abs(d[:, 2]).max() <= 3.0
     assert r.summary["smoothed"] is True and r.summary["aiding"] == "ldv"
@@ -104,12 +107,21 @@ def test_navigation_within_budget(gravity_sim):
 
 def test_vehicle_at_rest_on_plus_10_mgal():
     road = Road(np.radians(28.0), np.radians(113.0), 150.0, 10.0, Ramps(np.radians(30.0)))
-    sc = Scenario(name="rest", road=road, segments=[Static(1500.0)], static_s=1500.0,
-                  gravity_field=ConstantField(dg_mgal=10.0), gyro_bias_dph=0.003, accel_bias_ug=0.0,
-                  gyro_arw_dprh=0.0005, accel_vrw_ug_rthz=2.0, fix_schedule=[])
+    sc = Scenario(
+        name="rest",
+        road=road,
+        segments=[Static(1500.0)],
+        static_s=1500.0,
+        gravity_field=ConstantField(dg_mgal=10.0),
+        gyro_bias_dph=0.003,
+        accel_bias_ug=0.0,
+        gyro_arw_dprh=0.0005,
+        accel_vrw_ug_rthz=2.0,
+        fix_schedule=[],
+    )
     log = parse_files(bundle_files(simulate(sc, seed=2)))
     inp, setup, sol = run_navigation(log, {"aiding": "ldv", "calibration": "nominal"}, Progress())
     ch = ldv_chain(inp, sol, setup)
     dg = zero_phase_lowpass(ch["dg"], 150.0, ch["fs"]) / MGAL
-    mid = dg[len(dg) // 4: 3 * len(dg) // 4]
+    mid = dg[len(dg) // 4 : 3 * len(dg) // 4]
     assert np.nanmean(mid) == pytest.approx(10.0, abs=0.1)

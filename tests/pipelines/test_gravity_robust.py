@@ -14,10 +14,10 @@ import pytest
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.nav.gravity import noise_floor_mgal, zero_phase_lowpass
-from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 
 FIR_S = 150.0
 
@@ -47,15 +47,20 @@ def _truth_error(sim, res, column="dg_mgal"):
     unobservable vertical accelerometer bias); from the simulator's field, never the pipeline."""
     g = res.tables["gravity"]
     im = sim.imu
-    _, _, dg = sim.extras["gravity_field"](0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]),
-                                           0.5 * (im.lon_rad[1:] + im.lon_rad[:-1]), 0.5 * (im.h_m[1:] + im.h_m[:-1]))
+    _, _, dg = sim.extras["gravity_field"](
+        0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]),
+        0.5 * (im.lon_rad[1:] + im.lon_rad[:-1]),
+        0.5 * (im.h_m[1:] + im.h_m[:-1]),
+    )
     tf = zero_phase_lowpass(dg, FIR_S, 100.0) / MGAL
     on = np.array([x != "" for x in g["line"]])
     e = g[column][on] - np.interp(g["t_s"][on], 0.5 * (im.t_s[1:] + im.t_s[:-1]), tf)
     e -= np.nanmean(e)
     names = np.array(g["line"])[on]
-    return {n: float(np.sqrt(np.nanmean(e[names == n] ** 2))) if np.isfinite(e[names == n]).any() else np.nan
-            for n in sorted(set(names))}
+    return {
+        n: float(np.sqrt(np.nanmean(e[names == n] ** 2))) if np.isfinite(e[names == n]).any() else np.nan
+        for n in sorted(set(names))
+    }
 
 
 def test_dropouts_cost_only_their_own_data(with_dropouts, without_dropouts):
@@ -86,8 +91,9 @@ def test_ldv_gaps_are_named_per_line_in_a_warning(with_dropouts, without_dropout
     named = [w for w in clean.warnings if w.startswith("LDV gaps")]
     # without the dropout effect only the simulator's rare low-quality samples remain: far fewer seconds
     if named:
-        assert sum(ln["bridged_s"] for ln in clean.summary["lines"]) < 0.2 * sum(ln["bridged_s"]
-                                                                                for ln in res.summary["lines"])
+        assert sum(ln["bridged_s"] for ln in clean.summary["lines"]) < 0.2 * sum(
+            ln["bridged_s"] for ln in res.summary["lines"]
+        )
 
 
 def test_imu_gaps_are_surfaced(with_dropouts):
@@ -146,8 +152,10 @@ def test_views_show_floor_and_chain_difference(with_dropouts, monkeypatch):
     from ldvsurvey.api import views
 
     _, res = with_dropouts
-    tables = {f"{k}.csv": {c: (np.array(v, dtype=object) if c == "line" else np.asarray(v, float))
-                           for c, v in t.items()} for k, t in res.tables.items()}
+    tables = {
+        f"{k}.csv": {c: (np.array(v, dtype=object) if c == "line" else np.asarray(v, float)) for c, v in t.items()}
+        for k, t in res.tables.items()
+    }
     monkeypatch.setattr(views, "_csv", lambda session, job, name: tables[name])
     s = res.summary
     fig = views._gravity_view(None, None, "gravity_residuals", s, None, None, 500)
@@ -172,8 +180,11 @@ def test_bad_gravity_parameters_are_named():
 
 def test_line_leveling_shifts_lines_by_their_mean_residual(with_dropouts):
     _, res = with_dropouts
-    lev = run_pipeline(get("gravity"), [res.log], {"fir_length_s": FIR_S, "drift_correction": "none",
-                                                   "gnss_comparison": False, "line_leveling": "bias"})
+    lev = run_pipeline(
+        get("gravity"),
+        [res.log],
+        {"fir_length_s": FIR_S, "drift_correction": "none", "gnss_comparison": False, "line_leveling": "bias"},
+    )
     s0, s1 = res.summary, lev.summary
     offs = s1["line_leveling"]["offsets_mgal"]
     assert sum(offs.values()) == pytest.approx(0.0, abs=1e-9)

@@ -8,9 +8,9 @@ import pytest
 from ldvsurvey.cli import main
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.writers import write_bundle
-from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.sim.scenario import bundle_files, simulate
 from tests.pipelines.helpers import truth_height
 
 ARCSEC = np.pi / 180 / 3600
@@ -20,8 +20,10 @@ ARCSEC = np.pi / 180 / 3600
 def results(height_sim):
     sim, files, log = height_sim
     # the simulated world of these scenarios has no deflection of the vertical
-    return {name: run_pipeline(get(name), [log], {} if name == "tilt" else {"dov": "none"})
-            for name in ("tilt", "calibrate", "height")}
+    return {
+        name: run_pipeline(get(name), [log], {} if name == "tilt" else {"dov": "none"})
+        for name in ("tilt", "calibrate", "height")
+    }
 
 
 def test_tilt_angles_and_oscillation(height_sim, results):
@@ -93,8 +95,19 @@ def test_cli_run_writes_spec_files(short_height_sim, tmp_path, capsys):
     path = write_bundle(bundle_files(sim), tmp_path / "b")
     assert main(["run", "tilt", str(path), "--out", str(tmp_path / "o")]) == 0
     s = json.loads((tmp_path / "o" / "summary.json").read_text())
-    for k in ("pipeline", "format_version", "inputs", "parameters", "software_version", "started_at",
-              "elapsed_s", "warnings", "alpha_rad", "beta_rad", "alpha_rad_sigma"):
+    for k in (
+        "pipeline",
+        "format_version",
+        "inputs",
+        "parameters",
+        "software_version",
+        "started_at",
+        "elapsed_s",
+        "warnings",
+        "alpha_rad",
+        "beta_rad",
+        "alpha_rad_sigma",
+    ):
         assert k in s
     assert s["parameters"]["output_rate_hz"] == 10.0
     hdr = (tmp_path / "o" / "attitude.csv").read_text().splitlines()[0]

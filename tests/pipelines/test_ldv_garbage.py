@@ -13,26 +13,31 @@ import pytest
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.filter import FilterConfig, ImuNoise, LdvAid, ldv_spikes, run_filter
+from ldvsurvey.pipelines.base import run_pipeline
+from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim import truth as TR
 from ldvsurvey.sim.effects import DEG, BodyAttitude, Effects, LdvDropouts
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.registry import get
 
 MINUTES = 14.0
 N_SPIKES = 40  # on average: good-flagged spikes of ±5 m/s
-SQUAT = BodyAttitude(stance_pitch_rad=0.0, crab_rad=0.0, squat_rad_per_g=2.0 * DEG, roll_rad_per_g=0.0,
-                     bounce_rad=0.0)
+SQUAT = BodyAttitude(stance_pitch_rad=0.0, crab_rad=0.0, squat_rad_per_g=2.0 * DEG, roll_rad_per_g=0.0, bounce_rad=0.0)
 K_SQUAT = -SQUAT.squat_rad_per_g / 9.80665  # travel-direction pitch in body axes per m/s²
-DROPOUTS = LdvDropouts(rate_per_min=1.5, burst_max_s=4.0, spikes_per_min=N_SPIKES / MINUTES, spike_min_mps=5.0,
-                       spike_max_mps=5.0)
+DROPOUTS = LdvDropouts(
+    rate_per_min=1.5, burst_max_s=4.0, spikes_per_min=N_SPIKES / MINUTES, spike_min_mps=5.0, spike_max_mps=5.0
+)
 
 
 @pytest.fixture(scope="module")
 def garbage_sim():
-    sc = catalog.height(minutes=MINUTES, length_m=3500.0, relief_m=12.0, fix_schedule=[],
-                        effects=Effects.ideal().with_(body_attitude=SQUAT, ldv_dropouts=DROPOUTS))
+    sc = catalog.height(
+        minutes=MINUTES,
+        length_m=3500.0,
+        relief_m=12.0,
+        fix_schedule=[],
+        effects=Effects.ideal().with_(body_attitude=SQUAT, ldv_dropouts=DROPOUTS),
+    )
     sim = simulate(sc, seed=11)
     sim.spikes = TR.ldv_spike_index(sim)
     return sim, parse_files(bundle_files(sim))
@@ -65,10 +70,29 @@ def test_gate_rejects_an_unscreened_spike_without_lockout(garbage_sim):
     static = [(imu.t_s[0] - 1, sc.t0_s + sc.static_s - 1)]
     out = {}
     for name, ok in (("screened", good & ~ldv_spikes(sim.ldv_v_fwd[:n], good)), ("raw", good)):
-        aid = LdvAid(ok, sim.ldv_v_fwd[:n], None, pitch_rad=sc.ldv.pitch_rad, heading_rad=sc.ldv.heading_rad,
-                     scale=sc.ldv.scale, lever_arm_m=sc.ldv.lever_arm_m)
-        sol = run_filter(imu.t_s, sim.dtheta_rad, sim.dvel_mps, q_from_c(c0), np.zeros(3), pos0, noise, cfg,
-                         c_bs=cbs, zupt_intervals=static, ldv=aid, smooth=False)
+        aid = LdvAid(
+            ok,
+            sim.ldv_v_fwd[:n],
+            None,
+            pitch_rad=sc.ldv.pitch_rad,
+            heading_rad=sc.ldv.heading_rad,
+            scale=sc.ldv.scale,
+            lever_arm_m=sc.ldv.lever_arm_m,
+        )
+        sol = run_filter(
+            imu.t_s,
+            sim.dtheta_rad,
+            sim.dvel_mps,
+            q_from_c(c0),
+            np.zeros(3),
+            pos0,
+            noise,
+            cfg,
+            c_bs=cbs,
+            zupt_intervals=static,
+            ldv=aid,
+            smooth=False,
+        )
         out[name] = sol
     raw = out["raw"]
     moving = np.abs(sim.ldv_v_fwd[sim.spikes]) > 3
@@ -77,7 +101,7 @@ def test_gate_rejects_an_unscreened_spike_without_lockout(garbage_sim):
     assert raw.rejected["ldv"] <= 3 * len(sim.spikes) + out["screened"].rejected["ldv"]
     dv_raw = raw.v_n - imu.v_n
     dv_scr = out["screened"].v_n - imu.v_n
-    assert np.sqrt(np.mean(dv_raw ** 2)) <= 1.2 * np.sqrt(np.mean(dv_scr ** 2)) + 1e-3
+    assert np.sqrt(np.mean(dv_raw**2)) <= 1.2 * np.sqrt(np.mean(dv_scr**2)) + 1e-3
 
 
 def test_calibration_and_height_survive_garbage(garbage_sim):

@@ -15,11 +15,11 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.writers import imu_csv, ldv_csv, nmea_text
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
-from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import GEOID_SEPARATION_M, bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.inputs import nav_inputs
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import GEOID_SEPARATION_M, bundle_files, simulate
 
 DEG = np.pi / 180
 
@@ -31,10 +31,18 @@ def moving():
     f = bundle_files(sim)
     ki, kl, kg = sim.imu.t_s > t_cut, sim.ldv_t_s > t_cut, sim.gnss_t_s > t_cut
     f["imu.csv"] = imu_csv(sim.imu.t_s[ki], sim.dtheta_rad[ki], sim.dvel_mps[ki])
-    f["ldv.csv"] = ldv_csv(sim.ldv_t_s[kl], v_fwd_mps=sim.ldv_v_fwd[kl], v_up_mps=sim.ldv_v_up[kl],
-                           quality=sim.ldv_quality[kl])
-    f["gnss.nmea"] = nmea_text(sim.gnss_t_s[kg], sim.gnss_lat_deg[kg], sim.gnss_lon_deg[kg], sim.gnss_h_m[kg],
-                               sim.gnss_fix[kg], sep_m=GEOID_SEPARATION_M, talker="GN")
+    f["ldv.csv"] = ldv_csv(
+        sim.ldv_t_s[kl], v_fwd_mps=sim.ldv_v_fwd[kl], v_up_mps=sim.ldv_v_up[kl], quality=sim.ldv_quality[kl]
+    )
+    f["gnss.nmea"] = nmea_text(
+        sim.gnss_t_s[kg],
+        sim.gnss_lat_deg[kg],
+        sim.gnss_lon_deg[kg],
+        sim.gnss_h_m[kg],
+        sim.gnss_fix[kg],
+        sep_m=GEOID_SEPARATION_M,
+        talker="GN",
+    )
     m = json.loads(f["manifest.json"])
     m["initial"] = {}
     f["manifest.json"] = json.dumps(m).encode()
@@ -70,8 +78,14 @@ def test_navigation_after_a_moving_start(moving):
     assert np.abs(np.radians(tab["pitch_deg"]) - pt)[late].max() < 0.005 * DEG
     assert np.abs(np.radians(tab["roll_deg"]) - rt)[late].max() < 0.005 * DEG
     assert np.abs(_wrap(np.radians(tab["heading_deg"]) - ht))[late].max() < 0.02 * DEG
-    d = enu_offset_m(sim.imu.lat_rad[k], sim.imu.lon_rad[k], sim.imu.h_m[k], np.radians(tab["lat_deg"]),
-                     np.radians(tab["lon_deg"]), tab["h_m"])
+    d = enu_offset_m(
+        sim.imu.lat_rad[k],
+        sim.imu.lon_rad[k],
+        sim.imu.h_m[k],
+        np.radians(tab["lat_deg"]),
+        np.radians(tab["lon_deg"]),
+        tab["h_m"],
+    )
     assert np.abs(d).max() < 0.15
 
 
@@ -88,8 +102,9 @@ def test_realistic_moving_start_of_the_rotating_height_drive():
     0.35° nose-up, nominal 0): the coarse alignment is coarser, the filter still converges."""
     from ldvsurvey.sim.effects import Effects
 
-    sc = catalog.realistic_height(seed=4, effects=Effects.only("moving_start", 4), minutes=14.0, length_m=3500.0,
-                                  relief_m=15.0)
+    sc = catalog.realistic_height(
+        seed=4, effects=Effects.only("moving_start", 4), minutes=14.0, length_m=3500.0, relief_m=15.0
+    )
     sim = simulate(sc, seed=7)
     res = run_pipeline(get("navigate"), [parse_files(bundle_files(sim))], {"aiding": "ldv+gnss"})
     tab = res.tables["trajectory"]

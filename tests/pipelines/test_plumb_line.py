@@ -8,7 +8,6 @@ The calibration's own error (a 2″ pitch error, well within its 1-σ of 1.4″ 
 7 km) is taken out first, from the simulated mounting, so the comparison holds for any noise draw.
 """
 
-
 import numpy as np
 import pytest
 
@@ -17,10 +16,10 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.gdf import write_gdf
 from ldvsurvey.io.writers import write_bundle
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
 
 ARCSEC = np.pi / 180 / 3600
 LAM_M = 9000.0
@@ -85,8 +84,9 @@ def test_height_with_grid_dov_levels_to_the_normal(dov_case):
     dist_m = np.concatenate([[0.0], np.cumsum(0.5 * (tr["speed_mps"][1:] + tr["speed_mps"][:-1]) * np.diff(t))])
     cal = with_dov.summary["calibration"]
     sig = cal["sigma"]
-    envelope = 0.02 + 3 * (np.radians(sig["ldv_pitch_deg"]) * dist_m
-                           + sig["ldv_pitch_k_rad_per_mps2"] * tr["speed_mps"] ** 2 / 2)
+    envelope = 0.02 + 3 * (
+        np.radians(sig["ldv_pitch_deg"]) * dist_m + sig["ldv_pitch_k_rad_per_mps2"] * tr["speed_mps"] ** 2 / 2
+    )
     worst = int(np.argmax(np.abs(e1) / envelope))
     assert np.abs(e1[worst]) <= envelope[worst], (e1[worst], envelope[worst], t[worst])
 
@@ -115,8 +115,10 @@ def test_calibration_heading_needs_the_deflection(dov_case):
     err = {}
     for mode, extra in (("grid", {"dov_grid": grids}), ("none", {})):
         s = run_pipeline(get("calibrate"), [log], {"dov": mode, **extra}).summary
-        err[mode] = (np.radians(s["ldv_heading_deg"]) - sim.scenario.ldv.heading_rad,
-                     np.radians(s["ldv_heading_deg_sigma"]))
+        err[mode] = (
+            np.radians(s["ldv_heading_deg"]) - sim.scenario.ldv.heading_rad,
+            np.radians(s["ldv_heading_deg_sigma"]),
+        )
     assert abs(err["grid"][0]) <= min(10 * ARCSEC, 3 * err["grid"][1])
     # without it the heading is off by about η tan L, beyond the acceptance; the residuals it leaves
     # are time-correlated, so the (innovation-inflated) 1-σ grows to cover it rather than hide it
@@ -133,8 +135,19 @@ def test_dov_grid_errors_name_file_and_field(dov_case, tmp_path, capsys):
     bundle = tmp_path / "b"
     write_bundle(bundle_files(sim), bundle)
     out = tmp_path / "o"
-    rc = main(["run", "height", str(bundle), "--out", str(out), "--set", "dov=grid",
-               "--set", f"dov_grid={bad},{d / 'eta.gdf'}"])
+    rc = main(
+        [
+            "run",
+            "height",
+            str(bundle),
+            "--out",
+            str(out),
+            "--set",
+            "dov=grid",
+            "--set",
+            f"dov_grid={bad},{d / 'eta.gdf'}",
+        ]
+    )
     err = capsys.readouterr().err
     assert rc != 0 and "bad.gdf" in err and "line" in err
     assert not out.exists() or not any(out.iterdir())  # nothing written

@@ -12,19 +12,20 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
+from ldvsurvey.pipelines.base import run_pipeline
+from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim import truth as TR
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.registry import get
 
 ARCSEC = np.pi / 180 / 3600
 
 
 @pytest.fixture(scope="module")
 def realistic(tmp_path_factory):
-    sc = catalog.realistic_height(seed=1, minutes=14.0, length_m=3500.0, relief_m=12.0, turntable=False,
-                                  imu_timing=False)
+    sc = catalog.realistic_height(
+        seed=1, minutes=14.0, length_m=3500.0, relief_m=12.0, turntable=False, imu_timing=False
+    )
     sim = simulate(sc)
     d = tmp_path_factory.mktemp("grids")
     grids = TR.grid_files(sim)
@@ -42,10 +43,11 @@ def test_calibration_within_acceptance_with_honest_sigma(realistic):
     a, b = s["segment_t_s"]
     mt = TR.mean_travel_direction(sim, a, b)
     k_eff = TR.effective_scale(sim, a, b)
-    checks = [(np.radians(s["ldv_pitch_deg"]) - mt["pitch_rad"], np.radians(s["ldv_pitch_deg_sigma"]), 10 * ARCSEC),
-              (np.radians(s["ldv_heading_deg"]) - mt["heading_rad"], np.radians(s["ldv_heading_deg_sigma"]),
-               10 * ARCSEC),
-              (s["ldv_scale"] - k_eff, s["ldv_scale_sigma"], 1e-4)]
+    checks = [
+        (np.radians(s["ldv_pitch_deg"]) - mt["pitch_rad"], np.radians(s["ldv_pitch_deg_sigma"]), 10 * ARCSEC),
+        (np.radians(s["ldv_heading_deg"]) - mt["heading_rad"], np.radians(s["ldv_heading_deg_sigma"]), 10 * ARCSEC),
+        (s["ldv_scale"] - k_eff, s["ldv_scale_sigma"], 1e-4),
+    ]
     for err, sig, bound in checks:
         assert abs(err) <= bound and abs(err) <= 3 * sig, (err, sig, bound)
     assert s["ldv_pitch_k_rad_per_mps2_sigma"] < 0.1 * abs(s["ldv_pitch_k_rad_per_mps2"])  # squat is seen

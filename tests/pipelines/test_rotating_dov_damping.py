@@ -10,11 +10,11 @@ import pytest
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.gdf import write_gdf
 from ldvsurvey.nav.dovgrid import DovGrid
+from ldvsurvey.pipelines.base import run_pipeline
+from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.motion import Drive, Static, TurnInPlace
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.registry import get
 
 TILT = dict(alpha_rad=4e-4, beta_rad=-6e-4)
 
@@ -26,8 +26,9 @@ def dov_grid(tmp_path_factory):
     la = np.arange(lat0 - 0.05, lat0 + 0.15, 1 / 60)
     lo = np.arange(lon0 - 0.05, lon0 + 0.05, 1 / 60)
     lat, lon = np.meshgrid(la, lo, indexing="ij")
-    grid = DovGrid(la, lo, 12 * np.sin((lat - lat0) * 40) + 4, 9 * np.cos((lat - lat0) * 25 + (lon - lon0) * 30),
-                   None, "synthetic")
+    grid = DovGrid(
+        la, lo, 12 * np.sin((lat - lat0) * 40) + 4, 9 * np.cos((lat - lat0) * 25 + (lon - lon0) * 30), None, "synthetic"
+    )
     d = tmp_path_factory.mktemp("dovgrid")
     (d / "xi.gdf").write_bytes(write_gdf(la, lo, grid.xi_arcsec, "deflection_xi", "arcsec"))
     (d / "eta.gdf").write_bytes(write_gdf(la, lo, grid.eta_arcsec, "deflection_eta", "arcsec"))
@@ -39,8 +40,9 @@ def test_dov_with_a_rotating_imu_matches_the_fixed_imu(dov_grid):
     out = {}
     for rot in (True, False):
         sim = simulate(catalog.dov(km=8.0, grid=grid, rotating=rot, **TILT), seed=3)
-        out[rot] = run_pipeline(get("dov"), [parse_files(bundle_files(sim))],
-                                {"dov_grid": paths, "compensation": "false"}).summary
+        out[rot] = run_pipeline(
+            get("dov"), [parse_files(bundle_files(sim))], {"dov_grid": paths, "compensation": "false"}
+        ).summary
     r, f = out[True], out[False]
     # the DOV-induced error depends on the trajectory and the field only; the two mechanizations share
     # their sensor errors, which cancel to second order (heading error × DOV ≈ 1e-3 relative)

@@ -11,16 +11,19 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
+from ldvsurvey.pipelines.inputs import nav_inputs
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.motion import Drive, Static
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.inputs import nav_inputs
 
 
 def _sim():
     sc = catalog.drive(minutes=6.0, static_s=120.0)
-    sc = dataclasses.replace(sc, segments=[Static(120.0), Drive(600.0, 12.0, 15.0), Static(60.0),
-                                           Drive(1500.0, 12.0, 15.0)], ldv_dropout_share=0.0)
+    sc = dataclasses.replace(
+        sc,
+        segments=[Static(120.0), Drive(600.0, 12.0, 15.0), Static(60.0), Drive(1500.0, 12.0, 15.0)],
+        ldv_dropout_share=0.0,
+    )
     return simulate(sc, seed=7)
 
 
@@ -33,8 +36,14 @@ def _inject(sim, rng):
     and a few single spikes flagged good."""
     t, v, q = sim.ldv_t_s, sim.ldv_v_fwd, sim.ldv_quality
     (s0, e0), (s1, e1) = _stops(sim)
-    bursts = [(s0, s0 + 12.0, "stale"), (s0 + 40.0, s0 + 43.0, "zeros"), (s0 + 80.0, s0 + 80.4, "spikes"),
-              (s1 + 20.0, s1 + 25.0, "stale"), (s1 + 40.0, s1 + 41.5, "spikes"), (e0 + 60.0, e0 + 62.0, "zeros")]
+    bursts = [
+        (s0, s0 + 12.0, "stale"),
+        (s0 + 40.0, s0 + 43.0, "zeros"),
+        (s0 + 80.0, s0 + 80.4, "spikes"),
+        (s1 + 20.0, s1 + 25.0, "stale"),
+        (s1 + 40.0, s1 + 41.5, "spikes"),
+        (e0 + 60.0, e0 + 62.0, "zeros"),
+    ]
     for a, b, kind in bursts:
         k = (t >= a) & (t < b)
         q[k] = rng.integers(5, 90, k.sum())

@@ -13,12 +13,12 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.attitude import c_from_q, euler_from_c_bn
+from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs, navigate, pipeline_cfg
+from ldvsurvey.pipelines.tiltfit import static_part, tilt_stage
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.effects import Effects, TurntableSpec
 from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.sim.truth import effective_tilt
-from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs, navigate, pipeline_cfg
-from ldvsurvey.pipelines.tiltfit import static_part, tilt_stage
 
 
 def _effective(sim):
@@ -27,8 +27,10 @@ def _effective(sim):
     return t["alpha_eff_rad"], t["beta_eff_rad"]
 
 
-@pytest.mark.parametrize("scheme,rate_dps", [("2pos", 20.0), ("4pos-seq", 20.0), ("4pos-paper", 20.0),
-                                             ("continuous", 1.0), ("continuous", 10.0)])
+@pytest.mark.parametrize(
+    "scheme,rate_dps",
+    [("2pos", 20.0), ("4pos-seq", 20.0), ("4pos-paper", 20.0), ("continuous", 1.0), ("continuous", 10.0)],
+)
 def test_tilt_with_every_effect_on(scheme, rate_dps):
     eff = Effects.realistic(3).with_(turntable=TurntableSpec(scheme=scheme, rate_dps=rate_dps))
     sc = catalog.realistic_height(seed=3, effects=eff, minutes=10.0, length_m=2500.0, relief_m=10.0)
@@ -44,7 +46,7 @@ def test_tilt_with_every_effect_on(scheme, rate_dps):
     # the estimate, not the mechanical (α, β), is what levels the body: pitch/roll over the static period
     st = static_part(inp)
     c_sn = c_from_q(navigate(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True).q_sn)
-    pt, rt, _ = euler_from_c_bn(sim.imu.c_bn[:len(st.t_s)])
+    pt, rt, _ = euler_from_c_bn(sim.imu.c_bn[: len(st.t_s)])
     spread = {}
     for key, (a, b) in {"estimate": (est.alpha_rad, est.beta_rad), "mechanical": (sc.alpha_rad, sc.beta_rad)}.items():
         p, r, _ = euler_from_c_bn(c_sn @ c_bs_of(st, a, b))

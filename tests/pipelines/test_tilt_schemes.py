@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.sim import catalog
-from ldvsurvey.sim.motion import Static
-from ldvsurvey.sim.scenario import bundle_files
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.inputs import nav_inputs
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.motion import Static
+from ldvsurvey.sim.scenario import bundle_files
 from tests.nav.turntables import Continuous, Stops, quantise_encoder, simulate_with_table
 
 ALPHA, BETA = 4.0e-4, -6.0e-4
@@ -28,8 +28,9 @@ T0 = 33300.0
 def _static_log(duration_s, table, seed=2, jitter=False):
     """A still vehicle (height paper's IMU: 0.002°/h, 50 µg) on the turntable ``table``."""
     sc = catalog.height(minutes=10.0, length_m=2000.0, relief_m=5.0)
-    sc = dataclasses.replace(sc, segments=[Static(duration_s)], static_s=duration_s, alpha_rad=ALPHA,
-                             beta_rad=BETA, t0_s=T0, fix_schedule=[])
+    sc = dataclasses.replace(
+        sc, segments=[Static(duration_s)], static_s=duration_s, alpha_rad=ALPHA, beta_rad=BETA, t0_s=T0, fix_schedule=[]
+    )
     sim = simulate_with_table(sc, table, seed=seed)
     if jitter:
         quantise_encoder(sim, 0.01, seed=seed)
@@ -75,8 +76,9 @@ def test_tilt_pipeline_on_sequential_indexing_with_encoder_jitter():
 
 
 def test_no_rotation_falls_back_with_a_warning_and_height_still_runs():
-    sc = catalog.height(minutes=8.0, length_m=1500.0, relief_m=5.0, fix_schedule=[], alpha_rad=ALPHA,
-                        beta_rad=BETA, static_s=120.0)
+    sc = catalog.height(
+        minutes=8.0, length_m=1500.0, relief_m=5.0, fix_schedule=[], alpha_rad=ALPHA, beta_rad=BETA, static_s=120.0
+    )
     sim = simulate_with_table(sc, Stops(sc.t0_s, [30.0], 0.0), seed=3)  # parked at 30° all along
     log = parse_files(bundle_files(sim))
     est, _ = tilt_stage(nav_inputs(log))

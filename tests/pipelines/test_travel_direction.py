@@ -11,24 +11,28 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
+from ldvsurvey.pipelines.base import run_pipeline
+from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.effects import DEG, BodyAttitude, Effects
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.registry import get
 
 ARCSEC = np.pi / 180 / 3600
 G0 = 9.80665
 #: squat alone: no stance pitch, crab, roll or bounce, so the mean travel direction is the mounting
-SQUAT = BodyAttitude(stance_pitch_rad=0.0, crab_rad=0.0, squat_rad_per_g=2.0 * DEG, roll_rad_per_g=0.0,
-                     bounce_rad=0.0)
+SQUAT = BodyAttitude(stance_pitch_rad=0.0, crab_rad=0.0, squat_rad_per_g=2.0 * DEG, roll_rad_per_g=0.0, bounce_rad=0.0)
 K_SQUAT = -SQUAT.squat_rad_per_g / G0  # travel-direction pitch in body axes per m/s² (nose up: travel below)
 
 
 @pytest.fixture(scope="module")
 def squat_sim():
-    sc = catalog.height(minutes=14.0, length_m=3500.0, relief_m=12.0, fix_schedule=[],
-                        effects=Effects.ideal().with_(body_attitude=SQUAT))
+    sc = catalog.height(
+        minutes=14.0,
+        length_m=3500.0,
+        relief_m=12.0,
+        fix_schedule=[],
+        effects=Effects.ideal().with_(body_attitude=SQUAT),
+    )
     sim = simulate(sc, seed=11)
     return sim, parse_files(bundle_files(sim))
 
@@ -43,11 +47,12 @@ def test_calibration_finds_stance_and_compliance(squat_sim, squat_results):
     sim, _ = squat_sim
     s = squat_results["calibrate"].summary
     ldv = sim.scenario.ldv
-    checks = [(np.radians(s["ldv_pitch_deg"]) - ldv.pitch_rad, np.radians(s["ldv_pitch_deg_sigma"]), 10 * ARCSEC),
-              (np.radians(s["ldv_heading_deg"]) - ldv.heading_rad, np.radians(s["ldv_heading_deg_sigma"]),
-               10 * ARCSEC),
-              (s["ldv_scale"] - ldv.scale, s["ldv_scale_sigma"], 1e-4),
-              (s["ldv_pitch_k_rad_per_mps2"] - K_SQUAT, s["ldv_pitch_k_rad_per_mps2_sigma"], 0.05 * abs(K_SQUAT))]
+    checks = [
+        (np.radians(s["ldv_pitch_deg"]) - ldv.pitch_rad, np.radians(s["ldv_pitch_deg_sigma"]), 10 * ARCSEC),
+        (np.radians(s["ldv_heading_deg"]) - ldv.heading_rad, np.radians(s["ldv_heading_deg_sigma"]), 10 * ARCSEC),
+        (s["ldv_scale"] - ldv.scale, s["ldv_scale_sigma"], 1e-4),
+        (s["ldv_pitch_k_rad_per_mps2"] - K_SQUAT, s["ldv_pitch_k_rad_per_mps2_sigma"], 0.05 * abs(K_SQUAT)),
+    ]
     for err, sig, bound in checks:
         assert abs(err) <= bound, (err, sig, bound)
         assert 0 < sig < bound and abs(err) <= 3 * sig, (err, sig)  # the 1-σ is honest (3σ covers)

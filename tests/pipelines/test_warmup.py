@@ -18,8 +18,13 @@ BACKEND = Path(__file__).resolve().parents[2] / "backend"
 
 def _warmup(*args: str) -> dict:
     env = {**os.environ, "PYTHONPATH": str(BACKEND) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    proc = subprocess.run([sys.executable, "-m", "ldvsurvey.cli", "warmup", "--json", "--no-variants", *args],
-                          capture_output=True, text=True, env=env, timeout=900)
+    proc = subprocess.run(
+        [sys.executable, "-m", "ldvsurvey.cli", "warmup", "--json", "--no-variants", *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=900,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout)
 

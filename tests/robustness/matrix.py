@@ -30,13 +30,13 @@ import numpy as np
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import radii
+from ldvsurvey.pipelines.base import run_pipeline
+from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim import truth as TR
 from ldvsurvey.sim.effects import Effects, effect_names
 from ldvsurvey.sim.scenario import bundle_files, simulate
 from ldvsurvey.sim.sensors import FIX_SIGMA
-from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.registry import get
 
 ARCSEC = np.pi / 180 / 3600
 TILT_BOUND_RAD = 2e-5  #: acceptance of issue 13
@@ -56,8 +56,14 @@ def effects_of(config: str, seed: int) -> Effects:
 def height_scenario(config: str, seed: int = 5, minutes: float = 6.0):
     """The rotating-IMU, 1-D LDV height drive, shortened: 2 min static, ~1.3 km out and back."""
     length = 1300.0 * minutes / 6.0
-    return catalog.realistic_height(seed=seed, effects=effects_of(config, seed), minutes=minutes,
-                                    length_m=length, relief_m=5.0 * minutes / 6.0, static_s=120.0)
+    return catalog.realistic_height(
+        seed=seed,
+        effects=effects_of(config, seed),
+        minutes=minutes,
+        length_m=length,
+        relief_m=5.0 * minutes / 6.0,
+        static_s=120.0,
+    )
 
 
 def _grid_params(sim, d: pathlib.Path) -> dict:
@@ -93,6 +99,7 @@ def run_height_case(config: str, seed: int = 5, minutes: float = 6.0, pipelines=
 
 # --- floors ----------------------------------------------------------------------------------------
 
+
 def _pos_sigma(sim) -> tuple[float, float]:
     """(horizontal, vertical) 1-σ of a fixed (RTK) GNSS position (m): what a calibration can
     lean on; multipath jumps and degraded fixes are faults to be screened, not a floor."""
@@ -120,11 +127,14 @@ def _span_m(sim, a: float, b: float) -> float:
 def tilt_figures(sim, r) -> dict:
     s = r.summary
     t = TR.effective_tilt(sim)
-    return {"observable": bool(s.get("tilt_observable")),
-            "alpha_err_rad": s["alpha_rad"] - t["alpha_eff_rad"] if s.get("alpha_rad") is not None else None,
-            "beta_err_rad": s["beta_rad"] - t["beta_eff_rad"] if s.get("beta_rad") is not None else None,
-            "alpha_sigma_rad": s.get("alpha_rad_sigma"), "beta_sigma_rad": s.get("beta_rad_sigma"),
-            "bound_rad": TILT_BOUND_RAD}
+    return {
+        "observable": bool(s.get("tilt_observable")),
+        "alpha_err_rad": s["alpha_rad"] - t["alpha_eff_rad"] if s.get("alpha_rad") is not None else None,
+        "beta_err_rad": s["beta_rad"] - t["beta_eff_rad"] if s.get("beta_rad") is not None else None,
+        "alpha_sigma_rad": s.get("alpha_rad_sigma"),
+        "beta_sigma_rad": s.get("beta_rad_sigma"),
+        "bound_rad": TILT_BOUND_RAD,
+    }
 
 
 def calibration_figures(sim, r) -> dict:
@@ -137,13 +147,18 @@ def calibration_figures(sim, r) -> dict:
     k_eff = TR.effective_scale(sim, a, b)
     span = _span_m(sim, a, b)
     sh, sv = _pos_sigma(sim)
-    return {"pitch_err_rad": np.radians(s["ldv_pitch_deg"]) - mt["pitch_rad"],
-            "pitch_sigma_rad": np.radians(s["ldv_pitch_deg_sigma"]),
-            "heading_err_rad": np.radians(s["ldv_heading_deg"]) - mt["heading_rad"],
-            "heading_sigma_rad": np.radians(s["ldv_heading_deg_sigma"]),
-            "scale_err": s["ldv_scale"] - k_eff, "scale_sigma": s["ldv_scale_sigma"],
-            "span_m": span, "pitch_floor_rad": np.sqrt(2) * sv / span,
-            "heading_floor_rad": np.sqrt(2) * sh / span, "scale_floor": np.sqrt(2) * sh / span}
+    return {
+        "pitch_err_rad": np.radians(s["ldv_pitch_deg"]) - mt["pitch_rad"],
+        "pitch_sigma_rad": np.radians(s["ldv_pitch_deg_sigma"]),
+        "heading_err_rad": np.radians(s["ldv_heading_deg"]) - mt["heading_rad"],
+        "heading_sigma_rad": np.radians(s["ldv_heading_deg_sigma"]),
+        "scale_err": s["ldv_scale"] - k_eff,
+        "scale_sigma": s["ldv_scale_sigma"],
+        "span_m": span,
+        "pitch_floor_rad": np.sqrt(2) * sv / span,
+        "heading_floor_rad": np.sqrt(2) * sh / span,
+        "scale_floor": np.sqrt(2) * sh / span,
+    }
 
 
 def height_figures(sim, r, cal: dict) -> dict:
@@ -152,8 +167,12 @@ def height_figures(sim, r, cal: dict) -> dict:
     t0 = float(h["t_s"][0])
     dist = _span_m(sim, t0, float(h["t_s"][-1]))
     sv = _pos_sigma(sim)[1]
-    return {"std_m": float(np.std(err)), "max_m": float(np.abs(err).max()), "distance_m": dist,
-            "floor_m": cal["pitch_floor_rad"] * dist + sv}
+    return {
+        "std_m": float(np.std(err)),
+        "max_m": float(np.abs(err).max()),
+        "distance_m": dist,
+        "floor_m": cal["pitch_floor_rad"] * dist + sv,
+    }
 
 
 def navigation_figures(sim, r, cal: dict) -> dict:
@@ -168,8 +187,12 @@ def navigation_figures(sim, r, cal: dict) -> dict:
     dist = _span_m(sim, float(t[0]), float(t[-1]))
     sh = _pos_sigma(sim)[0]
     psi = np.hypot(_align_heading_sigma_rad(sim), cal["heading_floor_rad"])
-    return {"max_horizontal_m": float(hor.max()), "rms_horizontal_m": float(np.sqrt(np.mean(hor ** 2))),
-            "distance_m": dist, "floor_m": float(np.hypot(psi, cal["scale_floor"]) * dist + sh)}
+    return {
+        "max_horizontal_m": float(hor.max()),
+        "rms_horizontal_m": float(np.sqrt(np.mean(hor**2))),
+        "distance_m": dist,
+        "floor_m": float(np.hypot(psi, cal["scale_floor"]) * dist + sh),
+    }
 
 
 def dov_figures(sim, r) -> dict | None:
@@ -184,9 +207,12 @@ def dov_figures(sim, r) -> dict | None:
     h = np.interp(t, sim.imu.t_s, sim.imu.h_m)
     xi, eta, _ = field(lat, lon, np.full_like(lat, float(np.mean(sim.imu.h_m))))
     del h
-    return {"xi_max_err_arcsec": float(np.abs(tb["xi_arcsec"] - xi / ARCSEC).max()),
-            "eta_max_err_arcsec": float(np.abs(tb["eta_arcsec"] - eta / ARCSEC).max()),
-            "dov_max_arcsec": float(np.max(np.hypot(xi, eta)) / ARCSEC), "floor_arcsec": 0.5}
+    return {
+        "xi_max_err_arcsec": float(np.abs(tb["xi_arcsec"] - xi / ARCSEC).max()),
+        "eta_max_err_arcsec": float(np.abs(tb["eta_arcsec"] - eta / ARCSEC).max()),
+        "dov_max_arcsec": float(np.max(np.hypot(xi, eta)) / ARCSEC),
+        "floor_arcsec": 0.5,
+    }
 
 
 def figures(case: dict) -> dict:
@@ -200,8 +226,11 @@ def figures(case: dict) -> dict:
     if cal is None:  # floors need a span: the drive's own
         span = _span_m(sim, sim.scenario.t0_s, sim.motion.t_end_s)
         sh, sv = _pos_sigma(sim)
-        cal = {"pitch_floor_rad": np.sqrt(2) * sv / span, "heading_floor_rad": np.sqrt(2) * sh / span,
-               "scale_floor": np.sqrt(2) * sh / span}
+        cal = {
+            "pitch_floor_rad": np.sqrt(2) * sv / span,
+            "heading_floor_rad": np.sqrt(2) * sh / span,
+            "scale_floor": np.sqrt(2) * sh / span,
+        }
     if "height" in case and not isinstance(case["height"], Exception):
         out["height"] = height_figures(sim, case["height"], cal)
     if "navigate" in case and not isinstance(case["navigate"], Exception):

@@ -43,12 +43,12 @@ import numpy as np
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.nav.gravity import zero_phase_lowpass
+from ldvsurvey.pipelines.base import run_pipeline
+from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.effects import Effects
 from ldvsurvey.sim.fields import SinusoidField
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.registry import get
 
 UG_MGAL = 9.80665e-6 / MGAL  #: one µg in mGal
 GRAVITY_FIR_S = 100.0
@@ -60,8 +60,7 @@ GRAVITY_LINE_KM = 5.0
 FIELD_GAIN = 5.0
 #: the effects that touch a fixed-IMU gravity drive (no turntable; a start on the move has no
 #: alignment for the stop-and-go gravimetry drive)
-GRAVITY_CONFIGS = ("ideal", "ldv_dropouts", "body_attitude", "gravity_field", "imu_errors", "imu_timing",
-                   "gnss", "all")
+GRAVITY_CONFIGS = ("ideal", "ldv_dropouts", "body_attitude", "gravity_field", "imu_errors", "imu_timing", "gnss", "all")
 DAMPING_SEED = 3
 #: a vessel: no vehicle body attitude, no turntable, a moored start
 DAMPING_CONFIGS = ("ideal", "ldv_dropouts", "gravity_field", "imu_errors", "imu_timing", "gnss", "all")
@@ -80,6 +79,7 @@ def _effects(config: str, seed: int, vessel: bool = False) -> Effects:
 
 # --- gravity ---------------------------------------------------------------------------------------
 
+
 def run_gravity_case(config: str, seed: int = GRAVITY_SEED) -> dict:
     sc = catalog.realistic_gravity(seed=seed, effects=_effects(config, seed), n_lines=2, line_km=GRAVITY_LINE_KM)
     if isinstance(sc.gravity_field, SinusoidField):  # no point-mass effect: the survey's sinusoids, steeper
@@ -88,8 +88,9 @@ def run_gravity_case(config: str, seed: int = GRAVITY_SEED) -> dict:
     sim = simulate(sc)
     out = {"sim": sim, "config": config}
     try:
-        out["gravity"] = run_pipeline(get("gravity"), [parse_files(bundle_files(sim))],
-                                      {"fir_length_s": GRAVITY_FIR_S, "gnss_comparison": False})
+        out["gravity"] = run_pipeline(
+            get("gravity"), [parse_files(bundle_files(sim))], {"fir_length_s": GRAVITY_FIR_S, "gnss_comparison": False}
+        )
     except Exception as e:  # noqa: BLE001 - recorded as the case's failure
         out["gravity"] = e
     return out
@@ -107,7 +108,7 @@ def gravity_truth_rms_mgal(sim, res, fir_s: float = GRAVITY_FIR_S) -> tuple[floa
     truth = np.interp(g["t_s"][on], mid(im.t_s), tf)
     e = g["dg_mgal"][on] - truth
     e -= np.mean(e)
-    return float(np.sqrt(np.mean(e ** 2))), float(np.std(truth))
+    return float(np.sqrt(np.mean(e**2))), float(np.std(truth))
 
 
 def accel_drift_sigma_mgal(sim) -> float:
@@ -124,17 +125,24 @@ def gravity_figures(case: dict) -> dict | None:
     floor = float(s["noise_floor"]["total_mgal"])
     drift = accel_drift_sigma_mgal(sim)
     rms, signal = gravity_truth_rms_mgal(sim, r)
-    return {"coincidence_mgal": float(s["total_mgal"]), "floor_mgal": floor, "drift_sigma_mgal": drift,
-            "coincidence_bound_mgal": np.sqrt(2) * drift + floor,
-            "truth_rms_mgal": rms, "signal_rms_mgal": signal, "truth_bound_mgal": drift + floor,
-            "bridged_s": float(s["bridged_s"]), "warnings": list(s["warnings"])}
+    return {
+        "coincidence_mgal": float(s["total_mgal"]),
+        "floor_mgal": floor,
+        "drift_sigma_mgal": drift,
+        "coincidence_bound_mgal": np.sqrt(2) * drift + floor,
+        "truth_rms_mgal": rms,
+        "signal_rms_mgal": signal,
+        "truth_bound_mgal": drift + floor,
+        "bridged_s": float(s["bridged_s"]),
+        "warnings": list(s["warnings"]),
+    }
 
 
 # --- damping ---------------------------------------------------------------------------------------
 
+
 def run_damping_case(config: str, seed: int = DAMPING_SEED) -> dict:
-    sc = catalog.realistic_vessel(seed=seed, effects=_effects(config, seed, vessel=True), hours=0.2,
-                                  mooring_s=300.0)
+    sc = catalog.realistic_vessel(seed=seed, effects=_effects(config, seed, vessel=True), hours=0.2, mooring_s=300.0)
     sim = simulate(sc)
     log = parse_files(bundle_files(sim))
     out = {"sim": sim, "config": config, "log": log}
@@ -157,8 +165,10 @@ def _gnss_velocity_error(log, sim, t_s):
     rm, rn = radii(lat)
     ve, vn = d[:, 1] * (rn + h) * np.cos(lat), d[:, 0] * (rm + h)
     im = sim.imu
-    return (np.interp(t_s, t, ve) - np.interp(t_s, im.t_s, im.v_n[:, 0]),
-            np.interp(t_s, t, vn) - np.interp(t_s, im.t_s, im.v_n[:, 1]))
+    return (
+        np.interp(t_s, t, ve) - np.interp(t_s, im.t_s, im.v_n[:, 0]),
+        np.interp(t_s, t, vn) - np.interp(t_s, im.t_s, im.v_n[:, 1]),
+    )
 
 
 def damping_figures(case: dict, params=None) -> dict | None:
@@ -175,8 +185,11 @@ def damping_figures(case: dict, params=None) -> dict | None:
         vn = tab[f"{mode}_north_velocity_error_mps"] + ref_n
         v = np.hypot(ve, vn)
         pos = np.hypot(tab[f"{mode}_east_error_m"], tab[f"{mode}_north_error_m"])
-        out[mode] = {"rms_velocity_mps": float(np.sqrt(np.nanmean(v ** 2))),
-                     "rms_position_m": float(np.sqrt(np.mean(pos ** 2))), "max_position_m": float(pos.max())}
+        out[mode] = {
+            "rms_velocity_mps": float(np.sqrt(np.nanmean(v**2))),
+            "rms_position_m": float(np.sqrt(np.mean(pos**2))),
+            "max_position_m": float(pos.max()),
+        }
     t_run = float(sim.motion.t_end_s - sc.t0_s - sc.static_s)
     sig_mean = sc.ldv.noise_mps / np.sqrt(sc.ldv_rate_hz * p["period_s"])
     sv = float(sig_mean * np.sqrt(2 * t_run / p["delayed_baseline_s"]))
@@ -186,7 +199,12 @@ def damping_figures(case: dict, params=None) -> dict | None:
         w_s = np.sqrt(g / r_e)
         acc = spec.accel_bi_frac * sc.accel_bias_ug * 1e-6 * g / w_s
         gyr = spec.gyro_bi_frac * np.radians(sc.gyro_bias_dph) / 3600.0 * r_e
-        sv = float(np.sqrt(sv ** 2 + acc ** 2 + gyr ** 2))
-    out.update(current_mps=float(np.linalg.norm(sc.current_n_mps)), run_s=t_run, velocity_floor_mps=sv,
-               position_floor_m=sv * t_run, warnings=list(r.summary["warnings"]))
+        sv = float(np.sqrt(sv**2 + acc**2 + gyr**2))
+    out.update(
+        current_mps=float(np.linalg.norm(sc.current_n_mps)),
+        run_s=t_run,
+        velocity_floor_mps=sv,
+        position_floor_m=sv * t_run,
+        warnings=list(r.summary["warnings"]),
+    )
     return out

@@ -12,11 +12,11 @@ import pathlib
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
+from ldvsurvey.pipelines.base import run_pipeline
+from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim import truth as TR
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.registry import get
 from tests.robustness.matrix import ARCSEC, calibration_figures, height_figures, tilt_figures
 
 pytestmark = pytest.mark.slow
@@ -31,9 +31,11 @@ def forty_minutes(tmp_path_factory):
         (d / n).write_bytes(b)
     params = {"dov": "grid", "dov_grid": f"{d / 'xi.gdf'},{d / 'eta.gdf'},{d / 'dg.gdf'}"}
     log = parse_files(bundle_files(sim))
-    return sim, {"tilt": run_pipeline(get("tilt"), [log], {}),
-                 "calibrate": run_pipeline(get("calibrate"), [log], params),
-                 "height": run_pipeline(get("height"), [log], params)}
+    return sim, {
+        "tilt": run_pipeline(get("tilt"), [log], {}),
+        "calibrate": run_pipeline(get("calibrate"), [log], params),
+        "height": run_pipeline(get("height"), [log], params),
+    }
 
 
 def test_tilt(forty_minutes):
@@ -45,9 +47,11 @@ def test_tilt(forty_minutes):
 def test_calibration_within_10_arcsec_and_covered(forty_minutes):
     sim, r = forty_minutes
     c = calibration_figures(sim, r["calibrate"])
-    for err, sig, bound in ((c["pitch_err_rad"], c["pitch_sigma_rad"], 10 * ARCSEC),
-                            (c["heading_err_rad"], c["heading_sigma_rad"], 10 * ARCSEC),
-                            (c["scale_err"], c["scale_sigma"], 1e-4)):
+    for err, sig, bound in (
+        (c["pitch_err_rad"], c["pitch_sigma_rad"], 10 * ARCSEC),
+        (c["heading_err_rad"], c["heading_sigma_rad"], 10 * ARCSEC),
+        (c["scale_err"], c["scale_sigma"], 1e-4),
+    ):
         assert abs(err) <= bound and abs(err) <= 3 * sig, (err, sig, bound)
 
 

@@ -16,9 +16,15 @@ class Stack:
         self.tmp = tmp
         self.port = free_port()
         self.base = f"http://127.0.0.1:{self.port}"
-        self.env = {**os.environ, "LDVSURVEY_DATA_DIR": str(tmp), "LDVSURVEY_DATABASE_URL": db_url,
-                    "LDVSURVEY_AUTH_ENABLED": "false", "LDVSURVEY_UPLOADS_PER_MINUTE": "1000",
-                    "LDVSURVEY_MAX_ACTIVE_JOBS_PER_USER": "1000", **env}
+        self.env = {
+            **os.environ,
+            "LDVSURVEY_DATA_DIR": str(tmp),
+            "LDVSURVEY_DATABASE_URL": db_url,
+            "LDVSURVEY_AUTH_ENABLED": "false",
+            "LDVSURVEY_UPLOADS_PER_MINUTE": "1000",
+            "LDVSURVEY_MAX_ACTIVE_JOBS_PER_USER": "1000",
+            **env,
+        }
         if redis_url:
             self.env["LDVSURVEY_REDIS_URL"] = redis_url
             self.env["LDVSURVEY_RUN_CONSUMER"] = "false"
@@ -29,9 +35,23 @@ class Stack:
     def start_api(self):
         log = open(self.tmp / f"api-{time.time():.0f}.log", "w")
         self.api = subprocess.Popen(
-            [sys.executable, "-m", "uvicorn", "ldvsurvey.api.asgi:app", "--host", "127.0.0.1",
-             "--port", str(self.port), "--workers", str(self.api_workers)],
-            env=self.env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+            [
+                sys.executable,
+                "-m",
+                "uvicorn",
+                "ldvsurvey.api.asgi:app",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(self.port),
+                "--workers",
+                str(self.api_workers),
+            ],
+            env=self.env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
         if not wait_healthy(self.base, pause_s=0.25):
             raise RuntimeError("API did not come up")
 
@@ -41,10 +61,13 @@ class Stack:
 
     def start_worker(self):
         log = open(self.tmp / f"worker-{len(self.workers)}.log", "w")
-        p = subprocess.Popen([sys.executable, "-m", "huey.bin.huey_consumer", "ldvsurvey.jobs.worker.huey",
-                              "-w", "1", "-k", "thread"],
-                             env={**self.env, "LDVSURVEY_WORKER": "1"}, stdout=log, stderr=subprocess.STDOUT,
-                             start_new_session=True)
+        p = subprocess.Popen(
+            [sys.executable, "-m", "huey.bin.huey_consumer", "ldvsurvey.jobs.worker.huey", "-w", "1", "-k", "thread"],
+            env={**self.env, "LDVSURVEY_WORKER": "1"},
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
         self.workers.append(p)
         return p
 

@@ -66,20 +66,26 @@ def test_api_restart_during_upload_leaves_no_partial_log(pg_fresh, tmp_path):
         st.start_api()
         st.start_worker()
         boundary = "xyzBOUNDARY"
-        head = (f"--{boundary}\r\nContent-Disposition: form-data; name=\"files\"; filename=\"b.zip\"\r\n"
-                f"Content-Type: application/zip\r\n\r\n").encode()
+        head = (
+            f'--{boundary}\r\nContent-Disposition: form-data; name="files"; filename="b.zip"\r\n'
+            f"Content-Type: application/zip\r\n\r\n"
+        ).encode()
         tail = f"\r\n--{boundary}--\r\n".encode()
         body = head + big + tail
 
         def slow_body():
             for i in range(0, len(body), 256 * 1024):
-                yield body[i:i + 256 * 1024]
+                yield body[i : i + 256 * 1024]
                 time.sleep(0.05)
 
         def send():
             try:
-                httpx.post(st.base + "/api/logs", content=slow_body(), timeout=60,
-                           headers={"Content-Type": f"multipart/form-data; boundary={boundary}"})
+                httpx.post(
+                    st.base + "/api/logs",
+                    content=slow_body(),
+                    timeout=60,
+                    headers={"Content-Type": f"multipart/form-data; boundary={boundary}"},
+                )
             except httpx.HTTPError:
                 pass
 
@@ -122,9 +128,11 @@ def test_ten_concurrent_uploads_and_jobs(engine, pg_fresh, tmp_path):
         log_id = up(drive).json()["id"]
 
         def start(_):
-            return httpx.post(f"{st.base}/api/logs/{log_id}/jobs", json={"pipeline": "navigate",
-                                                                       "parameters": {"calibration": "nominal"}},
-                              timeout=60)
+            return httpx.post(
+                f"{st.base}/api/logs/{log_id}/jobs",
+                json={"pipeline": "navigate", "parameters": {"calibration": "nominal"}},
+                timeout=60,
+            )
 
         with cf.ThreadPoolExecutor(10) as ex:
             jobs = [r.json()["id"] for r in ex.map(start, range(10))]

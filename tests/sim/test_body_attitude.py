@@ -7,14 +7,20 @@ import pytest
 from ldvsurvey.nav.attitude import c_bn_from_euler, euler_from_c_bn
 from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.sim import catalog
-from ldvsurvey.sim.effects import DEG, BodyAttitude, Effects
 from ldvsurvey.sim import truth as TR
+from ldvsurvey.sim.effects import DEG, BodyAttitude, Effects
 from ldvsurvey.sim.scenario import effective_travel_direction, mean_travel_direction, simulate
 from ldvsurvey.sim.sensors import ldv_measure
 
 G0 = 9.80665
-SPEC = BodyAttitude(stance_pitch_rad=0.3 * DEG, crab_rad=-0.25 * DEG, squat_rad_per_g=2.0 * DEG,
-                    roll_rad_per_g=2.5 * DEG, bounce_rad=0.04 * DEG, bounce_hz=(1.3, 1.8))
+SPEC = BodyAttitude(
+    stance_pitch_rad=0.3 * DEG,
+    crab_rad=-0.25 * DEG,
+    squat_rad_per_g=2.0 * DEG,
+    roll_rad_per_g=2.5 * DEG,
+    bounce_rad=0.04 * DEG,
+    bounce_hz=(1.3, 1.8),
+)
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +66,7 @@ def test_squat_and_roll_per_g(sim):
     a_fwd = np.gradient(speed, t)
     psi_v = np.unwrap(np.arctan2(v[:, 0], v[:, 1]))
     a_lat = speed * np.gradient(psi_v, t)  # centripetal, + to the right
-    mov = (speed > 3.0)
+    mov = speed > 3.0
     mov[:200] = mov[-200:] = False
     # pitch of the body over its path: body forward axis vs velocity direction
     fwd = im.c_bn[:, :, 1]

@@ -10,8 +10,16 @@ from ldvsurvey.sim.scenario import simulate
 
 def test_names_and_switches():
     names = effect_names()
-    assert set(names) == {"ldv_dropouts", "body_attitude", "gravity_field", "imu_errors", "imu_timing",
-                          "turntable", "gnss", "moving_start"}
+    assert set(names) == {
+        "ldv_dropouts",
+        "body_attitude",
+        "gravity_field",
+        "imu_errors",
+        "imu_timing",
+        "turntable",
+        "gnss",
+        "moving_start",
+    }
     assert Effects.ideal().on() == []
     assert set(Effects.realistic(3).on()) == set(names) - {"moving_start"}
     assert Effects.only("gnss", 3).on() == ["gnss"]
@@ -41,9 +49,13 @@ def test_all_effects_off_is_the_ideal_drive():
     kw = dict(minutes=3, static_s=20)
     ideal = simulate(catalog.drive(**kw), seed=4)
     off = simulate(catalog.realistic_drive(seed=4, effects=Effects.ideal(), **kw))
-    for a, b in [(ideal.dtheta_rad, off.dtheta_rad), (ideal.dvel_mps, off.dvel_mps),
-                 (ideal.ldv_v_fwd, off.ldv_v_fwd), (ideal.ldv_quality, off.ldv_quality),
-                 (ideal.gnss_lat_deg, off.gnss_lat_deg)]:
+    for a, b in [
+        (ideal.dtheta_rad, off.dtheta_rad),
+        (ideal.dvel_mps, off.dvel_mps),
+        (ideal.ldv_v_fwd, off.ldv_v_fwd),
+        (ideal.ldv_quality, off.ldv_quality),
+        (ideal.gnss_lat_deg, off.gnss_lat_deg),
+    ]:
         np.testing.assert_array_equal(a, b)
 
 
@@ -75,8 +87,16 @@ def test_demo_writes_bundle_truth_and_grids(tmp_path):
     meta = json.loads((out / "truth" / "truth.json").read_text())
     assert set(meta["effects"]) == set(effect_names()) and meta["ldv_effective"]["n_samples"] > 0
     cols = np.genfromtxt(out / "truth" / "truth.csv", delimiter=",", names=True, skip_header=1)
-    for c in ("dg_mgal", "xi_arcsec", "eta_arcsec", "ldv_travel_pitch_deg", "head_travel_pitch_deg",
-              "body_pitch_deg", "gyro_gm_x_dph", "accel_gm_z_ug"):
+    for c in (
+        "dg_mgal",
+        "xi_arcsec",
+        "eta_arcsec",
+        "ldv_travel_pitch_deg",
+        "head_travel_pitch_deg",
+        "body_pitch_deg",
+        "gyro_gm_x_dph",
+        "accel_gm_z_ug",
+    ):
         assert c in cols.dtype.names
     moving = np.hypot(cols["v_e_mps"], cols["v_n_mps"]) > 2.0
     # in the head's own axes the travel direction is the body's attitude over its path, reversed

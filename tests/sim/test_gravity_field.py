@@ -56,8 +56,16 @@ def test_realistic_magnitudes(seed):
     xi, eta, dg = _harmonica(field, tr["lat_rad"], tr["lon_rad"], tr["h_m"])
     dov = np.hypot(xi, eta) / ARCSEC
     assert 4.0 <= np.median(dov) <= 32.0
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(np.column_stack(field.enu(
-        tr["lat_rad"], tr["lon_rad"], tr["h_m"])), axis=0), axis=1))])
+    s = np.concatenate(
+        [
+            [0.0],
+            np.cumsum(
+                np.linalg.norm(
+                    np.diff(np.column_stack(field.enu(tr["lat_rad"], tr["lon_rad"], tr["h_m"])), axis=0), axis=1
+                )
+            ),
+        ]
+    )
     grad = np.abs(np.diff(dg)) / np.maximum(np.diff(s), 1e-9) * 1000.0
     assert grad[np.diff(s) > 5.0].max() <= 3.05
     assert np.ptp(dg) > 2.0 and np.max(np.abs(dg)) < 150.0

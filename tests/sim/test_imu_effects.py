@@ -16,17 +16,21 @@ from ldvsurvey.sim.scenario import Scenario, bundle_files, simulate
 boule = pytest.importorskip("boule")
 
 LAT, LON, H = 0.52, 2.0, 100.0
-SPEC = ImuErrorSpec(gyro_scale_ppm=(150.0, -80.0, 220.0), accel_scale_ppm=(-120.0, 60.0, 250.0),
-                    gyro_nonorth_urad=(30.0, -45.0, 12.0, 38.0, -20.0, 25.0),
-                    accel_nonorth_urad=(-33.0, 41.0, 15.0, -27.0, 22.0, -18.0))
+SPEC = ImuErrorSpec(
+    gyro_scale_ppm=(150.0, -80.0, 220.0),
+    accel_scale_ppm=(-120.0, 60.0, 250.0),
+    gyro_nonorth_urad=(30.0, -45.0, 12.0, 38.0, -20.0, 25.0),
+    accel_nonorth_urad=(-33.0, 41.0, 15.0, -27.0, 22.0, -18.0),
+)
 
 
 def _scenario(segments, effects, **kw):
     road = Road(LAT, LON, H, 100.0, Ramps(0.3))
     base = dict(gyro_bias_dph=0.0, accel_bias_ug=0.0, gyro_arw_dprh=0.0, accel_vrw_ug_rthz=0.0)
     base.update(kw)
-    return Scenario(name="bench", road=road, segments=segments, static_s=segments[0].duration_s, effects=effects,
-                    **base)
+    return Scenario(
+        name="bench", road=road, segments=segments, static_s=segments[0].duration_s, effects=effects, **base
+    )
 
 
 def _gamma():
@@ -36,8 +40,9 @@ def _gamma():
 def test_scale_and_nonorthogonality_from_a_turn_and_gravity():
     """A level π turn in place and gravity at rest are the known inputs; the effect must show up as
     the specified ppm and µrad (no other IMU errors)."""
-    sim = simulate(_scenario([Static(10.0), TurnInPlace(30.0, np.pi), Static(10.0)],
-                             Effects.ideal().with_(imu_errors=SPEC)))
+    sim = simulate(
+        _scenario([Static(10.0), TurnInPlace(30.0, np.pi), Static(10.0)], Effects.ideal().with_(imu_errors=SPEC))
+    )
     t = sim.imu.t_s
     dt = t[1] - t[0]
     turn = (t > sim.scenario.t0_s + 10.0) & (t <= sim.scenario.t0_s + 40.0 + 1e-9)
@@ -71,14 +76,24 @@ def test_scale_and_nonorthogonality_from_a_turn_and_gravity():
 def test_bias_instability_is_gauss_markov():
     """At rest (no noise, no scale errors), the increments minus their mean are the Gauss–Markov bias: the 1-s lag
     autocorrelation gives τ and the variance gives σ = 30 % of the manifest's bias."""
-    spec = ImuErrorSpec(gyro_scale_ppm=(0, 0, 0), accel_scale_ppm=(0, 0, 0), gyro_nonorth_urad=(0,) * 6,
-                        accel_nonorth_urad=(0,) * 6, gyro_tau_s=20.0, accel_tau_s=10.0)
-    sim = simulate(_scenario([Static(1500.0)], Effects.ideal().with_(imu_errors=spec),
-                             gyro_bias_dph=0.01, accel_bias_ug=50.0), seed=3)
+    spec = ImuErrorSpec(
+        gyro_scale_ppm=(0, 0, 0),
+        accel_scale_ppm=(0, 0, 0),
+        gyro_nonorth_urad=(0,) * 6,
+        accel_nonorth_urad=(0,) * 6,
+        gyro_tau_s=20.0,
+        accel_tau_s=10.0,
+    )
+    sim = simulate(
+        _scenario([Static(1500.0)], Effects.ideal().with_(imu_errors=spec), gyro_bias_dph=0.01, accel_bias_ug=50.0),
+        seed=3,
+    )
     dt = sim.imu.t_s[1] - sim.imu.t_s[0]
     k = int(round(1.0 / dt))
-    for incr, tau, sigma in [(sim.dtheta_rad, 20.0, 0.3 * 0.01 * np.pi / 180 / 3600),
-                             (sim.dvel_mps, 10.0, 0.3 * 50e-6 * 9.80665)]:
+    for incr, tau, sigma in [
+        (sim.dtheta_rad, 20.0, 0.3 * 0.01 * np.pi / 180 / 3600),
+        (sim.dvel_mps, 10.0, 0.3 * 50e-6 * 9.80665),
+    ]:
         x = incr / dt  # rates; each is the bias at its sample time (dt ≪ τ)
         x = x - x.mean(axis=0)
         r1 = np.sum(x[k:] * x[:-k]) / np.sum(x * x)  # autocorrelation at 1 s lag: e^(−1/τ)

@@ -82,9 +82,14 @@ def _antenna_minus_imu_enu(sim):
     assert np.allclose(sim.imu.t_s[k], t, atol=1e-6)
     lat, lon, h = sim.imu.lat_rad[k], sim.imu.lon_rad[k], sim.imu.h_m[k]
     w = np.sqrt(1 - E2 * np.sin(lat) ** 2)
-    rn, rm = A / w, A * (1 - E2) / w ** 3
-    d = np.column_stack([(np.radians(sim.gnss_lon_deg) - lon) * (rn + h) * np.cos(lat),
-                         (np.radians(sim.gnss_lat_deg) - lat) * (rm + h), sim.gnss_h_m - h])
+    rn, rm = A / w, A * (1 - E2) / w**3
+    d = np.column_stack(
+        [
+            (np.radians(sim.gnss_lon_deg) - lon) * (rn + h) * np.cos(lat),
+            (np.radians(sim.gnss_lat_deg) - lat) * (rm + h),
+            sim.gnss_h_m - h,
+        ]
+    )
     return d, sim.imu.c_bn[k]
 
 

@@ -15,14 +15,23 @@ from ldvsurvey.sim.road import Ramps, Road
 from ldvsurvey.sim.scenario import Scenario, bundle_files, simulate, truth_files
 
 LAT = 0.5
-LSB = 360.0 / 2 ** 16
+LSB = 360.0 / 2**16
 
 
 def _sim(spec, seconds=420.0):
     road = Road(LAT, 2.0, 50.0, 100.0, Ramps(0.0))
-    sc = Scenario(name="table", road=road, segments=[Static(seconds)], static_s=seconds, rotating=True,
-                  gyro_bias_dph=0.0, accel_bias_ug=0.0, gyro_arw_dprh=0.0, accel_vrw_ug_rthz=0.0,
-                  effects=Effects.ideal().with_(turntable=spec))
+    sc = Scenario(
+        name="table",
+        road=road,
+        segments=[Static(seconds)],
+        static_s=seconds,
+        rotating=True,
+        gyro_bias_dph=0.0,
+        accel_bias_ug=0.0,
+        gyro_arw_dprh=0.0,
+        accel_vrw_ug_rthz=0.0,
+        effects=Effects.ideal().with_(turntable=spec),
+    )
     sim = simulate(sc, seed=4)
     data = np.loadtxt(io.BytesIO(bundle_files(sim)["imu.csv"]), delimiter=",", comments="#", skiprows=2)
     return sim, data
@@ -39,8 +48,9 @@ def _stops(t, deg, min_s=5.0):
     return out
 
 
-@pytest.mark.parametrize("scheme, cycle", [("2pos", [0, 180]), ("4pos-seq", [0, 90, 180, 270]),
-                                           ("4pos-paper", [0, 180, 270, 90])])
+@pytest.mark.parametrize(
+    "scheme, cycle", [("2pos", [0, 180]), ("4pos-seq", [0, 90, 180, 270]), ("4pos-paper", [0, 180, 270, 90])]
+)
 def test_indexing_schemes(scheme, cycle):
     spec = TurntableSpec(scheme=scheme, dwell_s=30.0, dwell_spread=0.3, rate_dps=20.0)
     sim, data = _sim(spec)

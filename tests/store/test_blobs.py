@@ -122,18 +122,24 @@ def test_rows_stored_before_0006_still_read(tmp_path):
     log = parse_files(files)
     parquet = {n: blobs.to_parquet(c) for n, c in _arrays(log).items()}
     with get_engine(url).begin() as c:
-        c.execute(text("INSERT INTO logs (id, sha256, name, platform, ldv_kind, imu_rotating, survey_date, t_start_s,"
-                       " t_end_s, duration_s, has_gnss, size_bytes, manifest, quality, created_at) VALUES "
-                       "(1, :sha, 'n', 'vehicle', '2d', 0, '2023-03-20', 0, 1, 1, 1, 1, :m, :q, '2023-01-01')"),
-                  {"sha": log.sha256, "m": json.dumps(log.manifest.model_dump(mode="json")),
-                   "q": '{"warnings": []}'})
+        c.execute(
+            text(
+                "INSERT INTO logs (id, sha256, name, platform, ldv_kind, imu_rotating, survey_date, t_start_s,"
+                " t_end_s, duration_s, has_gnss, size_bytes, manifest, quality, created_at) VALUES "
+                "(1, :sha, 'n', 'vehicle', '2d', 0, '2023-03-20', 0, 1, 1, 1, 1, :m, :q, '2023-01-01')"
+            ),
+            {"sha": log.sha256, "m": json.dumps(log.manifest.model_dump(mode="json")), "q": '{"warnings": []}'},
+        )
         for name, data in files.items():
-            c.execute(text("INSERT INTO log_files (log_id, name, sha256, size_bytes, content) VALUES "
-                           "(1, :n, :h, :s, :c)"), {"n": name, "h": hashlib.sha256(data).hexdigest(),
-                                                    "s": len(data), "c": data})
+            c.execute(
+                text("INSERT INTO log_files (log_id, name, sha256, size_bytes, content) VALUES (1, :n, :h, :s, :c)"),
+                {"n": name, "h": hashlib.sha256(data).hexdigest(), "s": len(data), "c": data},
+            )
         for name, data in parquet.items():
-            c.execute(text("INSERT INTO log_arrays (log_id, name, n_rows, parquet) VALUES (1, :n, 1, :p)"),
-                      {"n": name, "p": data})
+            c.execute(
+                text("INSERT INTO log_arrays (log_id, name, n_rows, parquet) VALUES (1, :n, 1, :p)"),
+                {"n": name, "p": data},
+            )
     upgrade_head(url)
     with session_scope(url) as s:
         back = load_drivelog(s, 1)

@@ -10,16 +10,16 @@ from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from ldvsurvey import __version__
-from ldvsurvey.api.limits import BodySizeLimit
-from ldvsurvey.api.models import Health
 from ldvsurvey.api.auth import RateLimiter, bootstrap_users
 from ldvsurvey.api.auth import router as auth_router
 from ldvsurvey.api.compare import router as compare_router
 from ldvsurvey.api.docs import mount_docs
-from ldvsurvey.api.imports import router as imports_router
 from ldvsurvey.api.grids import router as grids_router
+from ldvsurvey.api.imports import router as imports_router
 from ldvsurvey.api.jobs import router as jobs_router
+from ldvsurvey.api.limits import BodySizeLimit
 from ldvsurvey.api.logs import router as logs_router
+from ldvsurvey.api.models import Health
 from ldvsurvey.api.people import router as people_router
 from ldvsurvey.api.security import SecurityHeaders
 from ldvsurvey.api.throttle import LoginThrottle
@@ -39,12 +39,14 @@ def _say_how_to_log_in(url: str, settings: Settings) -> None:
     from ldvsurvey.store.models import User
 
     with session_scope(url) as s:
-        admins = s.scalar(select(func.count()).select_from(User)
-                          .where(User.is_admin.is_(True), User.disabled.is_(False)))
+        admins = s.scalar(
+            select(func.count()).select_from(User).where(User.is_admin.is_(True), User.disabled.is_(False))
+        )
     if not admins and not settings.demo_mode:
         logging.getLogger("ldvsurvey").warning(
             "no admin yet: create one with `ldv-survey user add NAME --admin`, or start with "
-            "LDVSURVEY_ADMIN_USER and LDVSURVEY_ADMIN_PASSWORD set (see the README)")
+            "LDVSURVEY_ADMIN_USER and LDVSURVEY_ADMIN_PASSWORD set (see the README)"
+        )
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -56,8 +58,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         from ldvsurvey.store.blobs import register_root
 
         register_root(url, Path(settings.data_dir) / "blobs")
-    app = FastAPI(title="ldv-survey", version=__version__, docs_url=None, redoc_url=None,
-                  description="Drive logs of SINS + LDV + GNSS: upload, validate, process, compare.")
+    app = FastAPI(
+        title="ldv-survey",
+        version=__version__,
+        docs_url=None,
+        redoc_url=None,
+        description="Drive logs of SINS + LDV + GNSS: upload, validate, process, compare.",
+    )
     app.state.settings = settings
     app.state.database_url = url
     app.state.rate_limiter = RateLimiter()
@@ -109,8 +116,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     from ldvsurvey.jobs.runner import Consumer, JobRunner
 
     app.state.runner = JobRunner(url, settings)  # routes queue jobs through it (ldvsurvey.api.deps.RunnerDep)
-    consumer = Consumer(app.state.runner, workers=settings.workers, reap_every_s=settings.reap_every_s,
-                        consume=settings.run_consumer)
+    consumer = Consumer(
+        app.state.runner, workers=settings.workers, reap_every_s=settings.reap_every_s, consume=settings.run_consumer
+    )
 
     @app.on_event("startup")
     def _start_consumer():

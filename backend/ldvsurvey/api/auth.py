@@ -117,8 +117,9 @@ def check_upload_rate(request: Request, who: Principal, st: Settings) -> None:
 def check_job_quota(session: Session, who: Principal, st: Settings) -> None:
     if who.user is None:
         return
-    active = session.scalar(select(func.count()).select_from(Job).where(
-        Job.user_id == who.user.id, Job.status.in_(("queued", "running"))))
+    active = session.scalar(
+        select(func.count()).select_from(Job).where(Job.user_id == who.user.id, Job.status.in_(("queued", "running")))
+    )
     if active >= st.max_active_jobs_per_user:
         raise HTTPException(429, f"{active} jobs already queued or running (limit {st.max_active_jobs_per_user})")
 
@@ -128,9 +129,14 @@ class Login(BaseModel):
     password: str = Field(..., max_length=1000)
 
 
-@router.post("/api/login", summary="Start a session (sets an HttpOnly cookie; returns the CSRF token)",
-             responses={401: {"description": "wrong user name or password"},
-                        429: {"description": "too many failed logins for the account or the client"}})
+@router.post(
+    "/api/login",
+    summary="Start a session (sets an HttpOnly cookie; returns the CSRF token)",
+    responses={
+        401: {"description": "wrong user name or password"},
+        429: {"description": "too many failed logins for the account or the client"},
+    },
+)
 def login(body: Login, request: Request, response: Response, session: SessionDep, st: SettingsDep) -> m.LoginOut:
     throttle = request.app.state.login_throttle
     client = client_address(request, st)
@@ -144,8 +150,9 @@ def login(body: Login, request: Request, response: Response, session: SessionDep
     throttle.succeeded(body.username, client)
     token, csrf = ustore.new_session(session, user, st.session_hours)
     session.commit()  # the cookie works on the very next request
-    response.set_cookie(COOKIE, token, httponly=True, samesite="lax", secure=st.cookie_secure,
-                        max_age=int(st.session_hours * 3600))
+    response.set_cookie(
+        COOKIE, token, httponly=True, samesite="lax", secure=st.cookie_secure, max_age=int(st.session_hours * 3600)
+    )
     return {"user": user.username, "csrf": csrf}
 
 
@@ -161,11 +168,24 @@ def logout(request: Request, response: Response, session: SessionDep) -> m.Ok:
 @router.get("/api/me", summary="Who am I (user, projects, CSRF token for page writes)")
 def me(who: CurrentUser, session: SessionDep) -> m.Me:
     if who.user is None:
-        return {"user": None, "auth": False, "csrf": None, "demo": False, "admin": False, "projects": None,
-                "project_list": ustore.list_projects(session)}
-    return {"user": who.user.username, "auth": True, "csrf": who.csrf, "demo": who.user.is_demo,
-            "admin": who.user.is_admin, "projects": who.projects,
-            "project_list": ustore.list_projects(session, who.projects)}
+        return {
+            "user": None,
+            "auth": False,
+            "csrf": None,
+            "demo": False,
+            "admin": False,
+            "projects": None,
+            "project_list": ustore.list_projects(session),
+        }
+    return {
+        "user": who.user.username,
+        "auth": True,
+        "csrf": who.csrf,
+        "demo": who.user.is_demo,
+        "admin": who.user.is_admin,
+        "projects": who.projects,
+        "project_list": ustore.list_projects(session, who.projects),
+    }
 
 
 def bootstrap_users(database_url: str, settings) -> None:

@@ -18,8 +18,9 @@ from ldvsurvey.api.auth import CurrentUser, Principal, visible_job
 from ldvsurvey.api.deps import ID_MAX, SessionDep
 
 router = APIRouter(tags=["compare"])
-JOBS_Q = Query(..., description="gravity job ids, comma-separated; the first is the reference",
-               examples=["3,5"], max_length=400)
+JOBS_Q = Query(
+    ..., description="gravity job ids, comma-separated; the first is the reference", examples=["3,5"], max_length=400
+)
 
 
 def _ids(jobs: str) -> list[int]:
@@ -49,8 +50,13 @@ def _lines(session, job) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 def _stats(x: np.ndarray) -> dict:
     if len(x) == 0:
         return {"n_common": 0, "mean_mgal": None, "std_mgal": None, "rms_mgal": None, "max_abs_mgal": None}
-    return {"n_common": int(len(x)), "mean_mgal": float(np.mean(x)), "std_mgal": float(np.std(x)),
-            "rms_mgal": float(np.sqrt(np.mean(x * x))), "max_abs_mgal": float(np.max(np.abs(x)))}
+    return {
+        "n_common": int(len(x)),
+        "mean_mgal": float(np.mean(x)),
+        "std_mgal": float(np.std(x)),
+        "rms_mgal": float(np.sqrt(np.mean(x * x))),
+        "max_abs_mgal": float(np.max(np.abs(x))),
+    }
 
 
 def compare_jobs(session: Session, who: Principal, ids: list[int]) -> dict:
@@ -76,24 +82,39 @@ def compare_jobs(session: Session, who: Principal, ids: list[int]) -> dict:
             g_at = np.interp(d_ref[k], d_o, g_o)
             diff = g_at - g_ref[k]
             all_diff.append(diff)
-            stats.append({"job": j.id, "line": name, **_stats(diff),
-                          "distance_range_m": [float(d_ref[k][0]), float(d_ref[k][-1])] if k.any() else None})
-            points += [(j.id, name, float(a), float(b), float(c), float(e))
-                       for a, b, c, e in zip(d_ref[k], g_ref[k], g_at, diff)]
+            stats.append(
+                {
+                    "job": j.id,
+                    "line": name,
+                    **_stats(diff),
+                    "distance_range_m": [float(d_ref[k][0]), float(d_ref[k][-1])] if k.any() else None,
+                }
+            )
+            points += [
+                (j.id, name, float(a), float(b), float(c), float(e))
+                for a, b, c, e in zip(d_ref[k], g_ref[k], g_at, diff)
+            ]
         stats.append({"job": j.id, "line": "all", **_stats(np.concatenate(all_diff) if all_diff else np.array([]))})
     return {"reference_job": ids[0], "jobs": ids, "statistics": stats, "points": points}
 
 
-@router.get("/api/compare", summary="Compare gravity lines of jobs: statistics of the differences",
-            response_model_exclude_unset=True)
+@router.get(
+    "/api/compare",
+    summary="Compare gravity lines of jobs: statistics of the differences",
+    response_model_exclude_unset=True,
+)
 def compare(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m.Comparison:
     out = compare_jobs(session, who, _ids(jobs))
     out.pop("points")
     return out
 
 
-@router.get("/api/compare/csv", summary="The common points and their differences as CSV",
-            response_class=Response, responses={200: {"content": {"text/csv": {}}, "description": "CSV table"}})
+@router.get(
+    "/api/compare/csv",
+    summary="The common points and their differences as CSV",
+    response_class=Response,
+    responses={200: {"content": {"text/csv": {}}, "description": "CSV table"}},
+)
 def compare_csv(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> Response:
     out = compare_jobs(session, who, _ids(jobs))
     buf = io.StringIO()
@@ -101,8 +122,9 @@ def compare_csv(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> Re
     for j, line, d, a, b, c in out["points"]:
         buf.write(f"{j},{line},{d:.3f},{a:.6f},{b:.6f},{c:.6f}\n")
     name = "compare_" + "_".join(map(str, out["jobs"])) + ".csv"
-    return Response(buf.getvalue(), media_type="text/csv",
-                    headers={"Content-Disposition": f'attachment; filename="{name}"'})
+    return Response(
+        buf.getvalue(), media_type="text/csv", headers={"Content-Disposition": f'attachment; filename="{name}"'}
+    )
 
 
 @router.get("/api/compare/view", summary="Plotly figure: δg of every job and the differences to the reference")
@@ -112,21 +134,43 @@ def compare_view(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m
     traces = []
     for i in ids:
         for name, (d, g) in _lines(session, visible_job(session, who, i)).items():
-            traces.append({"type": "scatter", "mode": "lines", "name": f"job {i} {name}", "x": d.tolist(),
-                           "y": g.tolist(), "legendgroup": f"job {i}"})
+            traces.append(
+                {
+                    "type": "scatter",
+                    "mode": "lines",
+                    "name": f"job {i} {name}",
+                    "x": d.tolist(),
+                    "y": g.tolist(),
+                    "legendgroup": f"job {i}",
+                }
+            )
     pts = out["points"]
     for j in ids[1:]:
         for name in dict.fromkeys(p[1] for p in pts if p[0] == j):
             sel = [p for p in pts if p[0] == j and p[1] == name]
-            traces.append({"type": "scatter", "mode": "lines", "name": f"job {j} − job {ids[0]}, {name}",
-                           "x": [p[2] for p in sel], "y": [p[5] for p in sel], "yaxis": "y2",
-                           "line": {"dash": "dot"}})
+            traces.append(
+                {
+                    "type": "scatter",
+                    "mode": "lines",
+                    "name": f"job {j} − job {ids[0]}, {name}",
+                    "x": [p[2] for p in sel],
+                    "y": [p[5] for p in sel],
+                    "yaxis": "y2",
+                    "line": {"dash": "dot"},
+                }
+            )
     allrows = [s for s in out["statistics"] if s["line"] == "all" and s["n_common"]]
-    sub = "; ".join(f"job {s['job']} − job {ids[0]}: mean {s['mean_mgal']:.2f}, std {s['std_mgal']:.2f} mGal"
-                    for s in allrows)
-    return {"data": traces, "layout": {
-        "title": {"text": f"Gravity lines compared ({sub or 'no common points'})"},
-        "xaxis": {"title": {"text": "along-track distance (m)"}},
-        "yaxis": {"title": {"text": "δg (mGal)"}, "domain": [0.42, 1.0]},
-        "yaxis2": {"title": {"text": "difference (mGal)"}, "domain": [0.0, 0.32], "anchor": "x"},
-        "margin": {"t": 50, "r": 20, "b": 90}, "legend": {"orientation": "h", "y": -0.22}}}
+    sub = "; ".join(
+        f"job {s['job']} − job {ids[0]}: mean {s['mean_mgal']:.2f}, std {s['std_mgal']:.2f} mGal" for s in allrows
+    )
+    return {
+        "data": traces,
+        "layout": {
+            "title": {"text": f"Gravity lines compared ({sub or 'no common points'})"},
+            "xaxis": {"title": {"text": "along-track distance (m)"}},
+            "yaxis": {"title": {"text": "δg (mGal)"}, "domain": [0.42, 1.0]},
+            "yaxis2": {"title": {"text": "difference (mGal)"}, "domain": [0.0, 0.32], "anchor": "x"},
+            "margin": {"t": 50, "r": 20, "b": 90},
+            "legend": {"orientation": "h", "y": -0.22},
+        },
+    }

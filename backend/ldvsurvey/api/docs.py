@@ -41,4 +41,3 @@ def mount_docs(app: FastAPI) -> None:
         from fastapi.responses import Response
 
         return Response(INIT, media_type="text/javascript")
-

@@ -26,8 +26,9 @@ KEY_PREFIX = "upload:"
 def _read(up: UploadFile | None, field: str, required: bool):
     if up is None:
         if required:
-            raise BundleError(f"the '{field}' grid is missing (send xi, eta and optionally dg as .gdf files)",
-                              field=field)
+            raise BundleError(
+                f"the '{field}' grid is missing (send xi, eta and optionally dg as .gdf files)", field=field
+            )
         return None
     name = (up.filename or f"{field}.gdf").replace("\\", "/").rsplit("/", 1)[-1]
     data = up.file.read()
@@ -35,10 +36,16 @@ def _read(up: UploadFile | None, field: str, required: bool):
 
 
 @router.post("", status_code=201, summary="Upload ξ, η (and Δg) .gdf grids for dov=grid")
-def upload_grids(request: Request, xi: UploadFile | None = File(None, description="ξ grid, arcsec"),
-                 eta: UploadFile | None = File(None, description="η grid, arcsec"),
-                 dg: UploadFile | None = File(None, description="Δg grid, mGal (optional)"),
-                 *, who: CurrentUser, st: SettingsDep, url: DatabaseUrlDep) -> m.GridUploaded:
+def upload_grids(
+    request: Request,
+    xi: UploadFile | None = File(None, description="ξ grid, arcsec"),
+    eta: UploadFile | None = File(None, description="η grid, arcsec"),
+    dg: UploadFile | None = File(None, description="Δg grid, mGal (optional)"),
+    *,
+    who: CurrentUser,
+    st: SettingsDep,
+    url: DatabaseUrlDep,
+) -> m.GridUploaded:
     check_upload_rate(request, who, st)
     parts = [(f, _read(up, f, f != "dg")) for f, up in (("xi", xi), ("eta", eta), ("dg", dg))]
     parts = [(f, p) for f, p in parts if p is not None]
@@ -52,10 +59,15 @@ def upload_grids(request: Request, xi: UploadFile | None = File(None, descriptio
     from ldvsurvey.store.gridcache import DbGridCache
 
     DbGridCache(url).put(KEY_PREFIX + gid, grid)
-    return {"id": gid, "source": grid.source, "lat_deg": [float(lat[0]), float(lat[-1])],
-            "lon_deg": [float(lon[0]), float(lon[-1])], "step_arcmin": grid.step_arcmin,
-            "has_dg": grid.dg_mgal is not None,
-            "use": {"dov": "grid", "dov_grid_id": gid}}
+    return {
+        "id": gid,
+        "source": grid.source,
+        "lat_deg": [float(lat[0]), float(lat[-1])],
+        "lon_deg": [float(lon[0]), float(lon[-1])],
+        "step_arcmin": grid.step_arcmin,
+        "has_dg": grid.dg_mgal is not None,
+        "use": {"dov": "grid", "dov_grid_id": gid},
+    }
 
 
 @router.get("/{grid_id}", summary="An uploaded grid's extent")
@@ -65,6 +77,11 @@ def grid_info(grid_id: str, who: CurrentUser, url: DatabaseUrlDep) -> m.GridInfo
     g = DbGridCache(url).get(KEY_PREFIX + grid_id) if grid_id.isalnum() else None
     if g is None:
         raise HTTPException(404, f"grid {grid_id} not found")
-    return {"id": grid_id, "source": g.source, "lat_deg": [float(g.lat_deg[0]), float(g.lat_deg[-1])],
-            "lon_deg": [float(g.lon_deg[0]), float(g.lon_deg[-1])], "step_arcmin": g.step_arcmin,
-            "has_dg": g.dg_mgal is not None}
+    return {
+        "id": grid_id,
+        "source": g.source,
+        "lat_deg": [float(g.lat_deg[0]), float(g.lat_deg[-1])],
+        "lon_deg": [float(g.lon_deg[0]), float(g.lon_deg[-1])],
+        "step_arcmin": g.step_arcmin,
+        "has_dg": g.dg_mgal is not None,
+    }

@@ -34,7 +34,7 @@ def _hints(formats: str | None) -> dict[str, tuple[str, str | None]]:
     except json.JSONDecodeError as exc:
         raise BundleError(f"invalid JSON: {exc.msg}", file="formats", line=exc.lineno) from None
     if not isinstance(raw, dict):
-        raise BundleError("must be a JSON object {file name: \"format\" or \"format:role\"}", file="formats")
+        raise BundleError('must be a JSON object {file name: "format" or "format:role"}', file="formats")
     out = {}
     for name, spec in raw.items():
         fmt, _, role = str(spec).partition(":")
@@ -63,38 +63,62 @@ def _read_parts(files: list[UploadFile], manifest: str | None, formats: str | No
                 found = detect(data, name)
                 role = found[1] if found and found[0] == fmt else None
             if role is None:
-                raise BundleError(f"say which data it holds: \"{fmt}:imu\", \"{fmt}:gnss\" or \"{fmt}:ldv\"",
-                                  file="formats", field=name)
+                raise BundleError(
+                    f'say which data it holds: "{fmt}:imu", "{fmt}:gnss" or "{fmt}:ldv"', file="formats", field=name
+                )
         elif name.lower().endswith(".json") and partial is None:
             partial = parse_partial_manifest(data, file=name)
             continue
         else:
             found = detect(data, name)
             if found is None:
-                raise BundleError("format not recognised: name it in 'formats' (e.g. {\"%s\": \"csv:imu\"})" % name,
-                                  file=name)
+                raise BundleError(
+                    f'format not recognised: name it in \'formats\' (e.g. {{"{name}": "csv:imu"}})', file=name
+                )
             fmt, role = found
         sources.append(Source(role=role, format=fmt, name=name, data=data))
     return sources, partial or {}, originals
 
 
 @router.post("/preview", summary="Convert foreign recordings and say what was found (nothing stored)")
-def preview_import(request: Request, files: list[UploadFile] = File(...), manifest: str | None = Form(None),
-                   formats: str | None = Form(None), *, who: CurrentUser, st: SettingsDep) -> m.ImportPreview:
+def preview_import(
+    request: Request,
+    files: list[UploadFile] = File(...),
+    manifest: str | None = Form(None),
+    formats: str | None = Form(None),
+    *,
+    who: CurrentUser,
+    st: SettingsDep,
+) -> m.ImportPreview:
     check_upload_rate(request, who, st)  # a preview converts everything: it counts as an upload
     sources, partial, _ = _read_parts(files, manifest, formats)
     result = build_bundle(sources, partial)
     s = result.summary
-    return {"files": s["files"], "time_span_s": s["time_span_s"], "rates_hz": s["rates_hz"],
-            "gnss_track": s["gnss_track"], "date": s["date"], "imu_axes": s["imu_axes"],
-            "static_tilt_deg": s["static_tilt_deg"], "warnings": result.warnings}
+    return {
+        "files": s["files"],
+        "time_span_s": s["time_span_s"],
+        "rates_hz": s["rates_hz"],
+        "gnss_track": s["gnss_track"],
+        "date": s["date"],
+        "imu_axes": s["imu_axes"],
+        "static_tilt_deg": s["static_tilt_deg"],
+        "warnings": result.warnings,
+    }
 
 
 @router.post("", status_code=201, summary="Convert foreign recordings, validate and store the bundle")
-def create_import(request: Request, response: Response, files: list[UploadFile] = File(...),
-                  manifest: str | None = Form(None), formats: str | None = Form(None),
-                  project_id: int | None = Form(None, ge=1, le=2**31 - 1), *, session: SessionDep,
-                  who: CurrentUser, st: SettingsDep) -> m.Imported:
+def create_import(
+    request: Request,
+    response: Response,
+    files: list[UploadFile] = File(...),
+    manifest: str | None = Form(None),
+    formats: str | None = Form(None),
+    project_id: int | None = Form(None, ge=1, le=2**31 - 1),
+    *,
+    session: SessionDep,
+    who: CurrentUser,
+    st: SettingsDep,
+) -> m.Imported:
     """Answers like ``POST /api/logs`` (201 with the log; 200 with ``duplicate: true``)."""
     from ldvsurvey.api.logs import log_summary, target_project
     from ldvsurvey.io.drivelog import parse_files
@@ -113,14 +137,25 @@ def create_import(request: Request, response: Response, files: list[UploadFile] 
     row, created = store.store_log(session, log, quality, project_id)
     if created:
         for name, content in sorted(originals.items()):
-            session.add(LogFile(log_id=row.id, name=ORIGINAL_PREFIX + name, sha256=hashlib.sha256(content).hexdigest(),
-                                size_bytes=len(content), content=content))
+            session.add(
+                LogFile(
+                    log_id=row.id,
+                    name=ORIGINAL_PREFIX + name,
+                    sha256=hashlib.sha256(content).hexdigest(),
+                    size_bytes=len(content),
+                    content=content,
+                )
+            )
     session.commit()
     if not created:
         response.status_code = 200
     response.headers["Location"] = f"/api/logs/{row.id}"
-    return {**log_summary(row), "duplicate": not created, "quality": row.quality,
-            "import": {"files": result.summary["files"], "warnings": result.warnings}}
+    return {
+        **log_summary(row),
+        "duplicate": not created,
+        "quality": row.quality,
+        "import": {"files": result.summary["files"], "warnings": result.warnings},
+    }
 
 
 def job_geo_file(session: Session, job, name: str, fmt: str) -> Response:
@@ -150,4 +185,6 @@ def job_geo_file(session: Session, job, name: str, fmt: str) -> Response:
             track = {"t_s": g["t_s"][ok], "lat_deg": g["lat_deg"][ok], "lon_deg": g["lon_deg"][ok]}
     out_name, out = geo_export(fmt, name[:-4], data, summary, track)
     ctype = "application/geo+json" if fmt == "geojson" else "application/vnd.google-earth.kml+xml"
-    return Response(content=out, media_type=ctype, headers={"Content-Disposition": f'attachment; filename="{out_name}"'})
+    return Response(
+        content=out, media_type=ctype, headers={"Content-Disposition": f'attachment; filename="{out_name}"'}
+    )

@@ -25,19 +25,33 @@ SERVER_PATH_PARAMS = {"dov_grid", "imu_nodov"}
 class JobRequest(BaseModel):
     pipeline: str = Field(..., examples=["height"])
     parameters: dict[str, str | float | int | bool | list[float] | None] = Field(default_factory=dict)
-    log_ids: list[BodyId] = Field(default_factory=list, max_length=50,
-                                  description="further logs (gravity line comparison)")
+    log_ids: list[BodyId] = Field(
+        default_factory=list, max_length=50, description="further logs (gravity line comparison)"
+    )
 
 
 def job_dict(j: Job) -> dict:
     def iso(x):
         return x.isoformat() if isinstance(x, dt.datetime) else None
 
-    return {"id": j.id, "pipeline": j.pipeline, "log_ids": j.log_ids, "parameters": j.parameters,
-            "status": j.status, "stage": j.stage, "progress": j.progress, "attempts": j.attempts,
-            "cancel_requested": j.cancel_requested, "error": j.error, "created_at": iso(j.created_at),
-            "started_at": iso(j.started_at), "finished_at": iso(j.finished_at), "heartbeat_at": iso(j.heartbeat_at),
-            "summary": j.summary, "stage_log": j.stage_log or []}
+    return {
+        "id": j.id,
+        "pipeline": j.pipeline,
+        "log_ids": j.log_ids,
+        "parameters": j.parameters,
+        "status": j.status,
+        "stage": j.stage,
+        "progress": j.progress,
+        "attempts": j.attempts,
+        "cancel_requested": j.cancel_requested,
+        "error": j.error,
+        "created_at": iso(j.created_at),
+        "started_at": iso(j.started_at),
+        "finished_at": iso(j.finished_at),
+        "heartbeat_at": iso(j.heartbeat_at),
+        "summary": j.summary,
+        "stage_log": j.stage_log or [],
+    }
 
 
 def job_detail(session: Session, j: Job) -> dict:
@@ -49,16 +63,24 @@ def job_detail(session: Session, j: Job) -> dict:
     for lid in j.log_ids:
         row = session.get(Log, lid)
         if row is not None:
-            inputs.append({"log_id": lid, "name": row.name, "bundle_sha256": row.sha256,
-                           "files": [{"name": n, "sha256": h, "size_bytes": b}
-                                     for n, h, b in list_files(session, lid)]})
+            inputs.append(
+                {
+                    "log_id": lid,
+                    "name": row.name,
+                    "bundle_sha256": row.sha256,
+                    "files": [{"name": n, "sha256": h, "size_bytes": b} for n, h, b in list_files(session, lid)],
+                }
+            )
     s = j.summary or {}
     warnings = s.get("warnings")
     if warnings is None:  # not finished: the logs' own warnings
-        warnings = [w for lid in j.log_ids if (row := session.get(Log, lid)) is not None
-                    for w in (row.quality or {}).get("warnings", [])]
-    return {**job_dict(j), "inputs": inputs, "warnings": warnings,
-            "views": [v.info() for v in views_of(j.pipeline)]}
+        warnings = [
+            w
+            for lid in j.log_ids
+            if (row := session.get(Log, lid)) is not None
+            for w in (row.quality or {}).get("warnings", [])
+        ]
+    return {**job_dict(j), "inputs": inputs, "warnings": warnings, "views": [v.info() for v in views_of(j.pipeline)]}
 
 
 def public_schema(model) -> dict:
@@ -68,12 +90,19 @@ def public_schema(model) -> dict:
     return schema
 
 
-@router.get("/api/pipelines", summary="Pipelines with their parameters, defaults and JSON schema",
-            response_model_exclude_unset=True)
-def list_pipelines(request: Request, session: SessionDep, st: SettingsDep,
-                   log_id: int | None = Query(None, ge=1, le=2**31 - 1,
-                                              description="also say whether each pipeline applies to this log"),
-                   ) -> list[m.PipelineInfo]:
+@router.get(
+    "/api/pipelines",
+    summary="Pipelines with their parameters, defaults and JSON schema",
+    response_model_exclude_unset=True,
+)
+def list_pipelines(
+    request: Request,
+    session: SessionDep,
+    st: SettingsDep,
+    log_id: int | None = Query(
+        None, ge=1, le=2**31 - 1, description="also say whether each pipeline applies to this log"
+    ),
+) -> list[m.PipelineInfo]:
     from ldvsurvey.pipelines.registry import PIPELINES
 
     facts = None
@@ -81,11 +110,23 @@ def list_pipelines(request: Request, session: SessionDep, st: SettingsDep,
         facts = [log_facts(visible_log(session, principal(request, session, st), log_id))]
     out = []
     for p in PIPELINES.values():
-        item = {"name": p.name, "description": p.description, "multi_input": p.multi_input,
-                "parameters": [{"name": q.name, "kind": q.kind, "default": q.default, "help": q.help,
-                                "choices": list(q.choices) if q.choices else None}
-                               for q in p.params if q.name not in SERVER_PATH_PARAMS],
-                "schema": public_schema(p.model)}
+        item = {
+            "name": p.name,
+            "description": p.description,
+            "multi_input": p.multi_input,
+            "parameters": [
+                {
+                    "name": q.name,
+                    "kind": q.kind,
+                    "default": q.default,
+                    "help": q.help,
+                    "choices": list(q.choices) if q.choices else None,
+                }
+                for q in p.params
+                if q.name not in SERVER_PATH_PARAMS
+            ],
+            "schema": public_schema(p.model),
+        }
         if facts is not None:  # with the default parameters
             reasons = p.applicable(facts, p.model())
             item["applicable"] = not reasons
@@ -95,8 +136,9 @@ def list_pipelines(request: Request, session: SessionDep, st: SettingsDep,
 
 
 @router.post("/api/logs/{log_id}/jobs", status_code=201, summary="Start a pipeline on a log")
-def start_job(log_id: LogId, req: JobRequest, session: SessionDep, who: CurrentUser, st: SettingsDep,
-              runner: RunnerDep) -> m.JobStarted:
+def start_job(
+    log_id: LogId, req: JobRequest, session: SessionDep, who: CurrentUser, st: SettingsDep, runner: RunnerDep
+) -> m.JobStarted:
     from ldvsurvey.pipelines.registry import get
 
     ids = [log_id] + [i for i in req.log_ids if i != log_id]
@@ -110,8 +152,15 @@ def start_job(log_id: LogId, req: JobRequest, session: SessionDep, who: CurrentU
     # types and bounds of every parameter, then whether the pipeline applies to these logs: 422 naming the field
     values = pipe.check([log_facts(r) for r in rows], {k: v for k, v in req.parameters.items() if v is not None})
     check_job_quota(session, who, st)
-    job = Job(pipeline=pipe.name, log_ids=ids, parameters={k: v for k, v in req.parameters.items() if v is not None},
-              status="queued", stage="queued", progress=0.0, user_id=who.user.id if who.user else None)
+    job = Job(
+        pipeline=pipe.name,
+        log_ids=ids,
+        parameters={k: v for k, v in req.parameters.items() if v is not None},
+        status="queued",
+        stage="queued",
+        progress=0.0,
+        user_id=who.user.id if who.user else None,
+    )
     session.add(job)
     session.commit()
     runner.enqueue(job.id)
@@ -121,14 +170,16 @@ def start_job(log_id: LogId, req: JobRequest, session: SessionDep, who: CurrentU
 
 
 @router.get("/api/views", summary="Every view (Plotly figure of a result): pipeline, title, units, files read")
-def list_views(pipeline: str | None = Query(None, max_length=100, description="only this pipeline's views")
-               ) -> list[m.ViewInfo]:
+def list_views(
+    pipeline: str | None = Query(None, max_length=100, description="only this pipeline's views"),
+) -> list[m.ViewInfo]:
     return [v.info() for v in VIEWS.values() if pipeline is None or v.pipeline == pipeline]
 
 
 @router.get("/api/jobs", summary="Jobs, newest first")
-def list_jobs(session: SessionDep, who: CurrentUser,
-              log_id: int | None = Query(None, ge=1, le=2**31 - 1)) -> list[m.Job]:
+def list_jobs(
+    session: SessionDep, who: CurrentUser, log_id: int | None = Query(None, ge=1, le=2**31 - 1)
+) -> list[m.Job]:
     from ldvsurvey.store.models import Log
 
     jobs = list(session.scalars(select(Job).order_by(Job.id.desc())))
@@ -163,7 +214,7 @@ def cancel_job(job_id: JobId, session: SessionDep, who: CurrentUser) -> m.Job:
     j.cancel_requested = True
     if j.status == "queued":
         j.status, j.stage = "cancelled", "cancelled"
-        j.finished_at = dt.datetime.now(dt.timezone.utc)
+        j.finished_at = dt.datetime.now(dt.UTC)
     session.commit()
     return job_dict(j)
 
@@ -183,19 +234,35 @@ def retry_job(job_id: JobId, session: SessionDep, who: CurrentUser, runner: Runn
 @router.get("/api/jobs/{job_id}/files", summary="Result files of a job")
 def list_job_files(job_id: JobId, session: SessionDep, who: CurrentUser) -> list[m.ResultFile]:
     visible_job(session, who, job_id)
-    rows = session.execute(select(JobFile.name, JobFile.size_bytes).where(JobFile.job_id == job_id)
-                           .order_by(JobFile.name))
+    rows = session.execute(
+        select(JobFile.name, JobFile.size_bytes).where(JobFile.job_id == job_id).order_by(JobFile.name)
+    )
     return [{"name": n, "size_bytes": s} for n, s in rows]
 
 
-@router.get("/api/jobs/{job_id}/files/{name}", summary="A result file, exactly as the CLI writes it",
-            response_class=Response,
-            responses={200: {"description": "the file (CSV or JSON; GeoJSON or KML with ?format=)",
-                             "content": {"text/csv": {}, "application/json": {"schema": {"type": "object"}},
-                                         "application/geo+json": {},
-                                         "application/vnd.google-earth.kml+xml": {}}}})
-def get_job_file(job_id: JobId, name: str, session: SessionDep, who: CurrentUser,
-                 format: str = Query("csv", pattern="^(csv|geojson|kml)$")) -> Response:
+@router.get(
+    "/api/jobs/{job_id}/files/{name}",
+    summary="A result file, exactly as the CLI writes it",
+    response_class=Response,
+    responses={
+        200: {
+            "description": "the file (CSV or JSON; GeoJSON or KML with ?format=)",
+            "content": {
+                "text/csv": {},
+                "application/json": {"schema": {"type": "object"}},
+                "application/geo+json": {},
+                "application/vnd.google-earth.kml+xml": {},
+            },
+        }
+    },
+)
+def get_job_file(
+    job_id: JobId,
+    name: str,
+    session: SessionDep,
+    who: CurrentUser,
+    format: str = Query("csv", pattern="^(csv|geojson|kml)$"),
+) -> Response:
     j = visible_job(session, who, job_id)
     if format != "csv":  # a table with positions as GeoJSON (RFC 7946) or KML 2.2, with the summary's provenance
         from ldvsurvey.api.imports import job_geo_file
@@ -207,11 +274,20 @@ def get_job_file(job_id: JobId, name: str, session: SessionDep, who: CurrentUser
 
 
 @router.get("/api/jobs/{job_id}/views/{view}", summary="A Plotly figure of a result (downsampled)")
-def get_view(job_id: JobId, view: str, session: SessionDep, who: CurrentUser, x0: float | None = None,
-             x1: float | None = None, points: int = Query(2000, ge=100, le=20000)) -> m.Figure:
+def get_view(
+    job_id: JobId,
+    view: str,
+    session: SessionDep,
+    who: CurrentUser,
+    x0: float | None = None,
+    x1: float | None = None,
+    points: int = Query(2000, ge=100, le=20000),
+) -> m.Figure:
     j = visible_job(session, who, job_id)
     if j.status != "succeeded":
-        what = {"failed": "it failed, so there are no results (see its error)",
-                "cancelled": "it was cancelled, so there are no results"}.get(j.status, "no results yet")
+        what = {
+            "failed": "it failed, so there are no results (see its error)",
+            "cancelled": "it was cancelled, so there are no results",
+        }.get(j.status, "no results yet")
         raise HTTPException(409, f"job {job_id} is {j.status}: {what}")
     return build_view(session, j, view, x0, x1, points)

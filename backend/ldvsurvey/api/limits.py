@@ -57,11 +57,19 @@ class BodySizeLimit:
                 raise
 
     async def _refuse(self, send):
-        body = json.dumps({"detail": f"upload larger than the limit of {self.max_bytes} bytes",
-                           "error": {"message": "upload too large", "limit_bytes": self.max_bytes}}).encode()
-        await send({"type": "http.response.start", "status": 413,
-                    "headers": [(b"content-type", b"application/json"),
-                                (b"content-length", str(len(body)).encode())]})
+        body = json.dumps(
+            {
+                "detail": f"upload larger than the limit of {self.max_bytes} bytes",
+                "error": {"message": "upload too large", "limit_bytes": self.max_bytes},
+            }
+        ).encode()
+        await send(
+            {
+                "type": "http.response.start",
+                "status": 413,
+                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())],
+            }
+        )
         await send({"type": "http.response.body", "body": body})
 
 

@@ -25,11 +25,20 @@ def log_summary(row) -> dict:
     q = row.quality or {}
     gnss = q.get("gnss") or {}
     return {
-        "id": row.id, "name": row.name, "sha256": row.sha256, "project_id": row.project_id, "platform": row.platform,
-        "ldv_kind": row.ldv_kind, "imu_rotating": row.imu_rotating,
-        "survey_date": row.survey_date.isoformat(), "t_start_s": row.t_start_s,
-        "t_end_s": row.t_end_s, "duration_s": row.duration_s, "has_gnss": row.has_gnss,
-        "size_bytes": row.size_bytes, "created_at": row.created_at.isoformat(),
+        "id": row.id,
+        "name": row.name,
+        "sha256": row.sha256,
+        "project_id": row.project_id,
+        "platform": row.platform,
+        "ldv_kind": row.ldv_kind,
+        "imu_rotating": row.imu_rotating,
+        "survey_date": row.survey_date.isoformat(),
+        "t_start_s": row.t_start_s,
+        "t_end_s": row.t_end_s,
+        "duration_s": row.duration_s,
+        "has_gnss": row.has_gnss,
+        "size_bytes": row.size_bytes,
+        "created_at": row.created_at.isoformat(),
         "badges": {
             "imu_gaps": (q.get("imu") or {}).get("gaps"),
             "ldv_below_min_quality_share": (q.get("ldv") or {}).get("below_min_quality_share"),
@@ -61,9 +70,16 @@ def target_project(session: Session, who: Principal, project_id: int | None) -> 
 
 
 @router.post("", status_code=201, summary="Upload a drive-log bundle (one .zip, or the files)")
-def upload_log(request: Request, response: Response, files: list[UploadFile] = File(...),
-               project_id: int | None = Form(None, ge=1, le=2**31 - 1), *, session: SessionDep,
-               who: CurrentUser, st: SettingsDep) -> m.Uploaded:
+def upload_log(
+    request: Request,
+    response: Response,
+    files: list[UploadFile] = File(...),
+    project_id: int | None = Form(None, ge=1, le=2**31 - 1),
+    *,
+    session: SessionDep,
+    who: CurrentUser,
+    st: SettingsDep,
+) -> m.Uploaded:
     """Validate, parse and store a bundle in a project. The same bundle uploaded again to the same
     project is not stored twice (200 with ``duplicate: true`` and the existing log)."""
     check_upload_rate(request, who, st)
@@ -80,37 +96,60 @@ def upload_log(request: Request, response: Response, files: list[UploadFile] = F
 
 
 @router.get("", summary="List drive logs (newest first), optionally filtered")
-def list_logs(project_id: int | None = Query(None, ge=1, le=ID_MAX),
-              platform: str | None = Query(None, max_length=16, description="vehicle or vessel"),
-              date_from: dt.date | None = Query(None, description="survey date on or after (YYYY-MM-DD)"),
-              date_to: dt.date | None = Query(None, description="survey date on or before (YYYY-MM-DD)"),
-              *, session: SessionDep, who: CurrentUser) -> list[m.LogSummary]:
-    rows = store.list_logs(session, project_id=project_id, platform=platform or None, date_from=date_from,
-                           date_to=date_to)
+def list_logs(
+    project_id: int | None = Query(None, ge=1, le=ID_MAX),
+    platform: str | None = Query(None, max_length=16, description="vehicle or vessel"),
+    date_from: dt.date | None = Query(None, description="survey date on or after (YYYY-MM-DD)"),
+    date_to: dt.date | None = Query(None, description="survey date on or before (YYYY-MM-DD)"),
+    *,
+    session: SessionDep,
+    who: CurrentUser,
+) -> list[m.LogSummary]:
+    rows = store.list_logs(
+        session, project_id=project_id, platform=platform or None, date_from=date_from, date_to=date_to
+    )
     return [log_summary(r) for r in rows if who.can_see(r)]
 
 
 @router.get("/{log_id}", summary="One log: manifest, quality report, files")
 def get_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> m.LogDetail:
     row = visible_log(session, who, log_id)
-    return {**log_summary(row), "manifest": row.manifest, "quality": row.quality,
-            "files": [{"name": n, "sha256": h, "size_bytes": s} for n, h, s in store.list_files(session, log_id)]}
+    return {
+        **log_summary(row),
+        "manifest": row.manifest,
+        "quality": row.quality,
+        "files": [{"name": n, "sha256": h, "size_bytes": s} for n, h, s in store.list_files(session, log_id)],
+    }
 
 
-@router.get("/{log_id}/files/{name}", summary="An original file, byte for byte", response_class=Response,
-            responses={200: {"description": "the file as uploaded (X-Content-SHA256: its SHA-256)",
-                             "content": {"text/csv": {}, "application/json": {"schema": {"type": "object"}},
-                                         "application/octet-stream": {}}}})
+@router.get(
+    "/{log_id}/files/{name}",
+    summary="An original file, byte for byte",
+    response_class=Response,
+    responses={
+        200: {
+            "description": "the file as uploaded (X-Content-SHA256: its SHA-256)",
+            "content": {
+                "text/csv": {},
+                "application/json": {"schema": {"type": "object"}},
+                "application/octet-stream": {},
+            },
+        }
+    },
+)
 def get_file(log_id: LogId, name: str, session: SessionDep, who: CurrentUser) -> Response:
     visible_log(session, who, log_id)
     f = store.get_file(session, log_id, name)
     if f is None:
         raise HTTPException(404, f"log {log_id} has no file '{name}'")
     ctype = {"manifest.json": "application/json", "imu.csv": "text/csv", "ldv.csv": "text/csv"}.get(
-        name, mimetypes.guess_type(name)[0] or "application/octet-stream")
-    return Response(content=f.content, media_type=ctype,
-                    headers={"Content-Disposition": f'attachment; filename="{name}"',
-                             "X-Content-SHA256": f.sha256})
+        name, mimetypes.guess_type(name)[0] or "application/octet-stream"
+    )
+    return Response(
+        content=f.content,
+        media_type=ctype,
+        headers={"Content-Disposition": f'attachment; filename="{name}"', "X-Content-SHA256": f.sha256},
+    )
 
 
 @router.delete("/{log_id}", status_code=204, summary="Delete a log with all its files and arrays")
@@ -119,4 +158,3 @@ def delete_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> Response
     store.delete_log(session, log_id)
     session.commit()  # answer only once it is gone: an immediate GET says 404
     return Response(status_code=204)
-

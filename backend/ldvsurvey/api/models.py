@@ -31,6 +31,7 @@ class Health(Out):
 
 # --- people -------------------------------------------------------------------------------------
 
+
 class LoginOut(Out):
     user: str
     csrf: str = Field(description="send it as X-CSRF-Token on every page write of this session")
@@ -81,6 +82,7 @@ class UserOut(Out):
 
 
 # --- logs ---------------------------------------------------------------------------------------
+
 
 class Badges(Out):
     imu_gaps: int | None = None
@@ -141,6 +143,7 @@ class ImportPreview(Out):
 
 # --- grids --------------------------------------------------------------------------------------
 
+
 class GridInfo(Out):
     id: str
     source: str
@@ -155,6 +158,7 @@ class GridUploaded(GridInfo):
 
 
 # --- pipelines, jobs, views ---------------------------------------------------------------------
+
 
 class PipelineParam(Out):
     name: str

@@ -46,8 +46,7 @@ class PasswordChange(BaseModel):
 
 
 @router.post("/api/password", summary="Change your password (ends all your sessions: log in again)")
-def change_password(body: PasswordChange, response: Response, who: CurrentUser,
-                    session: SessionDep) -> m.Ok:
+def change_password(body: PasswordChange, response: Response, who: CurrentUser, session: SessionDep) -> m.Ok:
     user = _me(who)
     if ustore.verify(session, user.username, body.old_password) is None:
         raise HTTPException(403, "the current password is wrong")
@@ -68,8 +67,7 @@ def list_tokens(who: CurrentUser, session: SessionDep) -> list[m.TokenOut]:
 
 
 @router.post("/api/tokens", status_code=201, summary="Create an API token (the secret is shown once)")
-def create_token(body: TokenRequest, who: CurrentUser,
-                 session: SessionDep) -> m.NewToken:
+def create_token(body: TokenRequest, who: CurrentUser, session: SessionDep) -> m.NewToken:
     token = ustore.new_api_token(session, _me(who), body.name, body.expires_days)
     session.commit()
     row = ustore.list_tokens(session, who.user)[-1]
@@ -77,8 +75,7 @@ def create_token(body: TokenRequest, who: CurrentUser,
 
 
 @router.delete("/api/tokens/{token_id}", status_code=204, summary="Revoke one of your API tokens")
-def revoke_token(token_id: PathId, who: CurrentUser,
-                 session: SessionDep) -> Response:
+def revoke_token(token_id: PathId, who: CurrentUser, session: SessionDep) -> Response:
     if not ustore.revoke_token(session, _me(who), token_id):
         raise HTTPException(404, f"you have no token {token_id}")
     session.commit()
@@ -116,8 +113,7 @@ def admin_add_user(body: NewUser, _: AdminUser, session: SessionDep) -> m.UserOu
 
 
 @router.patch("/api/admin/users/{user_id}", summary="Disable/enable a user, make admin, set a password (admin)")
-def admin_change_user(user_id: PathId, body: UserChange, who: AdminUser,
-                      session: SessionDep) -> m.UserOut:
+def admin_change_user(user_id: PathId, body: UserChange, who: AdminUser, session: SessionDep) -> m.UserOut:
     u = session.get(User, user_id)
     if u is None:
         raise HTTPException(404, f"user {user_id} not found")
@@ -143,22 +139,19 @@ def admin_projects(_: AdminUser, session: SessionDep) -> list[m.ProjectOut]:
 
 
 @router.post("/api/admin/projects", status_code=201, summary="Create a project (admin)")
-def admin_add_project(body: NewProject, _: AdminUser,
-                      session: SessionDep) -> m.ProjectOut:
+def admin_add_project(body: NewProject, _: AdminUser, session: SessionDep) -> m.ProjectOut:
     p = ustore.create_project(session, body.name)
     session.commit()
     return {"id": p.id, "name": p.name, "members": []}
 
 
 @router.put("/api/admin/projects/{project_id}/members/{user_id}", summary="Add a member (admin)")
-def admin_add_member(project_id: PathId, user_id: PathId, _: AdminUser,
-                     session: SessionDep) -> m.ProjectOut:
+def admin_add_member(project_id: PathId, user_id: PathId, _: AdminUser, session: SessionDep) -> m.ProjectOut:
     return _change_member(session, project_id, user_id, ustore.add_member)
 
 
 @router.delete("/api/admin/projects/{project_id}/members/{user_id}", summary="Remove a member (admin)")
-def admin_remove_member(project_id: PathId, user_id: PathId, _: AdminUser,
-                        session: SessionDep) -> m.ProjectOut:
+def admin_remove_member(project_id: PathId, user_id: PathId, _: AdminUser, session: SessionDep) -> m.ProjectOut:
     return _change_member(session, project_id, user_id, ustore.remove_member)
 
 

@@ -82,8 +82,10 @@ class LoginThrottle:
         """A reason to refuse the attempt without looking at the password, or None."""
         ka, kc = self.keys(account, client)
         if self._count(ka) >= self.max_account:
-            return (f"too many failed logins for this account: wait up to {self.window_s / 60:.0f} min "
-                    "or ask an admin to set a new password")
+            return (
+                f"too many failed logins for this account: wait up to {self.window_s / 60:.0f} min "
+                "or ask an admin to set a new password"
+            )
         if self._count(kc) >= self.max_client:
             return f"too many failed logins from your address: wait up to {self.window_s / 60:.0f} min"
         return None

@@ -26,13 +26,13 @@ RATIO_FLOOR_BYTES = 64 * 1024
 
 def _safe_name(fn: str, archive: str) -> None:
     parts = fn.replace("\\", "/").split("/")
-    if (fn.startswith(("/", "\\")) or (len(fn) > 1 and fn[1] == ":") or ".." in parts or "\x00" in fn
-            or len(fn) > 255):
+    if fn.startswith(("/", "\\")) or (len(fn) > 1 and fn[1] == ":") or ".." in parts or "\x00" in fn or len(fn) > 255:
         raise BundleError(f"unsafe path in archive: '{fn[:200]}'", file=archive, field=fn[:200])
 
 
-def plan_zip(zf: zipfile.ZipFile, archive_bytes: int, *, max_unzipped: int, max_ratio: float,
-             max_members: int, archive: str) -> tuple[dict[str, zipfile.ZipInfo], list[str]]:
+def plan_zip(
+    zf: zipfile.ZipFile, archive_bytes: int, *, max_unzipped: int, max_ratio: float, max_members: int, archive: str
+) -> tuple[dict[str, zipfile.ZipInfo], list[str]]:
     """Judge an archive by its directory only.
 
     Returns
@@ -42,8 +42,7 @@ def plan_zip(zf: zipfile.ZipFile, archive_bytes: int, *, max_unzipped: int, max_
     """
     infos = zf.infolist()
     if len(infos) > max_members:
-        raise TooLargeError(f"archive has {len(infos)} entries; a bundle has at most {max_members}",
-                            file=archive)
+        raise TooLargeError(f"archive has {len(infos)} entries; a bundle has at most {max_members}", file=archive)
     files = []
     for info in infos:
         _safe_name(info.filename, archive)
@@ -55,16 +54,23 @@ def plan_zip(zf: zipfile.ZipFile, archive_bytes: int, *, max_unzipped: int, max_
         raise BundleError("archive holds no files", file=archive)
     declared = sum(i.file_size for i in files)
     if declared > max_unzipped:
-        raise TooLargeError(f"archive declares {declared} bytes unpacked, more than the limit of {max_unzipped}",
-                            file=archive)
+        raise TooLargeError(
+            f"archive declares {declared} bytes unpacked, more than the limit of {max_unzipped}", file=archive
+        )
     if declared > CHUNK and declared > max_ratio * max(archive_bytes, 1):
-        raise TooLargeError(f"archive unpacks {declared / max(archive_bytes, 1):.0f}:1 (limit {max_ratio:.0f}:1): "
-                            "refusing a possible zip bomb", file=archive)
+        raise TooLargeError(
+            f"archive unpacks {declared / max(archive_bytes, 1):.0f}:1 (limit {max_ratio:.0f}:1): "
+            "refusing a possible zip bomb",
+            file=archive,
+        )
     for i in files:
         if i.file_size > RATIO_FLOOR_BYTES and i.file_size > max_ratio * max(i.compress_size, 1):
-            raise TooLargeError(f"member '{i.filename}' compresses {i.file_size / max(i.compress_size, 1):.0f}:1 "
-                                f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb",
-                                file=archive, field=i.filename)
+            raise TooLargeError(
+                f"member '{i.filename}' compresses {i.file_size / max(i.compress_size, 1):.0f}:1 "
+                f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb",
+                file=archive,
+                field=i.filename,
+            )
     names = [i.filename for i in files]
     tops = {n.split("/", 1)[0] for n in names}
     if len(tops) == 1 and all("/" in n for n in names):
@@ -83,8 +89,16 @@ def plan_zip(zf: zipfile.ZipFile, archive_bytes: int, *, max_unzipped: int, max_
     return inflate, ignored
 
 
-def read_zip_safely(fh: BinaryIO, archive_bytes: int, *, max_unzipped: int, max_ratio: float,
-                    max_members: int, archive: str = "upload.zip", parent: str | Path | None = None) -> BundleFiles:
+def read_zip_safely(
+    fh: BinaryIO,
+    archive_bytes: int,
+    *,
+    max_unzipped: int,
+    max_ratio: float,
+    max_members: int,
+    archive: str = "upload.zip",
+    parent: str | Path | None = None,
+) -> BundleFiles:
     """``{name: path}`` of a bundle zip read from a file object, under every limit; the files sit in a
     temporary folder (under ``parent``) that lives as long as the result or the log parsed from it.
 
@@ -96,11 +110,13 @@ def read_zip_safely(fh: BinaryIO, archive_bytes: int, *, max_unzipped: int, max_
     except (zipfile.BadZipFile, EOFError, ValueError, OSError) as exc:
         raise BundleError(f"not a readable zip archive (truncated or corrupt: {exc})", file=archive) from None
     with zf:
-        inflate, ignored = plan_zip(zf, archive_bytes, max_unzipped=max_unzipped, max_ratio=max_ratio,
-                                    max_members=max_members, archive=archive)
+        inflate, ignored = plan_zip(
+            zf, archive_bytes, max_unzipped=max_unzipped, max_ratio=max_ratio, max_members=max_members, archive=archive
+        )
         out = BundleFiles.in_temp_folder(parent)
         jobs = []
         for name, info in inflate.items():
+
             def chunks(info=info):
                 try:
                     with zf.open(info) as src:
@@ -110,12 +126,18 @@ def read_zip_safely(fh: BinaryIO, archive_bytes: int, *, max_unzipped: int, max_
                         while chunk := src.read(min(CHUNK, limit - n)):
                             n += len(chunk)
                             if n >= limit:
-                                raise TooLargeError(f"member '{info.filename}' inflates past its declared size "
-                                                    "or the limit", file=archive, field=info.filename)
+                                raise TooLargeError(
+                                    f"member '{info.filename}' inflates past its declared size or the limit",
+                                    file=archive,
+                                    field=info.filename,
+                                )
                             yield chunk
                 except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
-                    raise BundleError(f"member '{info.filename}' cannot be read (truncated or corrupt: {exc})",
-                                      file=archive, field=info.filename) from None
+                    raise BundleError(
+                        f"member '{info.filename}' cannot be read (truncated or corrupt: {exc})",
+                        file=archive,
+                        field=info.filename,
+                    ) from None
 
             jobs.append((name, chunks()))
         try:
@@ -162,9 +184,15 @@ def read_upload(uploads: list[UploadFile], settings) -> BundleFiles:
         head = up.file.read(2)
         up.file.seek(0)
         if name.lower().endswith(".zip") or head == b"PK":
-            return read_zip_safely(up.file, _size(up.file), max_unzipped=settings.max_unzipped_bytes,
-                                   max_ratio=settings.max_zip_ratio, max_members=settings.max_zip_members,
-                                   archive=name, parent=_tmp_parent(settings))
+            return read_zip_safely(
+                up.file,
+                _size(up.file),
+                max_unzipped=settings.max_unzipped_bytes,
+                max_ratio=settings.max_zip_ratio,
+                max_members=settings.max_zip_members,
+                archive=name,
+                parent=_tmp_parent(settings),
+            )
     zips = [n for n in names if n.lower().endswith(".zip")]
     if zips:
         raise BundleError("send either one .zip or the separate files, not both", file=zips[0])
@@ -198,5 +226,3 @@ def _tmp_parent(settings) -> Path | None:
     except OSError:
         pass
     return p
-
-

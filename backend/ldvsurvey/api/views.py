@@ -22,8 +22,17 @@ from ldvsurvey.store.models import Job, JobFile
 
 ARCSEC_PER_RAD = 180.0 * 3600.0 / np.pi
 #: NMEA GGA fix quality
-FIX_NAMES = {0: "0 no fix", 1: "1 GPS", 2: "2 DGPS", 3: "3 PPS", 4: "4 RTK fixed", 5: "5 RTK float",
-             6: "6 dead reckoning", 7: "7 manual", 8: "8 simulation"}
+FIX_NAMES = {
+    0: "0 no fix",
+    1: "1 GPS",
+    2: "2 DGPS",
+    3: "3 PPS",
+    4: "4 RTK fixed",
+    5: "5 RTK float",
+    6: "6 dead reckoning",
+    7: "7 manual",
+    8: "8 simulation",
+}
 
 
 def job_file(session, job_id: int, name: str) -> bytes:
@@ -67,8 +76,13 @@ class View:
     build: Callable[[ViewInput], dict]
 
     def info(self) -> dict:
-        return {"name": self.name, "pipeline": self.pipeline, "title": self.title, "units": self.units,
-                "files": list(self.files)}
+        return {
+            "name": self.name,
+            "pipeline": self.pipeline,
+            "title": self.title,
+            "units": self.units,
+            "files": list(self.files),
+        }
 
 
 #: every view by name, in registration order (the order a job's page shows them)
@@ -77,11 +91,13 @@ VIEWS: dict[str, View] = {}
 
 def view(name: str, pipeline: str, title: str, units: str, files: tuple[str, ...]):
     """Register the decorated ``f(v: ViewInput) -> figure dict`` as the view ``name`` of ``pipeline``."""
+
     def register(build: Callable[[ViewInput], dict]) -> Callable[[ViewInput], dict]:
         if name in VIEWS:
             raise ValueError(f"view '{name}' registered twice")
         VIEWS[name] = View(name, pipeline, title, units, tuple(files), build)
         return build
+
     return register
 
 
@@ -104,8 +120,12 @@ def _csv(session, job: Job, name: str) -> dict[str, np.ndarray]:
 
 def _down(x, y, x0, x1, n):
     """Indices of at most n points of (x, y) within [x0, x1] (MinMax-LTTB)."""
-    k = np.flatnonzero(np.isfinite(x) & np.isfinite(y) & ((x >= x0) if x0 is not None else True)
-                       & ((x <= x1) if x1 is not None else True))
+    k = np.flatnonzero(
+        np.isfinite(x)
+        & np.isfinite(y)
+        & ((x >= x0) if x0 is not None else True)
+        & ((x <= x1) if x1 is not None else True)
+    )
     if len(k) <= n:
         return k
     order = np.argsort(x[k], kind="stable")
@@ -116,14 +136,28 @@ def _down(x, y, x0, x1, n):
 
 def _trace(x, y, name, x0, x1, n, **kw):
     k = _down(np.asarray(x, float), np.asarray(y, float), x0, x1, n)
-    return {"type": "scatter", "mode": kw.pop("mode", "lines"), "name": name, "x": np.asarray(x)[k].tolist(),
-            "y": np.asarray(y)[k].tolist(), **kw}
+    return {
+        "type": "scatter",
+        "mode": kw.pop("mode", "lines"),
+        "name": name,
+        "x": np.asarray(x)[k].tolist(),
+        "y": np.asarray(y)[k].tolist(),
+        **kw,
+    }
 
 
 def _fig(traces, title, xt, yt, **layout):
-    return {"data": traces, "layout": {"title": {"text": title}, "xaxis": {"title": {"text": xt}},
-                                       "yaxis": {"title": {"text": yt}}, "margin": {"t": 50, "r": 20, "b": 90},
-                                       "legend": {"orientation": "h", "y": -0.22}, **layout}}
+    return {
+        "data": traces,
+        "layout": {
+            "title": {"text": title},
+            "xaxis": {"title": {"text": xt}},
+            "yaxis": {"title": {"text": yt}},
+            "margin": {"t": 50, "r": 20, "b": 90},
+            "legend": {"orientation": "h", "y": -0.22},
+            **layout,
+        },
+    }
 
 
 def _floor_text(block: dict) -> str:
@@ -143,47 +177,68 @@ def _floor_text(block: dict) -> str:
     return txt
 
 
-
-
 # --- height ---------------------------------------------------------------------------------------
 
-@view("height", "height", "Height of the IMU centre: LDV (tilt compensated, uncompensated) and GNSS",
-      "m (ellipsoidal)", ("height.csv",))
+
+@view(
+    "height",
+    "height",
+    "Height of the IMU centre: LDV (tilt compensated, uncompensated) and GNSS",
+    "m (ellipsoidal)",
+    ("height.csv",),
+)
 def _height(v: ViewInput) -> dict:
     h = v.csv("height.csv")
     t = h["t_s"]
-    tr = [v.trace(t, h["h_m"], "LDV height (tilt compensated)"),
-          v.trace(t, h["h_uncompensated_m"], "LDV height (uncompensated)"),
-          v.trace(t, h["h_gnss_m"], "GNSS height (fix 4/2)", mode="markers", marker={"size": 3})]
+    tr = [
+        v.trace(t, h["h_m"], "LDV height (tilt compensated)"),
+        v.trace(t, h["h_uncompensated_m"], "LDV height (uncompensated)"),
+        v.trace(t, h["h_gnss_m"], "GNSS height (fix 4/2)", mode="markers", marker={"size": 3}),
+    ]
     return _fig(tr, "Height of the IMU centre", "t (s of day)", "h (m, ellipsoidal)")
 
 
-@view("height_error", "height", "Height error against GNSS, tilt compensated and uncompensated", "m",
-      ("height.csv",))
+@view("height_error", "height", "Height error against GNSS, tilt compensated and uncompensated", "m", ("height.csv",))
 def _height_error(v: ViewInput) -> dict:
     h, s = v.csv("height.csv"), v.summary
     t = h["t_s"]
-    tr = [v.trace(t, h["h_m"] - h["h_gnss_m"], "error, tilt compensated", mode="markers", marker={"size": 3}),
-          v.trace(t, h["h_uncompensated_m"] - h["h_gnss_m"], "error, uncompensated", mode="markers",
-                  marker={"size": 3})]
-    return _fig(tr, f"Height error against GNSS: std {s.get('std_error_m', float('nan')):.3f} m, "
-                    f"max {s.get('max_error_m', float('nan')):.3f} m", "t (s of day)", "LDV − GNSS (m)")
+    tr = [
+        v.trace(t, h["h_m"] - h["h_gnss_m"], "error, tilt compensated", mode="markers", marker={"size": 3}),
+        v.trace(t, h["h_uncompensated_m"] - h["h_gnss_m"], "error, uncompensated", mode="markers", marker={"size": 3}),
+    ]
+    return _fig(
+        tr,
+        f"Height error against GNSS: std {s.get('std_error_m', float('nan')):.3f} m, "
+        f"max {s.get('max_error_m', float('nan')):.3f} m",
+        "t (s of day)",
+        "LDV − GNSS (m)",
+    )
 
 
 # --- tilt -----------------------------------------------------------------------------------------
+
 
 @view("attitude", "tilt", "Pitch and roll, raw and tilt compensated", "deg", ("attitude.csv",))
 def _attitude(v: ViewInput) -> dict:
     a, s = v.csv("attitude.csv"), v.summary
     t = a["t_s"]
-    tr = [v.trace(t, a["pitch_raw_deg"], "pitch raw"), v.trace(t, a["pitch_deg"], "pitch compensated"),
-          v.trace(t, a["roll_raw_deg"], "roll raw"), v.trace(t, a["roll_deg"], "roll compensated")]
+    tr = [
+        v.trace(t, a["pitch_raw_deg"], "pitch raw"),
+        v.trace(t, a["pitch_deg"], "pitch compensated"),
+        v.trace(t, a["roll_raw_deg"], "roll raw"),
+        v.trace(t, a["roll_deg"], "roll compensated"),
+    ]
     al, be = s.get("alpha_rad", 0.0), s.get("beta_rad", 0.0)
-    return _fig(tr, f"Attitude: α = {al:.2e} rad ({al * ARCSEC_PER_RAD:.1f}″), "
-                    f"β = {be:.2e} rad ({be * ARCSEC_PER_RAD:.1f}″)", "t (s of day)", "angle (deg)")
+    return _fig(
+        tr,
+        f"Attitude: α = {al:.2e} rad ({al * ARCSEC_PER_RAD:.1f}″), β = {be:.2e} rad ({be * ARCSEC_PER_RAD:.1f}″)",
+        "t (s of day)",
+        "angle (deg)",
+    )
 
 
 # --- navigate, calibrate: the track -----------------------------------------------------------------
+
 
 def _track(v: ViewInput, name: str) -> dict:
     """The solution's track in local east/north metres from its start, with the log's GNSS fixes
@@ -205,25 +260,49 @@ def _track(v: ViewInput, name: str) -> dict:
         for q in sorted(set(fix.tolist())):  # one legend entry per fix quality (a discrete legend)
             kq = np.flatnonzero(fix == q)
             k = kq[_down(ge[kq], gn[kq], None, None, n)]
-            tr.append({"type": "scatter", "mode": "markers", "name": f"GNSS, {FIX_NAMES.get(q, f'fix {q}')}",
-                       "x": ge[k].tolist(), "y": gn[k].tolist(), "marker": {"size": 4}})
-    return _fig(tr, "Trajectory (local east/north from the start)", "east (m)", "north (m)",
-                yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1})
+            tr.append(
+                {
+                    "type": "scatter",
+                    "mode": "markers",
+                    "name": f"GNSS, {FIX_NAMES.get(q, f'fix {q}')}",
+                    "x": ge[k].tolist(),
+                    "y": gn[k].tolist(),
+                    "marker": {"size": 4},
+                }
+            )
+    return _fig(
+        tr,
+        "Trajectory (local east/north from the start)",
+        "east (m)",
+        "north (m)",
+        yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1},
+    )
 
 
-@view("trajectory", "navigate", "Trajectory in local east/north from the start, with the GNSS fixes",
-      "m (north)", ("trajectory.csv",))
+@view(
+    "trajectory",
+    "navigate",
+    "Trajectory in local east/north from the start, with the GNSS fixes",
+    "m (north)",
+    ("trajectory.csv",),
+)
 def _trajectory(v: ViewInput) -> dict:
     return _track(v, "trajectory.csv")
 
 
-@view("calibration_track", "calibrate", "Calibration drive in local east/north from the start, with the GNSS fixes",
-      "m (north)", ("calibration_track.csv",))
+@view(
+    "calibration_track",
+    "calibrate",
+    "Calibration drive in local east/north from the start, with the GNSS fixes",
+    "m (north)",
+    ("calibration_track.csv",),
+)
 def _calibration_track(v: ViewInput) -> dict:
     return _track(v, "calibration_track.csv")
 
 
 # --- gravity ----------------------------------------------------------------------------------------
+
 
 def _gravity_on_lines(v: ViewInput, residuals: bool) -> dict:
     c, s = v.csv("coincidence.csv"), v.summary
@@ -236,39 +315,68 @@ def _gravity_on_lines(v: ViewInput, residuals: bool) -> dict:
     if not residuals:
         k = c["line"] == names[0]
         tr.append(v.trace(c["distance_m"][k], c["mean_mgal"][k], "mean line", line={"width": 3, "color": "black"}))
-        return _fig(tr, f"Gravity disturbance on the repeated lines (FIR {s.get('fir_length_s')} s, "
-                        f"resolution {s.get('resolution_m', 0):.0f} m, line ends trimmed "
-                        f"{s.get('line_end_trim_s', 0):g} s)", "along-track distance (m)", "δg (mGal)")
+        return _fig(
+            tr,
+            f"Gravity disturbance on the repeated lines (FIR {s.get('fir_length_s')} s, "
+            f"resolution {s.get('resolution_m', 0):.0f} m, line ends trimmed "
+            f"{s.get('line_end_trim_s', 0):g} s)",
+            "along-track distance (m)",
+            "δg (mGal)",
+        )
     fl = (s.get("noise_floor") or {}).get("total_mgal")
     if fl:  # the ±1σ band white sensor noise alone would give
         d = c["distance_m"][c["line"] == names[0]]
         lo, hi = float(np.nanmin(d)), float(np.nanmax(d))
-        tr.append({"type": "scatter", "mode": "lines", "name": f"white-noise floor ±{fl:.3f} mGal",
-                   "x": [lo, hi, None, lo, hi], "y": [fl, fl, None, -fl, -fl],
-                   "line": {"dash": "dash", "color": "black"}})
+        tr.append(
+            {
+                "type": "scatter",
+                "mode": "lines",
+                "name": f"white-noise floor ±{fl:.3f} mGal",
+                "x": [lo, hi, None, lo, hi],
+                "y": [fl, fl, None, -fl, -fl],
+                "line": {"dash": "dash", "color": "black"},
+            }
+        )
         comb = (s.get("noise_floor") or {}).get("combined_mgal")
         if comb and (s.get("noise_floor") or {}).get("drift_mgal") is not None:
-            tr.append({"type": "scatter", "mode": "lines", "name": f"floor with the drift ±{comb:.3f} mGal",
-                       "x": [lo, hi, None, lo, hi], "y": [comb, comb, None, -comb, -comb],
-                       "line": {"dash": "dot", "color": "gray"}})
-    return _fig(tr, f"Residuals about the mean line: {_floor_text(s)}", "along-track distance (m)",
-                "residual (mGal)")
+            tr.append(
+                {
+                    "type": "scatter",
+                    "mode": "lines",
+                    "name": f"floor with the drift ±{comb:.3f} mGal",
+                    "x": [lo, hi, None, lo, hi],
+                    "y": [comb, comb, None, -comb, -comb],
+                    "line": {"dash": "dot", "color": "gray"},
+                }
+            )
+    return _fig(tr, f"Residuals about the mean line: {_floor_text(s)}", "along-track distance (m)", "residual (mGal)")
 
 
-@view("gravity_lines", "gravity", "Gravity disturbance on the repeated lines and their mean", "mGal",
-      ("coincidence.csv",))
+@view(
+    "gravity_lines", "gravity", "Gravity disturbance on the repeated lines and their mean", "mGal", ("coincidence.csv",)
+)
 def _gravity_lines(v: ViewInput) -> dict:
     return _gravity_on_lines(v, residuals=False)
 
 
-@view("gravity_residuals", "gravity", "Residuals about the mean line beside the white-noise floor", "mGal",
-      ("coincidence.csv",))
+@view(
+    "gravity_residuals",
+    "gravity",
+    "Residuals about the mean line beside the white-noise floor",
+    "mGal",
+    ("coincidence.csv",),
+)
 def _gravity_residuals(v: ViewInput) -> dict:
     return _gravity_on_lines(v, residuals=True)
 
 
-@view("gravity_compare_gnss", "gravity", "SINS/LDV against SINS/GNSS (and LDV+GNSS navigation) along each line",
-      "mGal", ("gravity.csv",))
+@view(
+    "gravity_compare_gnss",
+    "gravity",
+    "SINS/LDV against SINS/GNSS (and LDV+GNSS navigation) along each line",
+    "mGal",
+    ("gravity.csv",),
+)
 def _gravity_compare_gnss(v: ViewInput) -> dict:
     g, s = v.csv("gravity.csv"), v.summary
     on = g["line"] != ""
@@ -280,12 +388,18 @@ def _gravity_compare_gnss(v: ViewInput) -> dict:
         if other is not None:  # the two chains' difference along each line
             tr.append(v.trace(g["distance_m"][k], g["dg_mgal"][k] - g[other][k], f"{name}: SINS/LDV − SINS/GNSS"))
         if "dg_gnss_aided_mgal" in g:
-            tr.append(v.trace(g["distance_m"][k], g["dg_mgal"][k] - g["dg_gnss_aided_mgal"][k],
-                              f"{name}: LDV − LDV+GNSS navigation", line={"dash": "dot"}))
-    rms = [f"{d['name']} {d['rms_mgal']:.2f}" for d in gc.get("ldv_minus_gnss", [])
-           if d.get("rms_mgal") is not None]
-    title = (f"SINS/LDV {_floor_text(s)} vs SINS/GNSS {_floor_text(gc)}; difference RMS per line (mGal): "
-             + (", ".join(rms) if rms else "none"))
+            tr.append(
+                v.trace(
+                    g["distance_m"][k],
+                    g["dg_mgal"][k] - g["dg_gnss_aided_mgal"][k],
+                    f"{name}: LDV − LDV+GNSS navigation",
+                    line={"dash": "dot"},
+                )
+            )
+    rms = [f"{d['name']} {d['rms_mgal']:.2f}" for d in gc.get("ldv_minus_gnss", []) if d.get("rms_mgal") is not None]
+    title = f"SINS/LDV {_floor_text(s)} vs SINS/GNSS {_floor_text(gc)}; difference RMS per line (mGal): " + (
+        ", ".join(rms) if rms else "none"
+    )
     return _fig(tr, title, "along-track distance (m)", "δg difference (mGal)")
 
 
@@ -300,12 +414,17 @@ def _gravity_view(session, job: Job, name: str, s: dict, x0, x1, n) -> dict:
 
 # --- dov --------------------------------------------------------------------------------------------
 
+
 @view("dov_deflection", "dov", "Deflection of the vertical ξ, η along the track", "arcsec", ("dov.csv",))
 def _dov_deflection(v: ViewInput) -> dict:
     d, s = v.csv("dov.csv"), v.summary
     t = d["t_s"]
-    return _fig([v.trace(t, d["xi_arcsec"], "ξ"), v.trace(t, d["eta_arcsec"], "η")],
-                f"Deflection of the vertical along the track ({s.get('dov_source', '')})", "t (s of day)", "arcsec")
+    return _fig(
+        [v.trace(t, d["xi_arcsec"], "ξ"), v.trace(t, d["eta_arcsec"], "η")],
+        f"Deflection of the vertical along the track ({s.get('dov_source', '')})",
+        "t (s of day)",
+        "arcsec",
+    )
 
 
 @view("dov_error", "dov", "Position error the DOV causes: direct, RK4 and theoretical", "m", ("dov.csv",))
@@ -321,21 +440,35 @@ def _dov_error(v: ViewInput) -> dict:
 
 # --- damping ----------------------------------------------------------------------------------------
 
-@view("damping", "damping", "North position error: undamped, conventional and delayed-state damping", "m",
-      ("damping.csv",))
+
+@view(
+    "damping",
+    "damping",
+    "North position error: undamped, conventional and delayed-state damping",
+    "m",
+    ("damping.csv",),
+)
 def _damping(v: ViewInput) -> dict:
     d, s = v.csv("damping.csv"), v.summary
     t = d["t_s"]
-    tr = [v.trace(t, d[f"{m}_north_error_m"], f"{m.replace('_', ' ')}, north")
-          for m in ("undamped", "conventional", "delayed_state")]
-    return _fig(tr, f"Position error: delayed-state improves {s.get('position_improvement_pct', 0):.1f} % over "
-                    "conventional", "t (s of day)", "north error (m)")
+    tr = [
+        v.trace(t, d[f"{m}_north_error_m"], f"{m.replace('_', ' ')}, north")
+        for m in ("undamped", "conventional", "delayed_state")
+    ]
+    return _fig(
+        tr,
+        f"Position error: delayed-state improves {s.get('position_improvement_pct', 0):.1f} % over conventional",
+        "t (s of day)",
+        "north error (m)",
+    )
 
 
 def build_view(session, job: Job, name: str, x0, x1, n) -> dict:
     """The figure of view ``name`` of a (succeeded) job; 404 when the job's pipeline has no such view."""
     v = VIEWS.get(name)
     if v is None or v.pipeline != job.pipeline:
-        raise HTTPException(404, f"no view '{name}' for a {job.pipeline} job "
-                                 f"(views: {[x.name for x in views_of(job.pipeline)] or None})")
+        raise HTTPException(
+            404,
+            f"no view '{name}' for a {job.pipeline} job (views: {[x.name for x in views_of(job.pipeline)] or None})",
+        )
     return v.build(ViewInput(session, job, job.summary or {}, x0, x1, n, v.files))

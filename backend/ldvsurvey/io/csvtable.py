@@ -52,8 +52,10 @@ def _is_blank(data: bytes) -> bool:
 def _lines(data: bytes) -> tuple[np.ndarray, np.ndarray]:
     """Start and end (exclusive, before ``\\r\\n``) byte offsets of every line."""
     arr = np.frombuffer(data, dtype=np.uint8)
-    nl = np.concatenate([np.flatnonzero(arr[a:a + _CHUNK] == 10) + a for a in range(0, len(arr), _CHUNK)]
-                        or [np.empty(0, dtype=np.int64)])
+    nl = np.concatenate(
+        [np.flatnonzero(arr[a : a + _CHUNK] == 10) + a for a in range(0, len(arr), _CHUNK)]
+        or [np.empty(0, dtype=np.int64)]
+    )
     starts = np.concatenate(([0], nl + 1))
     ends = np.concatenate((nl, [len(arr)]))
     if starts[-1] >= len(arr):  # file ends with a newline: no last empty line
@@ -64,9 +66,14 @@ def _lines(data: bytes) -> tuple[np.ndarray, np.ndarray]:
     return starts, ends
 
 
-def read_numeric_csv(data, file: str, required: list[str],
-                     optional: list[str] = (), alternatives: list[tuple[str, ...]] = (),
-                     groups: dict[str, list[str]] | None = None) -> NumericTable:
+def read_numeric_csv(
+    data,
+    file: str,
+    required: list[str],
+    optional: list[str] = (),
+    alternatives: list[tuple[str, ...]] = (),
+    groups: dict[str, list[str]] | None = None,
+) -> NumericTable:
     """Parse a comma-separated numeric file with a header row.
 
     A file without comment or blank lines after its header (what recorders write) is parsed in one
@@ -118,14 +125,14 @@ def _read_exact(data: bytes, file, required, optional, alternatives, groups) -> 
         # whitespace-only lines count as blank
         idx = np.flatnonzero(~blank & ((first == 32) | (first == 9)))
         for i in idx:
-            if not data[starts[i]:ends[i]].strip():
+            if not data[starts[i] : ends[i]].strip():
                 blank[i] = True
     keep = ~blank & (first != ord("#"))
     kept = np.flatnonzero(keep)
     if len(kept) == 0:
         raise BundleError("no header row (only comments or blank lines)", file=file, line=1)
     header_idx = kept[0]
-    header_line = data[starts[header_idx]:ends[header_idx]].decode("utf-8", "replace").lstrip("\ufeff")
+    header_line = data[starts[header_idx] : ends[header_idx]].decode("utf-8", "replace").lstrip("\ufeff")
     names = [c.strip() for c in header_line.split(",")]
     hline = int(header_idx) + 1
     _check_header(names, file, hline, required, optional, alternatives)
@@ -136,23 +143,25 @@ def _read_exact(data: bytes, file, required, optional, alternatives, groups) -> 
 
     # bytes of the data rows only, without comment/blank lines (a view, not a copy, when contiguous)
     if rows[-1] - rows[0] + 1 == len(rows):
-        body = memoryview(data)[starts[rows[0]]:]
+        body = memoryview(data)[starts[rows[0]] :]
     else:
         breaks = np.flatnonzero(np.diff(rows) != 1)
         run_starts = np.concatenate(([rows[0]], rows[breaks + 1]))
         run_ends = np.concatenate((rows[breaks], [rows[-1]]))
-        body = b"\n".join(data[starts[a]:ends[b]] for a, b in zip(run_starts, run_ends)) + b"\n"
+        body = b"\n".join(data[starts[a] : ends[b]] for a, b in zip(run_starts, run_ends)) + b"\n"
 
-    wanted = [n for n in names if n in set(required) | set(optional)
-              | {c for grp in alternatives for c in grp}]
+    wanted = [n for n in names if n in set(required) | set(optional) | {c for grp in alternatives for c in grp}]
     try:
         table = pacsv.read_csv(
             pa.BufferReader(pa.py_buffer(body)),
             read_options=pacsv.ReadOptions(column_names=names, autogenerate_column_names=False),
             parse_options=pacsv.ParseOptions(delimiter=","),
             convert_options=pacsv.ConvertOptions(
-                column_types={n: pa.float64() for n in wanted}, include_columns=wanted,
-                strings_can_be_null=False, null_values=[""]),
+                column_types={n: pa.float64() for n in wanted},
+                include_columns=wanted,
+                strings_can_be_null=False,
+                null_values=[""],
+            ),
         )
     except (pa.ArrowInvalid, pa.ArrowTypeError) as exc:
         _diagnose(data, starts, ends, rows, names, wanted, file)
@@ -169,8 +178,11 @@ def _to_numpy(table, names, wanted, groups, file, line_of, line_of_row) -> Numer
     copied, so the table exists in two copies for one column only); empty and non-finite cells are
     refused naming their line (``line_of(row)``)."""
     n_rows = table.num_rows
-    group_arrays = {g: np.empty((n_rows, len(cols)), dtype=np.float64) for g, cols in groups.items()
-                    if all(c in wanted for c in cols)}
+    group_arrays = {
+        g: np.empty((n_rows, len(cols)), dtype=np.float64)
+        for g, cols in groups.items()
+        if all(c in wanted for c in cols)
+    }
     slot = {c: (g, k) for g, cols in groups.items() if g in group_arrays for k, c in enumerate(cols)}
     columns: dict[str, np.ndarray] = {}
     for n in wanted:
@@ -193,8 +205,7 @@ def _to_numpy(table, names, wanted, groups, file, line_of, line_of_row) -> Numer
         columns[n] = values
     ignored = [n for n in names if n not in wanted]
     warnings = [f"{file}: column '{n}' is not part of the format and was ignored" for n in ignored]
-    return NumericTable(file=file, columns=columns, line_of_row=line_of_row, warnings=warnings,
-                        groups=group_arrays)
+    return NumericTable(file=file, columns=columns, line_of_row=line_of_row, warnings=warnings, groups=group_arrays)
 
 
 def _float64_values(col, out: np.ndarray | None = None) -> np.ndarray:
@@ -203,15 +214,16 @@ def _float64_values(col, out: np.ndarray | None = None) -> np.ndarray:
 
     ``ChunkedArray.to_numpy`` would import pandas (a third of a second at every start).
     """
-    parts = [np.frombuffer(c.buffers()[1], dtype=np.float64, count=len(c), offset=8 * c.offset)
-             for c in col.chunks if len(c)]
+    parts = [
+        np.frombuffer(c.buffers()[1], dtype=np.float64, count=len(c), offset=8 * c.offset) for c in col.chunks if len(c)
+    ]
     if out is None:
         if not parts:
             return np.empty(0, dtype=np.float64)
         return parts[0].copy() if len(parts) == 1 else np.concatenate(parts)
     i = 0
     for p in parts:
-        out[i:i + len(p)] = p
+        out[i : i + len(p)] = p
         i += len(p)
     return out
 
@@ -247,8 +259,7 @@ def _read_regular(data, file, required, optional, alternatives, groups) -> Numer
     if len(names) < 2:
         return None
     _check_header(names, file, hline, required, optional, alternatives)
-    wanted = [n for n in names if n in set(required) | set(optional)
-              | {c for grp in alternatives for c in grp}]
+    wanted = [n for n in names if n in set(required) | set(optional) | {c for grp in alternatives for c in grp}]
     if is_path:
         src = pa.OSFile(str(data))
         src.seek(body_at)
@@ -263,12 +274,14 @@ def _read_regular(data, file, required, optional, alternatives, groups) -> Numer
         # that differs from the line count, an empty cell or a parse error sends the file the exact way
         table = pacsv.read_csv(
             src,
-            read_options=pacsv.ReadOptions(column_names=names, autogenerate_column_names=False,
-                                           block_size=4 << 20),
+            read_options=pacsv.ReadOptions(column_names=names, autogenerate_column_names=False, block_size=4 << 20),
             parse_options=pacsv.ParseOptions(delimiter=",", ignore_empty_lines=False),
             convert_options=pacsv.ConvertOptions(
-                column_types={n: pa.float64() for n in wanted}, include_columns=wanted,
-                strings_can_be_null=False, null_values=[""]),
+                column_types={n: pa.float64() for n in wanted},
+                include_columns=wanted,
+                strings_can_be_null=False,
+                null_values=[""],
+            ),
         )
     except (pa.ArrowInvalid, pa.ArrowTypeError):
         return None
@@ -312,17 +325,23 @@ def _check_header(names, file, hline, required, optional, alternatives) -> None:
     for n in unknown:  # a near miss of a known column is a misspelling, not an extra column
         close = difflib.get_close_matches(n, sorted(known - seen), n=1, cutoff=0.75)
         if close:
-            raise BundleError(f"unknown column '{n}': did you mean '{close[0]}'?",
-                              file=file, line=hline, field=n)
+            raise BundleError(f"unknown column '{n}': did you mean '{close[0]}'?", file=file, line=hline, field=n)
     if missing:
-        raise BundleError(f"required column '{missing[0]}' is missing (header has: {', '.join(names)})",
-                          file=file, line=hline, field=missing[0])
+        raise BundleError(
+            f"required column '{missing[0]}' is missing (header has: {', '.join(names)})",
+            file=file,
+            line=hline,
+            field=missing[0],
+        )
     for grp in alternatives:
         present = [c for c in grp if c in seen]
         if len(present) != 1:
-            raise BundleError(f"exactly one of {', '.join(grp)} must be present, found "
-                              f"{', '.join(present) if present else 'none'}",
-                              file=file, line=hline, field=grp[0])
+            raise BundleError(
+                f"exactly one of {', '.join(grp)} must be present, found {', '.join(present) if present else 'none'}",
+                file=file,
+                line=hline,
+                field=grp[0],
+            )
 
 
 def _diagnose(data, starts, ends, rows, names, wanted, file) -> None:
@@ -330,7 +349,7 @@ def _diagnose(data, starts, ends, rows, names, wanted, file) -> None:
     ncol = len(names)
     index = {n: i for i, n in enumerate(names)}
     for r in rows:
-        text = data[starts[r]:ends[r]].decode("utf-8", "replace")
+        text = data[starts[r] : ends[r]].decode("utf-8", "replace")
         cells = text.split(",")
         if len(cells) != ncol:
             raise BundleError(f"expected {ncol} fields, found {len(cells)}", file=file, line=int(r) + 1)
@@ -341,8 +360,7 @@ def _diagnose(data, starts, ends, rows, names, wanted, file) -> None:
             try:
                 float(cell)
             except ValueError:
-                raise BundleError(f"'{cell}' is not a number", file=file, line=int(r) + 1,
-                                  field=n) from None
+                raise BundleError(f"'{cell}' is not a number", file=file, line=int(r) + 1, field=n) from None
 
 
 def check_time(t: np.ndarray, line_of_row: np.ndarray, file: str, column: str = "t") -> None:
@@ -352,5 +370,9 @@ def check_time(t: np.ndarray, line_of_row: np.ndarray, file: str, column: str = 
     if len(bad):
         i = int(bad[0]) + 1
         what = "repeats" if d[i - 1] == 0 else "goes backwards"
-        raise BundleError(f"time {what}: {float(t[i])!r} s after {float(t[i - 1])!r} s on line {int(line_of_row[i - 1])}",
-                          file=file, line=int(line_of_row[i]), field=column)
+        raise BundleError(
+            f"time {what}: {float(t[i])!r} s after {float(t[i - 1])!r} s on line {int(line_of_row[i - 1])}",
+            file=file,
+            line=int(line_of_row[i]),
+            field=column,
+        )

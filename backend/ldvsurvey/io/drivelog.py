@@ -159,6 +159,7 @@ class BundleFiles(dict):
     def write_all(self, items: list[tuple[str, object]]) -> list[Path]:
         """:meth:`write` for several files at once, each in its own thread (inflating, hashing and
         writing release the GIL); the first failure is raised once all have stopped."""
+
         def one(k, name, chunks):
             path = self.folder.path / f"{len(self) + k}-{name}"
             h = hashlib.sha256()
@@ -238,17 +239,24 @@ def parse_imu(data: bytes | Path, manifest: Manifest) -> tuple[ImuData, list[str
     cols, lines, w, bridged, long_gaps = regularize_imu(cols, lines, manifest.imu.rate_hz, file)
     warnings += w
     if manifest.imu.rotating and "turntable_deg" not in cols:
-        raise BundleError("manifest says imu.rotating is true but the column is missing",
-                          file=file, line=1, field="turntable_deg")
+        raise BundleError(
+            "manifest says imu.rotating is true but the column is missing", file=file, line=1, field="turntable_deg"
+        )
     turn = cols.get("turntable_deg")
     if turn is not None and not manifest.imu.rotating:
         warnings.append("imu.csv: turntable_deg present but imu.rotating is false; ignored")
         turn = None
     if dups:
         warnings.append(f"imu.csv: {dups} exactly repeated row(s) dropped")
-    imu = ImuData(t_s=cols["t"], dtheta_rad=_stacked(cols, IMU_GROUPS["dtheta"], tab.groups.get("dtheta")),
-                  dvel_mps=_stacked(cols, IMU_GROUPS["dvel"], tab.groups.get("dvel")),
-                  turntable_deg=turn, duplicated_rows=dups, bridged_rows=bridged, long_gaps=long_gaps)
+    imu = ImuData(
+        t_s=cols["t"],
+        dtheta_rad=_stacked(cols, IMU_GROUPS["dtheta"], tab.groups.get("dtheta")),
+        dvel_mps=_stacked(cols, IMU_GROUPS["dvel"], tab.groups.get("dvel")),
+        turntable_deg=turn,
+        duplicated_rows=dups,
+        bridged_rows=bridged,
+        long_gaps=long_gaps,
+    )
     return imu, warnings
 
 
@@ -258,8 +266,7 @@ def parse_ldv(data: bytes | Path, manifest: Manifest) -> tuple[LdvData, list[str
     kind = manifest.ldv.kind
     optional = ["quality"] + (["v_up"] if kind == "2d" else [])
     required = ["t"] + (["v_up"] if kind == "2d" else [])
-    tab = read_numeric_csv(data, file, required, optional=optional,
-                           alternatives=[("v_fwd", "fd_hz")])
+    tab = read_numeric_csv(data, file, required, optional=optional, alternatives=[("v_fwd", "fd_hz")])
     warnings = list(tab.warnings)
     cols, lines, dups = _drop_duplicate_rows(tab.columns, tab.line_of_row, file)
     check_time(cols["t"], lines, file)
@@ -268,15 +275,23 @@ def parse_ldv(data: bytes | Path, manifest: Manifest) -> tuple[LdvData, list[str
     fd = None
     if "fd_hz" in cols:
         if manifest.ldv.optics is None:
-            raise BundleError("ldv.csv carries fd_hz but the manifest has no ldv.optics",
-                              file="manifest.json", field="ldv.optics")
+            raise BundleError(
+                "ldv.csv carries fd_hz but the manifest has no ldv.optics", file="manifest.json", field="ldv.optics"
+            )
         fd = cols["fd_hz"]
         v_fwd = fd_to_v_fwd(fd, manifest.ldv.optics)
         source = "fd_hz"
     else:
         v_fwd, source = cols["v_fwd"], "v_fwd"
-    ldv = LdvData(t_s=cols["t"], v_fwd_mps=v_fwd, v_up_mps=cols.get("v_up"),
-                  quality=cols.get("quality"), fd_hz=fd, source=source, duplicated_rows=dups)
+    ldv = LdvData(
+        t_s=cols["t"],
+        v_fwd_mps=v_fwd,
+        v_up_mps=cols.get("v_up"),
+        quality=cols.get("quality"),
+        fd_hz=fd,
+        source=source,
+        duplicated_rows=dups,
+    )
     return ldv, warnings
 
 
@@ -302,8 +317,10 @@ def parse_files(files: dict[str, bytes | Path]) -> DriveLog:
 def _parse_files(files: dict[str, bytes | Path]) -> DriveLog:
     for name in REQUIRED_FILES:
         if name not in files:
-            raise BundleError(f"required file '{name}' is missing from the bundle "
-                              f"(got: {', '.join(sorted(files)) or 'nothing'})", file=name)
+            raise BundleError(
+                f"required file '{name}' is missing from the bundle (got: {', '.join(sorted(files)) or 'nothing'})",
+                file=name,
+            )
     extra = sorted(set(files) - set(KNOWN_FILES))
     warnings = [f"file '{n}' is not part of the format and was ignored" for n in extra]
     known_sha = {k: v for k, v in getattr(files, "sha256", {}).items() if k in KNOWN_FILES}
@@ -322,19 +339,21 @@ def _parse_files(files: dict[str, bytes | Path]) -> DriveLog:
         gnss = parse_nmea(files["gnss.nmea"], t_ref_s=float(imu.t_s[0]))
         warnings += gnss.warnings
     if ldv.t_s[-1] < imu.t_s[0] or ldv.t_s[0] > imu.t_s[-1]:
-        raise BundleError(f"LDV times [{ldv.t_s[0]:.2f}, {ldv.t_s[-1]:.2f}] s do not overlap the IMU's "
-                          f"[{imu.t_s[0]:.2f}, {imu.t_s[-1]:.2f}] s (same clock expected)",
-                          file="ldv.csv", field="t")
+        raise BundleError(
+            f"LDV times [{ldv.t_s[0]:.2f}, {ldv.t_s[-1]:.2f}] s do not overlap the IMU's "
+            f"[{imu.t_s[0]:.2f}, {imu.t_s[-1]:.2f}] s (same clock expected)",
+            file="ldv.csv",
+            field="t",
+        )
     for ln in manifest.lines:
         if not (ln.t_end > ln.t_start):
-            raise BundleError(f"line '{ln.name}' ends before it starts", file="manifest.json",
-                              field="lines")
-    return DriveLog(manifest=manifest, imu=imu, ldv=ldv, gnss=gnss, files=files, warnings=warnings,
-                    file_sha256=known_sha, keep=keep)
+            raise BundleError(f"line '{ln.name}' ends before it starts", file="manifest.json", field="lines")
+    return DriveLog(
+        manifest=manifest, imu=imu, ldv=ldv, gnss=gnss, files=files, warnings=warnings, file_sha256=known_sha, keep=keep
+    )
 
 
-def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0,
-             name: str = "upload.zip") -> dict[str, bytes]:
+def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0, name: str = "upload.zip") -> dict[str, bytes]:
     """Members of a bundle zip, refusing traversal, absolute paths and zip bombs.
 
     ``data`` is the archive's bytes, or its path or an open binary file (then the compressed
@@ -357,14 +376,19 @@ def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0,
         if info.file_size > max_unzipped_bytes or total + info.file_size > max_unzipped_bytes:
             raise TooLargeError(f"archive unpacks to more than {max_unzipped_bytes} bytes", file=name, field=fn)
         if info.compress_size and info.file_size / info.compress_size > max_ratio and info.file_size > 1 << 20:
-            raise TooLargeError(f"member '{fn}' compresses {info.file_size / info.compress_size:.0f}:1 "
-                                f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb", file=name, field=fn)
+            raise TooLargeError(
+                f"member '{fn}' compresses {info.file_size / info.compress_size:.0f}:1 "
+                f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb",
+                file=name,
+                field=fn,
+            )
         try:
             with zf.open(info) as fh:  # read with a hard cap: headers can lie
                 content = fh.read(max_unzipped_bytes - total + 1)
         except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
-            raise BundleError(f"member '{fn}' cannot be read (truncated or corrupt: {exc})",
-                              file=name, field=fn) from None
+            raise BundleError(
+                f"member '{fn}' cannot be read (truncated or corrupt: {exc})", file=name, field=fn
+            ) from None
         total += len(content)
         if total > max_unzipped_bytes:
             raise TooLargeError(f"archive unpacks to more than {max_unzipped_bytes} bytes", file=name, field=fn)
@@ -380,8 +404,13 @@ def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0,
     return members
 
 
-def stage_zip(path: str | Path, max_unzipped_bytes: int, max_ratio: float = 200.0, name: str | None = None,
-              parent: str | Path | None = None) -> BundleFiles:
+def stage_zip(
+    path: str | Path,
+    max_unzipped_bytes: int,
+    max_ratio: float = 200.0,
+    name: str | None = None,
+    parent: str | Path | None = None,
+) -> BundleFiles:
     """The bundle files of a zip inflated into a temporary folder (under ``parent``), never held in
     memory whole; the checks and messages of :func:`read_zip`. Files of the archive that are not
     part of the format map to ``b""`` (the parser names them in a warning; they are not inflated)."""
@@ -404,8 +433,12 @@ def stage_zip(path: str | Path, max_unzipped_bytes: int, max_ratio: float = 200.
             if info.file_size > max_unzipped_bytes or declared > max_unzipped_bytes:
                 raise TooLargeError(f"archive unpacks to more than {max_unzipped_bytes} bytes", file=name, field=fn)
             if info.compress_size and info.file_size / info.compress_size > max_ratio and info.file_size > 1 << 20:
-                raise TooLargeError(f"member '{fn}' compresses {info.file_size / info.compress_size:.0f}:1 "
-                                    f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb", file=name, field=fn)
+                raise TooLargeError(
+                    f"member '{fn}' compresses {info.file_size / info.compress_size:.0f}:1 "
+                    f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb",
+                    file=name,
+                    field=fn,
+                )
             entries.append((fn, info))
         if not entries:
             raise BundleError("archive holds no files", file=name)
@@ -430,12 +463,16 @@ def stage_zip(path: str | Path, max_unzipped_bytes: int, max_ratio: float = 200.
                         while chunk := fh.read(min(1 << 22, left + 1)):
                             left -= len(chunk)
                             if left < 0:
-                                raise TooLargeError(f"member '{fn}' inflates past its declared size; "
-                                                    f"refusing a possible zip bomb", file=name, field=fn)
+                                raise TooLargeError(
+                                    f"member '{fn}' inflates past its declared size; refusing a possible zip bomb",
+                                    file=name,
+                                    field=fn,
+                                )
                             yield chunk
                 except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
-                    raise BundleError(f"member '{fn}' cannot be read (truncated or corrupt: {exc})",
-                                      file=name, field=fn) from None
+                    raise BundleError(
+                        f"member '{fn}' cannot be read (truncated or corrupt: {exc})", file=name, field=fn
+                    ) from None
 
             jobs.append((member, chunks()))
         try:

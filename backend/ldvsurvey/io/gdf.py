@@ -7,8 +7,14 @@ import numpy as np
 
 from ldvsurvey.errors import BundleError
 
-REQUIRED = ("latitude_parallels", "longitude_parallels", "latlimit_north", "latlimit_south",
-            "longlimit_west", "longlimit_east")
+REQUIRED = (
+    "latitude_parallels",
+    "longitude_parallels",
+    "latlimit_north",
+    "latlimit_south",
+    "longlimit_west",
+    "longlimit_east",
+)
 
 
 def parse_gdf(data: bytes, name: str = "grid.gdf"):
@@ -44,7 +50,7 @@ def parse_gdf(data: bytes, name: str = "grid.gdf"):
         raise BundleError("a grid keyword is not a number", file=name, field="latitude_parallels") from None
     gap = float(header.get("gapvalue", "nan").split()[0]) if "gapvalue" in header else None
     rows = []
-    for i, ln in enumerate(lines[end + 1:], start=end + 2):
+    for i, ln in enumerate(lines[end + 1 :], start=end + 2):
         parts = ln.split()
         if not parts:
             continue
@@ -57,11 +63,17 @@ def parse_gdf(data: bytes, name: str = "grid.gdf"):
         rows.append((vals[0], vals[1], vals[-1], i))
     expected = n_lat * n_lon
     if "number_of_gridpoints" in header and int(header["number_of_gridpoints"].split()[0]) != expected:
-        raise BundleError(f"number_of_gridpoints {header['number_of_gridpoints']} ≠ {n_lat}×{n_lon}",
-                          file=name, field="number_of_gridpoints")
+        raise BundleError(
+            f"number_of_gridpoints {header['number_of_gridpoints']} ≠ {n_lat}×{n_lon}",
+            file=name,
+            field="number_of_gridpoints",
+        )
     if len(rows) != expected:
-        raise BundleError(f"{len(rows)} grid points but the header promises {n_lat}×{n_lon} = {expected}",
-                          file=name, field="latitude_parallels")
+        raise BundleError(
+            f"{len(rows)} grid points but the header promises {n_lat}×{n_lon} = {expected}",
+            file=name,
+            field="latitude_parallels",
+        )
     a = np.array([r[:3] for r in rows])
     lon = a[:n_lon, 0]
     lat_desc = a[::n_lon, 1]
@@ -70,12 +82,18 @@ def parse_gdf(data: bytes, name: str = "grid.gdf"):
     bad = np.flatnonzero((np.abs(a[:, 0] - grid_lon) > 1e-6) | (np.abs(a[:, 1] - grid_lat) > 1e-6))
     if len(bad) or not np.all(np.diff(lon) > 0) or not np.all(np.diff(lat_desc) < 0):
         line = rows[int(bad[0])][3] if len(bad) else end + 2
-        raise BundleError("rows are not a regular grid with longitude fastest and latitude from north to south",
-                          file=name, line=line)
-    if abs(lat_desc[0] - north) > 1e-6 or abs(lat_desc[-1] - south) > 1e-6 or abs(lon[0] - west) > 1e-6 \
-            or abs(lon[-1] - east) > 1e-6:
-        raise BundleError("grid rows do not match latlimit_*/longlimit_* of the header", file=name,
-                          field="latlimit_north")
+        raise BundleError(
+            "rows are not a regular grid with longitude fastest and latitude from north to south", file=name, line=line
+        )
+    if (
+        abs(lat_desc[0] - north) > 1e-6
+        or abs(lat_desc[-1] - south) > 1e-6
+        or abs(lon[0] - west) > 1e-6
+        or abs(lon[-1] - east) > 1e-6
+    ):
+        raise BundleError(
+            "grid rows do not match latlimit_*/longlimit_* of the header", file=name, field="latlimit_north"
+        )
     values = a[:, 2].reshape(n_lat, n_lon)
     if gap is not None and np.any(values == gap):
         k = int(np.flatnonzero(values.ravel() == gap)[0])

@@ -58,17 +58,23 @@ class LongGap:
     missing_rows: int
 
     def describe(self) -> str:
-        return (f"{self.t_after_s - self.t_before_s:.3f} s between t={self.t_before_s:.3f} s and "
-                f"t={self.t_after_s:.3f} s (line {self.line}, about {self.missing_rows} missing rows)")
+        return (
+            f"{self.t_after_s - self.t_before_s:.3f} s between t={self.t_before_s:.3f} s and "
+            f"t={self.t_after_s:.3f} s (line {self.line}, about {self.missing_rows} missing rows)"
+        )
 
 
 def check_no_long_gaps(long_gaps, file: str = "imu.csv") -> None:
     """Raise a :class:`BundleError` naming the first gap too long to bridge (before integrating)."""
     if long_gaps:
         g = long_gaps[0]
-        raise BundleError(f"gap of {g.describe()} in the IMU time tags; at most {MAX_BRIDGE_ROWS} missing rows are "
-                          "bridged: the strapdown integration cannot cross it (cut the log at the gap)",
-                          file=file, line=g.line, field="t")
+        raise BundleError(
+            f"gap of {g.describe()} in the IMU time tags; at most {MAX_BRIDGE_ROWS} missing rows are "
+            "bridged: the strapdown integration cannot cross it (cut the log at the gap)",
+            file=file,
+            line=g.line,
+            field="t",
+        )
 
 
 def _reorder(cols: dict, lines: np.ndarray, file: str):
@@ -79,12 +85,19 @@ def _reorder(cols: dict, lines: np.ndarray, file: str):
     disp = np.abs(order - np.arange(len(t)))
     i = int(np.flatnonzero(np.diff(t) < 0)[0]) + 1
     if disp.max() > MAX_REORDER_ROWS:
-        raise BundleError(f"time goes backwards: {float(t[i])!r} s after {float(t[i - 1])!r} s on line "
-                          f"{int(lines[i - 1])} (more than {MAX_REORDER_ROWS} rows out of order: not a "
-                          "buffering slip)", file=file, line=int(lines[i]), field="t")
+        raise BundleError(
+            f"time goes backwards: {float(t[i])!r} s after {float(t[i - 1])!r} s on line "
+            f"{int(lines[i - 1])} (more than {MAX_REORDER_ROWS} rows out of order: not a "
+            "buffering slip)",
+            file=file,
+            line=int(lines[i]),
+            field="t",
+        )
     n = int(np.count_nonzero(disp))
-    msg = (f"{file}: {n} row(s) out of time order (first at line {int(lines[i])}, t={float(t[i]):.3f} s) "
-           "were put back in time order")
+    msg = (
+        f"{file}: {n} row(s) out of time order (first at line {int(lines[i])}, t={float(t[i]):.3f} s) "
+        "were put back in time order"
+    )
     return {k: v[order] for k, v in cols.items()}, lines[order], msg
 
 
@@ -93,8 +106,10 @@ def nominal_interval(t_s: np.ndarray, rate_hz: float | None):
     dt = float(np.median(np.diff(t_s)))
     warn = None
     if rate_hz and abs(dt * rate_hz - 1.0) > 0.05:
-        warn = (f"imu.csv: the median time-tag interval {dt:.6f} s disagrees with manifest imu.rate_hz "
-                f"{rate_hz} Hz; the median interval is used")
+        warn = (
+            f"imu.csv: the median time-tag interval {dt:.6f} s disagrees with manifest imu.rate_hz "
+            f"{rate_hz} Hz; the median interval is used"
+        )
     return dt, warn
 
 
@@ -140,12 +155,15 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
     k_missing = np.rint(dt[gaps] / dt_nom).astype(int) - 1
     k_missing = np.maximum(k_missing, 1)
     long_ = k_missing > MAX_BRIDGE_ROWS
-    long_gaps = [LongGap(int(lines[g + 1]), float(t[g]), float(t[g + 1]), int(k))
-                 for g, k in zip(gaps[long_], k_missing[long_])]
+    long_gaps = [
+        LongGap(int(lines[g + 1]), float(t[g]), float(t[g + 1]), int(k)) for g, k in zip(gaps[long_], k_missing[long_])
+    ]
     if long_gaps:
-        warnings.append(f"{file}: {len(long_gaps)} gap(s) in the IMU time tags too long to bridge (more than "
-                        f"{MAX_BRIDGE_ROWS} missing rows), the first {long_gaps[0].describe()}: navigation "
-                        "pipelines refuse this log")
+        warnings.append(
+            f"{file}: {len(long_gaps)} gap(s) in the IMU time tags too long to bridge (more than "
+            f"{MAX_BRIDGE_ROWS} missing rows), the first {long_gaps[0].describe()}: navigation "
+            "pipelines refuse this log"
+        )
     gaps, k_missing = gaps[~long_], k_missing[~long_]
     if len(gaps) == 0:
         return cols, lines, warnings, 0, long_gaps
@@ -167,7 +185,7 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         h = (t[g + 1] - t[g]) / (k + 1)
         t_new = t[g] + h * np.arange(1, k + 1)
         for name in cols:
-            pieces[name].append(cols[name][start:g + 1])
+            pieces[name].append(cols[name][start : g + 1])
             if name == "t":
                 new = t_new
             elif name == "turntable_deg":
@@ -180,7 +198,7 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
                 w = np.arange(1, k + 1) / (k + 1)
                 new = ((1 - w) * cols[name][g] + w * cols[name][g + 1]) * (h / dt_nom)
             pieces[name].append(new)
-        line_pieces += [lines[start:g + 1], np.full(k, lines[g + 1])]
+        line_pieces += [lines[start : g + 1], np.full(k, lines[g + 1])]
         start = g + 1
         modes["accumulated" if accumulated else "lost"] += 1
         times.append((float(t[g]), int(k), accumulated))
@@ -206,6 +224,8 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         how.append(f"{modes['lost']} with lost increments interpolated linearly between the neighbouring rows")
     if modes["accumulated"]:
         how.append(f"{modes['accumulated']} whose next row accumulated the gap, split evenly over it")
-    warnings.append(f"{file}: {len(times)} gap(s) in the IMU time tags bridged, {total} missing row(s) in all, "
-                    f"after {listed}{more}; {'; '.join(how)}")
+    warnings.append(
+        f"{file}: {len(times)} gap(s) in the IMU time tags bridged, {total} missing row(s) in all, "
+        f"after {listed}{more}; {'; '.join(how)}"
+    )
     return out, new_lines, warnings, total, long_gaps

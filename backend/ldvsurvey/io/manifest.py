@@ -101,7 +101,7 @@ def _line_of_key(text: str, loc: tuple) -> int | None:
     keys = [k for k in loc if isinstance(k, str)]
     pos = 0
     for key in keys:  # walk down the path so a repeated key name finds the right one
-        m = re.compile(r'"%s"\s*:' % re.escape(key)).search(text, pos)
+        m = re.compile('"' + re.escape(key) + r'"\s*:').search(text, pos)
         if m is None:
             break
         pos = m.start()
@@ -117,8 +117,9 @@ def _describe(err: dict) -> str:
         return "required key is missing"
     if kind == "bool_type":
         return f"expected true or false, got {type(got).__name__} {got!r}"
-    if kind in ("float_type", "int_type") or (kind.endswith("_type") and isinstance(got, str)
-                                              and kind not in ("string_type", "date_type")):
+    if kind in ("float_type", "int_type") or (
+        kind.endswith("_type") and isinstance(got, str) and kind not in ("string_type", "date_type")
+    ):
         return f"expected a number, got {type(got).__name__} {got!r} (give units by the key name, not in the value)"
     if kind == "literal_error":
         return f"{err.get('msg')} (got {got!r})"
@@ -146,8 +147,12 @@ def parse_manifest(data: bytes) -> Manifest:
     if not isinstance(raw, dict):
         raise BundleError("top level must be a JSON object", file=FILE, line=1)
     if raw.get("format") != FORMAT_VERSION:
-        raise BundleError(f"format must be {FORMAT_VERSION!r}, got {raw.get('format')!r}",
-                          file=FILE, line=_line_of_key(text, ("format",)) or 1, field="format")
+        raise BundleError(
+            f"format must be {FORMAT_VERSION!r}, got {raw.get('format')!r}",
+            file=FILE,
+            line=_line_of_key(text, ("format",)) or 1,
+            field="format",
+        )
     try:
         # JSON mode: dates come as strings; numbers stay strict.
         return Manifest.model_validate_json(text)
@@ -155,5 +160,4 @@ def parse_manifest(data: bytes) -> Manifest:
         err = exc.errors()[0]
         loc = tuple(err["loc"])
         field = ".".join(str(p) for p in loc)
-        raise BundleError(_describe(err), file=FILE, line=_line_of_key(text, loc),
-                          field=field) from None
+        raise BundleError(_describe(err), file=FILE, line=_line_of_key(text, loc), field=field) from None

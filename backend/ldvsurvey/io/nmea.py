@@ -108,8 +108,9 @@ def _degrees(dm: str, hemi: str, line: int, name: str, hemispheres: str) -> floa
             raise BundleError(f"'{dm}' is not a coordinate (d)ddmm.mmmm", file=FILE, line=line, field=name)
         deg = float(m.group(1)) + float(m.group(2)) / 60
     if hemi not in hemispheres:
-        raise BundleError(f"hemisphere must be {'/'.join(hemispheres)}, got '{hemi}'", file=FILE, line=line,
-                          field=f"{name[:3]}_dir")
+        raise BundleError(
+            f"hemisphere must be {'/'.join(hemispheres)}, got '{hemi}'", file=FILE, line=line, field=f"{name[:3]}_dir"
+        )
     return -deg if hemi in "SW" else deg
 
 
@@ -211,10 +212,15 @@ def _gga_columns(bodies: list[str]) -> tuple | None:
     try:
         if len(pos):
             pick = [rows[i] for i in pos.tolist()]
-            lat_s, ns, lon_s, ew, alt_s, sep_s = (list(c) for c in zip(*((r[2], r[3], r[4], r[5], r[9], r[11])
-                                                                          for r in pick)))
-            if (not _COL_DM.fullmatch("\n".join(lat_s)) or not _COL_DM.fullmatch("\n".join(lon_s))
-                    or not set(ns) <= {"N", "S"} or not set(ew) <= {"E", "W"}):
+            lat_s, ns, lon_s, ew, alt_s, sep_s = (
+                list(c) for c in zip(*((r[2], r[3], r[4], r[5], r[9], r[11]) for r in pick))
+            )
+            if (
+                not _COL_DM.fullmatch("\n".join(lat_s))
+                or not _COL_DM.fullmatch("\n".join(lon_s))
+                or not set(ns) <= {"N", "S"}
+                or not set(ew) <= {"E", "W"}
+            ):
                 return None
             sign_lat = np.where(np.array(ns) == "S", -1.0, 1.0)
             sign_lon = np.where(np.array(ew) == "W", -1.0, 1.0)
@@ -264,14 +270,15 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
         cand_line.append(lineno)
         cand_body.append(body)
         cand_cks.append(cks)
-    ok = _checksums(cand_body) == np.fromiter((_given_checksum(c.strip()[:2]) for c in cand_cks),
-                                              dtype=np.int64, count=len(cand_cks))
+    ok = _checksums(cand_body) == np.fromiter(
+        (_given_checksum(c.strip()[:2]) for c in cand_cks), dtype=np.int64, count=len(cand_cks)
+    )
     bad_checksum = int(len(ok) - np.count_nonzero(ok))
     skipped: dict[str, int] = {}
     gga_body, gga_line = [], []
     for i in np.flatnonzero(ok).tolist():
         body = cand_body[i]
-        head = body[:body.find(",")] if "," in body else body
+        head = body[: body.find(",")] if "," in body else body
         stype = head[-3:]
         if stype != "GGA" or body.startswith("P"):
             skipped[stype] = skipped.get(stype, 0) + 1
@@ -280,8 +287,9 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
         gga_line.append(cand_line[i])
     cols = _gga_columns(gga_body)
     if cols is None:  # something unusual: line by line, so that an error names its line and field
-        cols = tuple(np.array(c) for c in zip(*(_gga(b, ln) for b, ln in zip(gga_body, gga_line)))) \
-            if gga_body else None
+        cols = (
+            tuple(np.array(c) for c in zip(*(_gga(b, ln) for b, ln in zip(gga_body, gga_line)))) if gga_body else None
+        )
     rows = []
     duplicates = 0
     if cols is not None:
@@ -300,13 +308,15 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
                 if t == prev_t:  # the same epoch again (e.g. GP and GN talkers): keep the first
                     duplicates += 1
                     continue
-                raise BundleError(f"GGA time goes backwards: {t:.2f} s after {prev_t:.2f} s",
-                                  file=FILE, line=lineno, field="time")
+                raise BundleError(
+                    f"GGA time goes backwards: {t:.2f} s after {prev_t:.2f} s", file=FILE, line=lineno, field="time"
+                )
             prev_t = t
             rows.append((j, t))
     if not rows:
-        raise BundleError(f"no valid GGA sentence ({bad_checksum} with bad checksum, "
-                          f"{malformed} malformed lines)", file=FILE)
+        raise BundleError(
+            f"no valid GGA sentence ({bad_checksum} with bad checksum, {malformed} malformed lines)", file=FILE
+        )
     keep = np.array([j for j, _ in rows], dtype=np.int64)
     t_s = np.array([t for _, t in rows], dtype=np.float64)
     _, lat, lon, h, fix, n_sat, hdop = (np.asarray(c)[keep] for c in cols)
@@ -317,12 +327,21 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
         warnings.append(f"{FILE}: {malformed} line(s) that are not NMEA sentences skipped")
     if duplicates:
         warnings.append(f"{FILE}: {duplicates} repeated GGA epoch(s) skipped")
-    return GnssData(t_s=t_s, lat_deg=lat.astype(np.float64), lon_deg=lon.astype(np.float64),
-                    h_m=h.astype(np.float64), fix=fix.astype(np.int16), n_sat=n_sat.astype(np.float64),
-                    hdop=hdop.astype(np.float64), line_of_row=np.array(gga_line, dtype=np.int64)[keep],
-                    bad_checksum=bad_checksum,
-                    malformed_lines=malformed, duplicate_epochs=duplicates,
-                    skipped_sentences=skipped, warnings=warnings)
+    return GnssData(
+        t_s=t_s,
+        lat_deg=lat.astype(np.float64),
+        lon_deg=lon.astype(np.float64),
+        h_m=h.astype(np.float64),
+        fix=fix.astype(np.int16),
+        n_sat=n_sat.astype(np.float64),
+        hdop=hdop.astype(np.float64),
+        line_of_row=np.array(gga_line, dtype=np.int64)[keep],
+        bad_checksum=bad_checksum,
+        malformed_lines=malformed,
+        duplicate_epochs=duplicates,
+        skipped_sentences=skipped,
+        warnings=warnings,
+    )
 
 
 def _ddmm(deg: float, width: int) -> str:
@@ -333,8 +352,17 @@ def _ddmm(deg: float, width: int) -> str:
     return f"{d:0{width}d}{m:011.8f}"
 
 
-def format_gga(t_s: float, lat_deg: float, lon_deg: float, h_msl_m: float, sep_m: float,
-               fix: int, n_sat: int = 12, hdop: float = 0.9, talker: str = "GP") -> str:
+def format_gga(
+    t_s: float,
+    lat_deg: float,
+    lon_deg: float,
+    h_msl_m: float,
+    sep_m: float,
+    fix: int,
+    n_sat: int = 12,
+    hdop: float = 0.9,
+    talker: str = "GP",
+) -> str:
     """One GGA sentence with checksum (no line end). Time is taken modulo one day."""
     tod = t_s % 86400.0
     hh, rem = divmod(tod, 3600.0)

@@ -71,14 +71,16 @@ def quality_report(log: DriveLog) -> dict:
             name = FIX_NAMES.get(int(code), f"q{int(code)}")
             shares[name] = shares.get(name, 0.0) + float(w[g.fix == code].sum()) / total
         shares["none"] += outage / total
-        gs.update({
-            "fix_time_share": shares,
-            "bad_checksum": g.bad_checksum,
-            "malformed_lines": g.malformed_lines,
-            "duplicate_epochs": g.duplicate_epochs,
-            "skipped_sentences": g.skipped_sentences,
-            "fix_timeline": _fix_timeline(g.t_s, g.fix),
-        })
+        gs.update(
+            {
+                "fix_time_share": shares,
+                "bad_checksum": g.bad_checksum,
+                "malformed_lines": g.malformed_lines,
+                "duplicate_epochs": g.duplicate_epochs,
+                "skipped_sentences": g.skipped_sentences,
+                "fix_timeline": _fix_timeline(g.t_s, g.fix),
+            }
+        )
         report["gnss"] = gs
     return report
 
@@ -88,5 +90,4 @@ def _fix_timeline(t_s: np.ndarray, fix: np.ndarray) -> list[dict]:
     change = np.flatnonzero(np.diff(fix) != 0) + 1
     starts = np.concatenate(([0], change))
     ends = np.concatenate((change - 1, [len(fix) - 1]))
-    return [{"t_start_s": float(t_s[a]), "t_end_s": float(t_s[b]), "fix": int(fix[a])}
-            for a, b in zip(starts, ends)]
+    return [{"t_start_s": float(t_s[a]), "t_end_s": float(t_s[b]), "fix": int(fix[a])} for a, b in zip(starts, ends)]

@@ -27,8 +27,15 @@ def csv_bytes(columns: dict[str, np.ndarray], comment: str | None = None) -> byt
 
 def imu_csv(t_s, dtheta_rad, dvel_mps, turntable_deg=None, comment=None) -> bytes:
     """``imu.csv`` bytes from (N,) times, (N,3) angle increments (rad), (N,3) velocity increments (m/s)."""
-    cols = {"t": t_s, "dtheta_x": dtheta_rad[:, 0], "dtheta_y": dtheta_rad[:, 1], "dtheta_z": dtheta_rad[:, 2],
-            "dvel_x": dvel_mps[:, 0], "dvel_y": dvel_mps[:, 1], "dvel_z": dvel_mps[:, 2]}
+    cols = {
+        "t": t_s,
+        "dtheta_x": dtheta_rad[:, 0],
+        "dtheta_y": dtheta_rad[:, 1],
+        "dtheta_z": dtheta_rad[:, 2],
+        "dvel_x": dvel_mps[:, 0],
+        "dvel_y": dvel_mps[:, 1],
+        "dvel_z": dvel_mps[:, 2],
+    }
     if turntable_deg is not None:
         cols["turntable_deg"] = turntable_deg
     return csv_bytes(cols, comment)
@@ -48,13 +55,23 @@ def ldv_csv(t_s, v_fwd_mps=None, v_up_mps=None, quality=None, fd_hz=None, commen
     return csv_bytes(cols, comment)
 
 
-def nmea_text(t_s, lat_deg, lon_deg, h_ell_m, fix, sep_m: float = -16.0, talker: str = "GP",
-              extra_sentences: bool = True) -> bytes:
+def nmea_text(
+    t_s, lat_deg, lon_deg, h_ell_m, fix, sep_m: float = -16.0, talker: str = "GP", extra_sentences: bool = True
+) -> bytes:
     """``gnss.nmea`` bytes: one GGA per epoch (altitude = ellipsoidal height − separation), CRLF."""
     lines = []
     for k in range(len(t_s)):
-        lines.append(format_gga(float(t_s[k]), float(lat_deg[k]), float(lon_deg[k]),
-                                float(h_ell_m[k]) - sep_m, sep_m, int(fix[k]), talker=talker))
+        lines.append(
+            format_gga(
+                float(t_s[k]),
+                float(lat_deg[k]),
+                float(lon_deg[k]),
+                float(h_ell_m[k]) - sep_m,
+                sep_m,
+                int(fix[k]),
+                talker=talker,
+            )
+        )
         if extra_sentences:
             body = f"{talker}GSA,A,3,01,02,03,04,05,06,07,08,,,,,1.5,0.9,1.2"
             acc = 0
@@ -156,8 +173,9 @@ def geo_features(table: str, cols: dict, summary: dict, track: dict | None = Non
     if pos is None:
         from ldvsurvey.errors import InputError
 
-        raise InputError(f"'{table}' has no positions (no lat_deg/lon_deg and no GNSS track to place it on)",
-                         file=f"{table}.csv")
+        raise InputError(
+            f"'{table}' has no positions (no lat_deg/lon_deg and no GNSS track to place it on)", file=f"{table}.csv"
+        )
     lon, lat, h = pos
     ok = np.isfinite(lon) & np.isfinite(lat)
 
@@ -174,9 +192,18 @@ def geo_features(table: str, cols: dict, summary: dict, track: dict | None = Non
         if len(idx) < 2:  # RFC 7946: a line has two positions at least
             return feats
         t = np.asarray(cols.get("t_s", np.full(len(lon), np.nan)), float)
-        feats.append({"type": "Feature", "geometry": {"type": "LineString", "coordinates": [coord(i) for i in idx]},
-                      "properties": {"name": table, "kind": "track", "t_start_s": _jsonval(t[idx[0]]) if len(idx) else None,
-                                     "t_end_s": _jsonval(t[idx[-1]]) if len(idx) else None}})
+        feats.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "LineString", "coordinates": [coord(i) for i in idx]},
+                "properties": {
+                    "name": table,
+                    "kind": "track",
+                    "t_start_s": _jsonval(t[idx[0]]) if len(idx) else None,
+                    "t_end_s": _jsonval(t[idx[-1]]) if len(idx) else None,
+                },
+            }
+        )
         return feats
     if "line" in cols:
         by_name = {ln.get("name"): ln for ln in (summary.get("lines") or []) if isinstance(ln, dict)}
@@ -188,8 +215,13 @@ def geo_features(table: str, cols: dict, summary: dict, track: dict | None = Non
                 continue
             props = {"name": str(name), "kind": "survey_line"}
             props.update({k: _jsonval(v) for k, v in by_name.get(name, {}).items() if k != "name"})
-            feats.append({"type": "Feature", "properties": props,
-                          "geometry": {"type": "LineString", "coordinates": [coord(i) for i in idx]}})
+            feats.append(
+                {
+                    "type": "Feature",
+                    "properties": props,
+                    "geometry": {"type": "LineString", "coordinates": [coord(i) for i in idx]},
+                }
+            )
     for i in good[_thin(len(good))]:
         props = {k: _jsonval(np.asarray(v)[i]) for k, v in cols.items()}
         feats.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": coord(i)}, "properties": props})
@@ -199,9 +231,12 @@ def geo_features(table: str, cols: dict, summary: dict, track: dict | None = Non
 def table_geojson(table: str, csv_data: bytes, summary: dict, track: dict | None = None) -> bytes:
     """A result table as an RFC 7946 FeatureCollection carrying the result's provenance."""
     feats = geo_features(table, read_result_table(csv_data), summary, track)
-    fc = {"type": "FeatureCollection", "name": table,
-          "provenance": provenance(summary),  # a foreign member (RFC 7946 §6.1): ignored by readers that don't know it
-          "features": feats}
+    fc = {
+        "type": "FeatureCollection",
+        "name": table,
+        "provenance": provenance(summary),  # a foreign member (RFC 7946 §6.1): ignored by readers that don't know it
+        "features": feats,
+    }
     return (json.dumps(fc, allow_nan=False, separators=(",", ":")) + "\n").encode()
 
 
@@ -217,30 +252,48 @@ def table_kml(table: str, csv_data: bytes, summary: dict, track: dict | None = N
     prov = provenance(summary)
 
     def data(items):
-        return "<ExtendedData>" + "".join(
-            f'<Data name="{escape(str(k))}"><value>{escape(v if isinstance(v, str) else json.dumps(v))}</value></Data>'
-            for k, v in items.items()) + "</ExtendedData>"
+        return (
+            "<ExtendedData>"
+            + "".join(
+                f'<Data name="{escape(str(k))}">'
+                f"<value>{escape(v if isinstance(v, str) else json.dumps(v))}</value></Data>"
+                for k, v in items.items()
+            )
+            + "</ExtendedData>"
+        )
 
     def coords(cs):
         return " ".join(f"{c[0]!r},{c[1]!r}" for c in cs)
 
-    out = ['<?xml version="1.0" encoding="UTF-8"?>', f'<kml xmlns="{KML_NS}">', "<Document>",
-           f"<name>{escape(table)}</name>",
-           "<description>" + escape(f"ldv-survey {prov.get('pipeline', '')} result {table}; heights are "
-                                    "ellipsoidal (WGS-84), in ExtendedData h_m") + "</description>",
-           '<Style id="line"><LineStyle><color>ff0000ff</color><width>3</width></LineStyle></Style>',
-           '<Style id="point"><IconStyle><scale>0.4</scale></IconStyle></Style>',
-           data(prov)]  # the KML 2.2 schema's order: name, description, styles, ExtendedData, then features
+    out = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<kml xmlns="{KML_NS}">',
+        "<Document>",
+        f"<name>{escape(table)}</name>",
+        "<description>"
+        + escape(
+            f"ldv-survey {prov.get('pipeline', '')} result {table}; heights are "
+            "ellipsoidal (WGS-84), in ExtendedData h_m"
+        )
+        + "</description>",
+        '<Style id="line"><LineStyle><color>ff0000ff</color><width>3</width></LineStyle></Style>',
+        '<Style id="point"><IconStyle><scale>0.4</scale></IconStyle></Style>',
+        data(prov),
+    ]  # the KML 2.2 schema's order: name, description, styles, ExtendedData, then features
     points = []
     for f in feats:
         g, p = f["geometry"], f["properties"]
         if g["type"] == "LineString":
-            out.append(f"<Placemark><name>{escape(str(p.get('name', table)))}</name><styleUrl>#line</styleUrl>"
-                       f"{data(p)}<LineString><tessellate>1</tessellate><coordinates>{coords(g['coordinates'])}"
-                       f"</coordinates></LineString></Placemark>")
+            out.append(
+                f"<Placemark><name>{escape(str(p.get('name', table)))}</name><styleUrl>#line</styleUrl>"
+                f"{data(p)}<LineString><tessellate>1</tessellate><coordinates>{coords(g['coordinates'])}"
+                f"</coordinates></LineString></Placemark>"
+            )
         else:
-            points.append(f"<Placemark><styleUrl>#point</styleUrl>{data(p)}<Point><coordinates>"
-                          f"{coords([g['coordinates']])}</coordinates></Point></Placemark>")
+            points.append(
+                f"<Placemark><styleUrl>#point</styleUrl>{data(p)}<Point><coordinates>"
+                f"{coords([g['coordinates']])}</coordinates></Point></Placemark>"
+            )
     if points:
         out.append(f"<Folder><name>{escape(table)} values</name>{''.join(points)}</Folder>")
     out += ["</Document>", "</kml>"]

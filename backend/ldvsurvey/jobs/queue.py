@@ -11,5 +11,4 @@ def make_huey(settings):
 
         return RedisHuey("ldvsurvey", connection_pool=ConnectionPool.from_url(settings.redis_url), results=False)
     settings.data_dir.mkdir(parents=True, exist_ok=True)
-    return SqliteHuey("ldvsurvey", filename=str(settings.data_dir / "huey.db"), results=False, fsync=False,
-                      timeout=30)
+    return SqliteHuey("ldvsurvey", filename=str(settings.data_dir / "huey.db"), results=False, fsync=False, timeout=30)

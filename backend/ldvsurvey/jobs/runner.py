@@ -30,7 +30,7 @@ def log_facts(row) -> LogFacts:
 
 
 def now() -> dt.datetime:
-    return dt.datetime.now(dt.timezone.utc)
+    return dt.datetime.now(dt.UTC)
 
 
 class JobRunner:
@@ -70,9 +70,11 @@ class JobRunner:
 
         def log_stage(stage: str, progress: float) -> list:
             current[0] = stage[:200]
-            stage_log.append({"attempt": attempt, "t_s": round(time.monotonic() - t0, 3), "stage": stage[:200],
-                              "progress": progress})
+            stage_log.append(
+                {"attempt": attempt, "t_s": round(time.monotonic() - t0, 3), "stage": stage[:200], "progress": progress}
+            )
             return list(stage_log)
+
         stop = threading.Event()
 
         def beat():
@@ -136,25 +138,47 @@ class JobRunner:
                     s.execute(delete(JobFile).where(JobFile.job_id == job_id))
                     for name, data in files.items():
                         s.add(JobFile(job_id=job_id, name=name, size_bytes=len(data), content=data))
-                    s.execute(update(Job).where(Job.id == job_id).values(
-                        status="succeeded", stage="done", progress=100.0, finished_at=now(), summary=result.summary,
-                        stage_log=list(stage_log) if current[0] == "done" else log_stage("done", 100.0)))
+                    s.execute(
+                        update(Job)
+                        .where(Job.id == job_id)
+                        .values(
+                            status="succeeded",
+                            stage="done",
+                            progress=100.0,
+                            finished_at=now(),
+                            summary=result.summary,
+                            stage_log=list(stage_log) if current[0] == "done" else log_stage("done", 100.0),
+                        )
+                    )
             except IntegrityError:  # the job (its log) was deleted while the results were being written
                 raise Cancelled() from None
             return "succeeded"
         except Cancelled:
-            _set(job_id, status="cancelled", stage="cancelled", finished_at=now(),
-                 stage_log=log_stage("cancelled", 0.0))
+            _set(
+                job_id, status="cancelled", stage="cancelled", finished_at=now(), stage_log=log_stage("cancelled", 0.0)
+            )
             return "cancelled"
         except InputError as exc:
-            _set(job_id, status="failed", stage="failed", finished_at=now(), error=str(exc),
-                 stage_log=log_stage(f"failed: {exc}", 0.0))
+            _set(
+                job_id,
+                status="failed",
+                stage="failed",
+                finished_at=now(),
+                error=str(exc),
+                stage_log=log_stage(f"failed: {exc}", 0.0),
+            )
             return "failed"
         except Exception as exc:  # keep the worker alive; the user sees what happened and what to do
             traceback.print_exc()
             msg = user_message(pipeline_name, current[0], exc)
-            _set(job_id, status="failed", stage="failed", finished_at=now(), error=msg,
-                 stage_log=log_stage(f"failed: {type(exc).__name__}", 0.0))
+            _set(
+                job_id,
+                status="failed",
+                stage="failed",
+                finished_at=now(),
+                error=msg,
+                stage_log=log_stage(f"failed: {type(exc).__name__}", 0.0),
+            )
             return "failed"
         finally:
             stop.set()
@@ -169,8 +193,11 @@ class JobRunner:
         with session_scope(self.database_url) as s:
             ids = list(s.scalars(select(Job.id).where(Job.status == "running", Job.heartbeat_at < limit)))
             for i in ids:
-                s.execute(update(Job).where(Job.id == i, Job.status == "running").values(
-                    status="queued", stage="re-queued after a lost worker"))
+                s.execute(
+                    update(Job)
+                    .where(Job.id == i, Job.status == "running")
+                    .values(status="queued", stage="re-queued after a lost worker")
+                )
         for i in ids:
             self.enqueue(i)
         return ids
@@ -197,8 +224,10 @@ def user_message(pipeline: str, stage: str, exc: Exception) -> str:
         todo = "Run it on a shorter log (split the drive) or ask the operator for a larger worker."
     else:
         what = "stopped on a case it does not handle"
-        todo = ("Check the log's quality report (gaps, GNSS fixes, LDV quality) and the parameters, then retry; "
-                "if it fails again, report this job with its log.")
+        todo = (
+            "Check the log's quality report (gaps, GNSS fixes, LDV quality) and the parameters, then retry; "
+            "if it fails again, report this job with its log."
+        )
     return f"The {pipeline} pipeline {what} during '{stage}'. {todo} (technical detail: {detail})"
 
 
@@ -207,8 +236,11 @@ class Consumer:
 
     def __init__(self, runner: JobRunner, workers: int = 2, reap_every_s: float = 30.0, consume: bool = True):
         self.runner = runner
-        self.consumer = runner.huey.create_consumer(workers=workers, worker_type="thread", periodic=False,
-                                                    check_worker_health=True) if consume else None
+        self.consumer = (
+            runner.huey.create_consumer(workers=workers, worker_type="thread", periodic=False, check_worker_health=True)
+            if consume
+            else None
+        )
         self.reap_every_s = reap_every_s
         self._stop = threading.Event()
         self._reaper = threading.Thread(target=self._reap_loop, daemon=True)

@@ -47,8 +47,17 @@ def coarse_align(dtheta_rad, dvel_mps, lat_rad: float, c_bs=None, turntable_rad=
     return _triad(f_n, w_n) @ _triad(f_b, w_b).T
 
 
-def align_in_motion(dtheta_rad, dvel_mps, duration_s: float, v_fwd_mps: float, a_fwd_mps2: float,
-                    course_rad: float, c_db_mount, c_bs=None, turntable_rad=None):
+def align_in_motion(
+    dtheta_rad,
+    dvel_mps,
+    duration_s: float,
+    v_fwd_mps: float,
+    a_fwd_mps2: float,
+    course_rad: float,
+    c_db_mount,
+    c_bs=None,
+    turntable_rad=None,
+):
     """Coarse C_b^n of a vehicle already moving, from a short stretch (about a second).
 
     The level comes from the mean specific force with the vehicle's own acceleration removed:

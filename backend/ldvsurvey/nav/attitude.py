@@ -14,8 +14,9 @@ import numpy as np
 
 def c_bn_from_euler(pitch_rad, roll_rad, heading_rad):
     """C_b^n (..., 3, 3) from pitch, roll, heading (rad), vectorized."""
-    th, ga, y = np.broadcast_arrays(np.asarray(pitch_rad, float), np.asarray(roll_rad, float),
-                                    -np.asarray(heading_rad, float))
+    th, ga, y = np.broadcast_arrays(
+        np.asarray(pitch_rad, float), np.asarray(roll_rad, float), -np.asarray(heading_rad, float)
+    )
     cy, sy, ct, st, cg, sg = np.cos(y), np.sin(y), np.cos(th), np.sin(th), np.cos(ga), np.sin(ga)
     c = np.empty(th.shape + (3, 3))
     c[..., 0, 0] = cy * cg - sy * st * sg
@@ -55,8 +56,15 @@ def q_from_c(c):
         cc = c[m]
         if i == 0:
             r = np.sqrt(1 + tr[m])
-            q[m] = np.stack([r / 2, (cc[:, 2, 1] - cc[:, 1, 2]) / (2 * r), (cc[:, 0, 2] - cc[:, 2, 0]) / (2 * r),
-                             (cc[:, 1, 0] - cc[:, 0, 1]) / (2 * r)], axis=1)
+            q[m] = np.stack(
+                [
+                    r / 2,
+                    (cc[:, 2, 1] - cc[:, 1, 2]) / (2 * r),
+                    (cc[:, 0, 2] - cc[:, 2, 0]) / (2 * r),
+                    (cc[:, 1, 0] - cc[:, 0, 1]) / (2 * r),
+                ],
+                axis=1,
+            )
         else:
             a, b_, c_ = i - 1, i % 3, (i + 1) % 3
             r = np.sqrt(1 + cc[:, a, a] - cc[:, b_, b_] - cc[:, c_, c_])
@@ -90,8 +98,7 @@ def c_from_q(q):
 
 def c_bs(eta_rad, alpha_rad=0.0, beta_rad=0.0):
     """C_b^s(η, α, β) = R_y(β) R_x(α) R_z(η), (..., 3, 3): body to rotating-IMU sensor frame."""
-    e, a, b = np.broadcast_arrays(np.asarray(eta_rad, float), np.asarray(alpha_rad, float),
-                                  np.asarray(beta_rad, float))
+    e, a, b = np.broadcast_arrays(np.asarray(eta_rad, float), np.asarray(alpha_rad, float), np.asarray(beta_rad, float))
     ce, se, ca, sa, cb, sb = np.cos(e), np.sin(e), np.cos(a), np.sin(a), np.cos(b), np.sin(b)
     c = np.empty(e.shape + (3, 3))
     c[..., 0, 0] = ce * cb - se * sa * sb
@@ -110,9 +117,14 @@ def skew(v):
     """[v×] for v of shape (..., 3)."""
     v = np.asarray(v, float)
     z = np.zeros(v.shape[:-1])
-    return np.stack([np.stack([z, -v[..., 2], v[..., 1]], -1),
-                     np.stack([v[..., 2], z, -v[..., 0]], -1),
-                     np.stack([-v[..., 1], v[..., 0], z], -1)], -2)
+    return np.stack(
+        [
+            np.stack([z, -v[..., 2], v[..., 1]], -1),
+            np.stack([v[..., 2], z, -v[..., 0]], -1),
+            np.stack([-v[..., 1], v[..., 0], z], -1),
+        ],
+        -2,
+    )
 
 
 def rotvec_to_c(phi):
@@ -121,8 +133,8 @@ def rotvec_to_c(phi):
     ang = np.linalg.norm(phi, axis=-1)[..., None, None]
     k = skew(phi)
     small = ang < 1e-8
-    a = np.where(small, 1 - ang ** 2 / 6, np.sin(ang) / np.where(small, 1, ang))
-    b = np.where(small, 0.5 - ang ** 2 / 24, (1 - np.cos(ang)) / np.where(small, 1, ang) ** 2)
+    a = np.where(small, 1 - ang**2 / 6, np.sin(ang) / np.where(small, 1, ang))
+    b = np.where(small, 0.5 - ang**2 / 24, (1 - np.cos(ang)) / np.where(small, 1, ang) ** 2)
     return np.eye(3) + a * k + b * (k @ k)
 
 
@@ -143,13 +155,18 @@ def attitude_error_rad(c_est, c_true):
 
 # ---- numba scalar helpers for the per-sample loops ----
 
+
 @nb.njit(cache=True)
 def qmul(p, q):
     """Hamilton product p ⊗ q."""
-    return np.array([p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3],
-                     p[0] * q[1] + p[1] * q[0] + p[2] * q[3] - p[3] * q[2],
-                     p[0] * q[2] - p[1] * q[3] + p[2] * q[0] + p[3] * q[1],
-                     p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0]])
+    return np.array(
+        [
+            p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3],
+            p[0] * q[1] + p[1] * q[0] + p[2] * q[3] - p[3] * q[2],
+            p[0] * q[2] - p[1] * q[3] + p[2] * q[0] + p[3] * q[1],
+            p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0],
+        ]
+    )
 
 
 @nb.njit(cache=True)

@@ -53,14 +53,23 @@ def internal_coincidence(values: np.ndarray, names=None, distance_m=None) -> Coi
     mean = np.nanmean(g, axis=0)
     d = g - mean
     d0 = np.where(have, d, 0.0)
-    per = np.sqrt(np.sum(nj / (nj - 1) * d0 ** 2, axis=1) / np.maximum(have.sum(axis=1), 1))
+    per = np.sqrt(np.sum(nj / (nj - 1) * d0**2, axis=1) / np.maximum(have.sum(axis=1), 1))
     per[have.sum(axis=1) == 0] = np.nan
-    total = float(np.sqrt(np.sum(d0 ** 2) / np.sum(nj - 1)))
+    total = float(np.sqrt(np.sum(d0**2) / np.sum(nj - 1)))
     with np.errstate(invalid="ignore"):
-        return Coincidence(list(names or [f"L{i + 1}" for i in range(n)]),
-                           np.arange(g.shape[1], dtype=float) if distance_m is None else np.asarray(distance_m),
-                           g, mean, d, per, np.nanmax(d, axis=1), np.nanmin(d, axis=1), total,
-                           np.nanmean(d, axis=1), np.nanstd(d, axis=1))
+        return Coincidence(
+            list(names or [f"L{i + 1}" for i in range(n)]),
+            np.arange(g.shape[1], dtype=float) if distance_m is None else np.asarray(distance_m),
+            g,
+            mean,
+            d,
+            per,
+            np.nanmax(d, axis=1),
+            np.nanmin(d, axis=1),
+            total,
+            np.nanmean(d, axis=1),
+            np.nanstd(d, axis=1),
+        )
 
 
 def along_track(ref_e, ref_n, e, n):
@@ -77,8 +86,12 @@ def along_track(ref_e, ref_n, e, n):
     return cum[j] + s, np.abs(((e - ref_e[j]) * dn - (n - ref_n[j]) * de) / ln)
 
 
-def common_points(lines: list[tuple[np.ndarray, np.ndarray]], spacing_m: float, max_hole_m: float | None = None,
-                  allow_holes: bool = False):
+def common_points(
+    lines: list[tuple[np.ndarray, np.ndarray]],
+    spacing_m: float,
+    max_hole_m: float | None = None,
+    allow_holes: bool = False,
+):
     """Interpolate lines given as (along-track distance, value) onto common points.
 
     Returns (distance (m,), values (n, m)). Each line's distances are sorted (reversed lines)
@@ -147,15 +160,14 @@ def crossovers(tracks: list[tuple[np.ndarray, np.ndarray, np.ndarray]], min_angl
                 va = v1[a] + ta * (v1[a + 1] - v1[a])
                 vb = v2[b] + ub * (v2[b + 1] - v2[b])
                 if np.isfinite(va) and np.isfinite(vb):
-                    found.append((i, j, float(e1[a] + ta * r[a, 0, 0]), float(n1[a] + ta * r[a, 0, 1]),
-                                  float(va - vb)))
+                    found.append((i, j, float(e1[a] + ta * r[a, 0, 0]), float(n1[a] + ta * r[a, 0, 1]), float(va - vb)))
     if not found:
         return found, None
     d = np.array([f[4] for f in found])
-    return found, float(np.sqrt(np.sum(d ** 2) / (2 * len(d))))
+    return found, float(np.sqrt(np.sum(d**2) / (2 * len(d))))
 
 
 def total_from_lines(per_line_rms) -> float:
     """Total internal coincidence from the per-line values: ε² is the mean of the ε_i²."""
     e = np.asarray(per_line_rms, dtype=float)
-    return float(np.sqrt(np.mean(e ** 2)))
+    return float(np.sqrt(np.mean(e**2)))

@@ -35,8 +35,31 @@ def _update(x, P, h, z, r):
 
 
 @nb.njit(cache=True)
-def run_damping(t, dth, dvel, q0, v0, pos0, mode, period_s, zupt_end, ldv_ok, nu_f, s0, pitch_l, heading_l,
-                p0, qd, ldv_sigma, h_ref, vu_sigma, h_sigma, ds_every, gate, c_bs):
+def run_damping(
+    t,
+    dth,
+    dvel,
+    q0,
+    v0,
+    pos0,
+    mode,
+    period_s,
+    zupt_end,
+    ldv_ok,
+    nu_f,
+    s0,
+    pitch_l,
+    heading_l,
+    p0,
+    qd,
+    ldv_sigma,
+    h_ref,
+    vu_sigma,
+    h_sigma,
+    ds_every,
+    gate,
+    c_bs,
+):
     """Forward filter; returns q (N,4) of C_s^n, v (N,3), pos (N,3), inverse scale estimate per sample.
 
     ``c_bs`` (N, 3, 3): C_b^s per sample (a rotating IMU; identity for a fixed one). The
@@ -82,8 +105,9 @@ def run_damping(t, dth, dvel, q0, v0, pos0, mode, period_s, zupt_end, ldv_ok, nu
         t_prev = t[k]
         a_th = dth[k] - b_g * dt
         a_dv = dvel[k] - b_a * dt
-        q_new, v_new, p_new, f_n = mech_step(q, v, pos, v_prev, pos_prev, a_th, a_dv, dth_prev, dv_prev, dt,
-                                             0.0, 0.0, 0.0)
+        q_new, v_new, p_new, f_n = mech_step(
+            q, v, pos, v_prev, pos_prev, a_th, a_dv, dth_prev, dv_prev, dt, 0.0, 0.0, 0.0
+        )
         v_prev, pos_prev = v, pos
         q, v, pos = q_new, v_new, p_new
         dth_prev, dv_prev = a_th, a_dv
@@ -126,16 +150,16 @@ def run_damping(t, dth, dvel, q0, v0, pos0, mode, period_s, zupt_end, ldv_ok, nu
         # vertical channel: the vessel stays on the water surface
         ha = np.zeros(na)
         ha[5] = 1.0
-        _update(xa, Pa, ha, v[2], vu_sigma ** 2)
+        _update(xa, Pa, ha, v[2], vu_sigma**2)
         ha = np.zeros(na)
         ha[8] = 1.0
-        _update(xa, Pa, ha, pos[2] - h_ref, h_sigma ** 2)
+        _update(xa, Pa, ha, pos[2] - h_ref, h_sigma**2)
         took_ds = False
         if static:
             for i in range(2):
                 ha = np.zeros(na)
                 ha[3 + i] = 1.0
-                _update(xa, Pa, ha, v[i], 0.003 ** 2)
+                _update(xa, Pa, ha, v[i], 0.003**2)
         elif nl > 0 and mode > 0 and (mode == 1 or epoch_no % ds_every == 0 or not have_prev):
             r = racc / nl
             vl = vlacc / nl
@@ -147,7 +171,7 @@ def run_damping(t, dth, dvel, q0, v0, pos0, mode, period_s, zupt_end, ldv_ok, nu
                 hk[i, 0:3] = hphi[i]
                 hk[i, 3 + i] = 1.0
                 hk[i, 15] = col_s[i]
-            rr = ldv_sigma ** 2 / nl
+            rr = ldv_sigma**2 / nl
             if mode == 1:
                 for i in range(2):
                     ha = np.zeros(na)

@@ -26,8 +26,14 @@ class DovGrid:
         return float(np.median(np.diff(self.lat_deg)) * 60.0)
 
     def covers(self, lat_deg, lon_deg) -> bool:
-        return bool(np.all((lat_deg >= self.lat_deg[0]) & (lat_deg <= self.lat_deg[-1])
-                           & (lon_deg >= self.lon_deg[0]) & (lon_deg <= self.lon_deg[-1])))
+        return bool(
+            np.all(
+                (lat_deg >= self.lat_deg[0])
+                & (lat_deg <= self.lat_deg[-1])
+                & (lon_deg >= self.lon_deg[0])
+                & (lon_deg <= self.lon_deg[-1])
+            )
+        )
 
     def missing_cover(self, lat_deg, lon_deg) -> str | None:
         """A description of how the track leaves the grid, or None when it is covered."""
@@ -35,9 +41,11 @@ class DovGrid:
         lo_lon, hi_lon = float(np.min(lon_deg)), float(np.max(lon_deg))
         if self.covers(np.array([lo_lat, hi_lat]), np.array([lo_lon, hi_lon])):
             return None
-        return (f"the track spans lat {lo_lat:.4f}..{hi_lat:.4f}°, lon {lo_lon:.4f}..{hi_lon:.4f}° but the grid "
-                f"covers lat {self.lat_deg[0]:.4f}..{self.lat_deg[-1]:.4f}°, "
-                f"lon {self.lon_deg[0]:.4f}..{self.lon_deg[-1]:.4f}°")
+        return (
+            f"the track spans lat {lo_lat:.4f}..{hi_lat:.4f}°, lon {lo_lon:.4f}..{hi_lon:.4f}° but the grid "
+            f"covers lat {self.lat_deg[0]:.4f}..{self.lat_deg[-1]:.4f}°, "
+            f"lon {self.lon_deg[0]:.4f}..{self.lon_deg[-1]:.4f}°"
+        )
 
     def interpolate(self, lat_deg, lon_deg, method: str = "linear"):
         """ξ, η (rad) and Δg (m/s², 0 without) at the points; method 'linear' (bilinear) or 'cubic'."""
@@ -58,7 +66,7 @@ class DovGrid:
                 out.append(f(pts).reshape(np.shape(lat_deg)) * unit)
         return tuple(out)
 
-    def resample(self, step_arcmin: float) -> "DovGrid":
+    def resample(self, step_arcmin: float) -> DovGrid:
         """The grid's values sampled at a coarser step, covering at least the original extent."""
         st = step_arcmin / 60.0
         # nodes from the south-west corner until past the north-east one (the last row/column is
@@ -68,11 +76,18 @@ class DovGrid:
         gl, go = np.meshgrid(lat, lon, indexing="ij")
         vals = []
         for arr in (self.xi_arcsec, self.eta_arcsec) + ((self.dg_mgal,) if self.dg_mgal is not None else ()):
-            f = RegularGridInterpolator((self.lat_deg, self.lon_deg), arr, method="linear", bounds_error=False,
-                                        fill_value=None)
+            f = RegularGridInterpolator(
+                (self.lat_deg, self.lon_deg), arr, method="linear", bounds_error=False, fill_value=None
+            )
             vals.append(f(np.column_stack([gl.ravel(), go.ravel()])).reshape(gl.shape))
-        return DovGrid(lat, lon, vals[0], vals[1], vals[2] if len(vals) > 2 else None,
-                       source=f"{self.source} resampled to {step_arcmin}'")
+        return DovGrid(
+            lat,
+            lon,
+            vals[0],
+            vals[1],
+            vals[2] if len(vals) > 2 else None,
+            source=f"{self.source} resampled to {step_arcmin}'",
+        )
 
 
 def area_for_track(lat_deg, lon_deg, step_arcmin: float, margin_steps: int = 3):
@@ -85,8 +100,7 @@ def area_for_track(lat_deg, lon_deg, step_arcmin: float, margin_steps: int = 3):
     return round(s, 9), round(n, 9), round(w, 9), round(e, 9)
 
 
-def egm_grid(area, step_arcmin: float = 1.0, degree: int = 2190, model_name: str = "egm2008",
-             progress=None) -> DovGrid:
+def egm_grid(area, step_arcmin: float = 1.0, degree: int = 2190, model_name: str = "egm2008", progress=None) -> DovGrid:
     """Synthesize ξ, η, Δg from the built-in model on the area (south, north, west, east) in degrees."""
     from ldvsurvey.nav.egm import disturbing_coefficients, load_model, synthesize
 
@@ -100,8 +114,8 @@ def egm_grid(area, step_arcmin: float = 1.0, degree: int = 2190, model_name: str
     dg = np.empty_like(xi)
     chunk = 8
     for i in range(0, len(lat), chunk):
-        a, b, c = synthesize(model, lat[i:i + chunk], lon)
-        xi[i:i + chunk], eta[i:i + chunk], dg[i:i + chunk] = a, b, c
+        a, b, c = synthesize(model, lat[i : i + chunk], lon)
+        xi[i : i + chunk], eta[i : i + chunk], dg[i : i + chunk] = a, b, c
         if progress is not None:
             progress(f"EGM2008 synthesis to degree {degree}", min(1.0, (i + chunk) / len(lat)))
     return DovGrid(lat, lon, xi, eta, dg, source=f"{model_name} degree {degree}, {step_arcmin}' grid")

@@ -17,7 +17,7 @@ OMEGA_IE = 7.292115e-5  #: Earth rotation rate, rad/s
 GM = 3.986004418e14  #: m³/s²
 GAMMA_E = 9.7803253359  #: normal gravity at the equator, m/s²
 K_SOMIGLIANA = 0.00193185265241
-M_RATIO = OMEGA_IE ** 2 * A_M ** 2 * B_M / GM  #: m = ω² a² b / GM
+M_RATIO = OMEGA_IE**2 * A_M**2 * B_M / GM  #: m = ω² a² b / GM
 from ldvsurvey.units import MPS2_PER_MGAL as MGAL  # noqa: E402, F401  (re-exported; 1 mGal in m/s²)
 from ldvsurvey.units import RAD_PER_ARCSEC as ARCSEC  # noqa: E402, F401  (re-exported; 1 arcsecond in rad)
 
@@ -51,7 +51,7 @@ def normal_gravity(lat_rad, h_m):
     h_m = np.asarray(h_m, dtype=float)
     s2 = np.sin(lat_rad) ** 2
     g0 = GAMMA_E * (1.0 + K_SOMIGLIANA * s2) / np.sqrt(1.0 - E2 * s2)
-    return g0 * (1.0 - 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2) * h_m + 3.0 * h_m ** 2 / A_M ** 2)
+    return g0 * (1.0 - 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2) * h_m + 3.0 * h_m**2 / A_M**2)
 
 
 def w_ie_n(lat_rad):
@@ -85,8 +85,10 @@ def lla_to_ecef(lat_rad, lon_rad, h_m):
     """Geodetic to Earth-centred Earth-fixed coordinates, m; shape (..., 3)."""
     _, rn = radii(lat_rad)
     cl = np.cos(lat_rad)
-    return np.stack([(rn + h_m) * cl * np.cos(lon_rad), (rn + h_m) * cl * np.sin(lon_rad),
-                     (rn * (1 - E2) + h_m) * np.sin(lat_rad)], axis=-1)
+    return np.stack(
+        [(rn + h_m) * cl * np.cos(lon_rad), (rn + h_m) * cl * np.sin(lon_rad), (rn * (1 - E2) + h_m) * np.sin(lat_rad)],
+        axis=-1,
+    )
 
 
 def enu_offset_m(lat0_rad, lon0_rad, h0_m, lat_rad, lon_rad, h_m):

@@ -20,10 +20,10 @@ import numpy as np
 
 from ldvsurvey.nav.earth import A_M, E2, GM, normal_gravity
 
-BIG = 2.0 ** 960
-BIGI = 2.0 ** -960
-BIGS = 2.0 ** 480
-BIGSI = 2.0 ** -480
+BIG = 2.0**960
+BIGI = 2.0**-960
+BIGS = 2.0**480
+BIGSI = 2.0**-480
 #: WGS-84 fully normalized even zonal coefficients C̄_{2n,0} of the normal potential
 WGS84_J2 = 1.08262982131e-3
 
@@ -75,9 +75,9 @@ def load_model(name: str = "egm2008", n_max: int | None = None) -> Model:
     for m in range(m_file + 1):
         cnt = n_file - m + 1
         if m <= m_cap:
-            c[m:n + 1, m] = c_flat[pos_c:pos_c + (n - m + 1)]
+            c[m : n + 1, m] = c_flat[pos_c : pos_c + (n - m + 1)]
             if m > 0:
-                s[m:n + 1, m] = s_flat[pos_s:pos_s + (n - m + 1)]
+                s[m : n + 1, m] = s_flat[pos_s : pos_s + (n - m + 1)]
         pos_c += cnt
         if m > 0:
             pos_s += cnt
@@ -99,7 +99,7 @@ def disturbing_coefficients(model: Model) -> Model:
         n = 2 * k
         if n > model.n_max:
             break
-        j2n = (-1) ** (k + 1) * 3 * e ** (2 * k) / ((2 * k + 1) * (2 * k + 3)) * (1 - k + 5 * k * j2 / e ** 2)
+        j2n = (-1) ** (k + 1) * 3 * e ** (2 * k) / ((2 * k + 1) * (2 * k + 3)) * (1 - k + 5 * k * j2 / e**2)
         c_norm = -j2n / np.sqrt(4 * k + 1) * (GM / model.gm) * (A_M / model.a) ** n
         c[n, 0] -= c_norm
     return Model(model.name, model.gm, model.a, model.n_max, model.m_max, c, model.s.copy())

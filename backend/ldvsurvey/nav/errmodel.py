@@ -57,8 +57,8 @@ def build_f_into(F, c_sn, f0, f1, f2, ve, vn, vu, lat, h):
     # ∂δω_en/∂δv (m_v), ∂δω_ie/∂δp (m_iep), ∂δω_en/∂δp (m_enp), δp in metres E, N, U
     mv01, mv10, mv20 = -1.0 / rmh, 1.0 / rnh, tl / rnh
     mi11, mi21 = -OMEGA_IE * sl / rmh, OMEGA_IE * cl / rmh
-    me02, me12 = vn / rmh ** 2, -ve / rnh ** 2
-    me21, me22 = ve / (cl * cl) / (rmh * rnh), -ve * tl / rnh ** 2
+    me02, me12 = vn / rmh**2, -ve / rnh**2
+    me21, me22 = ve / (cl * cl) / (rmh * rnh), -ve * tl / rnh**2
     # F[0:3, 0:3] = −[ω_in×]
     F[0, 1], F[0, 2] = wi2, -wi1
     F[1, 0], F[1, 2] = -wi2, wi0

@@ -39,7 +39,7 @@ class ImuNoise:
     bias_correlation_s: float | None = None
 
     @classmethod
-    def from_manifest(cls, imu) -> "ImuNoise":
+    def from_manifest(cls, imu) -> ImuNoise:
         """From the manifest's ``imu`` block, including the optional (spec-allowed extra) keys
         ``gyro_bias_instability_dph``, ``accel_bias_instability_ug`` and ``bias_correlation_s``."""
         from ldvsurvey.errors import ParameterError
@@ -50,19 +50,34 @@ class ImuNoise:
             val = getattr(imu, key, None)
             if val is None:
                 continue
-            if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val < 0 \
-                    or (key == "bias_correlation_s" and val <= 0):
-                raise ParameterError(f"expected a non-negative number (positive for the correlation time), "
-                                     f"got {val!r}", file="manifest.json", field=f"imu.{key}")
+            if (
+                isinstance(val, bool)
+                or not isinstance(val, (int, float))
+                or not np.isfinite(val)
+                or val < 0
+                or (key == "bias_correlation_s" and val <= 0)
+            ):
+                raise ParameterError(
+                    f"expected a non-negative number (positive for the correlation time), got {val!r}",
+                    file="manifest.json",
+                    field=f"imu.{key}",
+                )
             extra[key] = float(val)
         if extra and "bias_correlation_s" not in extra:
-            raise ParameterError("a bias instability needs its correlation time imu.bias_correlation_s",
-                                 file="manifest.json", field="imu.bias_correlation_s")
-        return cls(gyro_bias_dph=imu.gyro_bias_dph if imu.gyro_bias_dph is not None else d.gyro_bias_dph,
-                   accel_bias_ug=imu.accel_bias_ug if imu.accel_bias_ug is not None else d.accel_bias_ug,
-                   gyro_arw_dprh=imu.gyro_arw_deg_per_rth if imu.gyro_arw_deg_per_rth is not None else d.gyro_arw_dprh,
-                   accel_vrw_ug_rthz=(imu.accel_noise_ug_per_rthz if imu.accel_noise_ug_per_rthz is not None
-                                      else d.accel_vrw_ug_rthz), **extra)
+            raise ParameterError(
+                "a bias instability needs its correlation time imu.bias_correlation_s",
+                file="manifest.json",
+                field="imu.bias_correlation_s",
+            )
+        return cls(
+            gyro_bias_dph=imu.gyro_bias_dph if imu.gyro_bias_dph is not None else d.gyro_bias_dph,
+            accel_bias_ug=imu.accel_bias_ug if imu.accel_bias_ug is not None else d.accel_bias_ug,
+            gyro_arw_dprh=imu.gyro_arw_deg_per_rth if imu.gyro_arw_deg_per_rth is not None else d.gyro_arw_dprh,
+            accel_vrw_ug_rthz=(
+                imu.accel_noise_ug_per_rthz if imu.accel_noise_ug_per_rthz is not None else d.accel_vrw_ug_rthz
+            ),
+            **extra,
+        )
 
     def gauss_markov(self):
         """(1/τ per bias state (6,), 1/s; driving PSD 2σ²/τ per bias state (6,)) of the instability."""
@@ -73,7 +88,7 @@ class ImuNoise:
             sg = (self.gyro_bias_instability_dph or 0.0) * RAD_PER_DEG / 3600.0
             sa = (self.accel_bias_instability_ug or 0.0) * 9.80665e-6
             inv[:] = 1.0 / tau
-            q[:3], q[3:] = 2 * sg ** 2 / tau, 2 * sa ** 2 / tau
+            q[:3], q[3:] = 2 * sg**2 / tau, 2 * sa**2 / tau
         return inv, q
 
     @property
@@ -116,9 +131,15 @@ class FilterConfig:
     ldv_aug: tuple[str, ...] = ()  #: subset of AUG_NAMES to estimate
     #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad,
     #: pitch compliance k_η in rad per m/s² (0.01 ≈ 5.6° per g, twice the softest car suspension)
-    ldv_aug_sigma0: dict = field(default_factory=lambda: {"scale": 0.01, "pitch": 1 * RAD_PER_DEG,
-                                                          "heading": 1 * RAD_PER_DEG, "scale_up": 0.01,
-                                                          "pitch_k": 0.01})
+    ldv_aug_sigma0: dict = field(
+        default_factory=lambda: {
+            "scale": 0.01,
+            "pitch": 1 * RAD_PER_DEG,
+            "heading": 1 * RAD_PER_DEG,
+            "scale_up": 0.01,
+            "pitch_k": 0.01,
+        }
+    )
 
 
 @dataclass
@@ -267,19 +288,35 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     # bias priors never zero (a manifest may say 0): that would make P⁻ singular for the smoother
     sg = max(noise.gyro_bias_rps, 1e-4 * RAD_PER_DEG / 3600.0)
     sa = max(noise.accel_bias_mps2, 1e-6 * 9.80665)
-    p0 = np.concatenate([s_att ** 2, np.full(3, cfg.vel_sigma0_mps ** 2), np.full(3, cfg.pos_sigma0_m ** 2),
-                         np.full(3, sg ** 2), np.full(3, sa ** 2),
-                         [cfg.ldv_aug_sigma0[a] ** 2 for a in aug], [cfg.gyro_scale_z_sigma0 ** 2] * (i_sz >= 0)])
+    p0 = np.concatenate(
+        [
+            s_att**2,
+            np.full(3, cfg.vel_sigma0_mps**2),
+            np.full(3, cfg.pos_sigma0_m**2),
+            np.full(3, sg**2),
+            np.full(3, sa**2),
+            [cfg.ldv_aug_sigma0[a] ** 2 for a in aug],
+            [cfg.gyro_scale_z_sigma0**2] * (i_sz >= 0),
+        ]
+    )
     q_v = 2.0 * (cfg.gravity_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
     q_h = 2.0 * (cfg.dov_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
-    rw = (cfg.bias_instability ** 2) / 3600.0
+    rw = (cfg.bias_instability**2) / 3600.0
     inv_gm, q_gm = noise.gauss_markov()
-    qd = np.concatenate([np.full(3, noise.arw_psd), noise.vrw_psd + np.array([q_h, q_h, q_v]), np.zeros(3),
-                         np.full(3, rw * sg ** 2) + q_gm[:3], np.full(3, rw * sa ** 2) + q_gm[3:],
-                         np.full(len(aug), 1e-14), [1e-16] * (i_sz >= 0)])
+    qd = np.concatenate(
+        [
+            np.full(3, noise.arw_psd),
+            noise.vrw_psd + np.array([q_h, q_h, q_v]),
+            np.zeros(3),
+            np.full(3, rw * sg**2) + q_gm[:3],
+            np.full(3, rw * sa**2) + q_gm[3:],
+            np.full(len(aug), 1e-14),
+            [1e-16] * (i_sz >= 0),
+        ]
+    )
     inv_tau = np.zeros(n)
     inv_tau[9:15] = inv_gm
-    ep_t = np.concatenate([[t[0] - (t[1] - t[0])], t[decim - 1:m * decim:decim]])
+    ep_t = np.concatenate([[t[0] - (t[1] - t[0])], t[decim - 1 : m * decim : decim]])
     zupt = np.zeros(m + 1, dtype=np.bool_)
     for a, b in zupt_intervals:
         zupt |= (ep_t >= a) & (ep_t <= b)
@@ -296,8 +333,9 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
         nu_f = np.ascontiguousarray(ldv.nu_f_mps, dtype=float)
         up = ldv.nu_u_mps is not None
         nu_u = np.ascontiguousarray(ldv.nu_u_mps, dtype=float) if up else np.zeros(0)  # 1-D: never read
-        par0 = np.array([1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up,
-                         ldv.pitch_k_rad_per_mps2], float)
+        par0 = np.array(
+            [1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up, ldv.pitch_k_rad_per_mps2], float
+        )
         l_ldv = np.asarray(ldv.lever_arm_m, float)
         a_f = np.zeros(0) if ldv.accel_fwd_mps2 is None else np.ascontiguousarray(ldv.accel_fwd_mps2, float)
         if "pitch_k" in cfg.ldv_aug and len(a_f) == 0:
@@ -314,14 +352,52 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
         g_sig = np.ascontiguousarray(np.column_stack([gnss.sigma_h_m[ok], gnss.sigma_v_m[ok]]))
         l_g = np.asarray(gnss.lever_arm_m, float)
     c_bs_arr = np.eye(3)[None] if c_bs is None else np.ascontiguousarray(c_bs, dtype=float)  # (1, 3, 3): fixed
-    return (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-            g_t, g_pos, g_sig, l_g, c_bs_arr, a_f, inv_tau, i_sz)
+    return (
+        decim,
+        m,
+        n,
+        aug,
+        aug_idx,
+        p0,
+        qd,
+        ep_t,
+        zupt,
+        ldv_ok,
+        nu_f,
+        nu_u,
+        par0,
+        l_ldv,
+        up,
+        g_t,
+        g_pos,
+        g_sig,
+        l_g,
+        c_bs_arr,
+        a_f,
+        inv_tau,
+        i_sz,
+    )
 
 
-def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cfg: FilterConfig | None = None,
-               c_bs=None, zupt_intervals=(), ldv: LdvAid | None = None, gnss: GnssAid | None = None,
-               gravity=None, smooth: bool = True, bias0=None, keep_cov: bool = False,
-               attitude_only: bool = False) -> NavSolution:
+def run_filter(
+    t_s,
+    dtheta_rad,
+    dvel_mps,
+    q0_sn,
+    v0_n,
+    pos0,
+    noise: ImuNoise,
+    cfg: FilterConfig | None = None,
+    c_bs=None,
+    zupt_intervals=(),
+    ldv: LdvAid | None = None,
+    gnss: GnssAid | None = None,
+    gravity=None,
+    smooth: bool = True,
+    bias0=None,
+    keep_cov: bool = False,
+    attitude_only: bool = False,
+) -> NavSolution:
     """Forward closed-loop filter, then (optionally) the RTS smoother.
 
     Parameters
@@ -337,20 +413,46 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     cfg = cfg or FilterConfig()
     t = np.ascontiguousarray(t_s, dtype=float)
     n_s = len(t)
-    (decim, m, n, aug, aug_idx, p0, qd, ep_t, zupt, ldv_ok, nu_f, nu_u, par0, l_ldv, up,
-     g_t, g_pos, g_sig, l_g, c_bs_arr, a_f, inv_tau, i_sz) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
+    (
+        decim,
+        m,
+        n,
+        aug,
+        aug_idx,
+        p0,
+        qd,
+        ep_t,
+        zupt,
+        ldv_ok,
+        nu_f,
+        nu_u,
+        par0,
+        l_ldv,
+        up,
+        g_t,
+        g_pos,
+        g_sig,
+        l_g,
+        c_bs_arr,
+        a_f,
+        inv_tau,
+        i_sz,
+    ) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
-    imu = kfloop.ImuIn(t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr,
-                       xi, eta, dg)
-    mdl = kfloop.Model(decim, p0, qd, inv_tau, zupt, float(cfg.zupt_sigma_mps), float(cfg.gate_sigma), i_sz,
-                       not attitude_only)
+    imu = kfloop.ImuIn(
+        t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr, xi, eta, dg
+    )
+    mdl = kfloop.Model(
+        decim, p0, qd, inv_tau, zupt, float(cfg.zupt_sigma_mps), float(cfg.gate_sigma), i_sz, not attitude_only
+    )
     lin = kfloop.LdvIn(ldv_ok, nu_f, nu_u, par0, l_ldv, np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, a_f)
     gin = kfloop.GnssIn(g_t, g_pos, g_sig, l_g)
     st = kfloop.Start(np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), b0)
     (q, v, p, f_u, f_en, f_b, ck, upd, sig_f, fin, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(
-        imu, mdl, lin, gin, st)
+        imu, mdl, lin, gin, st
+    )
     zs = float(cfg.zupt_sigma_mps)
     if smooth:
         xs, sig_ep, ps = kfloop.rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zs, keep_cov)
@@ -369,7 +471,7 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
             val = par[jj, i] - xs[jj, aug_idx[i]]
             sig = float(sig_ep[jj, aug_idx[i]])
             if a.startswith("scale"):  # estimated as s = 1/K
-                val, sig = 1.0 / val, sig / val ** 2
+                val, sig = 1.0 / val, sig / val**2
             ldv_params[a] = (float(val), sig)
         elif ldv is not None:
             v0 = par0[i]
@@ -377,11 +479,24 @@ def run_filter(t_s, dtheta_rad, dvel_mps, q0_sn, v0_n, pos0, noise: ImuNoise, cf
     jb = 0 if smooth else -1
     gyro_b = bias[jb, :3] + xs[jb, 9:12]
     acc_b = bias[jb, 3:] + xs[jb, 12:15]
-    return NavSolution(t_s=t, q_sn=q, v_n=v, pos=p, c_bs=c_bs, smoothed=smooth,
-                       ldv_params=ldv_params, gyro_bias_rps=gyro_b, accel_bias_mps2=acc_b,
-                       epoch_t_s=ep_t, epoch_sigma=sig_ep, normalized_innovations=nis,
-                       rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},
-                       epoch_index=np.arange(m + 1) * decim - 1, epoch_bias=ep_bias,
-                       epoch_cov=ps if keep_cov else None,
-                       f_u_mps2=f_u, f_u_bias_mps2=f_b,
-                       gyro_scale_z=None if i_sz < 0 else (float(sz[jb] + xs[jb, i_sz]), float(sig_ep[jb, i_sz])))
+    return NavSolution(
+        t_s=t,
+        q_sn=q,
+        v_n=v,
+        pos=p,
+        c_bs=c_bs,
+        smoothed=smooth,
+        ldv_params=ldv_params,
+        gyro_bias_rps=gyro_b,
+        accel_bias_mps2=acc_b,
+        epoch_t_s=ep_t,
+        epoch_sigma=sig_ep,
+        normalized_innovations=nis,
+        rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},
+        epoch_index=np.arange(m + 1) * decim - 1,
+        epoch_bias=ep_bias,
+        epoch_cov=ps if keep_cov else None,
+        f_u_mps2=f_u,
+        f_u_bias_mps2=f_b,
+        gyro_scale_z=None if i_sz < 0 else (float(sz[jb] + xs[jb, i_sz]), float(sig_ep[jb, i_sz])),
+    )

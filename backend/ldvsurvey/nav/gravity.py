@@ -28,8 +28,13 @@ def disturbance_mps2(f_u, vdot_u, v_e, v_n, lat_rad, h_m):
     v_e, v_n : east and north velocity, m/s. lat_rad : latitude. h_m : ellipsoidal height, m.
     """
     rm, rn = radii(lat_rad)
-    return (f_u - vdot_u - normal_gravity(lat_rad, h_m) + (v_e / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_rad)) * v_e
-            + v_n ** 2 / (rm + h_m))
+    return (
+        f_u
+        - vdot_u
+        - normal_gravity(lat_rad, h_m)
+        + (v_e / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_rad)) * v_e
+        + v_n**2 / (rm + h_m)
+    )
 
 
 def fir_taps(length_s: float, fs_hz: float) -> np.ndarray:
@@ -84,15 +89,15 @@ def second_difference_noise_gain(valid, length_s: float, fs_hz: float) -> np.nda
     def s_delta(d):
         x = np.zeros(n)
         if d >= 0:
-            x[:n - d] = g[:n - d] * g[d:]
+            x[: n - d] = g[: n - d] * g[d:]
         else:
-            x[-d:] = g[-d:] * g[:n + d]
-        k = h2 * np.roll(np.r_[h2, 0.0], d)[:len(h2)] if d >= 0 else h2 * np.r_[h2[-d:], np.zeros(-d)]
+            x[-d:] = g[-d:] * g[: n + d]
+        k = h2 * np.roll(np.r_[h2, 0.0], d)[: len(h2)] if d >= 0 else h2 * np.r_[h2[-d:], np.zeros(-d)]
         full = oaconvolve(x, k)
-        return full[m:m + n]
+        return full[m : m + n]
 
     var = 6 * s_delta(0) - 4 * (s_delta(1) + s_delta(-1)) + s_delta(2) + s_delta(-2)
-    den = oaconvolve(g, h2)[m:m + n]
+    den = oaconvolve(g, h2)[m : m + n]
     k1 = h2 * np.r_[0.0, h2[:-1]]
     k2 = h2 * np.r_[0.0, 0.0, h2[:-2]]
     inner = np.sqrt(max(6 * np.sum(h2 * h2) - 8 * np.sum(k1) + 2 * np.sum(k2), 1e-300))
@@ -179,9 +184,14 @@ def _response4(length_s: float, n_f: int = 1 << 16):
     return f, np.abs(hf) ** 4
 
 
-def noise_floor_mgal(length_s: float, accel_noise_ug_rthz: float | None = None, ldv_noise_mps: float | None = None,
-                     ldv_rate_hz: float | None = None, height_noise_m: float | None = None,
-                     gnss_rate_hz: float | None = None) -> dict:
+def noise_floor_mgal(
+    length_s: float,
+    accel_noise_ug_rthz: float | None = None,
+    ldv_noise_mps: float | None = None,
+    ldv_rate_hz: float | None = None,
+    height_noise_m: float | None = None,
+    gnss_rate_hz: float | None = None,
+) -> dict:
     """1-σ of white sensor noise after the zero-phase FIR: the floor of a repeated-line coincidence (mGal).
 
     The per-line coincidence ε_i estimates the σ of one line's filtered δg (the n/(n−1) factor
@@ -200,7 +210,7 @@ def noise_floor_mgal(length_s: float, accel_noise_ug_rthz: float | None = None, 
     w = 2 * np.pi * f
 
     def integral(p):
-        return 2.0 * np.sum(w ** p * h4) * df
+        return 2.0 * np.sum(w**p * h4) * df
 
     out = {}
     if accel_noise_ug_rthz:
@@ -209,7 +219,7 @@ def noise_floor_mgal(length_s: float, accel_noise_ug_rthz: float | None = None, 
         out["ldv_mgal"] = float(ldv_noise_mps * np.sqrt(integral(2) / ldv_rate_hz) / MGAL)
     if height_noise_m and gnss_rate_hz:
         out["gnss_height_mgal"] = float(height_noise_m * np.sqrt(integral(4) / gnss_rate_hz) / MGAL)
-    out["total_mgal"] = float(np.sqrt(sum(v ** 2 for v in out.values())))
+    out["total_mgal"] = float(np.sqrt(sum(v**2 for v in out.values())))
     return out
 
 

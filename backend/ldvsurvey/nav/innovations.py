@@ -35,7 +35,7 @@ def integrated_autocorrelation(x: np.ndarray, max_lag: int | None = None) -> flo
         return 1.0
     m = min(n // 4, max_lag if max_lag is not None else n // 4)
     f = np.fft.rfft(x, 2 * n)
-    acf = np.fft.irfft(f * np.conj(f))[:m + 1] / (n * var)
+    acf = np.fft.irfft(f * np.conj(f))[: m + 1] / (n * var)
     tau = 1.0
     for k in range(1, m + 1):
         if acf[k] <= 0:
@@ -56,6 +56,6 @@ def variance_inflation(nu: np.ndarray, gate: float = 5.0) -> dict:
     v = v[np.abs(v) <= gate]
     if len(v) < 20:
         return {"factor": 1.0, "nis_variance": None, "corr_epochs": None, "n": int(len(v))}
-    s2 = float(np.mean(v ** 2))
+    s2 = float(np.mean(v**2))
     tau = integrated_autocorrelation(v)
     return {"factor": float(max(1.0, s2 * tau)), "nis_variance": s2, "corr_epochs": tau, "n": int(len(v))}

@@ -367,8 +367,8 @@ def forward(imu, mdl, ldv, gnss, st):
     r3 = np.empty(3)
     zl = np.empty(3)
     ub = np.empty((3, 5))
-    zupt_r = mdl.zupt_sigma ** 2
-    ldv_r = ldv.sigma ** 2
+    zupt_r = mdl.zupt_sigma**2
+    ldv_r = ldv.sigma**2
     _pack(P, ck[0])
     for i in range(n):
         sig_f[0, i] = np.sqrt(max(P[i, i], 0.0))
@@ -549,8 +549,9 @@ def forward(imu, mdl, ldv, gnss, st):
             for i in range(3):
                 for a in range(5):
                     if aug_idx[a] >= 0:
-                        H[i, aug_idx[a]] = -((lc[i, 0] / ln) * ub[0, a] + (lc[i, 1] / ln) * ub[1, a]
-                                             + (lc[i, 2] / ln) * ub[2, a])
+                        H[i, aug_idx[a]] = -(
+                            (lc[i, 0] / ln) * ub[0, a] + (lc[i, 1] / ln) * ub[1, a] + (lc[i, 2] / ln) * ub[2, a]
+                        )
                 H[i, 3 + i] = 1.0
             # attitude: −[v̄_l ×]
             H[0, 1], H[0, 2] = v_l2, -v_l1
@@ -617,8 +618,25 @@ def forward(imu, mdl, ldv, gnss, st):
             if full:
                 v_out[k, i] = v[i]
                 p_out[k, i] = pos[i]
-    return (q_out, v_out, p_out, fu_out, fen_out, fb_out, ck, upd, sig_f, fin, dts, dxs, par_out, bias_out, nis,
-            rejected, sz_out)
+    return (
+        q_out,
+        v_out,
+        p_out,
+        fu_out,
+        fen_out,
+        fb_out,
+        ck,
+        upd,
+        sig_f,
+        fin,
+        dts,
+        dxs,
+        par_out,
+        bias_out,
+        nis,
+        rejected,
+        sz_out,
+    )
 
 
 @nb.njit(cache=True, inline="always")
@@ -664,7 +682,7 @@ def _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, w
 @nb.njit(cache=True)
 def forward_covs(ck, upd, fin, dts, qd, inv_tau, i_sz, aug_idx, zupt_sigma):
     """The forward P⁺ (M+1, n, n) of every epoch, redone from the checkpoints."""
-    zupt_r = zupt_sigma ** 2
+    zupt_r = zupt_sigma**2
     m1 = dts.shape[0]
     n = len(qd)
     out = np.empty((m1, n, n))
@@ -673,7 +691,7 @@ def forward_covs(ck, upd, fin, dts, qd, inv_tau, i_sz, aug_idx, zupt_sigma):
     none = np.empty((0, n, n))
     for b in range(ck.shape[0]):
         cnt = _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, ws, none, none)
-        out[b * CK_EVERY:b * CK_EVERY + cnt] = blk[:cnt]
+        out[b * CK_EVERY : b * CK_EVERY + cnt] = blk[:cnt]
     return out
 
 
@@ -687,7 +705,7 @@ def rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zupt_sigma, keep_cov
     Returns x_s (M+1, n): smoothed error of the post-feedback nominal at each epoch; the 1-σ
     (M+1, n) of P_s; and P_s (M+1, n, n) when ``keep_cov`` (else an empty (0, n, n)).
     """
-    zupt_r = zupt_sigma ** 2
+    zupt_r = zupt_sigma**2
     m1 = dts.shape[0]
     n = dxs.shape[1]
     xs = np.zeros((m1, n))

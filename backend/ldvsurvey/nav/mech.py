@@ -189,8 +189,9 @@ def _run(t, dth, dvel, q0, v0, pos0, xi, eta, dg, h_ref, vu_ref):
         gx = xi[k] if has_g else 0.0
         ge = eta[k] if has_g else 0.0
         gd = dg[k] if has_g else 0.0
-        q_new, v_new, p_new, _ = mech_step(q, v, pos, v_prev, pos_prev, dth[k], dvel[k], dth_prev, dv_prev,
-                                           dt, gx, ge, gd)
+        q_new, v_new, p_new, _ = mech_step(
+            q, v, pos, v_prev, pos_prev, dth[k], dvel[k], dth_prev, dv_prev, dt, gx, ge, gd
+        )
         if hold:
             p_new[2] = h_ref[k]
             v_new[2] = vu_ref[k]
@@ -223,6 +224,16 @@ def mechanize(t_s, dtheta_rad, dvel_mps, q0, v0_n, pos0, gravity=None, height_re
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     h_ref, vu_ref = (e, e) if height_ref is None else (np.ascontiguousarray(a, dtype=float) for a in height_ref)
-    return _run(t, np.ascontiguousarray(dtheta_rad, dtype=float), np.ascontiguousarray(dvel_mps, dtype=float),
-                np.asarray(q0, dtype=float), np.asarray(v0_n, dtype=float), np.asarray(pos0, dtype=float),
-                xi, eta, dg, h_ref, vu_ref)
+    return _run(
+        t,
+        np.ascontiguousarray(dtheta_rad, dtype=float),
+        np.ascontiguousarray(dvel_mps, dtype=float),
+        np.asarray(q0, dtype=float),
+        np.asarray(v0_n, dtype=float),
+        np.asarray(pos0, dtype=float),
+        xi,
+        eta,
+        dg,
+        h_ref,
+        vu_ref,
+    )

@@ -48,8 +48,9 @@ class Stop:
     eta_rad: float
 
 
-def find_stops(t_s, eta_rad, min_dwell_s: float = 5.0, tol_rad: float = STOP_TOL_RAD,
-               window_s: float = 1.0) -> list[Stop]:
+def find_stops(
+    t_s, eta_rad, min_dwell_s: float = 5.0, tol_rad: float = STOP_TOL_RAD, window_s: float = 1.0
+) -> list[Stop]:
     """Stretches where the encoder angle stays within ``tol_rad`` over every ``window_s`` window for
     at least ``min_dwell_s`` (encoder jitter of a few counts does not end a stop)."""
     t = np.asarray(t_s, float)
@@ -107,9 +108,9 @@ def _fit(groups, x0):
         rows, res = [], []
         a, b = x[0], x[1]
         for i, (eta, u_s, tau) in enumerate(groups):
-            p = x[2 + NG * i:2 + NG * (i + 1)]
+            p = x[2 + NG * i : 2 + NG * (i + 1)]
 
-            def model(pp, aa=a, bb=b):
+            def model(pp, aa=a, bb=b, eta=eta, tau=tau):
                 return np.einsum("kij,kj->ki", c_bs(eta, aa, bb), _up_b_series(pp, tau))
 
             m0 = model(p)
@@ -138,9 +139,18 @@ def _up_b_series(p, tau):
     return np.column_stack([-np.cos(th) * np.sin(ga), np.sin(th), np.cos(th) * np.cos(ga)])
 
 
-def estimate_tilt(t_s, c_sn, eta_rad, still: list[tuple[float, float]], *, trim_s: float = 1.0,
-                  rate_hz: float = 10.0, block_s: float = 20.0, bias_sigma_rad: float = 0.0,
-                  stops: list[Stop] | None = None) -> TiltEstimate:
+def estimate_tilt(
+    t_s,
+    c_sn,
+    eta_rad,
+    still: list[tuple[float, float]],
+    *,
+    trim_s: float = 1.0,
+    rate_hz: float = 10.0,
+    block_s: float = 20.0,
+    bias_sigma_rad: float = 0.0,
+    stops: list[Stop] | None = None,
+) -> TiltEstimate:
     """Least-squares α, β over the still intervals (see the module docstring).
 
     Parameters
@@ -179,10 +189,19 @@ def estimate_tilt(t_s, c_sn, eta_rad, still: list[tuple[float, float]], *, trim_
     n = sum(len(g[0]) for g in groups)
     div = (sum(len(g[0]) * diversity(g[0]) for g in groups) / n) if n else 0.0
     if not groups:
-        return TiltEstimate(0.0, 0.0, None, None, pairs, observable=False, warnings=[
-            "base tilt not observable: the turntable did not turn while the vehicle stood still (no still "
-            "interval with stops at different encoder angles or a rotation); α = β = 0 is used, so the "
-            "attitude keeps an oscillation of the size of the tilt"])
+        return TiltEstimate(
+            0.0,
+            0.0,
+            None,
+            None,
+            pairs,
+            observable=False,
+            warnings=[
+                "base tilt not observable: the turntable did not turn while the vehicle stood still (no still "
+                "interval with stops at different encoder angles or a rotation); α = β = 0 is used, so the "
+                "attitude keeps an oscillation of the size of the tilt"
+            ],
+        )
     x0 = [0.0, 0.0]
     for e, u, _ in groups:  # level of each interval from the mean up vector brought back to b
         ub = np.mean(np.einsum("kji,kj->ki", c_bs(e), u), axis=0)
@@ -201,7 +220,7 @@ def estimate_tilt(t_s, c_sn, eta_rad, still: list[tuple[float, float]], *, trim_
                         continue
                     e, u, tau = e[keep], u[keep], tau[keep]
                 sub.append((e, u, tau))
-                xs += list(x[2 + NG * j:2 + NG * (j + 1)])
+                xs += list(x[2 + NG * j : 2 + NG * (j + 1)])
             if sub:
                 est.append(_fit(sub, xs)[0][:2])
     if len(est) >= 3:
@@ -214,9 +233,18 @@ def estimate_tilt(t_s, c_sn, eta_rad, still: list[tuple[float, float]], *, trim_
         cov = s2 * np.linalg.pinv(jm.T @ jm)
         jk = np.sqrt(np.diag(cov)[:2])
     sig = np.maximum(jk, bias_sigma_rad)
-    return TiltEstimate(float(x[0]), float(x[1]), float(sig[0]), float(sig[1]), pairs, observable=True,
-                        n_intervals=len(groups), n_samples=n, diversity=div,
-                        rms_residual_rad=float(np.sqrt(np.mean(rv ** 2))))
+    return TiltEstimate(
+        float(x[0]),
+        float(x[1]),
+        float(sig[0]),
+        float(sig[1]),
+        pairs,
+        observable=True,
+        n_intervals=len(groups),
+        n_samples=n,
+        diversity=div,
+        rms_residual_rad=float(np.sqrt(np.mean(rv**2))),
+    )
 
 
 def oscillation_per_cycle(t_s, values, eta_rad, still: list[tuple[float, float]]):
@@ -240,10 +268,10 @@ def oscillation_per_cycle(t_s, values, eta_rad, still: list[tuple[float, float]]
             far = np.flatnonzero(np.abs(np.mod(d + np.pi, 2 * np.pi) - np.pi) > np.radians(170.0))
             if not len(far):
                 break
-            back = np.flatnonzero((np.abs(np.mod(d[far[0]:] + np.pi, 2 * np.pi) - np.pi) < np.radians(1.0)))
+            back = np.flatnonzero(np.abs(np.mod(d[far[0] :] + np.pi, 2 * np.pi) - np.pi) < np.radians(1.0))
             if not len(back):
                 break
             j = i + far[0] + back[0]
-            out.append(float(np.ptp(values[k[i:j + 1]])))
+            out.append(float(np.ptp(values[k[i : j + 1]])))
             i = j + 1
     return out

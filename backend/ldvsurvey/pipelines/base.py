@@ -24,7 +24,6 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 from ldvsurvey import FORMAT_VERSION, __version__
 from ldvsurvey.errors import ParameterError
 
-
 #: warnings raised by shared stages (preparation, base tilt) during one pipeline run; every
 #: pipeline's summary gets them, whether or not the pipeline passes them on itself
 _RUN_WARNINGS: contextvars.ContextVar = contextvars.ContextVar("ldvsurvey_run_warnings", default=None)
@@ -44,8 +43,9 @@ class Cancelled(Exception):
 class Progress:
     """Stage/fraction reporter; ``check()`` raises :class:`Cancelled` when cancellation was asked."""
 
-    def __init__(self, callback: Callable[[str, float], None] | None = None,
-                 cancelled: Callable[[], bool] | None = None):
+    def __init__(
+        self, callback: Callable[[str, float], None] | None = None, cancelled: Callable[[], bool] | None = None
+    ):
         self._cb = callback
         self._cancelled = cancelled
 
@@ -96,8 +96,7 @@ Paths = Annotated[list[str], BeforeValidator(_split)]
 def output_rate(default_hz: float, what: str):
     """The ``output_rate_hz`` field every pipeline has: > 0 and at most 1 kHz (at most the IMU rate
     of the log is checked by :func:`rate_within_imu`)."""
-    return Field(default_hz, gt=0.0, le=1000.0,
-                 description=f"rate of {what} in Hz (> 0, at most the IMU rate)")
+    return Field(default_hz, gt=0.0, le=1000.0, description=f"rate of {what} in Hz (> 0, at most the IMU rate)")
 
 
 @dataclass(frozen=True)
@@ -119,19 +118,25 @@ class LogFacts:
     def of_manifest(cls, m: dict, t_start_s: float, t_end_s: float, has_gnss: bool) -> LogFacts:
         """From a manifest as JSON (``manifest.json`` or the store's copy) and the IMU time span."""
         imu, ldv = m.get("imu") or {}, m.get("ldv") or {}
-        return cls(name=str(m.get("name", "")), platform=str(m.get("platform", "")),
-                   ldv_kind=str(ldv.get("kind", "")), imu_rotating=bool(imu.get("rotating", False)),
-                   imu_rate_hz=float(imu.get("rate_hz") or 0.0), t_start_s=float(t_start_s),
-                   t_end_s=float(t_end_s), has_gnss=bool(has_gnss),
-                   lines=tuple((ln.get("name"), float(ln["t_start"]), float(ln["t_end"]))
-                               for ln in m.get("lines") or []),
-                   static_s=(m.get("initial") or {}).get("static_s"))
+        return cls(
+            name=str(m.get("name", "")),
+            platform=str(m.get("platform", "")),
+            ldv_kind=str(ldv.get("kind", "")),
+            imu_rotating=bool(imu.get("rotating", False)),
+            imu_rate_hz=float(imu.get("rate_hz") or 0.0),
+            t_start_s=float(t_start_s),
+            t_end_s=float(t_end_s),
+            has_gnss=bool(has_gnss),
+            lines=tuple((ln.get("name"), float(ln["t_start"]), float(ln["t_end"])) for ln in m.get("lines") or []),
+            static_s=(m.get("initial") or {}).get("static_s"),
+        )
 
     @classmethod
     def of_log(cls, log) -> LogFacts:
         """From a parsed :class:`~ldvsurvey.io.drivelog.DriveLog`."""
-        return cls.of_manifest(log.manifest.model_dump(mode="json"), float(log.imu.t_s[0]),
-                               float(log.imu.t_s[-1]), log.gnss is not None)
+        return cls.of_manifest(
+            log.manifest.model_dump(mode="json"), float(log.imu.t_s[0]), float(log.imu.t_s[-1]), log.gnss is not None
+        )
 
 
 @dataclass(frozen=True)
@@ -148,8 +153,11 @@ def rate_within_imu(logs: list[LogFacts], params: Params, field_name: str = "out
     if field_name not in params.model_fields_set:
         return []
     rate_hz = getattr(params, field_name)
-    return [Reason(field_name, f"{rate_hz:g} Hz is above the IMU rate of '{f.name}' ({f.imu_rate_hz:g} Hz)")
-            for f in logs if f.imu_rate_hz and rate_hz > f.imu_rate_hz]
+    return [
+        Reason(field_name, f"{rate_hz:g} Hz is above the IMU rate of '{f.name}' ({f.imu_rate_hz:g} Hz)")
+        for f in logs
+        if f.imu_rate_hz and rate_hz > f.imu_rate_hz
+    ]
 
 
 def window_inside(logs: list[LogFacts], window, field_name: str) -> list[Reason]:
@@ -157,9 +165,11 @@ def window_inside(logs: list[LogFacts], window, field_name: str) -> list[Reason]
     if window is None:
         return []
     a, b = window
-    return [Reason(field_name, f"[{a:g}, {b:g}] s is not inside the log '{f.name}' "
-                               f"[{f.t_start_s:.2f}, {f.t_end_s:.2f}] s")
-            for f in logs if not (f.t_start_s <= a < b <= f.t_end_s)]
+    return [
+        Reason(field_name, f"[{a:g}, {b:g}] s is not inside the log '{f.name}' [{f.t_start_s:.2f}, {f.t_end_s:.2f}] s")
+        for f in logs
+        if not (f.t_start_s <= a < b <= f.t_end_s)
+    ]
 
 
 def needs_gnss(logs: list[LogFacts], why: str, field_name: str = "BUNDLE") -> list[Reason]:
@@ -241,8 +251,7 @@ class Pipeline:
         out = []
         for name, f in self.model.model_fields.items():
             kind, choices = _kind(props[name])
-            out.append(ParamInfo(name, kind, f.get_default(call_default_factory=True), f.description or "",
-                                 choices))
+            out.append(ParamInfo(name, kind, f.get_default(call_default_factory=True), f.description or "", choices))
         return out
 
     def validate(self, given: dict) -> Params:
@@ -253,8 +262,10 @@ class Pipeline:
         except ValidationError as exc:
             err = _error_of(exc)
             if err.message.startswith("unknown parameter"):
-                err = ParameterError(f"unknown parameter for '{self.name}' (known: "
-                                     f"{', '.join(self.model.model_fields)})", field=err.field)
+                err = ParameterError(
+                    f"unknown parameter for '{self.name}' (known: {', '.join(self.model.model_fields)})",
+                    field=err.field,
+                )
             raise err from None
 
     def resolve(self, given: dict) -> dict:
@@ -269,9 +280,10 @@ class Pipeline:
             raise ParameterError(f"'{self.name}' takes exactly one log, got {len(logs)}", field="log_ids")
         reasons = self.applicable(logs, params)
         if reasons:
-            raise ParameterError(f"'{self.name}' cannot run here: " + "; ".join(f"{r.field}: {r.message}"
-                                                                               for r in reasons),
-                                 field=reasons[0].field)
+            raise ParameterError(
+                f"'{self.name}' cannot run here: " + "; ".join(f"{r.field}: {r.message}" for r in reasons),
+                field=reasons[0].field,
+            )
         return params.model_dump()
 
 
@@ -310,7 +322,7 @@ def run_pipeline(pipe: Pipeline, logs: list, params: dict, progress: Progress | 
     values = pipe.resolve(params)
     if not pipe.multi_input and len(logs) != 1:
         raise ParameterError(f"'{pipe.name}' takes exactly one bundle, got {len(logs)}", field="BUNDLE")
-    started = dt.datetime.now(dt.timezone.utc)
+    started = dt.datetime.now(dt.UTC)
     t0 = time.perf_counter()
     token = _RUN_WARNINGS.set([])
     try:
@@ -327,10 +339,16 @@ def run_pipeline(pipe: Pipeline, logs: list, params: dict, progress: Progress | 
         warnings += list(log.warnings)
     warnings += result.warnings
     warnings += [w for w in staged if w not in warnings]
-    common = {"pipeline": pipe.name, "format_version": FORMAT_VERSION, "inputs": inputs,
-              "parameters": values, "software_version": __version__,
-              "started_at": started.isoformat(timespec="seconds"),
-              "elapsed_s": round(time.perf_counter() - t0, 3), "warnings": warnings}
+    common = {
+        "pipeline": pipe.name,
+        "format_version": FORMAT_VERSION,
+        "inputs": inputs,
+        "parameters": values,
+        "software_version": __version__,
+        "started_at": started.isoformat(timespec="seconds"),
+        "elapsed_s": round(time.perf_counter() - t0, 3),
+        "warnings": warnings,
+    }
     result.summary = _jsonable({**common, **result.summary})
     result.summary["elapsed_s"] = round(time.perf_counter() - t0, 3)
     progress("done", 1.0)
@@ -350,7 +368,7 @@ def _cell(v) -> str:
     s = str(v)
     if s.startswith(FORMULA_START):  # CSV formula injection guard for text cells
         s = "'" + s
-    if any(c in s for c in ",\"\n"):
+    if any(c in s for c in ',"\n'):
         s = '"' + s.replace('"', '""') + '"'
     return s
 
@@ -367,8 +385,12 @@ def table_csv(columns: dict) -> bytes:
         import pyarrow as pa
         import pyarrow.csv as pacsv
 
-        table = pa.table({nm: pa.array(c.astype(float) if c.dtype.kind == "b" else c, from_pandas=True)
-                          for nm, c in zip(names, cols)})
+        table = pa.table(
+            {
+                nm: pa.array(c.astype(float) if c.dtype.kind == "b" else c, from_pandas=True)
+                for nm, c in zip(names, cols)
+            }
+        )
         out = io.BytesIO()
         out.write(buf.getvalue().encode())
         pacsv.write_csv(table, out, write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"))

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 from pydantic import Field, field_validator
 
-from ldvsurvey.pipelines.base import (Floats, LogFacts, Pipeline, PipelineResult, Reason, needs_gnss,
-                                      window_inside)
+from ldvsurvey.pipelines.base import Floats, LogFacts, Pipeline, PipelineResult, Reason, needs_gnss, window_inside
+from ldvsurvey.pipelines.calibration import calibration_stage, time_window
 from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs
 from ldvsurvey.pipelines.plumb import DovParams, apply_dov
-from ldvsurvey.pipelines.calibration import calibration_stage, time_window
 from ldvsurvey.pipelines.tiltfit import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
@@ -17,8 +16,10 @@ class CalibrateParams(DovParams):
     """Parameters of ``calibrate``."""
 
     calibration_window: Floats | None = Field(
-        None, description="t0,t1 in s (time of day, inside the log) of the stretch to use (default: the "
-        "longest good-GNSS moving stretch)")
+        None,
+        description="t0,t1 in s (time of day, inside the log) of the stretch to use (default: the "
+        "longest good-GNSS moving stretch)",
+    )
 
     @field_validator("calibration_window")
     @classmethod
@@ -28,8 +29,9 @@ class CalibrateParams(DovParams):
 
 def applicable(logs: list[LogFacts], params: CalibrateParams) -> list[Reason]:
     """Calibration compares the LDV with GNSS: the log needs GNSS, the window must be inside it."""
-    return (needs_gnss(logs, "the calibration compares the LDV with GNSS")
-            + window_inside(logs, params.calibration_window, "calibration_window"))
+    return needs_gnss(logs, "the calibration compares the LDV with GNSS") + window_inside(
+        logs, params.calibration_window, "calibration_window"
+    )
 
 
 def run(logs, params, progress) -> PipelineResult:
@@ -51,16 +53,22 @@ def run(logs, params, progress) -> PipelineResult:
         extra = {"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad}
     cal = calibration_stage(inp, cbs, window, progress)
     s = {
-        "ldv_pitch_deg": cal.pitch_rad / RAD, "ldv_pitch_deg_sigma": cal.sigma["pitch"] / RAD,
-        "ldv_heading_deg": cal.heading_rad / RAD, "ldv_heading_deg_sigma": cal.sigma["heading"] / RAD,
-        "ldv_scale": cal.scale, "ldv_scale_sigma": cal.sigma["scale"],
+        "ldv_pitch_deg": cal.pitch_rad / RAD,
+        "ldv_pitch_deg_sigma": cal.sigma["pitch"] / RAD,
+        "ldv_heading_deg": cal.heading_rad / RAD,
+        "ldv_heading_deg_sigma": cal.sigma["heading"] / RAD,
+        "ldv_scale": cal.scale,
+        "ldv_scale_sigma": cal.sigma["scale"],
         "ldv_pitch_k_rad_per_mps2": cal.pitch_k_rad_per_mps2,
         "ldv_pitch_k_rad_per_mps2_sigma": cal.sigma["pitch_k"],
         "ldv_pitch_compliance_deg_per_g": cal.pitch_k_rad_per_mps2 / RAD * 9.80665,
         "fix_qualities": list(cal.fixes),
-        "segment_t_s": list(cal.window_s), "method": "kalman filter with LDV states: travel direction (pitch, heading, pitch compliance "
-                  "per m/s² of forward acceleration) and scale; closed form beside",
-        "closed_form": cal.closed_form, "dov": dov_info, **extra,
+        "segment_t_s": list(cal.window_s),
+        "method": "kalman filter with LDV states: travel direction (pitch, heading, pitch compliance "
+        "per m/s² of forward acceleration) and scale; closed form beside",
+        "closed_form": cal.closed_form,
+        "dov": dov_info,
+        **extra,
         "sigma_inflation": cal.sigma_inflation,
     }
     if inp.nu_u_mps is not None:
@@ -73,5 +81,6 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=s, tables={"calibration_track": cal.track}, warnings=warnings)
 
 
-PIPELINE = Pipeline("calibrate", run, CalibrateParams, "LDV mounting angles and scale factor against GNSS",
-                    applicable=applicable)
+PIPELINE = Pipeline(
+    "calibrate", run, CalibrateParams, "LDV mounting angles and scale factor against GNSS", applicable=applicable
+)

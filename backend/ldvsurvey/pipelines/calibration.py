@@ -1,4 +1,5 @@
-"""LDV calibration shared by pipelines: mounting, pitch compliance and scale from a GNSS window, and the LDV set-up every pipeline applies."""
+"""LDV calibration shared by pipelines: mounting, pitch compliance and scale from a GNSS window,
+and the LDV set-up every pipeline applies."""
 
 from __future__ import annotations
 
@@ -14,11 +15,19 @@ from ldvsurvey.nav.filter import forward_accel_mps2
 from ldvsurvey.nav.innovations import variance_inflation
 from ldvsurvey.nav.tilt import TiltEstimate
 from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Reason, window_inside
+from ldvsurvey.pipelines.inputs import (
+    NavInputs,
+    attitude_at,
+    c_bs_of,
+    gnss_aid,
+    ldv_aid,
+    local_metres,
+    navigate,
+    pipeline_cfg,
+)
 from ldvsurvey.pipelines.tiltfit import tilt_stage
-from ldvsurvey.pipelines.inputs import (NavInputs, attitude_at, c_bs_of, gnss_aid, ldv_aid, local_metres, navigate,
-                                      pipeline_cfg)
-
-from ldvsurvey.units import G0_MPS2 as G0, RAD_PER_DEG as RAD  # noqa: E402
+from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
+from ldvsurvey.units import RAD_PER_DEG as RAD
 
 
 @dataclass
@@ -59,14 +68,17 @@ def _choose_window(inp: NavInputs, window=None, min_distance_m: float = 500.0):
     if window is not None:
         a, b = window
         if not (t0 <= a < b <= t1):
-            raise ParameterError(f"calibration_window [{a}, {b}] s is not inside the log [{t0:.2f}, {t1:.2f}] s",
-                                 field="calibration_window")
+            raise ParameterError(
+                f"calibration_window [{a}, {b}] s is not inside the log [{t0:.2f}, {t1:.2f}] s",
+                field="calibration_window",
+            )
         for fixes in GOOD_FIXES:
             good = np.isin(g.fix, fixes) & np.isfinite(g.lat_deg)
             if np.count_nonzero(good & (g.t_s >= a) & (g.t_s <= b)) >= 10:
                 return (float(a), float(b)), fixes
-        raise ParameterError("fewer than 10 GNSS fixes of quality 4, 5 or 2 in the calibration window",
-                             field="calibration_window")
+        raise ParameterError(
+            "fewer than 10 GNSS fixes of quality 4, 5 or 2 in the calibration window", field="calibration_window"
+        )
     speed = np.interp(g.t_s, inp.t_s, np.abs(inp.nu_f_mps))
     for fixes in GOOD_FIXES:
         good = np.isin(g.fix, fixes) & np.isfinite(g.lat_deg)
@@ -78,15 +90,17 @@ def _choose_window(inp: NavInputs, window=None, min_distance_m: float = 500.0):
             if len(mv) < 2:
                 continue
             r = r[(r >= mv[0]) & (r <= mv[-1])]
-            e, n = local_metres(g.lat_deg[r[0]] * RAD, g.lon_deg[r[0]] * RAD, g.lat_deg[r] * RAD,
-                                g.lon_deg[r] * RAD)
+            e, n = local_metres(g.lat_deg[r[0]] * RAD, g.lon_deg[r[0]] * RAD, g.lat_deg[r] * RAD, g.lon_deg[r] * RAD)
             d = float(np.sum(np.hypot(np.diff(e), np.diff(n))))
             if d > best_d:
                 best, best_d = (float(g.t_s[r[0]]), float(g.t_s[r[-1]])), d
         if best is not None and best_d >= min_distance_m:
             return best, fixes
-    raise ParameterError(f"no moving stretch with good GNSS (fix 4, 5 or 2) of at least {min_distance_m:.0f} m "
-                         "for the calibration", file="gnss.nmea", field="fix_quality")
+    raise ParameterError(
+        f"no moving stretch with good GNSS (fix 4, 5 or 2) of at least {min_distance_m:.0f} m for the calibration",
+        file="gnss.nmea",
+        field="fix_quality",
+    )
 
 
 def ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up=1.0, pitch_k=0.0, accel_fwd=None):
@@ -108,8 +122,7 @@ def accel_fwd(inp: NavInputs) -> np.ndarray:
 
 def _dead_reckon(t, c_bn, nu_f, nu_u, ok, scale, pitch, heading, scale_up, pitch_k=0.0, a_f=None):
     """ENU positions (m) from LDV velocities through the attitude (trapezoid)."""
-    v_n = np.einsum("kij,kj->ki", c_bn, ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up,
-                                                           pitch_k, a_f))
+    v_n = np.einsum("kij,kj->ki", c_bn, ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up, pitch_k, a_f))
     v_n[~ok] = np.nan
     good = np.isfinite(v_n[:, 0])
     for i in range(3):  # bridge unusable LDV samples
@@ -151,8 +164,9 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     cfg = pipeline_cfg(ldv_aug=aug)
     aid = ldv_aid(inp)
     aid.accel_fwd_mps2 = a_f
-    sol = navigate(inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg,
-                   attitude_only=True)  # its use: the LDV states and the attitude
+    sol = navigate(
+        inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg, attitude_only=True
+    )  # its use: the LDV states and the attitude
     p = sol.ldv_params
     pk, spk = p.get("pitch_k", (0.0, None)) if k_obs else (0.0, None)
     # GNSS errors are time-correlated (and unmodelled IMU errors show in the GNSS residuals the same
@@ -162,15 +176,25 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     infl = [variance_inflation(inn[:, i], gate=cfg.gate_sigma or np.inf) for i in range(3)]
     f_h = np.sqrt(max(infl[0]["factor"], infl[1]["factor"]))
     f_v = np.sqrt(infl[2]["factor"])
-    cal = Calibration(pitch_rad=p["pitch"][0], heading_rad=p["heading"][0], scale=p["scale"][0],
-                      scale_up=p["scale_up"][0] if up_obs else log.manifest.ldv.nominal.scale,
-                      sigma={"pitch": p["pitch"][1] * f_v, "heading": p["heading"][1] * f_h,
-                             "scale": p["scale"][1] * f_h,
-                             "scale_up": p["scale_up"][1] * f_v if up_obs else None,
-                             "pitch_k": None if spk is None else spk * f_v},
-                      closed_form={}, window_s=kf_win, track={}, pitch_k_rad_per_mps2=pk, fixes=kf_fixes,
-                      sigma_inflation={"horizontal": float(f_h), "vertical": float(f_v),
-                                       "gnss_innovations": dict(zip("enu", infl))})
+    cal = Calibration(
+        pitch_rad=p["pitch"][0],
+        heading_rad=p["heading"][0],
+        scale=p["scale"][0],
+        scale_up=p["scale_up"][0] if up_obs else log.manifest.ldv.nominal.scale,
+        sigma={
+            "pitch": p["pitch"][1] * f_v,
+            "heading": p["heading"][1] * f_h,
+            "scale": p["scale"][1] * f_h,
+            "scale_up": p["scale_up"][1] * f_v if up_obs else None,
+            "pitch_k": None if spk is None else spk * f_v,
+        },
+        closed_form={},
+        window_s=kf_win,
+        track={},
+        pitch_k_rad_per_mps2=pk,
+        fixes=kf_fixes,
+        sigma_inflation={"horizontal": float(f_h), "vertical": float(f_v), "gnss_innovations": dict(zip("enu", infl))},
+    )
     # 2) closed form over the window with the filter's attitude: similarity fit of the horizontal
     # tracks, slope of the height residual (no compliance: it shows what a constant mounting gives)
     if progress:
@@ -205,23 +229,42 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
         slope = np.polyfit(dist, res_h, 1)[0]
         pitch += np.arcsin(np.clip(slope, -1, 1))
     res2 = g2 - sig * (d2 @ rot.T)
-    rms_h = float(np.sqrt(np.mean(res2 ** 2)))
-    span = float(np.sqrt(np.sum(d2 ** 2)))
+    rms_h = float(np.sqrt(np.mean(res2**2)))
+    span = float(np.sqrt(np.sum(d2**2)))
     resid_v = res_h - np.polyval(np.polyfit(dist, res_h, 1), dist)
-    cal.closed_form = {"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale,
-                       "ldv_pitch_deg_sigma": float(np.std(resid_v) / np.sqrt(np.sum((dist - dist.mean()) ** 2))
-                                                    / RAD),
-                       "ldv_heading_deg_sigma": rms_h / span / RAD, "ldv_scale_sigma": rms_h / span * scale,
-                       "n_fixes": int(len(dist))}
+    cal.closed_form = {
+        "ldv_pitch_deg": pitch / RAD,
+        "ldv_heading_deg": heading / RAD,
+        "ldv_scale": scale,
+        "ldv_pitch_deg_sigma": float(np.std(resid_v) / np.sqrt(np.sum((dist - dist.mean()) ** 2)) / RAD),
+        "ldv_heading_deg_sigma": rms_h / span / RAD,
+        "ldv_scale_sigma": rms_h / span * scale,
+        "n_fixes": int(len(dist)),
+    }
     if up and not up_obs:
-        cal.closed_form["note"] = ("up-axis scale not estimated: the LDV up channel shows no motion "
-                                   "(rms < 0.05 m/s) in the window; the nominal scale is used")
+        cal.closed_form["note"] = (
+            "up-axis scale not estimated: the LDV up channel shows no motion "
+            "(rms < 0.05 m/s) in the window; the nominal scale is used"
+        )
     if not k_obs:
-        cal.closed_form["note_compliance"] = ("pitch compliance not estimated: the window holds less than 10 s "
-                                              "of acceleration above 0.3 m/s²; none is applied")
+        cal.closed_form["note_compliance"] = (
+            "pitch compliance not estimated: the window holds less than 10 s "
+            "of acceleration above 0.3 m/s²; none is applied"
+        )
     # 3) the calibrated dead-reckoning track over the window, from the first fix
-    dr = _dead_reckon(t, c_bn, inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], cal.scale, cal.pitch_rad,
-                      cal.heading_rad, cal.scale_up, cal.pitch_k_rad_per_mps2, a_f[k])
+    dr = _dead_reckon(
+        t,
+        c_bn,
+        inp.nu_f_mps[k],
+        nu_u,
+        inp.ldv_ok[k],
+        cal.scale,
+        cal.pitch_rad,
+        cal.heading_rad,
+        cal.scale_up,
+        cal.pitch_k_rad_per_mps2,
+        a_f[k],
+    )
     t_first = g.t_s[gk][0]
     dr -= np.column_stack([np.interp(t_first, t, dr[:, i]) for i in range(3)])
     rm, rn = radii(lat_r[0])
@@ -229,8 +272,12 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     lon = lon_r[0] - lev_n[0, 0] / (rn * np.cos(lat_r[0])) + dr[:, 0] / (rn * np.cos(lat_r[0]))
     h = g.h_m[gk][0] - lev_n[0, 2] + dr[:, 2]
     step = max(1, int(round(0.1 / np.median(np.diff(t)))))  # 10 Hz
-    cal.track = {"t_s": t[::step], "lat_deg": np.degrees(lat[::step]), "lon_deg": np.degrees(lon[::step]),
-                 "h_m": h[::step]}
+    cal.track = {
+        "t_s": t[::step],
+        "lat_deg": np.degrees(lat[::step]),
+        "lon_deg": np.degrees(lon[::step]),
+        "h_m": h[::step],
+    }
     return cal
 
 
@@ -238,19 +285,29 @@ class CalibrationParams(Params):
     """The parameters shared by every pipeline that navigates with a calibrated LDV."""
 
     calibration: Literal["auto", "nominal"] = Field(
-        "auto", description="auto: calibrate the LDV against GNSS in this log; nominal: use the manifest's "
-        "nominal mounting; given values of ldv_* always win")
+        "auto",
+        description="auto: calibrate the LDV against GNSS in this log; nominal: use the manifest's "
+        "nominal mounting; given values of ldv_* always win",
+    )
     calibration_window: Floats | None = Field(
-        None, description="t0,t1 in s (time of day, inside the log) for the automatic calibration")
-    ldv_pitch_deg: float | None = Field(None, ge=-45.0, le=45.0,
-                                        description="LDV mounting pitch η_L in degrees (|η_L| ≤ 45°)")
-    ldv_heading_deg: float | None = Field(None, ge=-360.0, le=360.0,
-                                          description="LDV mounting heading φ_L in degrees (−360° to 360°)")
-    ldv_scale: float | None = Field(None, ge=0.5, le=1.5, description="LDV scale factor K (dimensionless, "
-                                    "0.5 to 1.5: a calibration near 1)")
+        None, description="t0,t1 in s (time of day, inside the log) for the automatic calibration"
+    )
+    ldv_pitch_deg: float | None = Field(
+        None, ge=-45.0, le=45.0, description="LDV mounting pitch η_L in degrees (|η_L| ≤ 45°)"
+    )
+    ldv_heading_deg: float | None = Field(
+        None, ge=-360.0, le=360.0, description="LDV mounting heading φ_L in degrees (−360° to 360°)"
+    )
+    ldv_scale: float | None = Field(
+        None, ge=0.5, le=1.5, description="LDV scale factor K (dimensionless, 0.5 to 1.5: a calibration near 1)"
+    )
     ldv_pitch_k_rad_per_mps2: float | None = Field(
-        None, ge=-0.02, le=0.02, description="pitch compliance k_η: pitch of the travel direction the LDV "
-        "sees per m/s² of forward acceleration (squat/dive), rad per m/s² (|k_η| ≤ 0.02, about 11° per g)")
+        None,
+        ge=-0.02,
+        le=0.02,
+        description="pitch compliance k_η: pitch of the travel direction the LDV "
+        "sees per m/s² of forward acceleration (squat/dive), rad per m/s² (|k_η| ≤ 0.02, about 11° per g)",
+    )
 
     @field_validator("calibration_window")
     @classmethod
@@ -301,8 +358,12 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
     keys = ("ldv_pitch_deg", "ldv_heading_deg", "ldv_scale", "ldv_pitch_k_rad_per_mps2")
     given = {k: params[k] for k in keys if params.get(k) is not None}
     info = {"source": "nominal"}
-    pitch, heading, scale, scale_up = (m.ldv.nominal.pitch_deg * RAD, m.ldv.nominal.heading_deg * RAD,
-                                       m.ldv.nominal.scale, 1.0)
+    pitch, heading, scale, scale_up = (
+        m.ldv.nominal.pitch_deg * RAD,
+        m.ldv.nominal.heading_deg * RAD,
+        m.ldv.nominal.scale,
+        1.0,
+    )
     pitch_k = 0.0
     if params.get("calibration", "auto") == "auto" and not all(k in given for k in keys[:3]):
         if log.gnss is None:
@@ -312,10 +373,18 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
             cal = calibration_stage(inp, cbs, params.get("calibration_window"))
             pitch, heading, scale, scale_up = cal.pitch_rad, cal.heading_rad, cal.scale, cal.scale_up
             pitch_k = cal.pitch_k_rad_per_mps2
-            info = {"source": "calibrate", "segment_t_s": list(cal.window_s), "fix_qualities": list(cal.fixes),
-                    "sigma": {"ldv_pitch_deg": cal.sigma["pitch"] / RAD, "ldv_heading_deg": cal.sigma["heading"] / RAD,
-                              "ldv_scale": cal.sigma["scale"], "ldv_pitch_k_rad_per_mps2": cal.sigma["pitch_k"]},
-                    "sigma_inflation": cal.sigma_inflation}
+            info = {
+                "source": "calibrate",
+                "segment_t_s": list(cal.window_s),
+                "fix_qualities": list(cal.fixes),
+                "sigma": {
+                    "ldv_pitch_deg": cal.sigma["pitch"] / RAD,
+                    "ldv_heading_deg": cal.sigma["heading"] / RAD,
+                    "ldv_scale": cal.sigma["scale"],
+                    "ldv_pitch_k_rad_per_mps2": cal.sigma["pitch_k"],
+                },
+                "sigma_inflation": cal.sigma_inflation,
+            }
     if "ldv_pitch_deg" in given:
         pitch = given["ldv_pitch_deg"] * RAD
     if "ldv_heading_deg" in given:
@@ -326,17 +395,26 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
         pitch_k = given["ldv_pitch_k_rad_per_mps2"]
     if given:
         info["given"] = given
-    info.update({"ldv_pitch_deg": pitch / RAD, "ldv_heading_deg": heading / RAD, "ldv_scale": scale,
-                 "ldv_pitch_k_rad_per_mps2": pitch_k, "ldv_pitch_compliance_deg_per_g": pitch_k / RAD * G0})
+    info.update(
+        {
+            "ldv_pitch_deg": pitch / RAD,
+            "ldv_heading_deg": heading / RAD,
+            "ldv_scale": scale,
+            "ldv_pitch_k_rad_per_mps2": pitch_k,
+            "ldv_pitch_compliance_deg_per_g": pitch_k / RAD * G0,
+        }
+    )
     if inp.nu_u_mps is not None:
         info["ldv_scale_up"] = scale_up
-    return LdvSetup(cbs, est, pitch, heading, scale, scale_up, info, warnings, pitch_k,
-                    accel_fwd(inp) if pitch_k else None)
+    return LdvSetup(
+        cbs, est, pitch, heading, scale, scale_up, info, warnings, pitch_k, accel_fwd(inp) if pitch_k else None
+    )
 
 
 def ldv_aid_of(inp: NavInputs, setup: LdvSetup):
-    aid = ldv_aid(inp, scale=setup.scale, pitch_rad=setup.pitch_rad, heading_rad=setup.heading_rad,
-                  scale_up=setup.scale_up)
+    aid = ldv_aid(
+        inp, scale=setup.scale, pitch_rad=setup.pitch_rad, heading_rad=setup.heading_rad, scale_up=setup.scale_up
+    )
     if setup.pitch_k_rad_per_mps2:
         aid.accel_fwd_mps2 = setup.accel_fwd_mps2 if setup.accel_fwd_mps2 is not None else accel_fwd(inp)
         aid.pitch_k_rad_per_mps2 = setup.pitch_k_rad_per_mps2

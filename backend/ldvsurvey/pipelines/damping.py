@@ -9,22 +9,37 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.damping import MODES, run_damping
 from ldvsurvey.nav.earth import enu_offset_m
-from ldvsurvey.units import RAD_PER_DEG as DEG
-from ldvsurvey.pipelines.base import (LogFacts, Params, Pipeline, PipelineResult, Reason, needs_gnss, output_rate,
-                                      rate_within_imu)
+from ldvsurvey.pipelines.base import (
+    LogFacts,
+    Params,
+    Pipeline,
+    PipelineResult,
+    Reason,
+    needs_gnss,
+    output_rate,
+    rate_within_imu,
+)
 from ldvsurvey.pipelines.inputs import c_bs_of, initial_attitude, nav_inputs
 from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.units import RAD_PER_DEG as DEG
+
 
 class DampingParams(Params):
     """Parameters of ``damping``."""
 
-    period_s: float = Field(1.0, gt=0.0, le=60.0, description="covariance and conventional update period of "
-                            "the filters in s (0 to 60 s)")
-    delayed_baseline_s: float = Field(60.0, gt=0.0, le=3600.0, description="time in s between the two "
-                                      "residuals the delayed-state measurement differences (0 to 3600 s)")
+    period_s: float = Field(
+        1.0, gt=0.0, le=60.0, description="covariance and conventional update period of the filters in s (0 to 60 s)"
+    )
+    delayed_baseline_s: float = Field(
+        60.0,
+        gt=0.0,
+        le=3600.0,
+        description="time in s between the two residuals the delayed-state measurement differences (0 to 3600 s)",
+    )
     ldv_sigma_mps: float = Field(0.05, gt=0.0, le=10.0, description="1-σ of one water-LDV sample in m/s")
-    delayed_gate_sigma: float = Field(5.0, gt=0.0, le=100.0, description="gate on the delayed-state velocity "
-                                      "change (a current change), in σ")
+    delayed_gate_sigma: float = Field(
+        5.0, gt=0.0, le=100.0, description="gate on the delayed-state velocity change (a current change), in σ"
+    )
     output_rate_hz: float = output_rate(1.0, "damping.csv")
 
 
@@ -35,13 +50,14 @@ def applicable(logs: list[LogFacts], params: DampingParams) -> list[Reason]:
         if f.platform != "vessel":
             out.append(Reason("platform", f"damping is for vessels: log '{f.name}' is a {f.platform}"))
         if f.ldv_kind != "water":
-            out.append(Reason("ldv.kind", f"damping needs a water-track LDV: log '{f.name}' has ldv.kind "
-                                          f"'{f.ldv_kind}'"))
+            out.append(
+                Reason("ldv.kind", f"damping needs a water-track LDV: log '{f.name}' has ldv.kind '{f.ldv_kind}'")
+            )
         if f.platform == "vessel" and not f.static_s:
-            out.append(Reason("initial.static_s", f"log '{f.name}' has no manifest initial.static_s (the "
-                                                  "moored period)"))
-    return (out + needs_gnss(logs, "the damping comparison needs a GNSS reference")
-            + rate_within_imu(logs, params))
+            out.append(
+                Reason("initial.static_s", f"log '{f.name}' has no manifest initial.static_s (the moored period)")
+            )
+    return out + needs_gnss(logs, "the damping comparison needs a GNSS reference") + rate_within_imu(logs, params)
 
 
 def _reference(log, t_s):
@@ -51,8 +67,9 @@ def _reference(log, t_s):
         raise ParameterError("the damping comparison needs a GNSS reference (no gnss.nmea)", file="gnss.nmea")
     k = np.isin(g.fix, (4, 5, 2)) & np.isfinite(g.lat_deg)
     if k.sum() < 60:
-        raise ParameterError("fewer than 60 GNSS fixes of quality 4, 5 or 2 for the reference",
-                             file="gnss.nmea", field="fix_quality")
+        raise ParameterError(
+            "fewer than 60 GNSS fixes of quality 4, 5 or 2 for the reference", file="gnss.nmea", field="fix_quality"
+        )
     tg = g.t_s[k]
     lat, lon, h = np.radians(g.lat_deg[k]), np.radians(g.lon_deg[k]), g.h_m[k]
     v = np.gradient(np.column_stack([lat, lon]), tg, axis=0)
@@ -67,15 +84,22 @@ def run(logs, params, progress) -> PipelineResult:
     log = logs[0]
     m = log.manifest
     if m.platform != "vessel":
-        raise ParameterError(f"damping is for vessels: the manifest says platform '{m.platform}'",
-                             file="manifest.json", field="platform")
+        raise ParameterError(
+            f"damping is for vessels: the manifest says platform '{m.platform}'", file="manifest.json", field="platform"
+        )
     if m.ldv.kind != "water":
-        raise ParameterError(f"damping needs a water-track LDV: the manifest says ldv.kind '{m.ldv.kind}'",
-                             file="manifest.json", field="ldv.kind")
+        raise ParameterError(
+            f"damping needs a water-track LDV: the manifest says ldv.kind '{m.ldv.kind}'",
+            file="manifest.json",
+            field="ldv.kind",
+        )
     if not m.initial.static_s:  # absent, or 0 (a log that starts under way)
-        raise ParameterError("a vessel log needs manifest initial.static_s (the moored period): the water LDV "
-                             "cannot tell when the vessel stands still", file="manifest.json",
-                             field="initial.static_s")
+        raise ParameterError(
+            "a vessel log needs manifest initial.static_s (the moored period): the water LDV "
+            "cannot tell when the vessel stands still",
+            file="manifest.json",
+            field="initial.static_s",
+        )
     progress("preparing", 0.02)
     inp = nav_inputs(log)
     warnings = list(inp.warnings)
@@ -90,21 +114,50 @@ def run(logs, params, progress) -> PipelineResult:
     q0 = q_from_c(initial_attitude(inp, cbs))  # C_s^n at the start
     cbs_arr = np.ascontiguousarray(np.eye(3)[None] if cbs is None else cbs)
     noise = inp.noise
-    p0 = np.concatenate([np.array([0.05, 0.05, 2.0]) * DEG, np.full(3, 0.05), np.full(3, 1.0),
-                         np.full(3, max(noise.gyro_bias_rps, 1e-9)), np.full(3, max(noise.accel_bias_mps2, 1e-5)),
-                         [0.01]]) ** 2
+    p0 = (
+        np.concatenate(
+            [
+                np.array([0.05, 0.05, 2.0]) * DEG,
+                np.full(3, 0.05),
+                np.full(3, 1.0),
+                np.full(3, max(noise.gyro_bias_rps, 1e-9)),
+                np.full(3, max(noise.accel_bias_mps2, 1e-5)),
+                [0.01],
+            ]
+        )
+        ** 2
+    )
     qd = np.concatenate([np.full(3, noise.arw_psd), np.full(3, noise.vrw_psd), np.zeros(9), [1e-12]])
     nom = m.ldv.nominal
     results = {}
     lever = np.asarray(m.gnss.lever_arm_m, float)
     for i, name in enumerate(MODES):
         progress(f"{name.replace('_', ' ')} navigation", 0.1 + 0.28 * i)
-        q, v, p, s, n_rej = run_damping(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q0, np.zeros(3), inp.pos0, MODES[name],
-                                 params["period_s"], inp.static_end_s, inp.ldv_ok, inp.nu_f_mps, 1.0 / nom.scale,
-                                 nom.pitch_deg * DEG, nom.heading_deg * DEG, p0, qd, params["ldv_sigma_mps"],
-                                 float(inp.pos0[2]), 0.05, 0.5,
-                                 max(1, int(round(params["delayed_baseline_s"] / params["period_s"]))),
-                                 params["delayed_gate_sigma"], cbs_arr)
+        q, v, p, s, n_rej = run_damping(
+            inp.t_s,
+            inp.dtheta_rad,
+            inp.dvel_mps,
+            q0,
+            np.zeros(3),
+            inp.pos0,
+            MODES[name],
+            params["period_s"],
+            inp.static_end_s,
+            inp.ldv_ok,
+            inp.nu_f_mps,
+            1.0 / nom.scale,
+            nom.pitch_deg * DEG,
+            nom.heading_deg * DEG,
+            p0,
+            qd,
+            params["ldv_sigma_mps"],
+            float(inp.pos0[2]),
+            0.05,
+            0.5,
+            max(1, int(round(params["delayed_baseline_s"] / params["period_s"]))),
+            params["delayed_gate_sigma"],
+            cbs_arr,
+        )
         # errors against GNSS (antenna → IMU centre) at the fixes after the moored period
         use = tg > inp.static_end_s
         from ldvsurvey.nav.attitude import c_from_q
@@ -118,15 +171,25 @@ def run(logs, params, progress) -> PipelineResult:
         d[:, 0] += lev[:, 0]
         d[:, 1] += lev[:, 1]
         dv = np.column_stack([np.interp(tg[use], inp.t_s, v[:, j]) for j in range(2)]) - gv[use]
-        results[name] = {"t": tg[use], "dn": d[:, 1], "de": d[:, 0], "dvn": dv[:, 1], "dve": dv[:, 0],
-                         "scale": 1.0 / s[-1], "rejected": int(n_rej)}
+        results[name] = {
+            "t": tg[use],
+            "dn": d[:, 1],
+            "de": d[:, 0],
+            "dvn": dv[:, 1],
+            "dve": dv[:, 0],
+            "scale": 1.0 / s[-1],
+            "rejected": int(n_rej),
+        }
     summary = {}
     for name, r in results.items():
         pe = np.hypot(r["dn"], r["de"])
         ve = np.hypot(r["dvn"], r["dve"])
-        summary[name] = {"max_position_error_m": float(pe.max()), "rms_position_error_m": float(np.sqrt(np.mean(pe ** 2))),
-                         "rms_velocity_error_mps": float(np.sqrt(np.mean(ve ** 2))),
-                         "max_velocity_error_mps": float(ve.max())}
+        summary[name] = {
+            "max_position_error_m": float(pe.max()),
+            "rms_position_error_m": float(np.sqrt(np.mean(pe**2))),
+            "rms_velocity_error_mps": float(np.sqrt(np.mean(ve**2))),
+            "max_velocity_error_mps": float(ve.max()),
+        }
     c, d = summary["conventional"], summary["delayed_state"]
     summary["position_improvement_pct"] = 100 * (1 - d["rms_position_error_m"] / c["rms_position_error_m"])
     summary["velocity_improvement_pct"] = 100 * (1 - d["rms_velocity_error_mps"] / c["rms_velocity_error_mps"])
@@ -137,13 +200,22 @@ def run(logs, params, progress) -> PipelineResult:
     t_out = results["undamped"]["t"][::step]
     cols = {"t_s": t_out}
     for name, r in results.items():
-        for key, col in (("dn", "north_error_m"), ("de", "east_error_m"), ("dvn", "north_velocity_error_mps"),
-                         ("dve", "east_velocity_error_mps")):
+        for key, col in (
+            ("dn", "north_error_m"),
+            ("de", "east_error_m"),
+            ("dvn", "north_velocity_error_mps"),
+            ("dve", "east_velocity_error_mps"),
+        ):
             cols[f"{name}_{col}"] = r[key][::step]
     if cbs is not None:
         summary["tilt"] = {"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad, "observable": est.observable}
     return PipelineResult(summary=summary, tables={"damping": cols}, warnings=warnings)
 
 
-PIPELINE = Pipeline("damping", run, DampingParams, "Water-velocity horizontal damping of SINS (delayed-state filter)",
-                    applicable=applicable)
+PIPELINE = Pipeline(
+    "damping",
+    run,
+    DampingParams,
+    "Water-velocity horizontal damping of SINS (delayed-state filter)",
+    applicable=applicable,
+)

@@ -19,38 +19,60 @@ from ldvsurvey.nav.dov import initial_misalignment, propagate
 from ldvsurvey.nav.dovgrid import DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import OMEGA_IE, enu_offset_m, normal_gravity, radii
 from ldvsurvey.nav.mech import mechanize
-from ldvsurvey.pipelines.base import (Floats, LogFacts, Params, Paths, Pipeline, PipelineResult, Reason, Text,
-                                      needs_gnss, output_rate, rate_within_imu)
-from ldvsurvey.pipelines.plumb import load_grids
+from ldvsurvey.pipelines.base import (
+    Floats,
+    LogFacts,
+    Params,
+    Paths,
+    Pipeline,
+    PipelineResult,
+    Reason,
+    Text,
+    needs_gnss,
+    output_rate,
+    rate_within_imu,
+)
 from ldvsurvey.pipelines.inputs import c_bs_of, gnss_ins, nav_inputs
+from ldvsurvey.pipelines.plumb import load_grids
 from ldvsurvey.pipelines.tiltfit import tilt_stage
 
 #: a grid cache the caller may provide (the store's database cache); get(key) -> DovGrid | None, put(key, grid)
 GRID_CACHE: contextvars.ContextVar = contextvars.ContextVar("dov_grid_cache", default=None)
 
+
 class DovStudyParams(Params):
     """Parameters of ``dov``."""
 
-    dov_grid: Paths | None = Field(None, description="two ICGEM .gdf files: ξ then η (arcsec); default: "
-                                   "built-in EGM2008 (server files, not accepted by the API)")
-    grid_step_arcmin: float = Field(1.0, gt=0.0, le=60.0, description="step of the EGM2008 grid in arcmin "
-                                    "(0 to 60′)")
-    degree: int = Field(2190, ge=2, le=2190, description="maximum degree of the EGM2008 synthesis (2 to 2190, "
-                        "the model's maximum)")
-    interpolation: Literal["bilinear", "bicubic"] = Field("bilinear", description="grid interpolation along "
-                                                          "the track")
-    update_s: float = Field(0.09, gt=0.0, le=60.0, description="error-update period in s of the direct and "
-                            "RK4 propagators (0 to 60 s)")
+    dov_grid: Paths | None = Field(
+        None,
+        description="two ICGEM .gdf files: ξ then η (arcsec); default: "
+        "built-in EGM2008 (server files, not accepted by the API)",
+    )
+    grid_step_arcmin: float = Field(1.0, gt=0.0, le=60.0, description="step of the EGM2008 grid in arcmin (0 to 60′)")
+    degree: int = Field(
+        2190, ge=2, le=2190, description="maximum degree of the EGM2008 synthesis (2 to 2190, the model's maximum)"
+    )
+    interpolation: Literal["bilinear", "bicubic"] = Field("bilinear", description="grid interpolation along the track")
+    update_s: float = Field(
+        0.09, gt=0.0, le=60.0, description="error-update period in s of the direct and RK4 propagators (0 to 60 s)"
+    )
     propagation_model: Literal["full", "paper"] = Field(
-        "full", description="full: with the Coriolis coupling of the velocity errors; paper: eq. 10 exactly "
-        "(Coriolis neglected)")
-    imu_nodov: Text | None = Field(None, description="imu.csv-format file of the same drive without the DOV "
-                                  "(simulation only; server file, not accepted by the API)")
+        "full",
+        description="full: with the Coriolis coupling of the velocity errors; paper: eq. 10 exactly "
+        "(Coriolis neglected)",
+    )
+    imu_nodov: Text | None = Field(
+        None,
+        description="imu.csv-format file of the same drive without the DOV "
+        "(simulation only; server file, not accepted by the API)",
+    )
     compensation: bool = Field(True, description="run the grid-step × update-interval compensation study")
     compensation_steps_arcmin: Annotated[Floats, Field(min_length=1, max_length=20)] = Field(
-        [1.0, 2.5, 5.0, 10.0], description="grid steps of the study in arcmin (each 0 to 60′)")
+        [1.0, 2.5, 5.0, 10.0], description="grid steps of the study in arcmin (each 0 to 60′)"
+    )
     compensation_updates_s: Annotated[Floats, Field(min_length=1, max_length=20)] = Field(
-        [0.03, 0.15, 0.3, 3.0], description="update intervals of the study in s (each 0 to 60 s)")
+        [0.03, 0.15, 0.3, 3.0], description="update intervals of the study in s (each 0 to 60 s)"
+    )
     output_rate_hz: float = output_rate(1.0, "dov.csv")
 
     @field_validator("compensation_steps_arcmin", "compensation_updates_s")
@@ -63,9 +85,7 @@ class DovStudyParams(Params):
 
 def applicable(logs: list[LogFacts], params: DovStudyParams) -> list[Reason]:
     """The DOV study takes its reference trajectory from GNSS."""
-    return (needs_gnss(logs, "the DOV pipeline needs GNSS for the reference trajectory")
-            + rate_within_imu(logs, params))
-
+    return needs_gnss(logs, "the DOV pipeline needs GNSS for the reference trajectory") + rate_within_imu(logs, params)
 
 
 def _grid(params, lat_deg, lon_deg, progress) -> DovGrid:
@@ -98,8 +118,13 @@ def _f_n_w_in(sol, inp):
     lat, h = sol.pos[:, 0], sol.pos[:, 2]
     rm, rn = radii(lat)
     v = sol.v_n
-    w_in = np.column_stack([-v[:, 1] / (rm + h), OMEGA_IE * np.cos(lat) + v[:, 0] / (rn + h),
-                            OMEGA_IE * np.sin(lat) + v[:, 0] * np.tan(lat) / (rn + h)])
+    w_in = np.column_stack(
+        [
+            -v[:, 1] / (rm + h),
+            OMEGA_IE * np.cos(lat) + v[:, 0] / (rn + h),
+            OMEGA_IE * np.sin(lat) + v[:, 0] * np.tan(lat) / (rn + h),
+        ]
+    )
     return f_n, w_in
 
 
@@ -113,8 +138,9 @@ def _mechanize(t, dth, dv, k_static, lat0, pos0, h_ref, gravity=None, dov0=None,
         c0 = coarse_align(dth[k_static], dv[k_static], lat0)
     else:
         cbs, turn = rot
-        c0 = coarse_align(dth[k_static], dv[k_static], lat0, c_bs=cbs[k_static],
-                          turntable_rad=turn[k_static]) @ cbs[0].T
+        c0 = (
+            coarse_align(dth[k_static], dv[k_static], lat0, c_bs=cbs[k_static], turntable_rad=turn[k_static]) @ cbs[0].T
+        )
     if dov0 is not None:  # the alignment knows the deflection: undo the plumb-line levelling
         phi0 = initial_misalignment(dov0[0], dov0[1], lat0)
         from ldvsurvey.nav.attitude import skew
@@ -130,13 +156,17 @@ def run(logs, params, progress) -> PipelineResult:
     progress("preparing", 0.02)
     inp = nav_inputs(log)
     if log.gnss is None:
-        raise ParameterError("the DOV pipeline needs GNSS for the reference trajectory (no gnss.nmea)",
-                             file="gnss.nmea")
+        raise ParameterError(
+            "the DOV pipeline needs GNSS for the reference trajectory (no gnss.nmea)", file="gnss.nmea"
+        )
     warnings += inp.warnings
     if inp.c_bn0 is not None:
-        raise ParameterError("the DOV pipeline's free-inertial mechanizations need a static period at the start "
-                             "(the log begins on the move): give manifest initial.static_s for a log that has one",
-                             file="manifest.json", field="initial.static_s")
+        raise ParameterError(
+            "the DOV pipeline's free-inertial mechanizations need a static period at the start "
+            "(the log begins on the move): give manifest initial.static_s for a log that has one",
+            file="manifest.json",
+            field="initial.static_s",
+        )
     rot = None
     if inp.eta_rad is not None:  # a rotating IMU: C_b^s from the encoder and the base tilt
         progress("base tilt of the rotating IMU", 0.03)
@@ -156,8 +186,21 @@ def run(logs, params, progress) -> PipelineResult:
     phi0 = initial_misalignment(xi[0], eta[0], lat[0])
     out = {}
     for name, rk in (("direct", False), ("rk4", True)):
-        to, dn, de, _ = propagate(inp.t_s, lat, h, ref.v_n[:, 0], f_n, w_in, gam, xi, eta,
-                                  params["update_s"], rk, phi0, params["propagation_model"] == "full")
+        to, dn, de, _ = propagate(
+            inp.t_s,
+            lat,
+            h,
+            ref.v_n[:, 0],
+            f_n,
+            w_in,
+            gam,
+            xi,
+            eta,
+            params["update_s"],
+            rk,
+            phi0,
+            params["propagation_model"] == "full",
+        )
         out[name] = (to, dn, de)
     progress("theoretical: two mechanizations", 0.45)
     k_static = inp.t_s <= inp.static_end_s
@@ -175,11 +218,23 @@ def run(logs, params, progress) -> PipelineResult:
         p_ref = _mechanize(inp.t_s, imu2.dtheta_rad, imu2.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot)
         theo_kind = "two IMU files (with and without DOV)"
     else:
-        p_ref = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot,
-                           gravity=(xi, eta, np.zeros_like(xi)), dov0=(xi[0], eta[0]))
+        p_ref = _mechanize(
+            inp.t_s,
+            inp.dtheta_rad,
+            inp.dvel_mps,
+            k_static,
+            lat[0],
+            pos0,
+            h_ref,
+            rot=rot,
+            gravity=(xi, eta, np.zeros_like(xi)),
+            dov0=(xi[0], eta[0]),
+        )
         theo_kind = "uncompensated vs compensated mechanization (no imu_nodov given)"
-        warnings.append("theoretical error from compensated vs uncompensated mechanization: give imu_nodov "
-                        "for two independent mechanizations")
+        warnings.append(
+            "theoretical error from compensated vs uncompensated mechanization: give imu_nodov "
+            "for two independent mechanizations"
+        )
     # how far the free-inertial mechanization strays from the GNSS/INS reference (its alignment and
     # sensor errors, not the DOV): the scale against which the DOV-induced errors are read
     drift = enu_offset_m(ref.pos[:, 0], ref.pos[:, 1], ref.pos[:, 2], p_unc[:, 0], p_unc[:, 1], ref.pos[:, 2])
@@ -190,8 +245,18 @@ def run(logs, params, progress) -> PipelineResult:
     comp = []
     if params["compensation"]:
         exact = (xi, eta, np.zeros_like(xi))
-        p_exact = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot,
-                             gravity=exact, dov0=(xi[0], eta[0]))
+        p_exact = _mechanize(
+            inp.t_s,
+            inp.dtheta_rad,
+            inp.dvel_mps,
+            k_static,
+            lat[0],
+            pos0,
+            h_ref,
+            rot=rot,
+            gravity=exact,
+            dov0=(xi[0], eta[0]),
+        )
         steps, updates = params["compensation_steps_arcmin"], params["compensation_updates_s"]
         for i, st in enumerate(steps):
             g2 = grid if abs(st - grid.step_arcmin) < 1e-9 else grid.resample(st)
@@ -201,16 +266,32 @@ def run(logs, params, progress) -> PipelineResult:
                 k = np.floor((inp.t_s - inp.t_s[0]) / u).astype(int)
                 first = np.r_[0, np.flatnonzero(np.diff(k)) + 1]
                 held = np.repeat(first, np.diff(np.r_[first, len(k)]))
-                p_c = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot,
-                                 gravity=(xs[held], es[held], np.zeros_like(xs)), dov0=(xs[0], es[0]))
+                p_c = _mechanize(
+                    inp.t_s,
+                    inp.dtheta_rad,
+                    inp.dvel_mps,
+                    k_static,
+                    lat[0],
+                    pos0,
+                    h_ref,
+                    rot=rot,
+                    gravity=(xs[held], es[held], np.zeros_like(xs)),
+                    dov0=(xs[0], es[0]),
+                )
                 r = enu_offset_m(p_exact[:, 0], p_exact[:, 1], p_exact[:, 2], p_c[:, 0], p_c[:, 1], p_exact[:, 2])
-                comp.append({"grid_step_arcmin": st, "update_s": u,
-                             "max_residual_m": float(np.max(np.hypot(r[:, 0], r[:, 1])))})
+                comp.append(
+                    {"grid_step_arcmin": st, "update_s": u, "max_residual_m": float(np.max(np.hypot(r[:, 0], r[:, 1])))}
+                )
     progress("writing", 0.95)
     step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(inp.t_s))))))
-    t_out = inp.t_s[step - 1::step]
-    cols = {"t_s": t_out, "lat_deg": lat_deg[step - 1::step], "lon_deg": lon_deg[step - 1::step],
-            "xi_arcsec": np.degrees(xi[step - 1::step]) * 3600, "eta_arcsec": np.degrees(eta[step - 1::step]) * 3600}
+    t_out = inp.t_s[step - 1 :: step]
+    cols = {
+        "t_s": t_out,
+        "lat_deg": lat_deg[step - 1 :: step],
+        "lon_deg": lon_deg[step - 1 :: step],
+        "xi_arcsec": np.degrees(xi[step - 1 :: step]) * 3600,
+        "eta_arcsec": np.degrees(eta[step - 1 :: step]) * 3600,
+    }
     maxima = {}
     for name in ("direct", "rk4", "theoretical"):
         to, dn, de = out[name]
@@ -222,13 +303,18 @@ def run(logs, params, progress) -> PipelineResult:
         maxima[name]["north_deviation_pct"] = 100 * (abs(maxima[name]["max_north_m"]) / abs(th["max_north_m"]) - 1)
         maxima[name]["east_deviation_pct"] = 100 * (abs(maxima[name]["max_east_m"]) / abs(th["max_east_m"]) - 1)
     maxima["theoretical"]["kind"] = theo_kind
-    s = {"max_north_error_m": {k: v["max_north_m"] for k, v in maxima.items()},
-         "max_east_error_m": {k: v["max_east_m"] for k, v in maxima.items()},
-         "methods": maxima, "compensation": comp, "dov_source": grid.source,
-         "mechanization_vs_reference_max_m": ins_drift_m, "rotating_imu": rot is not None,
-         "initial_misalignment_arcsec": (np.degrees(phi0) * 3600).tolist(),
-         "xi_range_arcsec": [float(cols["xi_arcsec"].min()), float(cols["xi_arcsec"].max())],
-         "eta_range_arcsec": [float(cols["eta_arcsec"].min()), float(cols["eta_arcsec"].max())]}
+    s = {
+        "max_north_error_m": {k: v["max_north_m"] for k, v in maxima.items()},
+        "max_east_error_m": {k: v["max_east_m"] for k, v in maxima.items()},
+        "methods": maxima,
+        "compensation": comp,
+        "dov_source": grid.source,
+        "mechanization_vs_reference_max_m": ins_drift_m,
+        "rotating_imu": rot is not None,
+        "initial_misalignment_arcsec": (np.degrees(phi0) * 3600).tolist(),
+        "xi_range_arcsec": [float(cols["xi_arcsec"].min()), float(cols["xi_arcsec"].max())],
+        "eta_range_arcsec": [float(cols["eta_arcsec"].min()), float(cols["eta_arcsec"].max())],
+    }
     return PipelineResult(summary=s, tables={"dov": cols}, warnings=warnings)
 
 
@@ -243,5 +329,11 @@ def cli_setup() -> None:
     GRID_CACHE.set(DbGridCache(url))
 
 
-PIPELINE = Pipeline("dov", run, DovStudyParams, "DOV-induced INS position error and its compensation",
-                    applicable=applicable, cli_setup=cli_setup)
+PIPELINE = Pipeline(
+    "dov",
+    run,
+    DovStudyParams,
+    "DOV-induced INS position error and its compensation",
+    applicable=applicable,
+    cli_setup=cli_setup,
+)

@@ -21,42 +21,66 @@ from pydantic import Field, field_validator
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.earth import ARCSEC
 from ldvsurvey.nav.gravity import MGAL
-from ldvsurvey.pipelines.base import (LogFacts, Pipeline, PipelineResult, Reason, Text, needs_gnss, output_rate,
-                                      rate_within_imu, window_inside)
+from ldvsurvey.pipelines.base import (
+    LogFacts,
+    Pipeline,
+    PipelineResult,
+    Reason,
+    Text,
+    needs_gnss,
+    output_rate,
+    rate_within_imu,
+    window_inside,
+)
+from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
-from ldvsurvey.pipelines.gravity_report import (block, chain_difference, edge_gain_max, evaluate, floor_of,
-                                                 frame_tilt)
-from ldvsurvey.pipelines.navigate import run_navigation
+from ldvsurvey.pipelines.gravity_report import block, chain_difference, edge_gain_max, evaluate, floor_of, frame_tilt
 from ldvsurvey.pipelines.inputs import gnss_aid, navigate
-from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of
+from ldvsurvey.pipelines.navigate import run_navigation
+
 
 class GravityParams(CalibrationParams):
     """Parameters of ``gravity``."""
 
-    fir_length_s: float = Field(150.0, ge=10.0, le=3600.0, description="FIR filter length L in s (cut-off "
-                                "1/L Hz; 10 to 3600 s)")
-    lines: Text | None = Field(None, max_length=10000, description="survey lines as t0-t1 pairs in s, comma "
-                              "separated (default: manifest lines, else detected repeated passes)")
-    spacing_m: float = Field(10.0, gt=0.0, le=1000.0, description="spacing of the common along-track points "
-                             "in m (0 to 1000 m)")
+    fir_length_s: float = Field(
+        150.0, ge=10.0, le=3600.0, description="FIR filter length L in s (cut-off 1/L Hz; 10 to 3600 s)"
+    )
+    lines: Text | None = Field(
+        None,
+        max_length=10000,
+        description="survey lines as t0-t1 pairs in s, comma "
+        "separated (default: manifest lines, else detected repeated passes)",
+    )
+    spacing_m: float = Field(
+        10.0, gt=0.0, le=1000.0, description="spacing of the common along-track points in m (0 to 1000 m)"
+    )
     output_rate_hz: float = output_rate(1.0, "gravity.csv")
     gnss_comparison: bool = Field(True, description="also run the SINS/GNSS chain when GNSS is present")
-    gnss_fixes: Text = Field("4", max_length=20, description="GNSS fix qualities the SINS/GNSS chain uses "
-                            "(comma separated; 4 = RTK fixed)")
-    gnss_aided: bool = Field(False, description="also compute the LDV gravity on an LDV+GNSS navigation and "
-                             "show both")
+    gnss_fixes: Text = Field(
+        "4", max_length=20, description="GNSS fix qualities the SINS/GNSS chain uses (comma separated; 4 = RTK fixed)"
+    )
+    gnss_aided: bool = Field(False, description="also compute the LDV gravity on an LDV+GNSS navigation and show both")
     drift_correction: Literal["auto", "stops", "none"] = Field(
-        "auto", description="vertical accelerometer drift tied at repeated stops: auto (where significant "
-        "against the stops' noise), stops (always) or none")
+        "auto",
+        description="vertical accelerometer drift tied at repeated stops: auto (where significant "
+        "against the stops' noise), stops (always) or none",
+    )
     line_leveling: Literal["none", "bias", "linear"] = Field(
-        "none", description="repeat-line adjustment about the mean line: every line shifted by its mean residual "
+        "none",
+        description="repeat-line adjustment about the mean line: every line shifted by its mean residual "
         "(bias), by its least-squares linear drift along the line (linear), or not (none); makes the internal "
-        "coincidence optimistic")
-    line_end_trim_s: float | None = Field(None, ge=0.0, le=3600.0, description="time in s trimmed at both "
-                                          "ends of every line (default: half the FIR length, the filter's "
-                                          "main lobe); 0 keeps the whole line")
+        "coincidence optimistic",
+    )
+    line_end_trim_s: float | None = Field(
+        None,
+        ge=0.0,
+        le=3600.0,
+        description="time in s trimmed at both "
+        "ends of every line (default: half the FIR length, the filter's "
+        "main lobe); 0 keeps the whole line",
+    )
 
     @field_validator("lines")
     @classmethod
@@ -86,7 +110,7 @@ def applicable(logs: list[LogFacts], params: GravityParams) -> list[Reason]:
         out += needs_gnss(logs, "gnss_aided needs GNSS", "gnss_aided")
     if params.lines:
         pairs = parse_lines(params.lines)
-        for nm, a, b in pairs:
+        for _name, a, b in pairs:
             out += window_inside(logs, (a, b), "lines")
         n = len(pairs) * len(logs)
     elif all(f.lines for f in logs):
@@ -94,8 +118,13 @@ def applicable(logs: list[LogFacts], params: GravityParams) -> list[Reason]:
     else:
         n = 2  # a log without manifest lines: repeated passes are detected in the navigation
     if n < 2:
-        out.append(Reason("lines", f"fewer than two survey lines ({n}) in the chosen log(s): give manifest "
-                                   "lines, lines=t0-t1,t0-t1 or a second log"))
+        out.append(
+            Reason(
+                "lines",
+                f"fewer than two survey lines ({n}) in the chosen log(s): give manifest "
+                "lines, lines=t0-t1,t0-t1 or a second log",
+            )
+        )
     return out
 
 
@@ -129,8 +158,6 @@ def detect_lines(chain, min_length_m=1000.0):
     return [(f"L{k + 1}", a, b) for k, (a, b, d) in enumerate(s for s in segs if abs(s[2] - med) < 0.25 * med)]
 
 
-
-
 def parse_fixes(text):
     """``4,5`` into (4, 5): the GNSS fix qualities a chain uses."""
     try:
@@ -147,9 +174,12 @@ def imu_gap_report(logs):
     by the navigation before any gravity is computed)."""
     rows = int(sum(getattr(log.imu, "bridged_rows", 0) for log in logs))
     notes = [w for log in logs for w in log.warnings if w.startswith("imu.csv") and "gap" in w]
-    return {"bridged_rows": rows, "notes": notes,
-            "handling": "rows missing from imu.csv bridged on an even grid when the log was read "
-                        "(increments split or interpolated over the gap); longer gaps refused"}
+    return {
+        "bridged_rows": rows,
+        "notes": notes,
+        "handling": "rows missing from imu.csv bridged on an even grid when the log was read "
+        "(increments split or interpolated over the gap); longer gaps refused",
+    }
 
 
 #: manifest keys of the in-run bias instability (first-order Gauss-Markov bias states in the filter)
@@ -222,15 +252,17 @@ def run(logs, params, progress) -> PipelineResult:
             found = detect_lines(chains[-1])
         lines += [(prefix + nm, i, a, b) for nm, a, b in found]
     if len(lines) < 2:
-        raise ParameterError("fewer than two survey lines: give manifest lines or --set lines=t0-t1,t0-t1",
-                             field="lines")
+        raise ParameterError(
+            "fewer than two survey lines: give manifest lines or --set lines=t0-t1,t0-t1", field="lines"
+        )
     progress("drift, filtering and coincidence", 0.75)
     drift_reports = []
     for i, ch in enumerate(chains):
         rep = {"method": "none", "reason": "drift_correction=none"}
         if params["drift_correction"] != "none":
-            b, rep = drift_correction(ch, ch["still"], logs[i].manifest.imu.accel_noise_ug_per_rthz,
-                                      params["drift_correction"])
+            b, rep = drift_correction(
+                ch, ch["still"], logs[i].manifest.imu.accel_noise_ug_per_rthz, params["drift_correction"]
+            )
             if b is not None:
                 ch["dg"] = ch["dg"] - b
                 for other in (gchains[i], achains[i] if achains else None):
@@ -240,8 +272,15 @@ def run(logs, params, progress) -> PipelineResult:
                 warnings.append(f"bundle {i + 1}: no accelerometer drift correction ({rep['reason']})")
         drift_reports.append(rep)
     res = evaluate(chains, lines, fir_s, params["spacing_m"], trim_s, leveling=params["line_leveling"])
-    drift = drift_floor(logs[0], chains[0], res, fir_s, params["spacing_m"],
-                        drift_reports[0].get("method") == "repeated stops", params["line_leveling"])
+    drift = drift_floor(
+        logs[0],
+        chains[0],
+        res,
+        fir_s,
+        params["spacing_m"],
+        drift_reports[0].get("method") == "repeated stops",
+        params["line_leveling"],
+    )
     summary = block(res, fir_s, trim_s, "ldv", combine(floor_of(logs[0], chains[0], fir_s), drift))
     warnings += ldv_gap_warnings(res)
     summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
@@ -250,14 +289,16 @@ def run(logs, params, progress) -> PipelineResult:
     gres = ares = None
     if params["gnss_comparison"] and all(g is not None for g in gchains):
         try:
-            gres = evaluate(gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False,
-                            leveling=params["line_leveling"])
+            gres = evaluate(
+                gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False, leveling=params["line_leveling"]
+            )
             tilt = frame_tilt(res, chains, gres, gchains, fir_s)
             if tilt is not None:  # the navigation frame's DOV: removed from the SINS/GNSS chain
                 for g in gchains:
                     g["dg"] = g["dg"] - (tilt["xi_rad"] * g["a_n"] + tilt["eta_rad"] * g["a_e"])
-                gres = evaluate(gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False,
-                                leveling=params["line_leveling"])
+                gres = evaluate(
+                    gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False, leveling=params["line_leveling"]
+                )
             summary["gnss_comparison"] = block(gres, fir_s, trim_s, "gnss", floor_of(logs[0], gchains[0], fir_s))
             summary["gnss_comparison"]["frame_tilt"] = frame_tilt_report(tilt)
             summary["gnss_comparison"]["gnss_fixes"] = list(fixes)
@@ -267,19 +308,30 @@ def run(logs, params, progress) -> PipelineResult:
             warnings.append(f"SINS/GNSS comparison skipped: {exc}")
             gres = None
     if achains:
-        ares = evaluate(achains, lines, fir_s, params["spacing_m"], trim_s, strict=False,
-                        leveling=params["line_leveling"])
+        ares = evaluate(
+            achains, lines, fir_s, params["spacing_m"], trim_s, strict=False, leveling=params["line_leveling"]
+        )
         summary["gnss_aided"] = block(ares, fir_s, trim_s, "ldv+gnss", floor_of(logs[0], achains[0], fir_s))
         summary["gnss_aided"]["ldv_minus_gnss_aided"] = chain_difference(res, chains, ares, achains)
     progress("writing", 0.9)
-    tables = {"gravity": gravity_table(chains, res, params["output_rate_hz"],
-                                       {"dg_sins_gnss_mgal": (gchains, gres), "dg_gnss_aided_mgal": (achains, ares)})}
+    tables = {
+        "gravity": gravity_table(
+            chains,
+            res,
+            params["output_rate_hz"],
+            {"dg_sins_gnss_mgal": (gchains, gres), "dg_gnss_aided_mgal": (achains, ares)},
+        )
+    }
     co = res.get("coincidence")
     if co is not None:
         n, m = co.values.shape
-        tables["coincidence"] = {"line": [nm for nm in co.names for _ in range(m)],
-                                 "distance_m": np.tile(co.distance_m, n), "dg_mgal": co.values.ravel(),
-                                 "mean_mgal": np.tile(co.mean, n), "residual_mgal": co.residual.ravel()}
+        tables["coincidence"] = {
+            "line": [nm for nm in co.names for _ in range(m)],
+            "distance_m": np.tile(co.distance_m, n),
+            "dg_mgal": co.values.ravel(),
+            "mean_mgal": np.tile(co.mean, n),
+            "residual_mgal": co.residual.ravel(),
+        }
     return PipelineResult(summary=summary, tables=tables, warnings=warnings)
 
 
@@ -290,26 +342,39 @@ def ldv_gap_warnings(res) -> list[str]:
     for name, _ci, _k, _s, *_rest, info in res["per_line"]:
         if info["bridged_s"] > 0:
             share = info["bridged_s"] / info["duration_s"] if info["duration_s"] > 0 else 0.0
-            parts.append(f"{name} {info['bridged_s']:.1f} s ({100 * share:.1f} %"
-                         + (f", {info['unsupported_s']:.0f} s withheld" if info["unsupported_s"] > 0 else "") + ")")
+            parts.append(
+                f"{name} {info['bridged_s']:.1f} s ({100 * share:.1f} %"
+                + (f", {info['unsupported_s']:.0f} s withheld" if info["unsupported_s"] > 0 else "")
+                + ")"
+            )
     if not parts:
         return []
-    return ["LDV gaps (dropouts, low quality, screened values) bridged through the navigation velocity on the "
-            "lines: " + ", ".join(parts)]
+    return [
+        "LDV gaps (dropouts, low quality, screened values) bridged through the navigation velocity on the "
+        "lines: " + ", ".join(parts)
+    ]
 
 
 def frame_tilt_report(tilt):
     """The summary entry of the SINS/GNSS chain's frame-tilt correction (arcsec)."""
     if tilt is None:
-        return {"applied": False, "note": "too few compared samples or too little horizontal acceleration to "
-                                          "estimate the navigation frame's tilt; SINS/GNSS keeps ξ·a_N + η·a_E"}
-    return {"applied": True, "xi_arcsec": tilt["xi_rad"] / ARCSEC, "eta_arcsec": tilt["eta_rad"] / ARCSEC,
-            "xi_sigma_arcsec": tilt["xi_sigma_rad"] / ARCSEC, "eta_sigma_arcsec": tilt["eta_sigma_rad"] / ARCSEC,
-            "n_samples": tilt["n_samples"],
-            "note": "the navigation levels to the plumb line, GNSS heights are ellipsoidal: the deflection of the "
-                    "vertical (ξ, η) the frame holds, fitted to SINS/LDV − SINS/GNSS against the horizontal "
-                    "accelerations, and ξ·a_N + η·a_E removed from the SINS/GNSS chain (two parameters per "
-                    "survey; the chains' remaining difference is still a check of the vertical acceleration)"}
+        return {
+            "applied": False,
+            "note": "too few compared samples or too little horizontal acceleration to "
+            "estimate the navigation frame's tilt; SINS/GNSS keeps ξ·a_N + η·a_E",
+        }
+    return {
+        "applied": True,
+        "xi_arcsec": tilt["xi_rad"] / ARCSEC,
+        "eta_arcsec": tilt["eta_rad"] / ARCSEC,
+        "xi_sigma_arcsec": tilt["xi_sigma_rad"] / ARCSEC,
+        "eta_sigma_arcsec": tilt["eta_sigma_rad"] / ARCSEC,
+        "n_samples": tilt["n_samples"],
+        "note": "the navigation levels to the plumb line, GNSS heights are ellipsoidal: the deflection of the "
+        "vertical (ξ, η) the frame holds, fitted to SINS/LDV − SINS/GNSS against the horizontal "
+        "accelerations, and ξ·a_N + η·a_E removed from the SINS/GNSS chain (two parameters per "
+        "survey; the chains' remaining difference is still a check of the vertical acceleration)",
+    }
 
 
 def gravity_table(chains, res, rate_hz, extra):
@@ -351,5 +416,11 @@ def gravity_table(chains, res, rate_hz, extra):
     return {k: (np.array(v, dtype=float) if k != "line" else v) for k, v in cols.items()}
 
 
-PIPELINE = Pipeline("gravity", run, GravityParams, "Strapdown gravity, repeated-line coincidence, SINS/GNSS comparison",
-                    multi_input=True, applicable=applicable)
+PIPELINE = Pipeline(
+    "gravity",
+    run,
+    GravityParams,
+    "Strapdown gravity, repeated-line coincidence, SINS/GNSS comparison",
+    multi_input=True,
+    applicable=applicable,
+)

@@ -11,8 +11,8 @@ velocity) the velocity is bridged through the smoothed navigation velocity tied 
 edges, so the difference quotient telescopes and a gap costs only its own samples.
 
 SINS/GNSS: the same f_U (the pipeline passes the SINS/LDV navigation, so the two chains differ
-only in the vertical acceleration, LDV or GNSS heights), normal gravity and Eötvös terms integrated twice (S) against the GNSS
-heights brought to the IMU centre with the lever arm, on the regular grid of the fixes. Where
+only in the vertical acceleration, LDV or GNSS heights), normal gravity and Eötvös terms integrated
+twice (S) against the GNSS heights brought to the IMU centre with the lever arm, on the regular grid of the fixes. Where
 fixes are missing (outage, lower quality, multipath) the height is bridged through S tied to
 both gap edges, the height-domain twin of the LDV bridge. The second difference of S − h is δg:
 both sides of the subtraction see the very same differencing, so the FIR treats them alike.
@@ -29,12 +29,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import median_filter, uniform_filter1d
 
-from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.attitude import c_from_q
+from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.gravity import bridge_velocity, disturbance_mps2, runs, zero_phase_lowpass
-from ldvsurvey.pipelines.inputs import GNSS_SIGMA, attitude_at
 from ldvsurvey.pipelines.calibration import accel_fwd, ldv_body_velocity
-
+from ldvsurvey.pipelines.inputs import GNSS_SIGMA, attitude_at
 
 #: GNSS fixes (each side) through whose offset from the doubly integrated f_U a line is fitted to tie a gap's bridge
 GNSS_EDGE_N = 10
@@ -77,8 +76,9 @@ def ldv_velocity_imu(inp, sol, setup):
     c_bn = _c_sn_c_bn(sol)[1]
     pk = getattr(setup, "pitch_k_rad_per_mps2", 0.0)
     a_f = (setup.accel_fwd_mps2 if setup.accel_fwd_mps2 is not None else accel_fwd(inp)) if pk else None
-    v_b = ldv_body_velocity(inp.nu_f_mps, inp.nu_u_mps, setup.scale, setup.pitch_rad, setup.heading_rad,
-                            setup.scale_up, pk, a_f)
+    v_b = ldv_body_velocity(
+        inp.nu_f_mps, inp.nu_u_mps, setup.scale, setup.pitch_rad, setup.heading_rad, setup.scale_up, pk, a_f
+    )
     v_head = np.einsum("kij,kj->ki", c_bn, v_b)
     rel = np.einsum("kji,kjl->kil", c_bn[:-1], c_bn[1:])
     w = np.column_stack([rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0], rel[:, 1, 0] - rel[:, 0, 1]])
@@ -152,9 +152,20 @@ def ldv_chain(inp, sol, setup):
     lon = 0.5 * (sol.pos[1:, 1] + sol.pos[:-1, 1])
     h = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
     dg = disturbance_mps2(f_u[1:], vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
-    return {"t_s": 0.5 * (t[1:] + t[:-1]), "dg": dg, "dg_static": dg + vdot_u, "lat": lat, "lon": lon, "h": h,
-            "speed": np.hypot(v_mid[:, 0], v_mid[:, 1]), "fs": 1.0 / dt0, "bridged": bridged,
-            "screened": int(bad.sum()), "ldv_noise_mps": noise, "kind": "ldv"}
+    return {
+        "t_s": 0.5 * (t[1:] + t[:-1]),
+        "dg": dg,
+        "dg_static": dg + vdot_u,
+        "lat": lat,
+        "lon": lon,
+        "h": h,
+        "speed": np.hypot(v_mid[:, 0], v_mid[:, 1]),
+        "fs": 1.0 / dt0,
+        "bridged": bridged,
+        "screened": int(bad.sum()),
+        "ldv_noise_mps": noise,
+        "kind": "ldv",
+    }
 
 
 def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float = 4.0):
@@ -193,8 +204,12 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
     h_m = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
     v_mid = 0.5 * (sol.v_n[1:] + sol.v_n[:-1])
     rm, rn = radii(lat_m)
-    acc = (f_u[1:] - normal_gravity(lat_m, h_m) + (v_mid[:, 0] / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_m))
-           * v_mid[:, 0] + v_mid[:, 1] ** 2 / (rm + h_m))
+    acc = (
+        f_u[1:]
+        - normal_gravity(lat_m, h_m)
+        + (v_mid[:, 0] / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_m)) * v_mid[:, 0]
+        + v_mid[:, 1] ** 2 / (rm + h_m)
+    )
     w = np.concatenate([[0.0], np.cumsum(acc * dt)])  # ∫ (f_U − γ + Eötvös) dt at the IMU times
     s = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * dt)])  # and once more
     # the fixes on a regular grid; the heights bridged through S tied to the gap edges
@@ -216,7 +231,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         gg = np.zeros(len(grid))
         gg[2:] = np.cumsum(np.cumsum(g_prior) * step) * step
         d = s_grid - bridge_velocity(h_grid, ok, s_grid - gg, edge_n=GNSS_EDGE_N, edge_fit="line")
-        dg = (d[2:] - 2 * d[1:-1] + d[:-2]) / step ** 2
+        dg = (d[2:] - 2 * d[1:-1] + d[:-2]) / step**2
         if not bridged.any():
             break
         g_prior = zero_phase_lowpass(dg, fir_s, 1.0 / step)
@@ -224,7 +239,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         # across from the filtered values half a filter length outside the outage
         for a, b in runs(bridged):
             if (b - a) * step > fir_s:
-                g_prior[max(0, a - int(fir_s / 2 / step)):min(len(tc), b + int(fir_s / 2 / step))] = np.nan
+                g_prior[max(0, a - int(fir_s / 2 / step)) : min(len(tc), b + int(fir_s / 2 / step))] = np.nan
         fin = np.isfinite(g_prior)
         g_prior = np.interp(tc, tc[fin], g_prior[fin])
     # An outage longer than half the filter is a break, not a bridge: a tie across it would put
@@ -232,13 +247,22 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
     # break like a line end, and the values near it are withheld as unsupported).
     for a, b in runs(bridged):
         if (b - a) * step > 0.5 * fir_s:
-            dg[max(0, a - 1):b + 1] = np.nan
+            dg[max(0, a - 1) : b + 1] = np.nan
     # horizontal accelerations (navigation frame) over the same three-epoch stencil, for the frame tilt
     v_g = np.column_stack([np.interp(grid, t, sol.v_n[:, i]) for i in (0, 1)])
     a_en = (v_g[2:] - v_g[:-2]) / (2 * step)
-    return {"t_s": tc, "dg": dg, "lat": np.interp(tc, t, sol.pos[:, 0]), "lon": np.interp(tc, t, sol.pos[:, 1]),
-            "a_e": a_en[:, 0], "a_n": a_en[:, 1],
-            "h": np.interp(tc, t, sol.pos[:, 2]),
-            "speed": np.interp(tc, t, np.hypot(sol.v_n[:, 0], sol.v_n[:, 1])), "fs": 1.0 / step,
-            "bridged": bridged, "screened": int((~good).sum()),
-            "height_sigma_m": float(np.sqrt(np.mean(sig_v ** 2))), "kind": "gnss"}
+    return {
+        "t_s": tc,
+        "dg": dg,
+        "lat": np.interp(tc, t, sol.pos[:, 0]),
+        "lon": np.interp(tc, t, sol.pos[:, 1]),
+        "a_e": a_en[:, 0],
+        "a_n": a_en[:, 1],
+        "h": np.interp(tc, t, sol.pos[:, 2]),
+        "speed": np.interp(tc, t, np.hypot(sol.v_n[:, 0], sol.v_n[:, 1])),
+        "fs": 1.0 / step,
+        "bridged": bridged,
+        "screened": int((~good).sum()),
+        "height_sigma_m": float(np.sqrt(np.mean(sig_v**2))),
+        "kind": "gnss",
+    }

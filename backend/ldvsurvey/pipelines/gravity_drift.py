@@ -36,8 +36,15 @@ def stop_means(chain, still):
         k = (t >= a) & (t <= b) & np.isfinite(chain["dg_static"])
         if k.sum() < 10:
             continue
-        out.append((0.5 * (a + b), float(np.mean(chain["lat"][k])), float(np.mean(chain["lon"][k])),
-                    float(np.mean(chain["dg_static"][k])), float(b - a)))
+        out.append(
+            (
+                0.5 * (a + b),
+                float(np.mean(chain["lat"][k])),
+                float(np.mean(chain["lon"][k])),
+                float(np.mean(chain["dg_static"][k])),
+                float(b - a),
+            )
+        )
     return out
 
 
@@ -109,14 +116,25 @@ def drift_correction(chain, still, noise_ug_rthz=None, mode="auto"):
         sigma = float(np.sqrt(np.mean((noise_ug_rthz * 1e-6 * 9.80665) ** 2 / dur)) / MGAL)
     rng_mgal = float(np.ptp(est["drift"]) / MGAL)
     if mode == "auto" and sigma is not None and rng_mgal < SIGNIFICANT_SIGMA * np.sqrt(2.0) * sigma:
-        return None, {"method": "none", "n_stops": len(stops), "drift_range_mgal": rng_mgal, "stop_sigma_mgal": sigma,
-                      "reason": f"drift at the stops ({rng_mgal:.2f} mGal) within {SIGNIFICANT_SIGMA:g} σ of their "
-                                "noise: not applied"}
-    report = {"method": "repeated stops", "n_stops": len(stops), "n_spots": int(est["n_spots"]),
-              "drift_range_mgal": float(np.ptp(est["drift"]) / MGAL),
-              "stop_sigma_mgal": sigma,
-              "stops": [{"t_s": float(t), "spot": int(j), "drift_mgal": float(d / MGAL)}
-                        for t, j, d in zip(est["t_s"], est["spot"], est["drift"])],
-              "note": "vertical accelerometer drift tied at repeated stops and interpolated linearly between "
-                      "them; drift faster than the stop spacing remains in the lines"}
+        return None, {
+            "method": "none",
+            "n_stops": len(stops),
+            "drift_range_mgal": rng_mgal,
+            "stop_sigma_mgal": sigma,
+            "reason": f"drift at the stops ({rng_mgal:.2f} mGal) within {SIGNIFICANT_SIGMA:g} σ of their "
+            "noise: not applied",
+        }
+    report = {
+        "method": "repeated stops",
+        "n_stops": len(stops),
+        "n_spots": int(est["n_spots"]),
+        "drift_range_mgal": float(np.ptp(est["drift"]) / MGAL),
+        "stop_sigma_mgal": sigma,
+        "stops": [
+            {"t_s": float(t), "spot": int(j), "drift_mgal": float(d / MGAL)}
+            for t, j, d in zip(est["t_s"], est["spot"], est["drift"])
+        ],
+        "note": "vertical accelerometer drift tied at repeated stops and interpolated linearly between "
+        "them; drift faster than the stop spacing remains in the lines",
+    }
     return b, report

@@ -36,12 +36,21 @@ def gauss_markov_1hz(n: int, sigma: float, tau_s: float, dt_s: float, rng) -> np
     """(n,) stationary first-order Gauss–Markov sequence (σ, τ), started from its stationary law."""
     phi = np.exp(-dt_s / tau_s)
     x0 = rng.normal(0.0, sigma)
-    w = rng.normal(0.0, sigma * np.sqrt(1.0 - phi ** 2), n)
+    w = rng.normal(0.0, sigma * np.sqrt(1.0 - phi**2), n)
     return lfilter([1.0], [1.0, -phi], w, zi=[phi * x0])[0]
 
 
-def drift_floor(log, chain, res, fir_s: float, spacing_m: float, tie_applied: bool, leveling: str = "none",
-                n_real: int = N_REALISATIONS, seed: int = 0) -> dict:
+def drift_floor(
+    log,
+    chain,
+    res,
+    fir_s: float,
+    spacing_m: float,
+    tie_applied: bool,
+    leveling: str = "none",
+    n_real: int = N_REALISATIONS,
+    seed: int = 0,
+) -> dict:
     """Expected coincidence (mGal) of the manifest's accelerometer bias instability after the processing.
 
     ``chain``: the SINS/LDV chain (times, stops); ``res``: :func:`gravity_report.evaluate`'s result
@@ -53,8 +62,11 @@ def drift_floor(log, chain, res, fir_s: float, spacing_m: float, tie_applied: bo
     sig_ug = getattr(imu, "accel_bias_instability_ug", None)
     tau = getattr(imu, "bias_correlation_s", None)
     if not sig_ug or not tau:
-        return {"drift_mgal": None, "drift_source": "manifest gives no imu.accel_bias_instability_ug / "
-                                                    "imu.bias_correlation_s: drift not in the floor"}
+        return {
+            "drift_mgal": None,
+            "drift_source": "manifest gives no imu.accel_bias_instability_ug / "
+            "imu.bias_correlation_s: drift not in the floor",
+        }
     sigma = float(sig_ug) * 1e-6 * G0
     t = chain["t_s"]
     tg = np.arange(t[0], t[-1], 1.0 / MC_RATE_HZ)
@@ -90,12 +102,15 @@ def drift_floor(log, chain, res, fir_s: float, spacing_m: float, tie_applied: bo
             vals = vals - leveling_fit(vals, grid, leveling)
         co = internal_coincidence(vals)
         tot.append(co.total)
-    return {"drift_mgal": float(np.sqrt(np.mean(np.square(tot)))),
-            "drift_mgal_spread": float(np.std(tot)),
-            "accel_bias_instability_ug": float(sig_ug), "bias_correlation_s": float(tau),
-            "drift_source": f"manifest bias instability; Monte Carlo of the same processing ({n_real} Gauss-Markov "
-                            f"realisations, stop tie {'applied' if tie_applied else 'not applied'}, leveling "
-                            f"{leveling})"}
+    return {
+        "drift_mgal": float(np.sqrt(np.mean(np.square(tot)))),
+        "drift_mgal_spread": float(np.std(tot)),
+        "accel_bias_instability_ug": float(sig_ug),
+        "bias_correlation_s": float(tau),
+        "drift_source": f"manifest bias instability; Monte Carlo of the same processing ({n_real} Gauss-Markov "
+        f"realisations, stop tie {'applied' if tie_applied else 'not applied'}, leveling "
+        f"{leveling})",
+    }
 
 
 def combine(floor: dict, drift: dict) -> dict:

@@ -9,8 +9,15 @@ import numpy as np
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
-from ldvsurvey.nav.gravity import (MGAL, half_wavelength_resolution_m, noise_floor_mgal, runs,
-                                   second_difference_noise_gain, trim_line, zero_phase_lowpass)
+from ldvsurvey.nav.gravity import (
+    MGAL,
+    half_wavelength_resolution_m,
+    noise_floor_mgal,
+    runs,
+    second_difference_noise_gain,
+    trim_line,
+    zero_phase_lowpass,
+)
 from ldvsurvey.pipelines.inputs import local_metres
 
 #: filtered values are withheld where bridged samples take more than this share of the FIR's weight …
@@ -98,14 +105,19 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
         ch = chains[ci]
         whole = (ch["t_s"] >= a) & (ch["t_s"] <= b)
         k = trim_line(ch["t_s"], a, b, trim_s) & np.isfinite(filtered[ci])
-        info = {"bridged_s": float(np.sum(ch["bridged"][whole]) / ch["fs"]),
-                "bridged_share": float(np.mean(ch["bridged"][whole])) if whole.any() else 0.0,
-                "unsupported_s": float(np.sum(ch["unsupported"][whole]) / ch["fs"]),
-                "duration_s": float(b - a), "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s))}
+        info = {
+            "bridged_s": float(np.sum(ch["bridged"][whole]) / ch["fs"]),
+            "bridged_share": float(np.mean(ch["bridged"][whole])) if whole.any() else 0.0,
+            "unsupported_s": float(np.sum(ch["unsupported"][whole]) / ch["fs"]),
+            "duration_s": float(b - a),
+            "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s)),
+        }
         if k.sum() < 10:
             if strict:
-                raise ParameterError(f"line {name} [{a}, {b}] s holds no data after trimming {trim_s:g} s at each "
-                                     "end", field="lines" if trim_s == 0 else "line_end_trim_s")
+                raise ParameterError(
+                    f"line {name} [{a}, {b}] s holds no data after trimming {trim_s:g} s at each end",
+                    field="lines" if trim_s == 0 else "line_end_trim_s",
+                )
             empty = np.zeros(0)
             per_line.append((name, ci, k, empty, empty, empty, empty, {**info, "no_data": True}))
             continue
@@ -124,22 +136,31 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
             raise ValueError("no line holds data")
         # a comparison chain without a supported value on any line (e.g. RTK only in stretches shorter
         # than the FIR): every line reported as holding no data, nothing smeared over them
-        return {"repeated": False, "filtered": filtered, "per_line": per_line, "crossings": [],
-                "crossover_mgal": None, "median_speed_mps": None, "resolution_m": None,
-                "coincidence_note": "no line holds a supported value"}
+        return {
+            "repeated": False,
+            "filtered": filtered,
+            "per_line": per_line,
+            "crossings": [],
+            "crossover_mgal": None,
+            "median_speed_mps": None,
+            "resolution_m": None,
+            "coincidence_note": "no line holds a supported value",
+        }
     repeated = all(np.median(p[4]) < 50.0 for p in used)
     result = {"repeated": repeated, "filtered": filtered, "per_line": per_line}
     if repeated and len(used) >= 2:
         try:
-            grid, vals = common_points([(p[3], filtered[p[1]][p[2]] / MGAL) for p in used], spacing_m,
-                                       allow_holes=not strict)
+            grid, vals = common_points(
+                [(p[3], filtered[p[1]][p[2]] / MGAL) for p in used], spacing_m, allow_holes=not strict
+            )
             co = internal_coincidence(vals, [p[0] for p in used], grid)
             if leveling in ("bias", "linear"):
                 fit = leveling_fit(vals, grid, leveling)
                 result["line_offsets_mgal"] = {nm: float(np.mean(o)) for nm, o in zip(co.names, fit)}
                 if leveling == "linear":
-                    result["line_slopes_mgal_per_km"] = {nm: float((o[-1] - o[0]) / max(grid[-1] - grid[0], 1e-9) * 1e3)
-                                                         for nm, o in zip(co.names, fit)}
+                    result["line_slopes_mgal_per_km"] = {
+                        nm: float((o[-1] - o[0]) / max(grid[-1] - grid[0], 1e-9) * 1e3) for nm, o in zip(co.names, fit)
+                    }
                 for p, o in zip(used, fit):
                     line_all = (chains[p[1]]["t_s"] >= lines_t[p[0]][0]) & (chains[p[1]]["t_s"] <= lines_t[p[0]][1])
                     # along the line at its own distances (constant beyond the common stretch)
@@ -179,19 +200,34 @@ def floor_of(log, chain, fir_s):
 
 def block(res, fir_s, trim_s, aiding, floor):
     """The summary block of one chain."""
-    out = {"fir_length_s": fir_s, "aiding": aiding, "resolution_m": res["resolution_m"],
-           "median_speed_mps": res["median_speed_mps"], "repeated_lines": res["repeated"],
-           "line_end_trim_s": trim_s,
-           "line_ends": f"{trim_s:g} s trimmed at both ends of every line (FIR leakage of turnarounds, "
-                        "acceleration and braking)" if trim_s > 0 else "lines not trimmed",
-           "noise_floor": floor}
+    out = {
+        "fir_length_s": fir_s,
+        "aiding": aiding,
+        "resolution_m": res["resolution_m"],
+        "median_speed_mps": res["median_speed_mps"],
+        "repeated_lines": res["repeated"],
+        "line_end_trim_s": trim_s,
+        "line_ends": f"{trim_s:g} s trimmed at both ends of every line (FIR leakage of turnarounds, "
+        "acceleration and braking)"
+        if trim_s > 0
+        else "lines not trimmed",
+        "noise_floor": floor,
+    }
     co = res.get("coincidence")
     stats = {}
     if co is not None:
-        stats = {nm: {"max_mgal": float(mx), "min_mgal": float(mn), "rms_mgal": float(r), "mean_mgal": float(me),
-                      "std_mgal": float(sd)}
-                 for nm, mx, mn, r, me, sd in zip(co.names, co.per_line_max, co.per_line_min, co.per_line_rms,
-                                                  co.per_line_mean, co.per_line_std)}
+        stats = {
+            nm: {
+                "max_mgal": float(mx),
+                "min_mgal": float(mn),
+                "rms_mgal": float(r),
+                "mean_mgal": float(me),
+                "std_mgal": float(sd),
+            }
+            for nm, mx, mn, r, me, sd in zip(
+                co.names, co.per_line_max, co.per_line_min, co.per_line_rms, co.per_line_mean, co.per_line_std
+            )
+        }
     none = {"max_mgal": None, "min_mgal": None, "rms_mgal": None, "mean_mgal": None, "std_mgal": None}
     out["lines"] = [{"name": p[0], **stats.get(p[0], none), **p[7]} for p in res["per_line"]]
     out["total_mgal"] = co.total if co is not None else None
@@ -203,13 +239,14 @@ def block(res, fir_s, trim_s, aiding, floor):
     out["combined_floor_ratio"] = co.total / comb if co is not None and comb else None
     if "line_offsets_mgal" in res:
         lin = "line_slopes_mgal_per_km" in res
-        out["line_leveling"] = {"method": ("linear drift per line" if lin else "bias") + " about the mean line "
-                                          "(repeat-line adjustment)",
-                                "offsets_mgal": res["line_offsets_mgal"],
-                                "note": "coincidence of the adjusted lines: internal and optimistic (the adjustment "
-                                        f"takes {2 if lin else 1} degree(s) of freedom per line and removes the "
-                                        "lines' differing drift, not the drift they share, which stays in the "
-                                        "absolute values)"}
+        out["line_leveling"] = {
+            "method": ("linear drift per line" if lin else "bias") + " about the mean line (repeat-line adjustment)",
+            "offsets_mgal": res["line_offsets_mgal"],
+            "note": "coincidence of the adjusted lines: internal and optimistic (the adjustment "
+            f"takes {2 if lin else 1} degree(s) of freedom per line and removes the "
+            "lines' differing drift, not the drift they share, which stays in the "
+            "absolute values)",
+        }
         if lin:
             out["line_leveling"]["slopes_mgal_per_km"] = res["line_slopes_mgal_per_km"]
     if "coincidence_note" in res:
@@ -232,9 +269,15 @@ def chain_difference(res_a, chains_a, res_b, chains_b):
         fb = res_b["filtered"][pb[1]]
         d = (res_a["filtered"][pa[1]][pa[2]] - np.interp(ta, tb, fb)) / MGAL  # withheld (NaN) stay out
         d = d[np.isfinite(d)]
-        out.append({"name": pa[0], "mean_mgal": float(np.mean(d)) if len(d) else None,
-                    "rms_mgal": float(np.sqrt(np.mean(d ** 2))) if len(d) else None,
-                    "std_mgal": float(np.std(d)) if len(d) else None, "compared_s": len(d) / chains_a[pa[1]]["fs"]})
+        out.append(
+            {
+                "name": pa[0],
+                "mean_mgal": float(np.mean(d)) if len(d) else None,
+                "rms_mgal": float(np.sqrt(np.mean(d**2))) if len(d) else None,
+                "std_mgal": float(np.std(d)) if len(d) else None,
+                "compared_s": len(d) / chains_a[pa[1]]["fs"],
+            }
+        )
     return out
 
 
@@ -281,7 +324,12 @@ def frame_tilt(res_a, chains_a, res_b, chains_b, fir_s):
     # the filtered residual is correlated over ~the FIR length: σ from the effective number of samples
     fs = chains_b[0]["fs"]
     n_eff = max(len(y) / max(fir_s * fs / 2.0, 1.0), 4.0)
-    cov = np.linalg.pinv(a.T @ a) * float(np.sum(r ** 2)) / max(len(y) - a.shape[1], 1) * len(y) / n_eff
+    cov = np.linalg.pinv(a.T @ a) * float(np.sum(r**2)) / max(len(y) - a.shape[1], 1) * len(y) / n_eff
     # the difference is SINS/LDV − SINS/GNSS = −(ξ a_N + η a_E) in the GNSS chain's error: sign flipped
-    return {"xi_rad": float(-c[0]), "eta_rad": float(-c[1]), "xi_sigma_rad": float(np.sqrt(cov[0, 0])),
-            "eta_sigma_rad": float(np.sqrt(cov[1, 1])), "n_samples": int(len(y))}
+    return {
+        "xi_rad": float(-c[0]),
+        "eta_rad": float(-c[1]),
+        "xi_sigma_rad": float(np.sqrt(cov[0, 0])),
+        "eta_sigma_rad": float(np.sqrt(cov[1, 1])),
+        "n_samples": int(len(y)),
+    }

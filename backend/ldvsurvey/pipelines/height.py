@@ -13,15 +13,26 @@ from pydantic import Field
 
 from ldvsurvey.nav.filter import forward_accel_mps2, ldv_spikes
 from ldvsurvey.pipelines.base import LogFacts, Pipeline, PipelineResult, Reason, output_rate, rate_within_imu
+from ldvsurvey.pipelines.calibration import (
+    CalibrationParams,
+    calibration_applicable,
+    ldv_aid_of,
+    ldv_body_velocity,
+    ldv_setup,
+)
 from ldvsurvey.pipelines.inputs import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
 from ldvsurvey.pipelines.plumb import DovParams, apply_dov
-from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_body_velocity, ldv_setup
+
 
 class HeightParams(CalibrationParams, DovParams):
     """Parameters of ``height``."""
 
-    initial_h_m: float | None = Field(None, ge=-1000.0, le=9000.0, description="height in m of the IMU "
-                                      "centre at the start (−1000 to 9000 m; default: manifest, else GNSS)")
+    initial_h_m: float | None = Field(
+        None,
+        ge=-1000.0,
+        le=9000.0,
+        description="height in m of the IMU centre at the start (−1000 to 9000 m; default: manifest, else GNSS)",
+    )
     output_rate_hz: float = output_rate(100.0, "height.csv")
 
 
@@ -30,8 +41,22 @@ def applicable(logs: list[LogFacts], params: HeightParams) -> list[Reason]:
     return calibration_applicable(logs, params) + rate_within_imu(logs, params)
 
 
-def integrate_height(t_l, c_bn_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0,
-                     pitch_k=0.0, accel_fwd=None, v_u_bridge=None):
+def integrate_height(
+    t_l,
+    c_bn_l,
+    nu_f,
+    nu_u,
+    ok,
+    scale,
+    pitch,
+    heading,
+    scale_up,
+    lever,
+    h0,
+    pitch_k=0.0,
+    accel_fwd=None,
+    v_u_bridge=None,
+):
     """Height (m) of the IMU centre at the LDV times by trapezoidal integration of V_U.
 
     The travel direction the LDV sees is pitched by ``pitch + pitch_k · accel_fwd`` (rad; accel_fwd in
@@ -53,7 +78,7 @@ def error_stats(err: np.ndarray) -> dict:
     if len(err) == 0:
         return {"max": None, "std": None, "rms": None}
     i = int(np.argmax(np.abs(err)))
-    return {"max": float(err[i]), "std": float(np.std(err)), "rms": float(np.sqrt(np.mean(err ** 2)))}
+    return {"max": float(err[i]), "std": float(np.std(err)), "rms": float(np.sqrt(np.mean(err**2)))}
 
 
 def run(logs, params, progress) -> PipelineResult:
@@ -93,8 +118,7 @@ def run(logs, params, progress) -> PipelineResult:
     h = integrate_height(t_l, c_l, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l, vu_ins)
     c_l_raw = attitude_at(sol_raw, t_l) if est is not None else c_l
     vu_raw = np.interp(t_l, sol_raw.t_s, sol_raw.v_n[:, 2])
-    h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l,
-                             vu_raw)
+    h_raw = integrate_height(t_l, c_l_raw, nu_f, nu_u, ok, scale, pitch, heading, scale_up, lever, h0, pk, a_l, vu_raw)
     # GNSS reference (fix 4 or 2) at the IMU centre
     summary = {"calibration": setup.info, "aiding": "ldv", "tilt_compensated": est is not None, "dov": dov_info}
     if est is not None:
@@ -109,11 +133,20 @@ def run(logs, params, progress) -> PipelineResult:
         err_raw = np.interp(g.t_s[ref], t_l, h_raw) - h_ref[ref]
         st, st_raw = error_stats(err), error_stats(err_raw)
         st4 = error_stats(err[g.fix[ref] == 4])
-        summary.update({"max_error_m": st["max"], "std_error_m": st["std"], "rms_error_m": st["rms"],
-                        "n_reference": int(ref.sum()), "max_error_m_uncompensated": st_raw["max"],
-                        "max_error_m_fix4": st4["max"], "std_error_m_fix4": st4["std"],
-                        "n_reference_fix4": int(np.count_nonzero(g.fix[ref] == 4)),
-                        "std_error_m_uncompensated": st_raw["std"], "rms_error_m_uncompensated": st_raw["rms"]})
+        summary.update(
+            {
+                "max_error_m": st["max"],
+                "std_error_m": st["std"],
+                "rms_error_m": st["rms"],
+                "n_reference": int(ref.sum()),
+                "max_error_m_uncompensated": st_raw["max"],
+                "max_error_m_fix4": st4["max"],
+                "std_error_m_fix4": st4["std"],
+                "n_reference_fix4": int(np.count_nonzero(g.fix[ref] == 4)),
+                "std_error_m_uncompensated": st_raw["std"],
+                "rms_error_m_uncompensated": st_raw["rms"],
+            }
+        )
         j = np.clip(np.searchsorted(t_l, g.t_s), 0, len(t_l) - 1)
         j0 = np.clip(j - 1, 0, len(t_l) - 1)
         j = np.where(np.abs(t_l[j0] - g.t_s) < np.abs(t_l[j] - g.t_s), j0, j)
@@ -122,17 +155,35 @@ def run(logs, params, progress) -> PipelineResult:
         fix_col[j[near]] = g.fix[near]
     else:
         warnings.append("no GNSS in the bundle: no reference to judge the height against")
-        summary.update({"max_error_m": None, "std_error_m": None, "rms_error_m": None, "n_reference": 0,
-                        "max_error_m_uncompensated": None, "std_error_m_uncompensated": None,
-                        "rms_error_m_uncompensated": None})
+        summary.update(
+            {
+                "max_error_m": None,
+                "std_error_m": None,
+                "rms_error_m": None,
+                "n_reference": 0,
+                "max_error_m_uncompensated": None,
+                "std_error_m_uncompensated": None,
+                "rms_error_m_uncompensated": None,
+            }
+        )
     step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(t_l))))))
     keep = np.zeros(len(t_l), bool)
     keep[::step] = True
     keep |= np.isfinite(h_gnss_col)  # every reference row stays
-    table = {"t_s": t_l[keep], "h_m": h[keep], "h_uncompensated_m": h_raw[keep], "h_gnss_m": h_gnss_col[keep],
-             "fix_quality": fix_col[keep].astype(int)}
+    table = {
+        "t_s": t_l[keep],
+        "h_m": h[keep],
+        "h_uncompensated_m": h_raw[keep],
+        "h_gnss_m": h_gnss_col[keep],
+        "fix_quality": fix_col[keep].astype(int),
+    }
     return PipelineResult(summary=summary, tables={"height": table}, warnings=warnings)
 
 
-PIPELINE = Pipeline("height", run, HeightParams, "Height from the 1-D LDV and the (tilt-compensated) INS attitude",
-                    applicable=applicable)
+PIPELINE = Pipeline(
+    "height",
+    run,
+    HeightParams,
+    "Height from the 1-D LDV and the (tilt-compensated) INS attitude",
+    applicable=applicable,
+)

@@ -13,15 +13,20 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.io.imutime import check_no_long_gaps
-from ldvsurvey.pipelines.base import warn
-from ldvsurvey.pipelines.start import (_body_signals, _still_intervals, detect_static_start, initial_position,
-                                      moving_start)
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, ldv_spikes, run_filter
-
+from ldvsurvey.pipelines.base import warn
+from ldvsurvey.pipelines.start import (
+    _body_signals,
+    _still_intervals,
+    detect_static_start,
+    initial_position,
+    moving_start,
+)
 from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402
+
 #: fix quality -> 1-σ (horizontal, vertical) in m assumed for a survey receiver
 GNSS_SIGMA = {4: (0.03, 0.05), 5: (0.3, 0.5), 2: (1.0, 2.0), 1: (3.0, 5.0)}
 
@@ -95,14 +100,19 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         if static_end - t[0] < 30.0:  # no static start: align on the move (or say what is missing)
             start = moving_start(log, t, eta, nu_f, ok)
             static_end = float(t[0])
-            warnings.append(f"no static period at the start (the IMU or the LDV shows motion from "
-                            f"t={t[0]:.2f} s): coarse alignment on the move from the GNSS course and the LDV "
-                            "speed, then the filter; expect the first minutes to be less accurate")
+            warnings.append(
+                f"no static period at the start (the IMU or the LDV shows motion from "
+                f"t={t[0]:.2f} s): coarse alignment on the move from the GNSS course and the LDV "
+                "speed, then the filter; expect the first minutes to be less accurate"
+            )
     else:
         static_end = float(t[0] + static_s)
         if static_s < 30.0:
-            raise ParameterError("the static period is shorter than 30 s: too short to align",
-                                 file="manifest.json", field="initial.static_s")
+            raise ParameterError(
+                "the static period is shorter than 30 s: too short to align",
+                file="manifest.json",
+                field="initial.static_s",
+            )
     still = [(a, b) for a, b in still if b > static_end + 1.0 or a > static_end]
     if start is None:
         still = [(float(t[0]), static_end)] + [(max(a, static_end), b) for a, b in still]
@@ -111,10 +121,23 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         pos0 = initial_position(log, t, static_end, eta, warnings, moving=start)
     for w in warnings:
         warn(w)
-    return NavInputs(log=log, t_s=t, dtheta_rad=imu.dtheta_rad, dvel_mps=imu.dvel_mps, eta_rad=eta,
-                     ldv_ok=ok, nu_f_mps=nu_f, nu_u_mps=nu_u, still=still, static_end_s=static_end,
-                     pos0=pos0, noise=ImuNoise.from_manifest(m.imu), warnings=warnings,
-                     c_bn0=None if start is None else start[0], v0_n=None if start is None else start[1])
+    return NavInputs(
+        log=log,
+        t_s=t,
+        dtheta_rad=imu.dtheta_rad,
+        dvel_mps=imu.dvel_mps,
+        eta_rad=eta,
+        ldv_ok=ok,
+        nu_f_mps=nu_f,
+        nu_u_mps=nu_u,
+        still=still,
+        static_end_s=static_end,
+        pos0=pos0,
+        noise=ImuNoise.from_manifest(m.imu),
+        warnings=warnings,
+        c_bn0=None if start is None else start[0],
+        v0_n=None if start is None else start[1],
+    )
 
 
 def c_bs_of(inp: NavInputs, alpha_rad: float = 0.0, beta_rad: float = 0.0):
@@ -131,9 +154,13 @@ def initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
     k = inp.t_s <= inp.static_end_s
     if k.sum() < 100:
         raise ParameterError("the static period holds fewer than 100 IMU samples", field="initial.static_s")
-    c_bn = coarse_align(inp.dtheta_rad[k], inp.dvel_mps[k], inp.pos0[0],
-                        c_bs=None if cbs is None else cbs[k],
-                        turntable_rad=None if inp.eta_rad is None else inp.eta_rad[k])
+    c_bn = coarse_align(
+        inp.dtheta_rad[k],
+        inp.dvel_mps[k],
+        inp.pos0[0],
+        c_bs=None if cbs is None else cbs[k],
+        turntable_rad=None if inp.eta_rad is None else inp.eta_rad[k],
+    )
     return c_bn if cbs is None else c_bn @ cbs[0].T  # C_s^n = C_b^n (C_b^s)ᵀ
 
 
@@ -148,18 +175,30 @@ def gnss_aid(log: DriveLog, fixes=(4, 2, 5, 1), window=None) -> GnssAid | None:
     if not keep.any():
         return None
     sig = np.array([GNSS_SIGMA.get(int(f), (np.nan, np.nan)) for f in g.fix[keep]])
-    return GnssAid(g.t_s[keep], g.lat_deg[keep] * RAD, g.lon_deg[keep] * RAD, g.h_m[keep], sig[:, 0], sig[:, 1],
-                   tuple(log.manifest.gnss.lever_arm_m))
+    return GnssAid(
+        g.t_s[keep],
+        g.lat_deg[keep] * RAD,
+        g.lon_deg[keep] * RAD,
+        g.h_m[keep],
+        sig[:, 0],
+        sig[:, 1],
+        tuple(log.manifest.gnss.lever_arm_m),
+    )
 
 
 def ldv_aid(inp: NavInputs, scale=None, pitch_rad=None, heading_rad=None, scale_up=1.0) -> LdvAid:
     """LDV aid with the given (or the manifest's nominal) mounting and scale."""
     nom = inp.log.manifest.ldv.nominal
-    return LdvAid(inp.ldv_ok, inp.nu_f_mps, inp.nu_u_mps,
-                  scale=nom.scale if scale is None else scale,
-                  pitch_rad=nom.pitch_deg * RAD if pitch_rad is None else pitch_rad,
-                  heading_rad=nom.heading_deg * RAD if heading_rad is None else heading_rad,
-                  scale_up=scale_up, lever_arm_m=tuple(inp.log.manifest.ldv.lever_arm_m))
+    return LdvAid(
+        inp.ldv_ok,
+        inp.nu_f_mps,
+        inp.nu_u_mps,
+        scale=nom.scale if scale is None else scale,
+        pitch_rad=nom.pitch_deg * RAD if pitch_rad is None else pitch_rad,
+        heading_rad=nom.heading_deg * RAD if heading_rad is None else heading_rad,
+        scale_up=scale_up,
+        lever_arm_m=tuple(inp.log.manifest.ldv.lever_arm_m),
+    )
 
 
 #: unmodelled gravity in the pipelines' filters: the vertical disturbance Δg (mGal) and the
@@ -180,15 +219,27 @@ MOVING_POS_SIGMA0_M = 3.0  #: a single-point fix carried back along the road
 
 def pipeline_cfg(**kw) -> FilterConfig:
     """The filter configuration the pipelines use (coarse-alignment σ, unmodelled gravity)."""
-    base = dict(att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD), gravity_noise_mgal=GRAVITY_NOISE_MGAL,
-                dov_noise_mgal=DOV_NOISE_MGAL, gyro_scale_z_sigma0=GYRO_SCALE_Z_SIGMA)
+    base = dict(
+        att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD),
+        gravity_noise_mgal=GRAVITY_NOISE_MGAL,
+        dov_noise_mgal=DOV_NOISE_MGAL,
+        gyro_scale_z_sigma0=GYRO_SCALE_Z_SIGMA,
+    )
     base.update(kw)
     return FilterConfig(**base)
 
 
-def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssAid | None = None,
-             cfg: FilterConfig | None = None, smooth: bool = True, zupt: bool = True,
-             attitude_only: bool = False) -> NavSolution:
+def navigate(
+    inp: NavInputs,
+    *,
+    cbs=None,
+    ldv: LdvAid | None = None,
+    gnss: GnssAid | None = None,
+    cfg: FilterConfig | None = None,
+    smooth: bool = True,
+    zupt: bool = True,
+    attitude_only: bool = False,
+) -> NavSolution:
     """Coarse alignment then the filter (ZUPT in still periods) with the given aids (``attitude_only``:
     see :func:`ldvsurvey.nav.filter.run_filter`)."""
     c0 = initial_attitude(inp, cbs)
@@ -201,11 +252,29 @@ def navigate(inp: NavInputs, *, cbs=None, ldv: LdvAid | None = None, gnss: GnssA
     v0 = np.zeros(3)
     if inp.v0_n is not None:  # aligned on the move: a coarser start
         v0 = inp.v0_n
-        cfg = dataclasses.replace(cfg, att_sigma0_rad=MOVING_ATT_SIGMA0_RAD, vel_sigma0_mps=MOVING_VEL_SIGMA0_MPS,
-                                  pos_sigma0_m=max(cfg.pos_sigma0_m, MOVING_POS_SIGMA0_M))
-    return run_filter(inp.t_s, inp.dtheta_rad, inp.dvel_mps, q_from_c(c0), v0, inp.pos0, inp.noise, cfg,
-                      c_bs=cbs, zupt_intervals=inp.still if zupt else [], ldv=ldv, gnss=gnss, smooth=smooth,
-                      gravity=inp.gravity, attitude_only=attitude_only)
+        cfg = dataclasses.replace(
+            cfg,
+            att_sigma0_rad=MOVING_ATT_SIGMA0_RAD,
+            vel_sigma0_mps=MOVING_VEL_SIGMA0_MPS,
+            pos_sigma0_m=max(cfg.pos_sigma0_m, MOVING_POS_SIGMA0_M),
+        )
+    return run_filter(
+        inp.t_s,
+        inp.dtheta_rad,
+        inp.dvel_mps,
+        q_from_c(c0),
+        v0,
+        inp.pos0,
+        inp.noise,
+        cfg,
+        c_bs=cbs,
+        zupt_intervals=inp.still if zupt else [],
+        ldv=ldv,
+        gnss=gnss,
+        smooth=smooth,
+        gravity=inp.gravity,
+        attitude_only=attitude_only,
+    )
 
 
 def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:

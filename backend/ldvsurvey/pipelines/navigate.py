@@ -10,11 +10,19 @@ from pydantic import Field
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
-from ldvsurvey.pipelines.base import LogFacts, Pipeline, PipelineResult, Reason, needs_gnss, output_rate, rate_within_imu
+from ldvsurvey.pipelines.base import (
+    LogFacts,
+    Pipeline,
+    PipelineResult,
+    Reason,
+    needs_gnss,
+    output_rate,
+    rate_within_imu,
+)
+from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_setup
 from ldvsurvey.pipelines.inputs import attitude_at, gnss_aid, nav_inputs, navigate
 from ldvsurvey.pipelines.plumb import DOV_HELP, DovChoice, DovParams, apply_dov
 from ldvsurvey.units import DEG_PER_RAD as DEG
-from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_setup
 
 
 class NavigateParams(CalibrationParams, DovParams):
@@ -30,7 +38,6 @@ def applicable(logs: list[LogFacts], params: NavigateParams) -> list[Reason]:
     """GNSS aiding needs GNSS; a calibration window must lie inside the log."""
     gnss = needs_gnss(logs, "aiding includes gnss", "aiding") if "gnss" in params.aiding else []
     return gnss + calibration_applicable(logs, params) + rate_within_imu(logs, params)
-
 
 
 def run_navigation(log, params, progress):
@@ -53,8 +60,13 @@ def run_navigation(log, params, progress):
         est, _ = tilt_stage(inp)
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
     progress(f"navigation ({aiding})", 0.5)
-    sol = navigate(inp, cbs=cbs, ldv=ldv_aid_of(inp, setup) if use_ldv else None,
-                   gnss=gnss_aid(log) if use_gnss else None, smooth=params.get("smooth", True))
+    sol = navigate(
+        inp,
+        cbs=cbs,
+        ldv=ldv_aid_of(inp, setup) if use_ldv else None,
+        gnss=gnss_aid(log) if use_gnss else None,
+        smooth=params.get("smooth", True),
+    )
     return inp, setup, sol
 
 
@@ -87,19 +99,38 @@ def run(logs, params, progress) -> PipelineResult:
     sl = slice(step - 1, None, step)
     p, r, hd = euler_from_c_bn(sol.c_bn(sl))
     sg = sol.sigma_at(sl)
-    table = {"t_s": sol.t_s[sl], "lat_deg": sol.pos[sl, 0] * DEG, "lon_deg": sol.pos[sl, 1] * DEG,
-             "h_m": sol.pos[sl, 2], "v_e_mps": sol.v_n[sl, 0], "v_n_mps": sol.v_n[sl, 1], "v_u_mps": sol.v_n[sl, 2],
-             "pitch_deg": p * DEG, "roll_deg": r * DEG, "heading_deg": hd * DEG,
-             "tilt_e_sigma_deg": sg[:, 0] * DEG, "tilt_n_sigma_deg": sg[:, 1] * DEG,
-             "heading_sigma_deg": sg[:, 2] * DEG, "v_e_sigma_mps": sg[:, 3], "v_n_sigma_mps": sg[:, 4],
-             "v_u_sigma_mps": sg[:, 5], "e_sigma_m": sg[:, 6], "n_sigma_m": sg[:, 7], "h_sigma_m": sg[:, 8]}
-    s = {"aiding": params["aiding"], "smoothed": bool(params["smooth"]),
-         "max_horizontal_error_m": None if horiz is None else float(np.max(horiz)),
-         "max_height_error_m": None if vert is None else float(vert[np.argmax(np.abs(vert))]),
-         "rms_horizontal_error_m": None if horiz is None else float(np.sqrt(np.mean(horiz ** 2))),
-         "n_reference": n_ref, "rejected_measurements": sol.rejected,
-         "gyro_bias_dph": (sol.gyro_bias_rps * DEG * 3600).tolist(),
-         "accel_bias_ug": (sol.accel_bias_mps2 / 9.80665e-6).tolist()}
+    table = {
+        "t_s": sol.t_s[sl],
+        "lat_deg": sol.pos[sl, 0] * DEG,
+        "lon_deg": sol.pos[sl, 1] * DEG,
+        "h_m": sol.pos[sl, 2],
+        "v_e_mps": sol.v_n[sl, 0],
+        "v_n_mps": sol.v_n[sl, 1],
+        "v_u_mps": sol.v_n[sl, 2],
+        "pitch_deg": p * DEG,
+        "roll_deg": r * DEG,
+        "heading_deg": hd * DEG,
+        "tilt_e_sigma_deg": sg[:, 0] * DEG,
+        "tilt_n_sigma_deg": sg[:, 1] * DEG,
+        "heading_sigma_deg": sg[:, 2] * DEG,
+        "v_e_sigma_mps": sg[:, 3],
+        "v_n_sigma_mps": sg[:, 4],
+        "v_u_sigma_mps": sg[:, 5],
+        "e_sigma_m": sg[:, 6],
+        "n_sigma_m": sg[:, 7],
+        "h_sigma_m": sg[:, 8],
+    }
+    s = {
+        "aiding": params["aiding"],
+        "smoothed": bool(params["smooth"]),
+        "max_horizontal_error_m": None if horiz is None else float(np.max(horiz)),
+        "max_height_error_m": None if vert is None else float(vert[np.argmax(np.abs(vert))]),
+        "rms_horizontal_error_m": None if horiz is None else float(np.sqrt(np.mean(horiz**2))),
+        "n_reference": n_ref,
+        "rejected_measurements": sol.rejected,
+        "gyro_bias_dph": (sol.gyro_bias_rps * DEG * 3600).tolist(),
+        "accel_bias_ug": (sol.accel_bias_mps2 / 9.80665e-6).tolist(),
+    }
     s["dov"], warnings = inp.cache["dov"]
     warnings = list(warnings)
     if setup is not None:
@@ -110,5 +141,6 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=s, tables={"trajectory": table}, warnings=warnings)
 
 
-PIPELINE = Pipeline("navigate", run, NavigateParams, "SINS/LDV (and/or GNSS) navigation with RTS smoothing",
-                    applicable=applicable)
+PIPELINE = Pipeline(
+    "navigate", run, NavigateParams, "SINS/LDV (and/or GNSS) navigation with RTS smoothing", applicable=applicable
+)

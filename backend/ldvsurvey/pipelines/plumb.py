@@ -27,18 +27,24 @@ _EGM_MEMO: dict = {}  # in-process memo of synthesized grids (the job runner add
 
 
 DovChoice = Literal["none", "egm2008", "grid"]
-DOV_HELP = ("deflection of the vertical in the mechanization's gravity: none (normal gravity, the INS levels "
-            "to the plumb line), egm2008 (built-in model, 1′ grid) or grid (dov_grid)")
+DOV_HELP = (
+    "deflection of the vertical in the mechanization's gravity: none (normal gravity, the INS levels "
+    "to the plumb line), egm2008 (built-in model, 1′ grid) or grid (dov_grid)"
+)
 
 
 class DovParams(Params):
     """The deflection-of-the-vertical parameters of the navigating pipelines (default: EGM2008)."""
 
     dov: DovChoice = Field("egm2008", description=DOV_HELP)
-    dov_grid: Paths | None = Field(None, description="ICGEM .gdf grids ξ,η (arcsec) and optionally Δg (mGal), "
-                                   "comma separated (with dov=grid; server files, not accepted by the API)")
-    dov_grid_id: Text | None = Field(None, max_length=200,
-                                    description="id of grids uploaded with POST /api/grids (with dov=grid)")
+    dov_grid: Paths | None = Field(
+        None,
+        description="ICGEM .gdf grids ξ,η (arcsec) and optionally Δg (mGal), "
+        "comma separated (with dov=grid; server files, not accepted by the API)",
+    )
+    dov_grid_id: Text | None = Field(
+        None, max_length=200, description="id of grids uploaded with POST /api/grids (with dov=grid)"
+    )
 
 
 def load_grids(paths) -> DovGrid:
@@ -54,10 +60,17 @@ def load_grids(paths) -> DovGrid:
     _, la, lo, xi = parsed[0]
     for (_, la2, lo2, v), p in zip(parsed[1:], paths[1:]):
         if v.shape != xi.shape or not (np.allclose(la, la2) and np.allclose(lo, lo2)):
-            raise ParameterError(f"the grids must share the nodes of {Path(paths[0]).name}", file=Path(p).name,
-                                 field="dov_grid")
-    return DovGrid(la, lo, xi, parsed[1][3], parsed[2][3] if len(parsed) > 2 else None,
-                   source=", ".join(Path(p).name for p in paths))
+            raise ParameterError(
+                f"the grids must share the nodes of {Path(paths[0]).name}", file=Path(p).name, field="dov_grid"
+            )
+    return DovGrid(
+        la,
+        lo,
+        xi,
+        parsed[1][3],
+        parsed[2][3] if len(parsed) > 2 else None,
+        source=", ".join(Path(p).name for p in paths),
+    )
 
 
 def _uploaded(grid_id: str) -> DovGrid:
@@ -65,8 +78,9 @@ def _uploaded(grid_id: str) -> DovGrid:
 
     cache = GRID_CACHE.get()
     if cache is None:
-        raise ParameterError("uploaded grids are available to jobs run by the server only; give dov_grid files",
-                             field="dov_grid_id")
+        raise ParameterError(
+            "uploaded grids are available to jobs run by the server only; give dov_grid files", field="dov_grid_id"
+        )
     grid = cache.get("upload:" + str(grid_id)) if str(grid_id).isalnum() else None
     if grid is None:
         raise ParameterError(f"no uploaded grid with id {grid_id!r}", field="dov_grid_id")
@@ -96,11 +110,13 @@ def _track(inp: NavInputs):
     if g is not None:
         ok = (g.fix > 0) & np.isfinite(g.lat_deg)
         if ok.sum() >= 2:
-            return (np.interp(inp.t_s, g.t_s[ok], g.lat_deg[ok]), np.interp(inp.t_s, g.t_s[ok], g.lon_deg[ok]),
-                    None)
+            return (np.interp(inp.t_s, g.t_s[ok], g.lat_deg[ok]), np.interp(inp.t_s, g.t_s[ok], g.lon_deg[ok]), None)
     n = len(inp.t_s)
-    return (np.full(n, np.degrees(inp.pos0[0])), np.full(n, np.degrees(inp.pos0[1])),
-            "no GNSS track: the deflection at the start position is used along the whole drive")
+    return (
+        np.full(n, np.degrees(inp.pos0[0])),
+        np.full(n, np.degrees(inp.pos0[1])),
+        "no GNSS track: the deflection at the start position is used along the whole drive",
+    )
 
 
 def apply_dov(inp: NavInputs, params: dict, progress) -> tuple[dict, list[str]]:
@@ -121,8 +137,9 @@ def apply_dov(inp: NavInputs, params: dict, progress) -> tuple[dict, list[str]]:
     lat, lon, warn = _track(inp)
     if mode == "grid":
         if not paths:
-            raise ParameterError("dov=grid needs dov_grid=xi.gdf,eta.gdf[,dg.gdf] (or dov_grid_id of an upload)",
-                                 field="dov_grid")
+            raise ParameterError(
+                "dov=grid needs dov_grid=xi.gdf,eta.gdf[,dg.gdf] (or dov_grid_id of an upload)", field="dov_grid"
+            )
         if params.get("dov_grid") and params.get("dov_grid_id"):
             raise ParameterError("give dov_grid or dov_grid_id, not both", field="dov_grid_id")
         grid = load_grids(paths) if params.get("dov_grid") else _uploaded(params["dov_grid_id"])
@@ -141,15 +158,20 @@ def apply_dov(inp: NavInputs, params: dict, progress) -> tuple[dict, list[str]]:
     rm, rn = radii(np.radians(lat))
     v_n = np.gradient(np.radians(lat), inp.t_s) * rm
     v_e = np.gradient(np.radians(lon), inp.t_s) * rn * np.cos(np.radians(lat))
-    dh = np.concatenate([[0.0], np.cumsum(0.5 * ((xi * v_n + eta * v_e)[1:] + (xi * v_n + eta * v_e)[:-1])
-                                          * np.diff(inp.t_s))])
-    info = {"source": grid.source or mode, "xi_arcsec_max": float(np.max(np.abs(xi)) / ARCSEC),
-            "xi_arcsec_rms": float(np.sqrt(np.mean(xi ** 2)) / ARCSEC),
-            "eta_arcsec_max": float(np.max(np.abs(eta)) / ARCSEC),
-            "eta_arcsec_rms": float(np.sqrt(np.mean(eta ** 2)) / ARCSEC),
-            "dg_mgal_max": float(np.max(np.abs(dg)) / MGAL), "dg_mgal_rms": float(np.sqrt(np.mean(dg ** 2)) / MGAL),
-            "dg_used": grid.dg_mgal is not None,
-            "height_effect_max_m": float(dh[np.argmax(np.abs(dh))]),
-            "height_effect_note": "first-order height an INS levelled to the plumb line would gain, "
-                                  "∫(ξ v_N + η v_E) dt along the track; removed by this compensation"}
+    dh = np.concatenate(
+        [[0.0], np.cumsum(0.5 * ((xi * v_n + eta * v_e)[1:] + (xi * v_n + eta * v_e)[:-1]) * np.diff(inp.t_s))]
+    )
+    info = {
+        "source": grid.source or mode,
+        "xi_arcsec_max": float(np.max(np.abs(xi)) / ARCSEC),
+        "xi_arcsec_rms": float(np.sqrt(np.mean(xi**2)) / ARCSEC),
+        "eta_arcsec_max": float(np.max(np.abs(eta)) / ARCSEC),
+        "eta_arcsec_rms": float(np.sqrt(np.mean(eta**2)) / ARCSEC),
+        "dg_mgal_max": float(np.max(np.abs(dg)) / MGAL),
+        "dg_mgal_rms": float(np.sqrt(np.mean(dg**2)) / MGAL),
+        "dg_used": grid.dg_mgal is not None,
+        "height_effect_max_m": float(dh[np.argmax(np.abs(dh))]),
+        "height_effect_note": "first-order height an INS levelled to the plumb line would gain, "
+        "∫(ξ v_N + η v_E) dt along the track; removed by this compensation",
+    }
     return info, [warn] if warn else []

@@ -57,8 +57,7 @@ PIPELINES: Mapping = _Registry(MODULES)
 def get(name: str):
     """The :class:`~ldvsurvey.pipelines.base.Pipeline` called ``name`` (its module imported now)."""
     if name not in PIPELINES:
-        raise ParameterError(f"unknown pipeline '{name}' (known: {', '.join(sorted(PIPELINES))})",
-                             field="PIPELINE")
+        raise ParameterError(f"unknown pipeline '{name}' (known: {', '.join(sorted(PIPELINES))})", field="PIPELINE")
     return PIPELINES[name]
 
 

@@ -13,7 +13,6 @@ from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs
 from ldvsurvey.nav.earth import radii
-
 from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402
 
 #: still: LDV speed below this (m/s)
@@ -126,8 +125,11 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
     g = log.gnss
     good = None if g is None else (g.fix > 0) & np.isfinite(g.lat_deg)
     if g is None or not good.any():
-        raise ParameterError("no start position: give manifest initial.lat_deg/lon_deg/h_m or a GNSS fix",
-                             file="manifest.json", field="initial")
+        raise ParameterError(
+            "no start position: give manifest initial.lat_deg/lon_deg/h_m or a GNSS fix",
+            file="manifest.json",
+            field="initial",
+        )
     in_static = good & (g.t_s >= t[0] - 0.5) & (g.t_s <= static_end)
     pool = in_static if in_static.any() else good
     best = next(q for q in FIX_RANK + tuple(np.unique(g.fix[pool])) if np.any(pool & (g.fix == q)))
@@ -135,8 +137,10 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
     if not in_static.any():
         k = k[:1]
         if warnings is not None:
-            warnings.append(f"no GNSS fix during the static period: the start position is the first fix of "
-                            f"quality {best} at t={g.t_s[k[0]]:.1f} s")
+            warnings.append(
+                f"no GNSS fix during the static period: the start position is the first fix of "
+                f"quality {best} at t={g.t_s[k[0]]:.1f} s"
+            )
     lat = float(np.mean(g.lat_deg[k])) * RAD
     lon = float(np.mean(g.lon_deg[k])) * RAD
     h = float(np.mean(g.h_m[k]))
@@ -145,8 +149,9 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
     if np.count_nonzero(ks) >= 100:
         imu = log.imu
         cbs = None if eta is None else c_bs(eta[ks])
-        c_bn = coarse_align(imu.dtheta_rad[ks], imu.dvel_mps[ks], lat, c_bs=cbs,
-                            turntable_rad=None if eta is None else eta[ks])
+        c_bn = coarse_align(
+            imu.dtheta_rad[ks], imu.dvel_mps[ks], lat, c_bs=cbs, turntable_rad=None if eta is None else eta[ks]
+        )
         lev_n = c_bn @ lever  # ENU
     else:
         lev_n = np.array([0.0, 0.0, lever[2]])
@@ -176,8 +181,10 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
 
     m = log.manifest
     g = log.gnss
-    what = ("the log has no static period at the start (manifest initial.static_s not given or 0, and the IMU "
-            "or the LDV shows motion within 30 s), and an alignment on the move needs ")
+    what = (
+        "the log has no static period at the start (manifest initial.static_s not given or 0, and the IMU "
+        "or the LDV shows motion within 30 s), and an alignment on the move needs "
+    )
     if g is None:
         raise ParameterError(what + "GNSS fixes (no gnss.nmea)", file="gnss.nmea", field="initial.static_s")
     early = np.isfinite(g.lat_deg) & (g.t_s >= t[0] - 0.5) & (g.t_s <= t[0] + 30.0)
@@ -185,16 +192,21 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     for q in (4, 5, 2, 1):
         idx = np.flatnonzero(early & (g.fix == q))
         for i in idx:
-            later = idx[(g.t_s[idx] >= g.t_s[i] + COURSE_BASELINE_S[q] - 0.01)
-                        & (g.t_s[idx] <= g.t_s[i] + COURSE_BASELINE_S[q] + 1.01)]
+            later = idx[
+                (g.t_s[idx] >= g.t_s[i] + COURSE_BASELINE_S[q] - 0.01)
+                & (g.t_s[idx] <= g.t_s[i] + COURSE_BASELINE_S[q] + 1.01)
+            ]
             if len(later):
                 pair = (int(i), int(later[0]))
                 break
         if pair:
             break
     if pair is None:
-        raise ParameterError(what + "two GNSS fixes of one quality a few seconds apart within the first 30 s",
-                             file="gnss.nmea", field="fix_quality")
+        raise ParameterError(
+            what + "two GNSS fixes of one quality a few seconds apart within the first 30 s",
+            file="gnss.nmea",
+            field="fix_quality",
+        )
     k = np.array(pair)
     lat, lon, h = np.radians(g.lat_deg[k]), np.radians(g.lon_deg[k]), g.h_m[k]
     rm, rn = radii(lat[0])
@@ -202,14 +214,18 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     dn = (lat[1] - lat[0]) * (rm + h[0])
     dt_g = g.t_s[k[1]] - g.t_s[k[0]]
     if np.hypot(de, dn) / dt_g < 2.0:
-        raise ParameterError(what + "the vehicle to move faster than 2 m/s at the first GNSS fixes (for the "
-                             "course over ground)", file="gnss.nmea", field="initial.static_s")
+        raise ParameterError(
+            what + "the vehicle to move faster than 2 m/s at the first GNSS fixes (for the course over ground)",
+            file="gnss.nmea",
+            field="initial.static_s",
+        )
     course = float(np.arctan2(de, dn))
     kw = t <= t[0] + window_s
     use = kw & ok
     if np.count_nonzero(use) < 0.5 * np.count_nonzero(kw) or np.count_nonzero(use) < 10:
-        raise ParameterError(what + "a usable LDV speed during the first second", file="ldv.csv",
-                             field="initial.static_s")
+        raise ParameterError(
+            what + "a usable LDV speed during the first second", file="ldv.csv", field="initial.static_s"
+        )
     nom = m.ldv.nominal
     cdb = c_db(nom.pitch_deg * RAD, nom.heading_deg * RAD)
     slope, v0 = np.polyfit(t[use] - t[0], nu_f[use] / nom.scale, 1)
@@ -221,8 +237,17 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     if eta is not None:
         dth_z -= np.diff(eta[kt], prepend=eta[0])
     cbs = None if eta is None else c_bs(eta[kw])
-    c_bn = align_in_motion(log.imu.dtheta_rad[kw], log.imu.dvel_mps[kw], dur, float(v0 + slope * dur / 2),
-                           float(slope), course, cdb, c_bs=cbs, turntable_rad=None if eta is None else eta[kw])
+    c_bn = align_in_motion(
+        log.imu.dtheta_rad[kw],
+        log.imu.dvel_mps[kw],
+        dur,
+        float(v0 + slope * dur / 2),
+        float(slope),
+        course,
+        cdb,
+        c_bs=cbs,
+        turntable_rad=None if eta is None else eta[kw],
+    )
     from ldvsurvey.nav.attitude import c_bn_from_euler, euler_from_c_bn
 
     p0, r0, h_mid = euler_from_c_bn(c_bn)
@@ -231,7 +256,11 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     v_n = c_bn @ (cdb @ np.array([0.0, v0, 0.0]))
     lev_n = c_bn @ np.asarray(m.gnss.lever_arm_m, float)
     back = v_n * (g.t_s[k[0]] - t[0])  # driven from the start to the first fix (straight line)
-    pos0 = np.array([lat[0] - (lev_n[1] + back[1]) / (rm + h[0]),
-                     lon[0] - (lev_n[0] + back[0]) / ((rn + h[0]) * np.cos(lat[0])),
-                     h[0] - lev_n[2] - back[2]])
+    pos0 = np.array(
+        [
+            lat[0] - (lev_n[1] + back[1]) / (rm + h[0]),
+            lon[0] - (lev_n[0] + back[0]) / ((rn + h[0]) * np.cos(lat[0])),
+            h[0] - lev_n[2] - back[2],
+        ]
+    )
     return c_bn, v_n, pos0

@@ -13,32 +13,50 @@ from ldvsurvey.pipelines.inputs import c_bs_of, ldv_aid, nav_inputs, navigate
 from ldvsurvey.pipelines.tiltfit import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
+
 class TiltParams(Params):
     """Parameters of ``tilt``."""
 
     output_rate_hz: float = output_rate(10.0, "attitude.csv")
-    ldv_pitch_deg: float | None = Field(None, ge=-45.0, le=45.0, description="LDV mounting pitch in degrees "
-                                        "for the aiding (|η_L| ≤ 45°; default: manifest nominal)")
-    ldv_heading_deg: float | None = Field(None, ge=-360.0, le=360.0, description="LDV mounting heading in "
-                                          "degrees (−360° to 360°; default: manifest nominal)")
-    ldv_scale: float | None = Field(None, ge=0.5, le=1.5, description="LDV scale factor (0.5 to 1.5; "
-                                    "default: manifest nominal)")
+    ldv_pitch_deg: float | None = Field(
+        None,
+        ge=-45.0,
+        le=45.0,
+        description="LDV mounting pitch in degrees for the aiding (|η_L| ≤ 45°; default: manifest nominal)",
+    )
+    ldv_heading_deg: float | None = Field(
+        None,
+        ge=-360.0,
+        le=360.0,
+        description="LDV mounting heading in degrees (−360° to 360°; default: manifest nominal)",
+    )
+    ldv_scale: float | None = Field(
+        None, ge=0.5, le=1.5, description="LDV scale factor (0.5 to 1.5; default: manifest nominal)"
+    )
 
 
 def applicable(logs: list[LogFacts], params: TiltParams) -> list[Reason]:
     """Base tilt is estimated from the turntable's rotation: only a rotating IMU has one."""
-    return ([Reason("imu.rotating", f"tilt compensation is for a rotating IMU: log '{f.name}' has a fixed "
-                                    "IMU (manifest imu.rotating is false)") for f in logs if not f.imu_rotating]
-            + rate_within_imu(logs, params))
+    return [
+        Reason(
+            "imu.rotating",
+            f"tilt compensation is for a rotating IMU: log '{f.name}' has a fixed IMU (manifest imu.rotating is false)",
+        )
+        for f in logs
+        if not f.imu_rotating
+    ] + rate_within_imu(logs, params)
 
 
 def compensated_attitude(inp, est, params, progress, frac=0.4):
     """Navigation with LDV aiding and the tilt applied; returns (solution, C_s^n, C_b^n, raw C_b^n)."""
     cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
     progress("navigation with the tilt compensated", frac)
-    aid = ldv_aid(inp, scale=params.get("ldv_scale"),
-                  pitch_rad=None if params.get("ldv_pitch_deg") is None else params["ldv_pitch_deg"] * RAD,
-                  heading_rad=None if params.get("ldv_heading_deg") is None else params["ldv_heading_deg"] * RAD)
+    aid = ldv_aid(
+        inp,
+        scale=params.get("ldv_scale"),
+        pitch_rad=None if params.get("ldv_pitch_deg") is None else params["ldv_pitch_deg"] * RAD,
+        heading_rad=None if params.get("ldv_heading_deg") is None else params["ldv_heading_deg"] * RAD,
+    )
     sol = navigate(inp, cbs=cbs, ldv=aid)
     c_bn = sol.c_bn()
     c_sn = c_bn @ np.swapaxes(cbs, -1, -2)
@@ -67,33 +85,55 @@ def run(logs, params, progress) -> PipelineResult:
     progress("preparing", 0.02)
     inp = nav_inputs(log)
     if inp.eta_rad is None:
-        raise ParameterError("tilt compensation needs a rotating IMU: the manifest says imu.rotating is false "
-                             "and imu.csv has no turntable_deg", file="imu.csv", field="turntable_deg")
+        raise ParameterError(
+            "tilt compensation needs a rotating IMU: the manifest says imu.rotating is false "
+            "and imu.csv has no turntable_deg",
+            file="imu.csv",
+            field="turntable_deg",
+        )
     progress("fine alignment and turntable stops", 0.1)
     est, stops = tilt_stage(inp)
     if not est.observable:  # the other pipelines go on with α = β = 0; this one has nothing to report
-        raise ParameterError("no rotation of the turntable while the vehicle stood still: " + est.warnings[0],
-                             file="imu.csv", field="turntable_deg")
+        raise ParameterError(
+            "no rotation of the turntable while the vehicle stood still: " + est.warnings[0],
+            file="imu.csv",
+            field="turntable_deg",
+        )
     warnings = list(inp.warnings) + list(est.warnings)
     sol, c_sn, c_bn, raw = compensated_attitude(inp, est, params, progress)
     osc = oscillation(inp, c_bn, raw)
     if osc is None:
-        warnings.append("no full turntable cycle while the vehicle stood still: the attitude oscillation "
-                        "before and after compensation is not reported")
+        warnings.append(
+            "no full turntable cycle while the vehicle stood still: the attitude oscillation "
+            "before and after compensation is not reported"
+        )
     progress("writing", 0.9)
     step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(inp.t_s))))))
     sl = slice(step - 1, None, step)
     p0, r0, _ = euler_from_c_bn(raw[sl])
     p1, r1, h1 = euler_from_c_bn(c_bn[sl])
-    table = {"t_s": inp.t_s[sl], "turntable_deg": np.mod(np.degrees(inp.eta_rad[sl]), 360.0),
-             "pitch_raw_deg": np.degrees(p0), "roll_raw_deg": np.degrees(r0), "pitch_deg": np.degrees(p1),
-             "roll_deg": np.degrees(r1), "heading_deg": np.degrees(h1)}
-    s = {"alpha_rad": est.alpha_rad, "alpha_rad_sigma": est.alpha_sigma_rad, "beta_rad": est.beta_rad,
-         "beta_rad_sigma": est.beta_sigma_rad, "tilt_observable": est.observable, "n_pairs": len(est.pairs),
-         "n_still_intervals": est.n_intervals, "turntable_diversity": est.diversity,
-         "rms_residual_rad": est.rms_residual_rad,
-         "method": "least squares of the up direction over the turntable angle in still intervals",
-         "aiding": "ldv"}
+    table = {
+        "t_s": inp.t_s[sl],
+        "turntable_deg": np.mod(np.degrees(inp.eta_rad[sl]), 360.0),
+        "pitch_raw_deg": np.degrees(p0),
+        "roll_raw_deg": np.degrees(r0),
+        "pitch_deg": np.degrees(p1),
+        "roll_deg": np.degrees(r1),
+        "heading_deg": np.degrees(h1),
+    }
+    s = {
+        "alpha_rad": est.alpha_rad,
+        "alpha_rad_sigma": est.alpha_sigma_rad,
+        "beta_rad": est.beta_rad,
+        "beta_rad_sigma": est.beta_sigma_rad,
+        "tilt_observable": est.observable,
+        "n_pairs": len(est.pairs),
+        "n_still_intervals": est.n_intervals,
+        "turntable_diversity": est.diversity,
+        "rms_residual_rad": est.rms_residual_rad,
+        "method": "least squares of the up direction over the turntable angle in still intervals",
+        "aiding": "ldv",
+    }
     for key, i in (("pitch", 0), ("roll", 1)):
         s[f"{key}_oscillation_before_rad"] = osc["before"][i] if osc else None
         s[f"{key}_oscillation_after_rad"] = osc["after"][i] if osc else None
@@ -101,5 +141,6 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=s, tables={"attitude": table}, warnings=warnings)
 
 
-PIPELINE = Pipeline("tilt", run, TiltParams, "Base-tilt compensation of a single-axis rotation INS",
-                    applicable=applicable)
+PIPELINE = Pipeline(
+    "tilt", run, TiltParams, "Base-tilt compensation of a single-axis rotation INS", applicable=applicable
+)

@@ -2,25 +2,31 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
 from ldvsurvey.pipelines.base import warn
-from ldvsurvey.pipelines.inputs import (NavInputs, c_bs_of, ldv_aid, navigate,
-                                      pipeline_cfg)
-
+from ldvsurvey.pipelines.inputs import NavInputs, c_bs_of, ldv_aid, navigate, pipeline_cfg
 
 
 def static_part(inp: NavInputs) -> NavInputs:
     """The inputs cut to the static period at the start."""
     k = inp.t_s <= inp.static_end_s
-    return NavInputs(log=inp.log, t_s=inp.t_s[k], dtheta_rad=inp.dtheta_rad[k], dvel_mps=inp.dvel_mps[k],
-                     eta_rad=None if inp.eta_rad is None else inp.eta_rad[k], ldv_ok=inp.ldv_ok[k],
-                     nu_f_mps=inp.nu_f_mps[k], nu_u_mps=None if inp.nu_u_mps is None else inp.nu_u_mps[k],
-                     still=[(inp.t_s[0] - 1.0, inp.static_end_s)], static_end_s=inp.static_end_s,
-                     pos0=inp.pos0, noise=inp.noise)
+    return NavInputs(
+        log=inp.log,
+        t_s=inp.t_s[k],
+        dtheta_rad=inp.dtheta_rad[k],
+        dvel_mps=inp.dvel_mps[k],
+        eta_rad=None if inp.eta_rad is None else inp.eta_rad[k],
+        ldv_ok=inp.ldv_ok[k],
+        nu_f_mps=inp.nu_f_mps[k],
+        nu_u_mps=None if inp.nu_u_mps is None else inp.nu_u_mps[k],
+        still=[(inp.t_s[0] - 1.0, inp.static_end_s)],
+        static_end_s=inp.static_end_s,
+        pos0=inp.pos0,
+        noise=inp.noise,
+    )
 
 
 def _tilt_from(inp: NavInputs, sol, still, stops) -> TiltEstimate:
@@ -44,8 +50,11 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     ``warnings``: the caller goes on (the attitude then keeps an oscillation of the tilt's size).
     """
     if inp.eta_rad is None:
-        raise ParameterError("the IMU does not rotate (manifest imu.rotating is false, no turntable_deg)",
-                             file="imu.csv", field="turntable_deg")
+        raise ParameterError(
+            "the IMU does not rotate (manifest imu.rotating is false, no turntable_deg)",
+            file="imu.csv",
+            field="turntable_deg",
+        )
     key = ("tilt_stage",)
     if key in inp.cache:
         return inp.cache[key]
@@ -58,8 +67,9 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     later = [(a, b) for a, b in inp.still if a >= inp.static_end_s - 1e-6]
     if (est is None or not est.observable) and later:
         stops_all = find_stops(inp.t_s, inp.eta_rad)
-        sol = navigate(inp, cbs=c_bs_of(inp), ldv=ldv_aid(inp), cfg=pipeline_cfg(), smooth=True,
-                       attitude_only=True)  # the tilt needs the attitude and the bias σ only
+        sol = navigate(
+            inp, cbs=c_bs_of(inp), ldv=ldv_aid(inp), cfg=pipeline_cfg(), smooth=True, attitude_only=True
+        )  # the tilt needs the attitude and the bias σ only
         est2 = _tilt_from(inp, sol, inp.still, stops_all)
         if est2.observable or est is None:
             est, stops = est2, stops_all
@@ -67,5 +77,3 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
         warn(w)
     inp.cache[key] = (est, stops)
     return est, stops
-
-

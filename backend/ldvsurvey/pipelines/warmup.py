@@ -17,8 +17,8 @@ import hashlib
 import sys
 import threading
 import time
-from pathlib import Path
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from ldvsurvey.errors import InputError
 
@@ -64,9 +64,14 @@ class WarmupReport:
         return {r.pipeline for r in self.runs if r.ok}
 
     def as_dict(self) -> dict:
-        return {"cache_dir": self.cache_dir, "compiled": self.compiled, "cache_hits": self.cache_hits,
-                "not_cached": self.not_cached, "elapsed_s": round(self.elapsed_s, 2),
-                "runs": [r.__dict__ for r in self.runs]}
+        return {
+            "cache_dir": self.cache_dir,
+            "compiled": self.compiled,
+            "cache_hits": self.cache_hits,
+            "not_cached": self.not_cached,
+            "elapsed_s": round(self.elapsed_s, 2),
+            "runs": [r.__dict__ for r in self.runs],
+        }
 
 
 def dispatchers() -> list:
@@ -175,10 +180,10 @@ def warmup(names: list[str] | None = None, variants: bool = True, log=None) -> W
     """
     from ldvsurvey.compilecache import cache_dir
     from ldvsurvey.io.drivelog import parse_files
-    from ldvsurvey.sim import catalog
-    from ldvsurvey.sim.scenario import bundle_files, simulate
     from ldvsurvey.pipelines.base import Progress, run_pipeline
     from ldvsurvey.pipelines.registry import PIPELINES
+    from ldvsurvey.sim import catalog
+    from ldvsurvey.sim.scenario import bundle_files, simulate
 
     t_start = time.perf_counter()
     log = log or (lambda s: None)
@@ -208,7 +213,7 @@ def warmup(names: list[str] | None = None, variants: bool = True, log=None) -> W
             report.runs.append(WarmupRun(name, None, {}, False, 0.0, "; ".join(errors)))
             log(f"{name}: no tiny log suits it ({'; '.join(errors)})")
             continue
-        for params in (_variants(pipe)[1:] if variants else []):
+        for params in _variants(pipe)[1:] if variants else []:
             t0 = time.perf_counter()
             try:
                 run_pipeline(pipe, bundles[accepted[0]], {**base, **params}, Progress())

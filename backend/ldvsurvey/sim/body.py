@@ -27,8 +27,8 @@ from ldvsurvey.nav.attitude import c_bn_from_euler
 from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.sim.effects import BodyAttitude
 from ldvsurvey.sim.motion import euler_rate_to_body
-
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
+
 H_S = 1e-4
 
 
@@ -38,8 +38,9 @@ class BodyModel:
     Called by :func:`ldvsurvey.sim.imu.rates` as ``model(t, truth) -> (C_b^t, ω_tb^b)``.
     """
 
-    def __init__(self, spec: BodyAttitude, motion, mount_pitch_rad: float, mount_heading_rad: float,
-                 rng: np.random.Generator):
+    def __init__(
+        self, spec: BodyAttitude, motion, mount_pitch_rad: float, mount_heading_rad: float, rng: np.random.Generator
+    ):
         self.spec = spec
         self.motion = motion
         self.c_db = c_db(mount_pitch_rad, mount_heading_rad)
@@ -55,8 +56,11 @@ class BodyModel:
         v = tr["speed_mps"] / sp.bounce_ref_mps
         f1, f2 = sp.bounce_hz
         tau = t - self.motion.t0_s
-        p = sp.stance_pitch_rad + sp.squat_rad_per_g * a_t[:, 1] / G0 \
+        p = (
+            sp.stance_pitch_rad
+            + sp.squat_rad_per_g * a_t[:, 1] / G0
             + sp.bounce_rad * v * np.sin(2 * np.pi * f1 * tau + self.phase[0])
+        )
         r = -sp.roll_rad_per_g * a_t[:, 0] / G0 + 0.5 * sp.bounce_rad * v * np.sin(2 * np.pi * f2 * tau + self.phase[1])
         y = np.full_like(p, sp.crab_rad)
         return p, r, y
@@ -72,7 +76,7 @@ class BodyModel:
         p, r, y = self.angles(t, tr)
         p1, r1, y1 = self.angles(hi)
         p0, r0, y0 = self.angles(lo)
-        w = (hi - lo)
+        w = hi - lo
         w_td_d = euler_rate_to_body(p, r, y, (p1 - p0) / w, (r1 - r0) / w, (y1 - y0) / w)
         c_dt = c_bn_from_euler(p, r, y)
         c_bt = c_dt @ self.c_db.T  # C_b^t = C_d^t C_b^d

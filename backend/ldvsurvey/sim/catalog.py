@@ -8,7 +8,6 @@ from ldvsurvey.sim.motion import Drive, Static, TurnInPlace
 from ldvsurvey.sim.road import Ramps, Road
 from ldvsurvey.sim.scenario import Scenario
 from ldvsurvey.sim.sensors import LdvSpecSim
-
 from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402  (rad per degree)
 
 
@@ -16,10 +15,20 @@ def drive(minutes: float = 40.0, speed_mps: float = 15.0, **kw) -> Scenario:
     """A vehicle drive with turns and grades: 5 min static, then driving along a winding road."""
     static = kw.pop("static_s", 300.0)
     length = speed_mps * (minutes * 60.0 - static) + 2000.0
-    heading = Ramps(30 * RAD, [(s, 250.0, d * RAD) for s, d in
-                               zip(np.arange(1500.0, length - 1000, 3100.0), [60, -90, 45, -30, 80, -70, 50, -40] * 20)])
-    grade = Ramps(0.0, [(s, 400.0, g) for s, g in
-                        zip(np.arange(800.0, length - 1000, 1700.0), [0.02, -0.04, 0.03, -0.01, -0.02, 0.02] * 40)])
+    heading = Ramps(
+        30 * RAD,
+        [
+            (s, 250.0, d * RAD)
+            for s, d in zip(np.arange(1500.0, length - 1000, 3100.0), [60, -90, 45, -30, 80, -70, 50, -40] * 20)
+        ],
+    )
+    grade = Ramps(
+        0.0,
+        [
+            (s, 400.0, g)
+            for s, g in zip(np.arange(800.0, length - 1000, 1700.0), [0.02, -0.04, 0.03, -0.01, -0.02, 0.02] * 40)
+        ],
+    )
     road = Road(28.4861 * RAD, 113.0623 * RAD, 120.0, length, heading, grade)
     drive_len = speed_mps * (minutes * 60.0 - static - 40.0)
     segs = [Static(static), Drive(drive_len, speed_mps, 20.0)]
@@ -37,18 +46,48 @@ def height(minutes: float = 40.0, length_m: float = 10000.0, relief_m: float = 3
     g = relief_m / (0.3 * length_m)  # grade that climbs the relief over 30 % of the road
     L = length_m
     r = 0.03 * L  # ramp length
-    grade = Ramps(0.0, [(0.08 * L, r, g), (0.38 * L, r, -g), (0.52 * L, r, -0.6 * g),
-                        (0.72 * L, r, 0.6 * g), (0.78 * L, r, 0.3 * g), (0.92 * L, r, -0.3 * g)])
-    heading = Ramps(20 * RAD, [(0.15 * L, 0.02 * L, 35 * RAD), (0.45 * L, 0.025 * L, -70 * RAD),
-                               (0.65 * L, 0.02 * L, 50 * RAD), (0.85 * L, 0.015 * L, -25 * RAD)])
+    grade = Ramps(
+        0.0,
+        [
+            (0.08 * L, r, g),
+            (0.38 * L, r, -g),
+            (0.52 * L, r, -0.6 * g),
+            (0.72 * L, r, 0.6 * g),
+            (0.78 * L, r, 0.3 * g),
+            (0.92 * L, r, -0.3 * g),
+        ],
+    )
+    heading = Ramps(
+        20 * RAD,
+        [
+            (0.15 * L, 0.02 * L, 35 * RAD),
+            (0.45 * L, 0.025 * L, -70 * RAD),
+            (0.65 * L, 0.02 * L, 50 * RAD),
+            (0.85 * L, 0.015 * L, -25 * RAD),
+        ],
+    )
     road = Road(28.1812 * RAD, 112.9383 * RAD, 40.0, L + 1.0, heading, grade)
-    segs = [Static(static), Drive(L, speed, 20.0), Static(30.0), TurnInPlace(turn_s, np.pi),
-            Static(30.0), Drive(0.0, speed, 20.0)]
-    kw.setdefault("ldv", LdvSpecSim(pitch_rad=0.35 * RAD, heading_rad=-0.25 * RAD, scale=1.0015,
-                                    noise_mps=0.02, kind="1d"))
-    defaults = dict(date="2022-05-18", t0_s=33300.0, gyro_bias_dph=0.002, accel_bias_ug=50.0,
-                    rotating=True, alpha_rad=4.0e-4, beta_rad=-6.0e-4,
-                    fix_schedule=[(900.0, 1000.0, 2), (1300.0, 1420.0, 0), (1420.0, 1460.0, 1)])
+    segs = [
+        Static(static),
+        Drive(L, speed, 20.0),
+        Static(30.0),
+        TurnInPlace(turn_s, np.pi),
+        Static(30.0),
+        Drive(0.0, speed, 20.0),
+    ]
+    kw.setdefault(
+        "ldv", LdvSpecSim(pitch_rad=0.35 * RAD, heading_rad=-0.25 * RAD, scale=1.0015, noise_mps=0.02, kind="1d")
+    )
+    defaults = dict(
+        date="2022-05-18",
+        t0_s=33300.0,
+        gyro_bias_dph=0.002,
+        accel_bias_ug=50.0,
+        rotating=True,
+        alpha_rad=4.0e-4,
+        beta_rad=-6.0e-4,
+        fix_schedule=[(900.0, 1000.0, 2), (1300.0, 1420.0, 0), (1420.0, 1460.0, 1)],
+    )
     defaults.update(kw)
     return Scenario(name="height", road=road, segments=segs, static_s=static, **defaults)
 
@@ -62,8 +101,9 @@ def _line_times(motion, s_a: float, s_b: float, t_from: float, t_to: float):
     return float(min(t[ia], t[ib])), float(max(t[ia], t[ib]))
 
 
-def gravity(n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, speed_mps: float = 15.0,
-            **kw) -> Scenario:
+def gravity(
+    n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, speed_mps: float = 15.0, **kw
+) -> Scenario:
     """The gravimetry paper's survey: fixed IMU (0.003°/h, 20 µg), 2-D LDV (0.1 %), repeated lines
     with large relief, GNSS partly degraded, a synthetic field with gradients up to 3 mGal/km."""
     from ldvsurvey.sim.fields import SinusoidField
@@ -74,10 +114,19 @@ def gravity(n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, sp
     road_len = b + 500.0
     g = relief_m / (0.50 * L)
     r = 0.04 * L
-    grade = Ramps(0.0, [(0.05 * L + a, r, g), (0.45 * L + a, r, -0.55 * g), (0.7 * L + a, r, -0.45 * g),
-                        (0.85 * L + a, r, -0.4 * g), (0.93 * L + a, 0.05 * L, 0.4 * g)])
-    heading = Ramps(40 * RAD, [(0.2 * L + a, 300.0, 40 * RAD), (0.5 * L + a, 400.0, -75 * RAD),
-                               (0.75 * L + a, 300.0, 50 * RAD)])
+    grade = Ramps(
+        0.0,
+        [
+            (0.05 * L + a, r, g),
+            (0.45 * L + a, r, -0.55 * g),
+            (0.7 * L + a, r, -0.45 * g),
+            (0.85 * L + a, r, -0.4 * g),
+            (0.93 * L + a, 0.05 * L, 0.4 * g),
+        ],
+    )
+    heading = Ramps(
+        40 * RAD, [(0.2 * L + a, 300.0, 40 * RAD), (0.5 * L + a, 400.0, -75 * RAD), (0.75 * L + a, 300.0, 50 * RAD)]
+    )
     lat0, lon0 = 28.4861 * RAD, 113.0623 * RAD
     road = Road(lat0, lon0, 120.0, road_len, heading, grade)
     segs = [Static(300.0)]
@@ -85,12 +134,17 @@ def gravity(n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, sp
     for k in range(n_lines):
         segs.append(Drive(ends[1] if k % 2 == 0 else ends[0], speed_mps, 20.0))
         segs += [Static(20.0), TurnInPlace(30.0, np.pi), Static(20.0)]
-    sc_kw = dict(ldv=LdvSpecSim(pitch_rad=0.2 * RAD, heading_rad=-0.3 * RAD, scale=1.001, scale_up=1.001,
-                                noise_mps=0.01, kind="2d"),
-                 gyro_bias_dph=0.003, accel_bias_ug=20.0, gyro_arw_dprh=0.0005,
-                 # navigation-grade quartz accelerometer white noise; at 5 µg/√Hz the noise floor alone
-                 # is ~0.45 mGal per line through a 150 s filter
-                 accel_vrw_ug_rthz=2.0)
+    sc_kw = dict(
+        ldv=LdvSpecSim(
+            pitch_rad=0.2 * RAD, heading_rad=-0.3 * RAD, scale=1.001, scale_up=1.001, noise_mps=0.01, kind="2d"
+        ),
+        gyro_bias_dph=0.003,
+        accel_bias_ug=20.0,
+        gyro_arw_dprh=0.0005,
+        # navigation-grade quartz accelerometer white noise; at 5 µg/√Hz the noise floor alone
+        # is ~0.45 mGal per line through a 150 s filter
+        accel_vrw_ug_rthz=2.0,
+    )
     # a field of 3 mGal/km at most: Σ 2π A/λ = 3e-3 mGal/m
     terms = [(10.0, 20000.0, 0.3, 0.4), (5.0, 8000.0, 1.9, 1.1), (2.0, 4000.0, 0.9, 2.0)]
     grad = sum(2 * np.pi * A / lam for A, lam, _, _ in terms) * 1000.0
@@ -107,8 +161,14 @@ def gravity(n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, sp
     sc.lines = lines
     if "fix_schedule" not in kw:  # GNSS partly blocked on some lines (forest, valley)
         dur = m.t_end_s - sc.t0_s
-        sc.fix_schedule = [(0.22 * dur, 0.26 * dur, 1), (0.26 * dur, 0.29 * dur, 0), (0.45 * dur, 0.5 * dur, 2),
-                           (0.62 * dur, 0.64 * dur, 0), (0.64 * dur, 0.70 * dur, 1), (0.84 * dur, 0.86 * dur, 5)]
+        sc.fix_schedule = [
+            (0.22 * dur, 0.26 * dur, 1),
+            (0.26 * dur, 0.29 * dur, 0),
+            (0.45 * dur, 0.5 * dur, 2),
+            (0.62 * dur, 0.64 * dur, 0),
+            (0.64 * dur, 0.70 * dur, 1),
+            (0.84 * dur, 0.86 * dur, 5),
+        ]
     return sc
 
 
@@ -134,28 +194,50 @@ def dov(km: float = 315.0, speed_mps: float = 25.0, step_arcmin: float = 1.0, de
     area = area_for_track(np.array([lat0, lat_end]), np.array([lon0, lon0]), step_arcmin)
     grid = kw.pop("grid", None) or egm_grid(area, step_arcmin, degree)
     segs = [Static(300.0), Drive(km * 1000.0, speed_mps, 30.0)]
-    defaults = dict(gyro_bias_dph=0.01, gyro_arw_dprh=0.001, accel_bias_ug=50.0, accel_vrw_ug_rthz=5.0,
-                    gravity_field=GridField(grid), date="2023-06-01", ldv_rate_hz=10.0,
-                    ldv=LdvSpecSim(noise_mps=0.02, kind="1d"))
+    defaults = dict(
+        gyro_bias_dph=0.01,
+        gyro_arw_dprh=0.001,
+        accel_bias_ug=50.0,
+        accel_vrw_ug_rthz=5.0,
+        gravity_field=GridField(grid),
+        date="2023-06-01",
+        ldv_rate_hz=10.0,
+        ldv=LdvSpecSim(noise_mps=0.02, kind="1d"),
+    )
     defaults.update(kw)
     return Scenario(name="dov", road=road, segments=segs, static_s=300.0, **defaults)
 
 
-def vessel(hours: float = 3.0, current_mps: float = 2.0, speed_mps: float = 20.0, mooring_s: float = 1000.0,
-           **kw) -> Scenario:
+def vessel(
+    hours: float = 3.0, current_mps: float = 2.0, speed_mps: float = 20.0, mooring_s: float = 1000.0, **kw
+) -> Scenario:
     """The damping paper's simulation: moored for ``mooring_s`` (1000 s), a left turn at 0.1°/s for
     450 s, 1 m/s² for 20 s, hours of straight run, 1 m/s² deceleration; a water-track LDV; a steady
     current (from the end of the mooring)."""
     length = speed_mps * hours * 3600.0 + 2 * speed_mps * 20.0 + 2000.0
     road = Road(30.56 * RAD, 114.32 * RAD, 7.0, length, Ramps(0.0))  # water track due north
-    segs = [Static(mooring_s), TurnInPlace(450.0, -45.0 * RAD),
-            Drive(speed_mps * (hours * 3600.0 + 20.0), speed_mps, 20.0), Static(600.0)]
+    segs = [
+        Static(mooring_s),
+        TurnInPlace(450.0, -45.0 * RAD),
+        Drive(speed_mps * (hours * 3600.0 + 20.0), speed_mps, 20.0),
+        Static(600.0),
+    ]
     c = np.array([np.cos(RAD * 30.0), np.sin(RAD * 30.0), 0.0]) * current_mps  # toward ENE
-    defaults = dict(platform="vessel", date="2023-06-08", t0_s=36000.0, gyro_bias_dph=0.01, accel_bias_ug=50.0,
-                    gyro_arw_dprh=0.001, accel_vrw_ug_rthz=10.0, ldv_rate_hz=20.0,
-                    ldv=LdvSpecSim(scale=1.002, noise_mps=0.02, kind="water", lever_arm_m=(0.0, 1.0, -2.5)),
-                    gnss_lever_m=(0.0, -1.0, 4.0), heading_offset0_rad=45.0 * RAD, current_n_mps=tuple(c),
-                    current_from_s=mooring_s)
+    defaults = dict(
+        platform="vessel",
+        date="2023-06-08",
+        t0_s=36000.0,
+        gyro_bias_dph=0.01,
+        accel_bias_ug=50.0,
+        gyro_arw_dprh=0.001,
+        accel_vrw_ug_rthz=10.0,
+        ldv_rate_hz=20.0,
+        ldv=LdvSpecSim(scale=1.002, noise_mps=0.02, kind="water", lever_arm_m=(0.0, 1.0, -2.5)),
+        gnss_lever_m=(0.0, -1.0, 4.0),
+        heading_offset0_rad=45.0 * RAD,
+        current_n_mps=tuple(c),
+        current_from_s=mooring_s,
+    )
     defaults.update(kw)
     return Scenario(name="vessel", road=road, segments=segs, static_s=mooring_s, **defaults)
 
@@ -172,6 +254,7 @@ def by_name(name: str, **kw) -> Scenario:
 
 
 # --- the realistic family: the same drives with the effects real drives have -------------------------
+
 
 def _split_effects(seed: int, effects, kw: dict):
     """Effect overrides (keys named like effects) out of ``kw``; returns (Effects, remaining kw)."""
@@ -242,6 +325,10 @@ def realistic_vessel(seed: int = 1, effects=None, hours: float = 3.0, **kw) -> S
     return sc
 
 
-REALISTIC = {"realistic-height": realistic_height, "realistic-gravity": realistic_gravity,
-             "realistic-drive": realistic_drive, "realistic-vessel": realistic_vessel}
+REALISTIC = {
+    "realistic-height": realistic_height,
+    "realistic-gravity": realistic_gravity,
+    "realistic-drive": realistic_drive,
+    "realistic-vessel": realistic_vessel,
+}
 SCENARIOS.update(REALISTIC)

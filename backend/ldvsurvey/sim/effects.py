@@ -114,7 +114,7 @@ class TurntableSpec:
     dwell_s: float = 30.0
     dwell_spread: float = 0.3  #: dwell times uniform in dwell_s·(1 ± spread)
     rate_dps: float = 20.0  #: indexing rate, or the continuous rotation rate
-    lsb_deg: float = 360.0 / 2 ** 16
+    lsb_deg: float = 360.0 / 2**16
     jitter_lsb: int = 1
 
 
@@ -167,18 +167,23 @@ class Effects:
         sgn = lambda: rng.choice([-1.0, 1.0])  # noqa: E731
         drawn = dict(
             ldv_dropouts=LdvDropouts(rate_per_min=float(u(0.8, 1.5)), spikes_per_min=float(u(0.1, 0.3))),
-            body_attitude=BodyAttitude(stance_pitch_rad=float(sgn() * u(0.15, 0.45) * DEG),
-                                       crab_rad=float(sgn() * u(0.1, 0.4) * DEG),
-                                       squat_rad_per_g=float(u(1.0, 3.0) * DEG),
-                                       roll_rad_per_g=float(u(1.0, 3.0) * DEG),
-                                       bounce_rad=float(u(0.02, 0.05) * DEG),
-                                       bounce_hz=(float(u(1.0, 1.6)), float(u(1.4, 2.0)))),
+            body_attitude=BodyAttitude(
+                stance_pitch_rad=float(sgn() * u(0.15, 0.45) * DEG),
+                crab_rad=float(sgn() * u(0.1, 0.4) * DEG),
+                squat_rad_per_g=float(u(1.0, 3.0) * DEG),
+                roll_rad_per_g=float(u(1.0, 3.0) * DEG),
+                bounce_rad=float(u(0.02, 0.05) * DEG),
+                bounce_hz=(float(u(1.0, 1.6)), float(u(1.4, 2.0))),
+            ),
             gravity_field=GravityFieldSpec(seed=seed),
-            imu_errors=ImuErrorSpec(gyro_scale_ppm=tuple(float(x) for x in rng.choice([-1, 1], 3) * u(10, 300, 3)),
-                                    accel_scale_ppm=tuple(float(x) for x in rng.choice([-1, 1], 3) * u(10, 300, 3)),
-                                    gyro_nonorth_urad=tuple(float(x) for x in u(-50, 50, 6)),
-                                    accel_nonorth_urad=tuple(float(x) for x in u(-50, 50, 6)),
-                                    gyro_tau_s=float(u(600, 3600)), accel_tau_s=float(u(600, 3600))),
+            imu_errors=ImuErrorSpec(
+                gyro_scale_ppm=tuple(float(x) for x in rng.choice([-1, 1], 3) * u(10, 300, 3)),
+                accel_scale_ppm=tuple(float(x) for x in rng.choice([-1, 1], 3) * u(10, 300, 3)),
+                gyro_nonorth_urad=tuple(float(x) for x in u(-50, 50, 6)),
+                accel_nonorth_urad=tuple(float(x) for x in u(-50, 50, 6)),
+                gyro_tau_s=float(u(600, 3600)),
+                accel_tau_s=float(u(600, 3600)),
+            ),
             imu_timing=ImuTiming(),
             turntable=TurntableSpec(),
             gnss=GnssEffects(),
@@ -207,7 +212,7 @@ class Effects:
         for name, val in overrides.items():
             if name not in effect_names():
                 raise KeyError(f"unknown effect '{name}' (known: {', '.join(effect_names())})")
-            kw[name] = (_default(name) if val is True else None if val in (False, None) else val)
+            kw[name] = _default(name) if val is True else None if val in (False, None) else val
         return replace(self, **kw)
 
     def on(self) -> list[str]:
@@ -222,9 +227,16 @@ class Effects:
 
 
 def _default(name: str):
-    return {"ldv_dropouts": LdvDropouts, "body_attitude": BodyAttitude, "gravity_field": GravityFieldSpec,
-            "imu_errors": ImuErrorSpec, "imu_timing": ImuTiming, "turntable": TurntableSpec,
-            "gnss": GnssEffects, "moving_start": MovingStart}[name]()
+    return {
+        "ldv_dropouts": LdvDropouts,
+        "body_attitude": BodyAttitude,
+        "gravity_field": GravityFieldSpec,
+        "imu_errors": ImuErrorSpec,
+        "imu_timing": ImuTiming,
+        "turntable": TurntableSpec,
+        "gnss": GnssEffects,
+        "moving_start": MovingStart,
+    }[name]()
 
 
 def effect_names() -> tuple[str, ...]:
@@ -232,5 +244,16 @@ def effect_names() -> tuple[str, ...]:
     return tuple(f.name for f in fields(Effects) if f.name != "seed")
 
 
-__all__ = ["Effects", "effect_names", "SCHEMES", "LdvDropouts", "BodyAttitude", "GravityFieldSpec",
-           "ImuErrorSpec", "ImuTiming", "TurntableSpec", "GnssEffects", "MovingStart"]
+__all__ = [
+    "Effects",
+    "effect_names",
+    "SCHEMES",
+    "LdvDropouts",
+    "BodyAttitude",
+    "GravityFieldSpec",
+    "ImuErrorSpec",
+    "ImuTiming",
+    "TurntableSpec",
+    "GnssEffects",
+    "MovingStart",
+]

@@ -16,7 +16,6 @@ import numpy as np
 
 from ldvsurvey.sim.effects import GnssEffects
 
-
 RANK = {4: 0, 5: 1, 2: 2, 1: 3, 0: 4}  #: fix quality from best to worst
 
 
@@ -29,8 +28,10 @@ def _events(rng, per_h: float, dur: tuple, t_a: float, t_b: float):
 def gnss_events(spec: GnssEffects, t0_s: float, t_end_s: float, rng) -> dict:
     """Random outage, degradation and multipath windows (absolute times, s)."""
     conv = [(t0_s, t0_s + 20.0, 1), (t0_s + 20.0, t0_s + 40.0, 2), (t0_s + 40.0, t0_s + 60.0, 5)]
-    degraded = [(a, b, int(rng.choice([5, 2, 1]))) for a, b in _events(rng, spec.degraded_per_h, spec.degraded_s,
-                                                                          t0_s + 60.0, t_end_s)]
+    degraded = [
+        (a, b, int(rng.choice([5, 2, 1])))
+        for a, b in _events(rng, spec.degraded_per_h, spec.degraded_s, t0_s + 60.0, t_end_s)
+    ]
     outages = _events(rng, spec.outages_per_h, spec.outage_s, t0_s + 60.0, t_end_s)
     mp = []
     for a, b in _events(rng, spec.multipath_per_h, spec.multipath_s, t0_s + 60.0, t_end_s):
@@ -43,6 +44,7 @@ def gnss_events(spec: GnssEffects, t0_s: float, t_end_s: float, rng) -> dict:
 
 def fix_with_events(base_fix_of_t, ev: dict):
     """fix_of_t(t) with convergence, degradations and outages laid over the base schedule."""
+
     def fix_of_t(t):
         t = np.asarray(t, float)
         fix = np.asarray(base_fix_of_t(t), int).copy()
@@ -53,6 +55,7 @@ def fix_with_events(base_fix_of_t, ev: dict):
         for a, b in ev["outages"]:
             fix[(t >= a) & (t < b)] = 0
         return fix
+
     return fix_of_t
 
 

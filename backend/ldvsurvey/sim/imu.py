@@ -42,8 +42,15 @@ class ImuTruth:
     w_nb_b: np.ndarray  # (N, 3) body rate w.r.t. n at t_k, rad/s
 
 
-def rates(motion: Motion, t, c_bt: np.ndarray, field: GravityField | None = None,
-          turntable: Turntable | None = None, alpha_rad: float = 0.0, beta_rad: float = 0.0):
+def rates(
+    motion: Motion,
+    t,
+    c_bt: np.ndarray,
+    field: GravityField | None = None,
+    turntable: Turntable | None = None,
+    alpha_rad: float = 0.0,
+    beta_rad: float = 0.0,
+):
     """ω_is^s (rad/s), f^s (m/s²) and the truth at times t.
 
     ``c_bt``: constant C_b^t (3, 3), or a callable ``c_bt(t, truth) -> (C_b^t (N,3,3), ω_tb^b (N,3))``
@@ -78,9 +85,16 @@ def rates(motion: Motion, t, c_bt: np.ndarray, field: GravityField | None = None
     return w_s, f_s, tr, c_bn, f_n, w_nb_b, eta_t
 
 
-def simulate_imu(motion: Motion, t_s: np.ndarray, c_bt, field: GravityField | None = None,
-                 turntable: Turntable | None = None, alpha_rad: float = 0.0, beta_rad: float = 0.0,
-                 chunk: int = 20000) -> ImuTruth:
+def simulate_imu(
+    motion: Motion,
+    t_s: np.ndarray,
+    c_bt,
+    field: GravityField | None = None,
+    turntable: Turntable | None = None,
+    alpha_rad: float = 0.0,
+    beta_rad: float = 0.0,
+    chunk: int = 20000,
+) -> ImuTruth:
     """Ideal increments over (t_{k−1}, t_k] for k = 1..N, given the N+1 times ``t_s``.
 
     Parameters
@@ -93,7 +107,7 @@ def simulate_imu(motion: Motion, t_s: np.ndarray, c_bt, field: GravityField | No
     dv = np.empty((n, 3))
     for a in range(0, n, chunk):
         b = min(n, a + chunk)
-        t0, t1 = t_s[a:b], t_s[a + 1:b + 1]
+        t0, t1 = t_s[a:b], t_s[a + 1 : b + 1]
         half = (t1 - t0) / 2
         mid = (t1 + t0) / 2
         nodes = (mid[:, None] + half[:, None] * GL_X[None, :]).ravel()
@@ -102,5 +116,16 @@ def simulate_imu(motion: Motion, t_s: np.ndarray, c_bt, field: GravityField | No
         dth[a:b] = (w_s * wts).reshape(b - a, 3, 3).sum(axis=1)
         dv[a:b] = (f_s * wts).reshape(b - a, 3, 3).sum(axis=1)
     w_s, f_s, tr, c_bn, f_n, w_nb_b, eta = rates(motion, t_s[1:], c_bt, field, turntable, alpha_rad, beta_rad)
-    return ImuTruth(t_s=t_s[1:], dtheta_rad=dth, dvel_mps=dv, eta_rad=eta, lat_rad=tr["lat_rad"],
-                    lon_rad=tr["lon_rad"], h_m=tr["h_m"], v_n=tr["v_n"], c_bn=c_bn, f_n=f_n, w_nb_b=w_nb_b)
+    return ImuTruth(
+        t_s=t_s[1:],
+        dtheta_rad=dth,
+        dvel_mps=dv,
+        eta_rad=eta,
+        lat_rad=tr["lat_rad"],
+        lon_rad=tr["lon_rad"],
+        h_m=tr["h_m"],
+        v_n=tr["v_n"],
+        c_bn=c_bn,
+        f_n=f_n,
+        w_nb_b=w_nb_b,
+    )

@@ -22,7 +22,6 @@ import numpy as np
 from scipy.signal import lfilter
 
 from ldvsurvey.sim.effects import ImuErrorSpec, ImuTiming
-
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)
 
@@ -42,14 +41,15 @@ def gauss_markov(n: int, dt_s: float, sigma, tau_s: float, rng) -> np.ndarray:
     phi = np.exp(-dt_s / tau_s)
     out = np.empty((n, len(sigma)))
     for j, s in enumerate(sigma):
-        w = rng.normal(0.0, s * np.sqrt(1 - phi ** 2), n)
+        w = rng.normal(0.0, s * np.sqrt(1 - phi**2), n)
         x0 = rng.normal(0.0, s)
         out[:, j] = lfilter([1.0], [1.0, -phi], w, zi=[phi * x0])[0]
     return out
 
 
-def apply_imu_errors(dtheta, dvel, dt_s: float, spec: ImuErrorSpec, gyro_bias_dph: float, accel_bias_ug: float,
-                     rng) -> tuple[np.ndarray, np.ndarray, dict]:
+def apply_imu_errors(
+    dtheta, dvel, dt_s: float, spec: ImuErrorSpec, gyro_bias_dph: float, accel_bias_ug: float, rng
+) -> tuple[np.ndarray, np.ndarray, dict]:
     """Increments with scale, non-orthogonality and bias instability; and their truth."""
     n = len(dtheta)
     mg = misalignment(spec.gyro_scale_ppm, spec.gyro_nonorth_urad)
@@ -60,8 +60,16 @@ def apply_imu_errors(dtheta, dvel, dt_s: float, spec: ImuErrorSpec, gyro_bias_dp
     ba = gauss_markov(n, dt_s, [sa] * 3, spec.accel_tau_s, rng)
     dth = dtheta @ mg.T + bg * dt_s
     dv = dvel @ ma.T + ba * dt_s
-    truth = dict(m_gyro=mg, m_accel=ma, gyro_gm_rps=bg, accel_gm_mps2=ba, gyro_gm_sigma_rps=sg,
-                 accel_gm_sigma_mps2=sa, gyro_tau_s=spec.gyro_tau_s, accel_tau_s=spec.accel_tau_s)
+    truth = dict(
+        m_gyro=mg,
+        m_accel=ma,
+        gyro_gm_rps=bg,
+        accel_gm_mps2=ba,
+        gyro_gm_sigma_rps=sg,
+        accel_gm_sigma_mps2=sa,
+        gyro_tau_s=spec.gyro_tau_s,
+        accel_tau_s=spec.accel_tau_s,
+    )
     return dth, dv, truth
 
 
@@ -72,7 +80,7 @@ def timing(t_s: np.ndarray, dt_s: float, spec: ImuTiming, rng) -> tuple[np.ndarr
     minutes = n * dt_s / 60.0
     n_ev = rng.poisson(spec.drops_per_min * minutes)
     for k in rng.integers(10, max(11, n - 10), n_ev):
-        keep[k:k + int(rng.integers(1, spec.drop_max_rows + 1))] = False
+        keep[k : k + int(rng.integers(1, spec.drop_max_rows + 1))] = False
     jit = rng.normal(0.0, spec.jitter_s, n)
     big = rng.random(n) < spec.big_jitter_share
     jit[big] = rng.uniform(-2e-3, 2e-3, big.sum())

@@ -54,6 +54,7 @@ def apply_dropouts(t_s, v_fwd, v_up, quality, spec: LdvDropouts, static_end_s: f
     n_sp = rng.poisson(spec.spikes_per_min * minutes)
     sp_idx = rng.integers(0, len(t), n_sp)
     sp_idx = sp_idx[q[sp_idx] >= 100]
-    vf[sp_idx] += rng.choice([-1.0, 1.0], len(sp_idx)) * rng.uniform(spec.spike_min_mps, spec.spike_max_mps,
-                                                                     len(sp_idx))
+    vf[sp_idx] += rng.choice([-1.0, 1.0], len(sp_idx)) * rng.uniform(
+        spec.spike_min_mps, spec.spike_max_mps, len(sp_idx)
+    )
     return vf, vu, q, bursts, sorted(float(x) for x in t[sp_idx])

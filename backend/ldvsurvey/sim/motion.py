@@ -61,9 +61,18 @@ def euler_rate_to_body(pitch, roll, yaw_cw, pitch_rate, roll_rate, yaw_cw_rate):
 class Motion:
     """A vehicle timeline on a road. Times are seconds of day (the bundle clock)."""
 
-    def __init__(self, road: Road, segments: list, t0_s: float, dt_s: float = 0.01, s0_m: float = 0.0,
-                 heading_offset0_rad: float = 0.0, current_n_mps=None, current_from_s: float = 0.0,
-                 current_ramp_s: float = 30.0):
+    def __init__(
+        self,
+        road: Road,
+        segments: list,
+        t0_s: float,
+        dt_s: float = 0.01,
+        s0_m: float = 0.0,
+        heading_offset0_rad: float = 0.0,
+        current_n_mps=None,
+        current_from_s: float = 0.0,
+        current_ramp_s: float = 30.0,
+    ):
         """``current_n_mps`` (ENU, m/s): a water current the vehicle (vessel) drifts with from
         ``t0_s + current_from_s`` on (smoothly over ``current_ramp_s``); the road is then the track
         through the water and the LDV frame moves along it relative to the water."""
@@ -96,8 +105,7 @@ class Motion:
                 ta = _grid(seg.ramp_s, dt_s)
                 tc = _grid(abs(dist) / seg.speed_mps - ta, dt_s)
                 v = abs(dist) / (ta + tc)
-                self.pieces.append((t, t + 2 * ta + tc, "drive",
-                                    dict(s=s, off=off, sign=sign, V=v, Ta=ta, Tc=tc)))
+                self.pieces.append((t, t + 2 * ta + tc, "drive", dict(s=s, off=off, sign=sign, V=v, Ta=ta, Tc=tc)))
                 t += 2 * ta + tc
                 s = seg.s_to_m
             else:
@@ -170,7 +178,7 @@ class Motion:
         lat, lon, h = road.geodetic(s)
         tan, dtan = road.tangent(s)
         v_n = sd[:, None] * tan
-        a_n = sdd[:, None] * tan + (sd ** 2)[:, None] * dtan
+        a_n = sdd[:, None] * tan + (sd**2)[:, None] * dtan
         psi, dpsi, _ = road.heading.eval(s)
         th_r, dth_r, _ = road.grade.eval(s)
         ga_r, dga_r, _ = road.bank.eval(s)
@@ -191,9 +199,21 @@ class Motion:
             a_n = a_n + (rate / self.current_ramp)[:, None] * self.current
         c_tn = c_bn_from_euler(pitch, roll, heading)
         w_nt_t = euler_rate_to_body(pitch, roll, heading, pitch_rate, roll_rate, heading_rate)
-        return dict(t_s=t, lat_rad=lat, lon_rad=lon, h_m=h, v_n=v_n, a_n=a_n, c_tn=c_tn,
-                    w_nt_t=w_nt_t, s_m=s, speed_mps=np.abs(sd),
-                    pitch_t=pitch, roll_t=roll, heading_t=np.mod(heading, 2 * np.pi))
+        return dict(
+            t_s=t,
+            lat_rad=lat,
+            lon_rad=lon,
+            h_m=h,
+            v_n=v_n,
+            a_n=a_n,
+            c_tn=c_tn,
+            w_nt_t=w_nt_t,
+            s_m=s,
+            speed_mps=np.abs(sd),
+            pitch_t=pitch,
+            roll_t=roll,
+            heading_t=np.mod(heading, 2 * np.pi),
+        )
 
 
 @dataclass

@@ -38,8 +38,9 @@ class PointMassField:
 
     def enu(self, lat_rad, lon_rad, h_m):
         """Local coordinates (e, n, u) in m of geodetic points."""
-        lat, lon, h = np.broadcast_arrays(np.asarray(lat_rad, float), np.asarray(lon_rad, float),
-                                          np.asarray(h_m, float))
+        lat, lon, h = np.broadcast_arrays(
+            np.asarray(lat_rad, float), np.asarray(lon_rad, float), np.asarray(h_m, float)
+        )
         return ((lon - self.lon0_rad) * R_M * np.cos(self.lat0_rad), (lat - self.lat0_rad) * R_M, h - self.h0_m)
 
     def potential(self, e, n, u):
@@ -101,10 +102,18 @@ def build_field(spec: GravityFieldSpec, lat_rad, lon_rad, h_m) -> PointMassField
     # (a mass at depth d with peak Δg A has a largest horizontal gradient 0.859 A/d)
     pick = rng.integers(0, len(e), spec.n_local)
     depth = rng.uniform(2e3, 8e3, spec.n_local)
-    peak = np.minimum(spec.local_dg_mgal * rng.uniform(0.5, 1.0, spec.n_local),
-                      0.8 * spec.max_gradient_mgal_per_km * depth / 1000.0 / 0.859)
-    loc = np.column_stack([e[pick] + rng.normal(0, 2e3, spec.n_local), n[pick] + rng.normal(0, 2e3, spec.n_local),
-                           -depth, rng.choice([1.0, -1.0], spec.n_local) * peak * MGAL * depth ** 2])
+    peak = np.minimum(
+        spec.local_dg_mgal * rng.uniform(0.5, 1.0, spec.n_local),
+        0.8 * spec.max_gradient_mgal_per_km * depth / 1000.0 / 0.859,
+    )
+    loc = np.column_stack(
+        [
+            e[pick] + rng.normal(0, 2e3, spec.n_local),
+            n[pick] + rng.normal(0, 2e3, spec.n_local),
+            -depth,
+            rng.choice([1.0, -1.0], spec.n_local) * peak * MGAL * depth**2,
+        ]
+    )
     # the horizontal gradient of Δg over the area (regional + local) stays below the bound
     g = np.linspace(-1.2 * half, 1.2 * half, 121)
     ee, nn = np.meshgrid(g, g)

@@ -30,7 +30,7 @@ def smooth_step_integral(u):
     """∫₀ᵘ S(x) dx (for distance under a smooth speed ramp)."""
     u = np.asarray(u, dtype=float)
     uc = np.clip(u, 0.0, 1.0)
-    inner = uc ** 2 / 2 + (np.cos(TWO_PI * uc) - 1.0) / TWO_PI ** 2
+    inner = uc**2 / 2 + (np.cos(TWO_PI * uc) - 1.0) / TWO_PI**2
     return inner + np.where(u > 1, u - 1.0, 0.0)
 
 
@@ -58,7 +58,7 @@ class Ramps:
                 s, s1, s2 = smooth_step((xs[a:b] - x0) / length)
                 f[a:b] += delta * s
                 d1[a:b] += delta * s1 / length
-                d2[a:b] += delta * s2 / length ** 2
+                d2[a:b] += delta * s2 / length**2
         out = []
         for arr in (f, d1, d2):
             r = np.empty_like(arr)
@@ -109,9 +109,16 @@ class Road:
     def geodetic(self, s):
         """(lat_rad, lon_rad, h_m) along the road at arc length(s) s, from a tight ODE solution."""
         if self._sol is None:
-            self._sol = solve_ivp(self._rhs, (0.0, self.length_m), [self.lat0_rad, self.lon0_rad, self.h0_m],
-                                  method="DOP853", rtol=1e-13, atol=[1e-16, 1e-16, 1e-9],
-                                  dense_output=True, max_step=200.0)
+            self._sol = solve_ivp(
+                self._rhs,
+                (0.0, self.length_m),
+                [self.lat0_rad, self.lon0_rad, self.h0_m],
+                method="DOP853",
+                rtol=1e-13,
+                atol=[1e-16, 1e-16, 1e-9],
+                dense_output=True,
+                max_step=200.0,
+            )
         s = np.asarray(s, dtype=float)
         if np.any(s < -1e-6) or np.any(s > self.length_m + 1e-6):
             raise ValueError("arc length outside the road")

@@ -110,9 +110,16 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
     extras: dict = {}
     dt = 1.0 / sc.imu_rate_hz
     lead = round(sc.lead_s / dt) * dt
-    motion = Motion(sc.road, sc.segments, sc.t0_s - lead, dt_s=1.0 / sc.imu_rate_hz, s0_m=sc.s0_m,
-                    heading_offset0_rad=sc.heading_offset0_rad, current_n_mps=sc.current_n_mps,
-                    current_from_s=sc.current_from_s + lead)
+    motion = Motion(
+        sc.road,
+        sc.segments,
+        sc.t0_s - lead,
+        dt_s=1.0 / sc.imu_rate_hz,
+        s0_m=sc.s0_m,
+        heading_offset0_rad=sc.heading_offset0_rad,
+        current_n_mps=sc.current_n_mps,
+        current_from_s=sc.current_from_s + lead,
+    )
     n = int(round((motion.t_end_s - sc.t0_s) / dt))
     t = sc.t0_s + np.arange(n + 1) * dt
     c_bt = sc.ldv.c_bt()
@@ -139,16 +146,19 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
     imu = simulate_imu(motion, t, c_bt, field, table, sc.alpha_rad, sc.beta_rad)
     nodov = None
     if with_nodov and field is not None:
+
         def dg_only(lat, lon, h):
             _, _, dg = field(lat, lon, h)
             return 0.0 * lat, 0.0 * lat, dg
+
         ref = simulate_imu(motion, t, c_bt, dg_only, table, sc.alpha_rad, sc.beta_rad)
     ideal_dth, ideal_dv = imu.dtheta_rad, imu.dvel_mps
     if eff.imu_errors is not None:
         from ldvsurvey.sim.imuerrors import apply_imu_errors
 
         ideal_dth, ideal_dv, extras["imu_errors"] = apply_imu_errors(
-            imu.dtheta_rad, imu.dvel_mps, dt, eff.imu_errors, sc.gyro_bias_dph, sc.accel_bias_ug, erng)
+            imu.dtheta_rad, imu.dvel_mps, dt, eff.imu_errors, sc.gyro_bias_dph, sc.accel_bias_ug, erng
+        )
     err = ImuErrors.draw(rng, sc.gyro_bias_dph, sc.accel_bias_ug, sc.gyro_arw_dprh, sc.accel_vrw_ug_rthz)
     state = rng.bit_generator.state
     dth, dv = err.apply(ideal_dth, ideal_dv, dt, rng)
@@ -200,8 +210,9 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
         extra = multipath_offsets(t_g, fix_of_t(t_g), ev)
         extras["gnss_events"] = ev
     lat, lon, h, fix = gnss_fixes(motion, t_g, c_bt, sc.gnss_lever_m, fix_of_t, rng, extra_enu_m=extra)
-    return SimResult(sc, motion, imu, err, dth, dv, t_l, vf, vu, quality, t_g, lat, lon, h, fix, nodov,
-                     extras=extras, body=body)
+    return SimResult(
+        sc, motion, imu, err, dth, dv, t_l, vf, vu, quality, t_g, lat, lon, h, fix, nodov, extras=extras, body=body
+    )
 
 
 #: correlation time the manifest states for the bias instability (s): the middle of the 10–60 min
@@ -216,23 +227,39 @@ def manifest(sim: SimResult) -> dict:
         "name": f"Simulated {sc.name} drive",
         "date": sc.date,
         "platform": sc.platform,
-        "imu": {"rate_hz": sc.imu_rate_hz, "rotating": sc.rotating, "gyro_bias_dph": sc.gyro_bias_dph,
-                "accel_bias_ug": sc.accel_bias_ug, "gyro_arw_deg_per_rth": sc.gyro_arw_dprh,
-                "accel_noise_ug_per_rthz": sc.accel_vrw_ug_rthz},
-        "ldv": {"kind": sc.ldv.kind, "rate_hz": sc.ldv_rate_hz, "min_quality": 100,
-                "nominal": {"pitch_deg": 0.0, "heading_deg": 0.0, "scale": 1.0},
-                "optics": OPTICS, "lever_arm_m": list(sc.ldv.lever_arm_m),
-                "noise_mps": sc.ldv.noise_mps},
+        "imu": {
+            "rate_hz": sc.imu_rate_hz,
+            "rotating": sc.rotating,
+            "gyro_bias_dph": sc.gyro_bias_dph,
+            "accel_bias_ug": sc.accel_bias_ug,
+            "gyro_arw_deg_per_rth": sc.gyro_arw_dprh,
+            "accel_noise_ug_per_rthz": sc.accel_vrw_ug_rthz,
+        },
+        "ldv": {
+            "kind": sc.ldv.kind,
+            "rate_hz": sc.ldv_rate_hz,
+            "min_quality": 100,
+            "nominal": {"pitch_deg": 0.0, "heading_deg": 0.0, "scale": 1.0},
+            "optics": OPTICS,
+            "lever_arm_m": list(sc.ldv.lever_arm_m),
+            "noise_mps": sc.ldv.noise_mps,
+        },
         "gnss": {"lever_arm_m": list(sc.gnss_lever_m)},
-        "initial": {"lat_deg": float(np.degrees(sim.imu.lat_rad[0])), "lon_deg": float(np.degrees(sim.imu.lon_rad[0])),
-                    "h_m": float(sim.imu.h_m[0]), "static_s": sc.static_s},
+        "initial": {
+            "lat_deg": float(np.degrees(sim.imu.lat_rad[0])),
+            "lon_deg": float(np.degrees(sim.imu.lon_rad[0])),
+            "h_m": float(sim.imu.h_m[0]),
+            "static_s": sc.static_s,
+        },
         "simulated": {"software": "ldv-survey", "scenario": sc.name},
     }
     e = sc.effects.imu_errors
     if e is not None:  # what a datasheet states: the nominal instability and a typical correlation time
-        m["imu"].update(gyro_bias_instability_dph=e.gyro_bi_frac * sc.gyro_bias_dph,  # (not the drawn τ)
-                        accel_bias_instability_ug=e.accel_bi_frac * sc.accel_bias_ug,
-                        bias_correlation_s=NOMINAL_BIAS_CORRELATION_S)
+        m["imu"].update(
+            gyro_bias_instability_dph=e.gyro_bi_frac * sc.gyro_bias_dph,  # (not the drawn τ)
+            accel_bias_instability_ug=e.accel_bi_frac * sc.accel_bias_ug,
+            bias_correlation_s=NOMINAL_BIAS_CORRELATION_S,
+        )
     if sc.lines:
         m["lines"] = [{"name": n, "t_start": a, "t_end": b} for n, a, b in sc.lines]
     return m
@@ -256,17 +283,30 @@ def bundle_files(sim: SimResult) -> dict[str, bytes]:
     v_up = sim.ldv_v_up if sc.ldv.kind == "2d" else None
     if sc.ldv_fd:
         per_mps = 1.0 / fd_to_v_fwd(np.array([1.0]), LdvOptics(**OPTICS))[0]
-        ldv = ldv_csv(sim.ldv_t_s, fd_hz=sim.ldv_v_fwd * per_mps, v_up_mps=v_up, quality=sim.ldv_quality,
-                      comment="simulated LDV, Doppler frequency")
+        ldv = ldv_csv(
+            sim.ldv_t_s,
+            fd_hz=sim.ldv_v_fwd * per_mps,
+            v_up_mps=v_up,
+            quality=sim.ldv_quality,
+            comment="simulated LDV, Doppler frequency",
+        )
     else:
         ldv = ldv_csv(sim.ldv_t_s, v_fwd_mps=sim.ldv_v_fwd, v_up_mps=v_up, quality=sim.ldv_quality)
     return {
         "manifest.json": manifest_json(manifest(sim)),
-        "imu.csv": imu_csv(t_imu, dth, dv, turn,
-                           comment="ldv-drive-log/1 IMU increments over (t_prev, t], sensor frame s"),
+        "imu.csv": imu_csv(
+            t_imu, dth, dv, turn, comment="ldv-drive-log/1 IMU increments over (t_prev, t], sensor frame s"
+        ),
         "ldv.csv": ldv,
-        "gnss.nmea": nmea_text(sim.gnss_t_s, sim.gnss_lat_deg, sim.gnss_lon_deg, sim.gnss_h_m, sim.gnss_fix,
-                               sep_m=GEOID_SEPARATION_M, talker="GN"),
+        "gnss.nmea": nmea_text(
+            sim.gnss_t_s,
+            sim.gnss_lat_deg,
+            sim.gnss_lon_deg,
+            sim.gnss_h_m,
+            sim.gnss_fix,
+            sep_m=GEOID_SEPARATION_M,
+            talker="GN",
+        ),
     }
 
 
@@ -277,32 +317,53 @@ def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:
     im = sim.imu
     sl = slice(every - 1, None, every)
     pitch, roll, heading = euler_from_c_bn(im.c_bn[sl])
-    cols = {"t": im.t_s[sl], "lat_deg": np.degrees(im.lat_rad[sl]), "lon_deg": np.degrees(im.lon_rad[sl]),
-            "h_m": im.h_m[sl], "v_e_mps": im.v_n[sl, 0], "v_n_mps": im.v_n[sl, 1], "v_u_mps": im.v_n[sl, 2],
-            "pitch_deg": np.degrees(pitch), "roll_deg": np.degrees(roll), "heading_deg": np.degrees(heading)}
+    cols = {
+        "t": im.t_s[sl],
+        "lat_deg": np.degrees(im.lat_rad[sl]),
+        "lon_deg": np.degrees(im.lon_rad[sl]),
+        "h_m": im.h_m[sl],
+        "v_e_mps": im.v_n[sl, 0],
+        "v_n_mps": im.v_n[sl, 1],
+        "v_u_mps": im.v_n[sl, 2],
+        "pitch_deg": np.degrees(pitch),
+        "roll_deg": np.degrees(roll),
+        "heading_deg": np.degrees(heading),
+    }
     if im.eta_rad is not None:
         cols["turntable_deg"] = np.mod(np.degrees(im.eta_rad[sl]), 360.0)
     sc = sim.scenario
     meta = {
-        "scenario": sc.name, "alpha_rad": sc.alpha_rad, "beta_rad": sc.beta_rad,
-        "ldv": {"pitch_rad": sc.ldv.pitch_rad, "heading_rad": sc.ldv.heading_rad, "scale": sc.ldv.scale,
-                "scale_up": sc.ldv.scale_up},
-        "gyro_bias_rps": sim.errors.gyro_bias_rps.tolist(), "accel_bias_mps2": sim.errors.accel_bias_mps2.tolist(),
-        "created": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+        "scenario": sc.name,
+        "alpha_rad": sc.alpha_rad,
+        "beta_rad": sc.beta_rad,
+        "ldv": {
+            "pitch_rad": sc.ldv.pitch_rad,
+            "heading_rad": sc.ldv.heading_rad,
+            "scale": sc.ldv.scale,
+            "scale_up": sc.ldv.scale_up,
+        },
+        "gyro_bias_rps": sim.errors.gyro_bias_rps.tolist(),
+        "accel_bias_mps2": sim.errors.accel_bias_mps2.tolist(),
+        "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
     }
     if sc.effects.on():
         more_cols, more_meta = effect_truth(sim, sl)
         cols.update(more_cols)
         meta.update(more_meta)
-    out = {"truth.csv": csv_bytes(cols, comment="simulation truth at the IMU centre"),
-           "truth.json": (json.dumps(meta, indent=2) + "\n").encode()}
+    out = {
+        "truth.csv": csv_bytes(cols, comment="simulation truth at the IMU centre"),
+        "truth.json": (json.dumps(meta, indent=2) + "\n").encode(),
+    }
     if sim.imu_nodov is not None:
-        out["imu_nodov.csv"] = imu_csv(im.t_s, sim.imu_nodov[0], sim.imu_nodov[1],
-                                       np.mod(np.degrees(im.eta_rad), 360.0) if im.eta_rad is not None else None,
-                                       comment="the same drive without the deflection of the vertical")
+        out["imu_nodov.csv"] = imu_csv(
+            im.t_s,
+            sim.imu_nodov[0],
+            sim.imu_nodov[1],
+            np.mod(np.degrees(im.eta_rad), 360.0) if im.eta_rad is not None else None,
+            comment="the same drive without the deflection of the vertical",
+        )
     return out
 
 
 # the effects' truth lives in truth.py; re-exported here for one import place
-from ldvsurvey.sim.truth import (effect_truth, effective_travel_direction, grid_files,  # noqa: E402, F401
-                                     mean_travel_direction)
+from ldvsurvey.sim.truth import effect_truth, effective_travel_direction, grid_files, mean_travel_direction  # noqa: E402, F401

@@ -16,7 +16,6 @@ from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.errmodel import c_db
 from ldvsurvey.sim.imu import rates
 from ldvsurvey.sim.motion import Motion
-
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)
 
@@ -95,8 +94,7 @@ def ldv_measure(motion: Motion, t_s, spec: LdvSpecSim, rng, current_n=None, body
     return v_fwd, v_up
 
 
-def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng, white_only: bool = False,
-               extra_enu_m=None):
+def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng, white_only: bool = False, extra_enu_m=None):
     """Antenna fixes (lat_deg, lon_deg, h_m ellipsoidal, fix) with fix-dependent errors
     (white plus Gauss-Markov, see FIX_SIGMA and FIX_WHITE).
 
@@ -110,11 +108,11 @@ def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng, white_only
     _, _, tr, c_bn, _, _, _ = rates(motion, t, c_bt)
     lev = np.einsum("kij,j->ki", c_bn, np.asarray(lever_arm_m, float))
     fix = np.asarray(fix_of_t(t), dtype=int)
-    sig = np.array([[FIX_SIGMA.get(int(f), (np.nan, np.nan))[0]] * 2 + [FIX_SIGMA.get(int(f), (np.nan, np.nan))[1]]
-                    for f in fix])
-    wsig = np.array([[FIX_WHITE.get(int(f), (0.0, 0.0))[0]] * 2 + [FIX_WHITE.get(int(f), (0.0, 0.0))[1]]
-                     for f in fix])
-    csig = np.sqrt(np.maximum(sig ** 2 - wsig ** 2, 0.0))
+    sig = np.array(
+        [[FIX_SIGMA.get(int(f), (np.nan, np.nan))[0]] * 2 + [FIX_SIGMA.get(int(f), (np.nan, np.nan))[1]] for f in fix]
+    )
+    wsig = np.array([[FIX_WHITE.get(int(f), (0.0, 0.0))[0]] * 2 + [FIX_WHITE.get(int(f), (0.0, 0.0))[1]] for f in fix])
+    csig = np.sqrt(np.maximum(sig**2 - wsig**2, 0.0))
     if white_only:  # the whole σ white (filter-consistency tests need the filter's own noise model)
         wsig, csig = sig, 0.0 * sig
     # unit-variance Gauss-Markov sequences, scaled by the current fix's correlated σ

@@ -52,8 +52,9 @@ def effective_scale(sim: SimResult, t_from_s: float, t_to_s: float) -> float:
     return float(ldv.scale * np.sum(cos_d * speed) / np.sum(speed))
 
 
-def mean_travel_direction(sim: SimResult, t_from_s: float | None = None, t_to_s: float | None = None,
-                          min_speed_mps: float = 2.0) -> dict:
+def mean_travel_direction(
+    sim: SimResult, t_from_s: float | None = None, t_to_s: float | None = None, min_speed_mps: float = 2.0
+) -> dict:
     """Mean effective LDV pitch/heading (rad) over the moving samples (speed ≥ ``min_speed_mps``)
     of [t_from_s, t_to_s] (default: the whole drive), sampled at 10 Hz, with their std."""
     a = sim.scenario.t0_s if t_from_s is None else t_from_s
@@ -61,12 +62,25 @@ def mean_travel_direction(sim: SimResult, t_from_s: float | None = None, t_to_s:
     t = np.arange(a, b, 0.1)
     moving = sim.motion.truth(t)["speed_mps"] >= min_speed_mps
     if not moving.any():  # a log that never moves: no travel direction
-        return {"pitch_rad": None, "heading_rad": None, "pitch_std_rad": None, "heading_std_rad": None,
-                "t_from_s": float(a), "t_to_s": float(b), "n_samples": 0}
+        return {
+            "pitch_rad": None,
+            "heading_rad": None,
+            "pitch_std_rad": None,
+            "heading_std_rad": None,
+            "t_from_s": float(a),
+            "t_to_s": float(b),
+            "n_samples": 0,
+        }
     p, h = effective_travel_direction(sim, t[moving])
-    return {"pitch_rad": float(np.mean(p)), "heading_rad": float(np.mean(h)), "pitch_std_rad": float(np.std(p)),
-            "heading_std_rad": float(np.std(h)), "t_from_s": float(a), "t_to_s": float(b),
-            "n_samples": int(moving.sum())}
+    return {
+        "pitch_rad": float(np.mean(p)),
+        "heading_rad": float(np.mean(h)),
+        "pitch_std_rad": float(np.std(p)),
+        "heading_std_rad": float(np.std(h)),
+        "t_from_s": float(a),
+        "t_to_s": float(b),
+        "n_samples": int(moving.sum()),
+    }
 
 
 def imu_bias(sim: SimResult) -> tuple[np.ndarray, np.ndarray]:
@@ -106,9 +120,12 @@ def effective_tilt(sim: SimResult) -> dict:
     e = sim.extras.get("imu_errors")
     m = np.asarray(e["m_gyro"], float) if e is not None else np.eye(3)
     kp = m @ k
-    return {"alpha_rad": a, "beta_rad": b,
-            "alpha_eff_rad": float(np.arcsin(kp[1] / np.linalg.norm(kp))),
-            "beta_eff_rad": float(np.arctan2(-kp[0], kp[2]))}
+    return {
+        "alpha_rad": a,
+        "beta_rad": b,
+        "alpha_eff_rad": float(np.arcsin(kp[1] / np.linalg.norm(kp))),
+        "beta_eff_rad": float(np.arctan2(-kp[0], kp[2])),
+    }
 
 
 def grid_files(sim: SimResult) -> dict[str, bytes]:
@@ -124,9 +141,11 @@ def grid_files(sim: SimResult) -> dict[str, bytes]:
     lat, lon = grid_axes(sim.imu.lat_rad, sim.imu.lon_rad, eff.grid_step_arcmin)
     h = float(np.mean(sim.imu.h_m))
     xi, eta, dg = field.grids(lat, lon, h)
-    return {"xi.gdf": write_gdf(lat, lon, xi, "xi", "arcsec"),
-            "eta.gdf": write_gdf(lat, lon, eta, "eta", "arcsec"),
-            "dg.gdf": write_gdf(lat, lon, dg, "gravity_disturbance", "mGal")}
+    return {
+        "xi.gdf": write_gdf(lat, lon, xi, "xi", "arcsec"),
+        "eta.gdf": write_gdf(lat, lon, eta, "eta", "arcsec"),
+        "dg.gdf": write_gdf(lat, lon, dg, "gravity_disturbance", "mGal"),
+    }
 
 
 def effect_truth(sim: SimResult, sl=slice(None)) -> tuple[dict, dict]:
@@ -150,27 +169,41 @@ def effect_truth(sim: SimResult, sl=slice(None)) -> tuple[dict, dict]:
         xi, eta, dg = field(im.lat_rad[sl], im.lon_rad[sl], im.h_m[sl])
         cols.update(dg_mgal=dg / MGAL, xi_arcsec=xi / ARCSEC, eta_arcsec=eta / ARCSEC)
         if hasattr(field, "masses"):
-            meta["gravity_field"] = {"model": "point masses, local ENU (m) around the origin",
-                                     "origin_lat_deg": float(np.degrees(field.lat0_rad)),
-                                     "origin_lon_deg": float(np.degrees(field.lon0_rad)),
-                                     "origin_h_m": field.h0_m, "masses_e_n_u_gm": field.masses.tolist()}
+            meta["gravity_field"] = {
+                "model": "point masses, local ENU (m) around the origin",
+                "origin_lat_deg": float(np.degrees(field.lat0_rad)),
+                "origin_lon_deg": float(np.degrees(field.lon0_rad)),
+                "origin_h_m": field.h0_m,
+                "masses_e_n_u_gm": field.masses.tolist(),
+            }
     if sim.body is not None:
         p, h = effective_travel_direction(sim, t)
         bp, br, by = sim.body.angles(t)
         from ldvsurvey.nav.errmodel import c_db
 
         u_d = travel_unit_vector(p, h) @ c_db(sc.ldv.pitch_rad, sc.ldv.heading_rad)  # C_b^d u_b, row-vector form
-        cols.update(ldv_travel_pitch_deg=np.degrees(p), ldv_travel_heading_deg=np.degrees(h),
-                    head_travel_pitch_deg=np.degrees(np.arcsin(np.clip(u_d[:, 2], -1, 1))),
-                    head_travel_heading_deg=np.degrees(np.arctan2(-u_d[:, 0], u_d[:, 1])),
-                    body_pitch_deg=np.degrees(bp), body_roll_deg=np.degrees(br), body_yaw_deg=np.degrees(by))
+        cols.update(
+            ldv_travel_pitch_deg=np.degrees(p),
+            ldv_travel_heading_deg=np.degrees(h),
+            head_travel_pitch_deg=np.degrees(np.arcsin(np.clip(u_d[:, 2], -1, 1))),
+            head_travel_heading_deg=np.degrees(np.arctan2(-u_d[:, 0], u_d[:, 1])),
+            body_pitch_deg=np.degrees(bp),
+            body_roll_deg=np.degrees(br),
+            body_yaw_deg=np.degrees(by),
+        )
         b = sc.effects.body_attitude
-        meta["body_attitude"] = {"stance_pitch_rad": b.stance_pitch_rad, "crab_rad": b.crab_rad,
-                                 "squat_rad_per_mps2": b.squat_rad_per_g / 9.80665,
-                                 "roll_rad_per_mps2": b.roll_rad_per_g / 9.80665}
+        meta["body_attitude"] = {
+            "stance_pitch_rad": b.stance_pitch_rad,
+            "crab_rad": b.crab_rad,
+            "squat_rad_per_mps2": b.squat_rad_per_g / 9.80665,
+            "roll_rad_per_mps2": b.roll_rad_per_g / 9.80665,
+        }
     meta["ldv_effective"] = mean_travel_direction(sim)
-    meta["ldv_effective_by_drive"] = [mean_travel_direction(sim, max(a, sc.t0_s), b)
-                                      for a, b, kind, _ in sim.motion.pieces if kind == "drive" and b > sc.t0_s]
+    meta["ldv_effective_by_drive"] = [
+        mean_travel_direction(sim, max(a, sc.t0_s), b)
+        for a, b, kind, _ in sim.motion.pieces
+        if kind == "drive" and b > sc.t0_s
+    ]
     if sc.lines:
         meta["ldv_effective_by_line"] = {name: mean_travel_direction(sim, a, b) for name, a, b in sc.lines}
     if "imu_errors" in x:
@@ -179,10 +212,14 @@ def effect_truth(sim: SimResult, sl=slice(None)) -> tuple[dict, dict]:
             cols[f"gyro_gm_{ax}_dph"] = np.degrees(e["gyro_gm_rps"][sl, i]) * 3600.0
         for i, ax in enumerate("xyz"):
             cols[f"accel_gm_{ax}_ug"] = e["accel_gm_mps2"][sl, i] / 9.80665e-6
-        meta["imu_errors"] = {"gyro_matrix": e["m_gyro"].tolist(), "accel_matrix": e["m_accel"].tolist(),
-                              "gyro_gm_sigma_rps": e["gyro_gm_sigma_rps"],
-                              "accel_gm_sigma_mps2": e["accel_gm_sigma_mps2"],
-                              "gyro_tau_s": e["gyro_tau_s"], "accel_tau_s": e["accel_tau_s"]}
+        meta["imu_errors"] = {
+            "gyro_matrix": e["m_gyro"].tolist(),
+            "accel_matrix": e["m_accel"].tolist(),
+            "gyro_gm_sigma_rps": e["gyro_gm_sigma_rps"],
+            "accel_gm_sigma_mps2": e["accel_gm_sigma_mps2"],
+            "gyro_tau_s": e["gyro_tau_s"],
+            "accel_tau_s": e["accel_tau_s"],
+        }
     if "imu_keep" in x:
         keep = x["imu_keep"]
         meta["imu_dropped_t_s"] = im.t_s[~keep].tolist()

@@ -19,8 +19,7 @@ import numpy as np
 from ldvsurvey.sim.effects import TurntableSpec
 from ldvsurvey.sim.road import smooth_step, smooth_step_integral
 
-DELTAS = {"2pos": [180.0, -180.0], "4pos-seq": [90.0, 90.0, 90.0, -270.0],
-          "4pos-paper": [180.0, 90.0, -180.0, -90.0]}
+DELTAS = {"2pos": [180.0, -180.0], "4pos-seq": [90.0, 90.0, 90.0, -270.0], "4pos-paper": [180.0, 90.0, -180.0, -90.0]}
 
 
 def _grid(x: float, dt: float) -> float:

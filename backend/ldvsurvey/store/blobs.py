@@ -55,13 +55,22 @@ def write_parquet(columns: dict[str, np.ndarray], where) -> None:
     split = {k: "BYTE_STREAM_SPLIT" for k, v in cols.items() if v.dtype.kind == "f"}
     with pq.ParquetWriter(where, schema, column_encoding=split or None, **_PARQUET) as w:
         for a in range(0, max(n, 1), ROW_GROUP):
-            w.write_table(pa.Table.from_arrays([_to_arrow(v[a:a + ROW_GROUP]) for v in cols.values()],
-                                               schema=schema))
+            w.write_table(pa.Table.from_arrays([_to_arrow(v[a : a + ROW_GROUP]) for v in cols.values()], schema=schema))
 
 
 #: numpy dtype (without byte order) to Arrow type, for the columns a log stores
-_ARROW = {"f8": pa.float64(), "f4": pa.float32(), "i8": pa.int64(), "i4": pa.int32(), "i2": pa.int16(),
-          "i1": pa.int8(), "u8": pa.uint64(), "u4": pa.uint32(), "u2": pa.uint16(), "u1": pa.uint8()}
+_ARROW = {
+    "f8": pa.float64(),
+    "f4": pa.float32(),
+    "i8": pa.int64(),
+    "i4": pa.int32(),
+    "i2": pa.int16(),
+    "i1": pa.int8(),
+    "u8": pa.uint64(),
+    "u4": pa.uint32(),
+    "u2": pa.uint16(),
+    "u1": pa.uint8(),
+}
 
 
 def _to_arrow(v: np.ndarray) -> pa.Array:
@@ -109,7 +118,7 @@ def read_parquet_into(data: bytes | Path, stacks: dict[str, list[str]] | None = 
         for c in names:
             k = at
             for chunk in t.column(c).chunks:
-                dest[c][k:k + len(chunk)] = _to_numpy(chunk)
+                dest[c][k : k + len(chunk)] = _to_numpy(chunk)
                 k += len(chunk)
         at += m
         del t
@@ -146,8 +155,10 @@ def blob_path(row, key: str) -> Path:
         raise RuntimeError(f"blob '{key}' has no blob folder (the row is not bound to a session)")
     path = root / key
     if not path.is_file():  # say where it was looked for: the usual cause is a folder not shared
-        raise FileNotFoundError(f"stored file {path} is missing: every API and worker process must see the same "
-                                "blob folder (LDVSURVEY_DATA_DIR on a shared volume)")
+        raise FileNotFoundError(
+            f"stored file {path} is missing: every API and worker process must see the same "
+            "blob folder (LDVSURVEY_DATA_DIR on a shared volume)"
+        )
     return path
 
 
@@ -186,6 +197,7 @@ class Writer:
         def sync():
             _fsync(tmp)
             os.replace(tmp, dst)
+
         self._pending.append(self._pool.submit(sync))
 
     def file(self, src: Path | bytes, suffix: str = "", link: bool = False) -> str:

@@ -27,18 +27,35 @@ class DbGridCache:
             n_lat, n_lon, source = row.n_lat, row.n_lon, row.source
         lat = a["lat_deg"].reshape(n_lat, n_lon)[:, 0]
         lon = a["lon_deg"].reshape(n_lat, n_lon)[0]
-        return DovGrid(lat, lon, a["xi_arcsec"].reshape(n_lat, n_lon), a["eta_arcsec"].reshape(n_lat, n_lon),
-                       a["dg_mgal"].reshape(n_lat, n_lon) if "dg_mgal" in a else None, source=source)
+        return DovGrid(
+            lat,
+            lon,
+            a["xi_arcsec"].reshape(n_lat, n_lon),
+            a["eta_arcsec"].reshape(n_lat, n_lon),
+            a["dg_mgal"].reshape(n_lat, n_lon) if "dg_mgal" in a else None,
+            source=source,
+        )
 
     def put(self, key: str, grid: DovGrid) -> None:
         gl, go = np.meshgrid(grid.lat_deg, grid.lon_deg, indexing="ij")
-        cols = {"lat_deg": gl.ravel(), "lon_deg": go.ravel(), "xi_arcsec": grid.xi_arcsec.ravel(),
-                "eta_arcsec": grid.eta_arcsec.ravel()}
+        cols = {
+            "lat_deg": gl.ravel(),
+            "lon_deg": go.ravel(),
+            "xi_arcsec": grid.xi_arcsec.ravel(),
+            "eta_arcsec": grid.eta_arcsec.ravel(),
+        }
         if grid.dg_mgal is not None:
             cols["dg_mgal"] = grid.dg_mgal.ravel()
         try:
             with session_scope(self.url) as s:
-                s.add(DovGridRow(key=key, source=grid.source, n_lat=len(grid.lat_deg), n_lon=len(grid.lon_deg),
-                                 parquet=to_parquet(cols)))
+                s.add(
+                    DovGridRow(
+                        key=key,
+                        source=grid.source,
+                        n_lat=len(grid.lat_deg),
+                        n_lon=len(grid.lon_deg),
+                        parquet=to_parquet(cols),
+                    )
+                )
         except IntegrityError:  # computed concurrently by another job: keep the first
             pass

@@ -24,23 +24,45 @@ from ldvsurvey.store.models import Log, LogArray, LogFile
 def _arrays(log: DriveLog) -> dict[str, dict[str, np.ndarray]]:
     imu, ldv = log.imu, log.ldv
     out = {
-        "imu": {"t_s": imu.t_s, "dtheta_x_rad": imu.dtheta_rad[:, 0], "dtheta_y_rad": imu.dtheta_rad[:, 1],
-                "dtheta_z_rad": imu.dtheta_rad[:, 2], "dvel_x_mps": imu.dvel_mps[:, 0],
-                "dvel_y_mps": imu.dvel_mps[:, 1], "dvel_z_mps": imu.dvel_mps[:, 2],
-                "turntable_deg": imu.turntable_deg},
-        "ldv": {"t_s": ldv.t_s, "v_fwd_mps": ldv.v_fwd_mps, "v_up_mps": ldv.v_up_mps,
-                "quality": ldv.quality, "fd_hz": ldv.fd_hz},
+        "imu": {
+            "t_s": imu.t_s,
+            "dtheta_x_rad": imu.dtheta_rad[:, 0],
+            "dtheta_y_rad": imu.dtheta_rad[:, 1],
+            "dtheta_z_rad": imu.dtheta_rad[:, 2],
+            "dvel_x_mps": imu.dvel_mps[:, 0],
+            "dvel_y_mps": imu.dvel_mps[:, 1],
+            "dvel_z_mps": imu.dvel_mps[:, 2],
+            "turntable_deg": imu.turntable_deg,
+        },
+        "ldv": {
+            "t_s": ldv.t_s,
+            "v_fwd_mps": ldv.v_fwd_mps,
+            "v_up_mps": ldv.v_up_mps,
+            "quality": ldv.quality,
+            "fd_hz": ldv.fd_hz,
+        },
     }
     if log.gnss is not None:
         g = log.gnss
-        out["gnss"] = {"t_s": g.t_s, "lat_deg": g.lat_deg, "lon_deg": g.lon_deg, "h_m": g.h_m,
-                       "fix": g.fix, "n_sat": g.n_sat, "hdop": g.hdop, "line": g.line_of_row}
+        out["gnss"] = {
+            "t_s": g.t_s,
+            "lat_deg": g.lat_deg,
+            "lon_deg": g.lon_deg,
+            "h_m": g.h_m,
+            "fix": g.fix,
+            "n_sat": g.n_sat,
+            "hdop": g.hdop,
+            "line": g.line_of_row,
+        }
     return out
 
 
 def find_by_sha(session: Session, sha256: str, project_id: int | None = None) -> Log | None:
-    return session.scalar(select(Log).where(Log.sha256 == sha256, Log.project_id.is_(project_id)
-                                            if project_id is None else Log.project_id == project_id))
+    return session.scalar(
+        select(Log).where(
+            Log.sha256 == sha256, Log.project_id.is_(project_id) if project_id is None else Log.project_id == project_id
+        )
+    )
 
 
 def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | None = None) -> tuple[Log, bool]:
@@ -55,12 +77,22 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
     if existing is not None:
         return existing, False
     m = log.manifest
-    row = Log(sha256=sha, project_id=project_id, name=m.name, platform=m.platform, ldv_kind=m.ldv.kind,
-              imu_rotating=m.imu.rotating, survey_date=m.date,
-              t_start_s=float(log.imu.t_s[0]), t_end_s=float(log.imu.t_s[-1]),
-              duration_s=float(log.imu.t_s[-1] - log.imu.t_s[0]), has_gnss=log.gnss is not None,
-              size_bytes=sum(log.size_of(n) for n in log.files),
-              manifest=m.model_dump(mode="json"), quality=quality)
+    row = Log(
+        sha256=sha,
+        project_id=project_id,
+        name=m.name,
+        platform=m.platform,
+        ldv_kind=m.ldv.kind,
+        imu_rotating=m.imu.rotating,
+        survey_date=m.date,
+        t_start_s=float(log.imu.t_s[0]),
+        t_end_s=float(log.imu.t_s[-1]),
+        duration_s=float(log.imu.t_s[-1] - log.imu.t_s[0]),
+        has_gnss=log.gnss is not None,
+        size_bytes=sum(log.size_of(n) for n in log.files),
+        manifest=m.model_dump(mode="json"),
+        quality=quality,
+    )
     session.add(row)
     try:
         session.flush()
@@ -73,8 +105,11 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
                     # a file of the upload's own temporary folder is linked, anything else copied
                     f = LogFile(blob=writer.file(content, suffix="-" + name, link=log.keep is not None))
                 else:
-                    f = LogFile(content=bytes(content) if isinstance(content, (bytes, bytearray, memoryview))
-                                else Path(content).read_bytes())
+                    f = LogFile(
+                        content=bytes(content)
+                        if isinstance(content, (bytes, bytearray, memoryview))
+                        else Path(content).read_bytes()
+                    )
                 f.log_id, f.name, f.sha256, f.size_bytes = row.id, name, log.sha256_of(name), size
                 session.add(f)
             for name, cols in _arrays(log).items():
@@ -94,8 +129,9 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
     return row, True
 
 
-def list_logs(session: Session, *, project_id: int | None = None, platform: str | None = None,
-              date_from=None, date_to=None) -> list[Log]:
+def list_logs(
+    session: Session, *, project_id: int | None = None, platform: str | None = None, date_from=None, date_to=None
+) -> list[Log]:
     """Logs, newest first; each given filter narrows (survey dates inclusive)."""
     q = select(Log).order_by(Log.id.desc())
     if project_id is not None:
@@ -115,8 +151,9 @@ def get_log(session: Session, log_id: int) -> Log | None:
 
 def list_files(session: Session, log_id: int) -> list[tuple[str, str, int]]:
     """(name, sha256, size) of each original file."""
-    rows = session.execute(select(LogFile.name, LogFile.sha256, LogFile.size_bytes)
-                           .where(LogFile.log_id == log_id).order_by(LogFile.name))
+    rows = session.execute(
+        select(LogFile.name, LogFile.sha256, LogFile.size_bytes).where(LogFile.log_id == log_id).order_by(LogFile.name)
+    )
     return [tuple(r) for r in rows]
 
 
@@ -135,8 +172,11 @@ def delete_log(session: Session, log_id: int) -> bool:
         # row gone (jobs.runner treats a missing row as cancelled and keeps no results)
         session.execute(delete(JobFile).where(JobFile.job_id.in_(job_ids)))
         session.execute(delete(Job).where(Job.id.in_(job_ids)))
-    keys = [k for t in (LogFile, LogArray)
-            for k in session.scalars(select(t.blob).where(t.log_id == log_id, t.blob.is_not(None)))]
+    keys = [
+        k
+        for t in (LogFile, LogArray)
+        for k in session.scalars(select(t.blob).where(t.log_id == log_id, t.blob.is_not(None)))
+    ]
     session.execute(delete(LogArray).where(LogArray.log_id == log_id))
     session.execute(delete(LogFile).where(LogFile.log_id == log_id))
     session.execute(delete(Log).where(Log.id == log_id))
@@ -148,8 +188,7 @@ def delete_log(session: Session, log_id: int) -> bool:
 
 def count_rows(session: Session) -> dict[str, int]:
     """Row counts of the log tables (used by tests to prove nothing was left behind)."""
-    return {t.__tablename__: session.scalar(select(func.count()).select_from(t))
-            for t in (Log, LogFile, LogArray)}
+    return {t.__tablename__: session.scalar(select(func.count()).select_from(t)) for t in (Log, LogFile, LogArray)}
 
 
 def _array_source(session: Session, a: LogArray) -> bytes | Path:
@@ -172,26 +211,53 @@ def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
     row = session.get(Log, log_id)
     if row is None:
         return None
-    stacks = {"imu": {"dtheta_rad": ["dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad"],
-                      "dvel_mps": ["dvel_x_mps", "dvel_y_mps", "dvel_z_mps"]}}
-    arrays = {a.name: read_parquet_into(_array_source(session, a), stacks.get(a.name))
-              for a in session.scalars(select(LogArray).where(LogArray.log_id == log_id))}
+    stacks = {
+        "imu": {
+            "dtheta_rad": ["dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad"],
+            "dvel_mps": ["dvel_x_mps", "dvel_y_mps", "dvel_z_mps"],
+        }
+    }
+    arrays = {
+        a.name: read_parquet_into(_array_source(session, a), stacks.get(a.name))
+        for a in session.scalars(select(LogArray).where(LogArray.log_id == log_id))
+    }
     files, sha = {}, {}
     for f in session.scalars(select(LogFile).where(LogFile.log_id == log_id)):
         files[f.name] = blobs.blob_path(f, f.blob) if f.blob is not None else f.inline
         sha[f.name] = f.sha256
     manifest = Manifest.model_validate(row.manifest, strict=False)
     i = arrays["imu"]
-    imu = ImuData(t_s=i["t_s"], dtheta_rad=i["dtheta_rad"], dvel_mps=i["dvel_mps"],
-                  turntable_deg=i.get("turntable_deg"))
+    imu = ImuData(
+        t_s=i["t_s"], dtheta_rad=i["dtheta_rad"], dvel_mps=i["dvel_mps"], turntable_deg=i.get("turntable_deg")
+    )
     d = arrays["ldv"]
-    ldv = LdvData(t_s=d["t_s"], v_fwd_mps=d["v_fwd_mps"], v_up_mps=d.get("v_up_mps"),
-                  quality=d.get("quality"), fd_hz=d.get("fd_hz"),
-                  source="fd_hz" if "fd_hz" in d else "v_fwd")
+    ldv = LdvData(
+        t_s=d["t_s"],
+        v_fwd_mps=d["v_fwd_mps"],
+        v_up_mps=d.get("v_up_mps"),
+        quality=d.get("quality"),
+        fd_hz=d.get("fd_hz"),
+        source="fd_hz" if "fd_hz" in d else "v_fwd",
+    )
     gnss = None
     if "gnss" in arrays:
         g = arrays["gnss"]
-        gnss = GnssData(t_s=g["t_s"], lat_deg=g["lat_deg"], lon_deg=g["lon_deg"], h_m=g["h_m"],
-                        fix=g["fix"], n_sat=g["n_sat"], hdop=g["hdop"], line_of_row=g["line"])
-    return DriveLog(manifest=manifest, imu=imu, ldv=ldv, gnss=gnss, files=files,
-                    warnings=list(row.quality.get("warnings", [])), file_sha256=sha)
+        gnss = GnssData(
+            t_s=g["t_s"],
+            lat_deg=g["lat_deg"],
+            lon_deg=g["lon_deg"],
+            h_m=g["h_m"],
+            fix=g["fix"],
+            n_sat=g["n_sat"],
+            hdop=g["hdop"],
+            line_of_row=g["line"],
+        )
+    return DriveLog(
+        manifest=manifest,
+        imu=imu,
+        ldv=ldv,
+        gnss=gnss,
+        files=files,
+        warnings=list(row.quality.get("warnings", [])),
+        file_sha256=sha,
+    )

@@ -4,12 +4,24 @@ from __future__ import annotations
 
 import datetime as dt
 
-from sqlalchemy import JSON, BigInteger, Boolean, Date, DateTime, Float, ForeignKey, Integer, LargeBinary, String, UniqueConstraint
+from sqlalchemy import (
+    JSON,
+    BigInteger,
+    Boolean,
+    Date,
+    DateTime,
+    Float,
+    ForeignKey,
+    Integer,
+    LargeBinary,
+    String,
+    UniqueConstraint,
+)
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
 
 
 def utcnow() -> dt.datetime:
-    return dt.datetime.now(dt.timezone.utc)
+    return dt.datetime.now(dt.UTC)
 
 
 class Base(DeclarativeBase):
@@ -22,8 +34,10 @@ class Log(Base):
     __tablename__ = "logs"
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    __table_args__ = (UniqueConstraint("project_id", "sha256", name="uq_logs_project_sha256"),
-                      {"sqlite_autoincrement": True})  # ids never reused
+    __table_args__ = (
+        UniqueConstraint("project_id", "sha256", name="uq_logs_project_sha256"),
+        {"sqlite_autoincrement": True},
+    )  # ids never reused
 
     sha256: Mapped[str] = mapped_column(String(64), nullable=False)
     project_id: Mapped[int | None] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), nullable=True)
@@ -41,10 +55,12 @@ class Log(Base):
     quality: Mapped[dict] = mapped_column(JSON, nullable=False)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), nullable=False, default=utcnow)
 
-    files: Mapped[list[LogFile]] = relationship(back_populates="log", cascade="all, delete-orphan",
-                                                passive_deletes=True, lazy="raise")
-    arrays: Mapped[list[LogArray]] = relationship(back_populates="log", cascade="all, delete-orphan",
-                                                  passive_deletes=True, lazy="raise")
+    files: Mapped[list[LogFile]] = relationship(
+        back_populates="log", cascade="all, delete-orphan", passive_deletes=True, lazy="raise"
+    )
+    arrays: Mapped[list[LogArray]] = relationship(
+        back_populates="log", cascade="all, delete-orphan", passive_deletes=True, lazy="raise"
+    )
 
 
 class LogFile(Base):

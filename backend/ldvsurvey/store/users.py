@@ -33,11 +33,11 @@ class Conflict(AccountError):
 
 
 def _now() -> dt.datetime:
-    return dt.datetime.now(dt.timezone.utc)
+    return dt.datetime.now(dt.UTC)
 
 
 def _aware(t: dt.datetime | None) -> dt.datetime | None:
-    return None if t is None else (t if t.tzinfo else t.replace(tzinfo=dt.timezone.utc))
+    return None if t is None else (t if t.tzinfo else t.replace(tzinfo=dt.UTC))
 
 
 def check_password(password: str) -> None:
@@ -45,8 +45,16 @@ def check_password(password: str) -> None:
         raise AccountError(f"a password needs at least {MIN_PASSWORD} characters", field="password")
 
 
-def create_user(s: Session, username: str, password: str, *, is_admin=False, is_demo=False,
-                project: str | None = None, own_project: bool = True) -> User:
+def create_user(
+    s: Session,
+    username: str,
+    password: str,
+    *,
+    is_admin=False,
+    is_demo=False,
+    project: str | None = None,
+    own_project: bool = True,
+) -> User:
     """A user and (unless ``own_project`` is false) a project, by default one of their own, they are a member of."""
     username = username.strip()
     if not username or len(username) > 100 or any(c.isspace() for c in username):
@@ -109,8 +117,9 @@ def remove_member(s: Session, user_id: int, project_id: int) -> None:
 
 def default_project(s: Session, user: User) -> int:
     """The project an upload without ``project_id`` goes to: the user's first, or a new one of their own."""
-    pid = s.scalar(select(Membership.project_id).where(Membership.user_id == user.id)
-                   .order_by(Membership.project_id).limit(1))
+    pid = s.scalar(
+        select(Membership.project_id).where(Membership.user_id == user.id).order_by(Membership.project_id).limit(1)
+    )
     if pid is None:
         p = get_or_create_project(s, f"{user.username}'s project")
         add_member(s, user.id, p.id)
@@ -123,9 +132,18 @@ def list_users(s: Session) -> list[dict]:
     members: dict[int, list] = {}
     for uid, pid in s.execute(select(Membership.user_id, Membership.project_id)):
         members.setdefault(uid, []).append({"id": pid, "name": names[pid]})
-    return [{"id": u.id, "username": u.username, "is_admin": u.is_admin, "is_demo": u.is_demo,
-             "disabled": u.disabled, "created_at": u.created_at.isoformat(), "projects": members.get(u.id, [])}
-            for u in s.scalars(select(User).order_by(User.username))]
+    return [
+        {
+            "id": u.id,
+            "username": u.username,
+            "is_admin": u.is_admin,
+            "is_demo": u.is_demo,
+            "disabled": u.disabled,
+            "created_at": u.created_at.isoformat(),
+            "projects": members.get(u.id, []),
+        }
+        for u in s.scalars(select(User).order_by(User.username))
+    ]
 
 
 def list_projects(s: Session, ids: list[int] | None = None) -> list[dict]:
@@ -176,8 +194,14 @@ def project_ids(s: Session, user: User) -> list[int]:
 def new_session(s: Session, user: User, hours: float) -> tuple[str, str]:
     """(cookie token, CSRF token) of a new server-side session."""
     token, csrf = secrets.token_urlsafe(32), secrets.token_urlsafe(24)
-    s.add(SessionRow(token_hash=_h(token), user_id=user.id, csrf=csrf,
-                     expires_at=dt.datetime.now(dt.timezone.utc) + dt.timedelta(hours=hours)))
+    s.add(
+        SessionRow(
+            token_hash=_h(token),
+            user_id=user.id,
+            csrf=csrf,
+            expires_at=dt.datetime.now(dt.UTC) + dt.timedelta(hours=hours),
+        )
+    )
     return token, csrf
 
 
@@ -185,8 +209,8 @@ def session_user(s: Session, token: str) -> tuple[User, str] | None:
     row = s.get(SessionRow, _h(token))
     if row is None:
         return None
-    exp = row.expires_at if row.expires_at.tzinfo else row.expires_at.replace(tzinfo=dt.timezone.utc)
-    if exp < dt.datetime.now(dt.timezone.utc):
+    exp = row.expires_at if row.expires_at.tzinfo else row.expires_at.replace(tzinfo=dt.UTC)
+    if exp < dt.datetime.now(dt.UTC):
         s.delete(row)
         return None
     u = s.get(User, row.user_id)
@@ -216,10 +240,17 @@ def list_tokens(s: Session, user: User) -> list[dict]:
         return None if t is None else _aware(t).isoformat()
 
     now = _now()
-    return [{"id": t.id, "name": t.name, "created_at": iso(t.created_at), "expires_at": iso(t.expires_at),
-             "last_used_at": iso(t.last_used_at),
-             "expired": t.expires_at is not None and _aware(t.expires_at) <= now}
-            for t in s.scalars(select(ApiToken).where(ApiToken.user_id == user.id).order_by(ApiToken.id))]
+    return [
+        {
+            "id": t.id,
+            "name": t.name,
+            "created_at": iso(t.created_at),
+            "expires_at": iso(t.expires_at),
+            "last_used_at": iso(t.last_used_at),
+            "expired": t.expires_at is not None and _aware(t.expires_at) <= now,
+        }
+        for t in s.scalars(select(ApiToken).where(ApiToken.user_id == user.id).order_by(ApiToken.id))
+    ]
 
 
 def revoke_token(s: Session, user: User, token_id: int) -> bool:
@@ -247,8 +278,9 @@ def record_login_failure(s: Session, keys: list[str]) -> None:
 
 def login_failures(s: Session, key: str, window_s: float) -> int:
     since = _now() - dt.timedelta(seconds=window_s)
-    return s.scalar(select(func.count()).select_from(LoginFailure).where(LoginFailure.key == key[:300],
-                                                                         LoginFailure.at >= since))
+    return s.scalar(
+        select(func.count()).select_from(LoginFailure).where(LoginFailure.key == key[:300], LoginFailure.at >= since)
+    )
 
 
 def forget_login_failures(s: Session, keys: list[str]) -> None:

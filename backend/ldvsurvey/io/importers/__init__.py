@@ -12,8 +12,14 @@ import importlib
 from ldvsurvey.errors import BundleError
 
 #: format name -> module (imported on first use: some need optional libraries)
-REGISTRY = {"novatel": "novatel", "ubx": "ubx", "kf-gins": "kfgins", "nmea": "nmea", "csv": "csvmap",
-            "native": "native"}
+REGISTRY = {
+    "novatel": "novatel",
+    "ubx": "ubx",
+    "kf-gins": "kfgins",
+    "nmea": "nmea",
+    "csv": "csvmap",
+    "native": "native",
+}
 #: the order in which formats are tried when none is named
 SNIFF_ORDER = ("native", "novatel", "ubx", "nmea", "kf-gins")
 

@@ -13,8 +13,14 @@ import numpy as np
 from ldvsurvey.errors import BundleError
 
 _AXIS = {"R": (0, 1.0), "L": (0, -1.0), "F": (1, 1.0), "B": (1, -1.0), "U": (2, 1.0), "D": (2, -1.0)}
-_NAMES = {(0, 1.0): "right", (0, -1.0): "left", (1, 1.0): "forward", (1, -1.0): "back",
-          (2, 1.0): "up", (2, -1.0): "down"}
+_NAMES = {
+    (0, 1.0): "right",
+    (0, -1.0): "left",
+    (1, 1.0): "forward",
+    (1, -1.0): "back",
+    (2, 1.0): "up",
+    (2, -1.0): "down",
+}
 
 
 def c_rfu_sensor(code: str, file: str | None = None, field: str = "axes") -> np.ndarray:
@@ -27,9 +33,12 @@ def c_rfu_sensor(code: str, file: str | None = None, field: str = "axes") -> np.
     """
     code = str(code).strip().upper()
     if len(code) != 3 or any(ch not in _AXIS for ch in code) or len({_AXIS[ch][0] for ch in code}) != 3:
-        raise BundleError(f"axis convention '{code}' is not valid: give three letters, one per sensor axis "
-                          "x, y, z, from F/B, R/L, U/D with each direction once (e.g. RFU, FRD, FLU)",
-                          file=file, field=field)
+        raise BundleError(
+            f"axis convention '{code}' is not valid: give three letters, one per sensor axis "
+            "x, y, z, from F/B, R/L, U/D with each direction once (e.g. RFU, FRD, FLU)",
+            file=file,
+            field=field,
+        )
     c = np.zeros((3, 3))
     for j, ch in enumerate(code):
         i, s = _AXIS[ch]
@@ -37,8 +46,9 @@ def c_rfu_sensor(code: str, file: str | None = None, field: str = "axes") -> np.
     return c
 
 
-def check_static_up(dvel_rfu: np.ndarray, t_s: np.ndarray, code: str, static_s: float, file: str,
-                    max_tilt_deg: float = 5.0) -> float:
+def check_static_up(
+    dvel_rfu: np.ndarray, t_s: np.ndarray, code: str, static_s: float, file: str, max_tilt_deg: float = 5.0
+) -> float:
     """Check that specific force points up in the first ``static_s`` seconds.
 
     Returns the tilt (deg) of the mean specific force from body up.
@@ -57,8 +67,11 @@ def check_static_up(dvel_rfu: np.ndarray, t_s: np.ndarray, code: str, static_s: 
     f = dvel_rfu[sel].sum(axis=0)
     norm = float(np.linalg.norm(f))
     if norm == 0.0:
-        raise BundleError("velocity increments are all zero in the first seconds: no specific force to check "
-                          "the axes with", file=file, field="dvel")
+        raise BundleError(
+            "velocity increments are all zero in the first seconds: no specific force to check the axes with",
+            file=file,
+            field="dvel",
+        )
     tilt = float(np.degrees(np.arccos(np.clip(f[2] / norm, -1.0, 1.0))))
     if tilt <= max_tilt_deg:
         return tilt
@@ -72,8 +85,11 @@ def check_static_up(dvel_rfu: np.ndarray, t_s: np.ndarray, code: str, static_s: 
     hint = ""
     if sign < 0:
         hint = f" (the sensor's {axis} axis points down where it was declared {_NAMES[(i, s)]})"
-    raise BundleError(f"in the first {static_s:.0f} s the specific force points {tilt:.1f}° away from body up "
-                      f"(limit {max_tilt_deg:.1f}°) with axes '{code}': gravity's reaction lies on the sensor's "
-                      f"{'+' if sign > 0 else '-'}{axis} axis, which this convention puts {now}{hint}; the axes look "
-                      f"swapped or a sign is flipped: declare the sensor axis that points up as U",
-                      file=file, field="axes")
+    raise BundleError(
+        f"in the first {static_s:.0f} s the specific force points {tilt:.1f}° away from body up "
+        f"(limit {max_tilt_deg:.1f}°) with axes '{code}': gravity's reaction lies on the sensor's "
+        f"{'+' if sign > 0 else '-'}{axis} axis, which this convention puts {now}{hint}; the axes look "
+        f"swapped or a sign is flipped: declare the sensor axis that points up as U",
+        file=file,
+        field="axes",
+    )

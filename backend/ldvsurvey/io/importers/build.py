@@ -68,8 +68,9 @@ def _date_of(parts: dict, manifest: dict) -> dt.date:
         try:
             return dt.date.fromisoformat(str(manifest["date"]))
         except ValueError:
-            raise BundleError(f"'{manifest['date']}' is not a date (YYYY-MM-DD)", file=MANIFEST_FILE,
-                              field="date") from None
+            raise BundleError(
+                f"'{manifest['date']}' is not a date (YYYY-MM-DD)", file=MANIFEST_FILE, field="date"
+            ) from None
     for role in ("imu", "gnss", "ldv"):
         p = parts.get(role)
         if p is None or not len(p.stamps.values):
@@ -80,10 +81,13 @@ def _date_of(parts: dict, manifest: dict) -> dt.date:
         if st.kind == "utc_tod" and st.day is not None:
             return st.day
         if st.kind == "unix":
-            return dt.datetime.fromtimestamp(float(st.values[0]) + st.offset_s, dt.timezone.utc).date()
-    raise BundleError("no recording states the calendar day (GPS seconds of week or UTC time of day only): "
-                      "give it as \"date\": \"YYYY-MM-DD\" in the partial manifest", file=MANIFEST_FILE,
-                      field="date")
+            return dt.datetime.fromtimestamp(float(st.values[0]) + st.offset_s, dt.UTC).date()
+    raise BundleError(
+        "no recording states the calendar day (GPS seconds of week or UTC time of day only): "
+        'give it as "date": "YYYY-MM-DD" in the partial manifest',
+        file=MANIFEST_FILE,
+        field="date",
+    )
 
 
 def to_bundle_time(st: Stamps, day: dt.date, leap_s: int, near_week: int) -> np.ndarray:
@@ -126,16 +130,29 @@ def _gga_lines(t, g: GnssPart, sep_default: float | None) -> tuple[bytes, str]:
         how = f"geoid separation {sep_default} m from the partial manifest (import.gnss.geoid_separation_m)"
     else:
         sep = np.zeros(len(t))
-        how = ("the recording gives ellipsoidal heights only: GGA altitude holds the ellipsoidal height and the "
-               "separation field 0 (ellipsoidal height = altitude + separation stays exact)")
+        how = (
+            "the recording gives ellipsoidal heights only: GGA altitude holds the ellipsoidal height and the "
+            "separation field 0 (ellipsoidal height = altitude + separation stays exact)"
+        )
     nsat = g.n_sat if g.n_sat is not None else np.full(len(t), 12.0)
     hdop = g.hdop if g.hdop is not None else np.full(len(t), 0.9)
     out = []
     for k in range(len(t)):
         n = int(nsat[k]) if np.isfinite(nsat[k]) else 0
         hd = float(hdop[k]) if np.isfinite(hdop[k]) else 0.0
-        out.append(format_gga(float(t[k]), float(g.lat_deg[k]), float(g.lon_deg[k]), float(g.h_ell_m[k] - sep[k]),
-                              float(sep[k]), int(g.fix[k]), n_sat=min(n, 99), hdop=hd, talker="GN"))
+        out.append(
+            format_gga(
+                float(t[k]),
+                float(g.lat_deg[k]),
+                float(g.lon_deg[k]),
+                float(g.h_ell_m[k] - sep[k]),
+                float(sep[k]),
+                int(g.fix[k]),
+                n_sat=min(n, 99),
+                hdop=hd,
+                talker="GN",
+            )
+        )
     return ("\r\n".join(out) + "\r\n").encode(), how
 
 
@@ -159,8 +176,9 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
             raise BundleError(f"two {src.role} recordings given", file=src.name)
         imp = get_importer(src.format, src.name)
         if src.role not in imp.ROLES:
-            raise BundleError(f"the {imp.NAME} format has no {src.role} data (it has: {', '.join(imp.ROLES)})",
-                              file=src.name)
+            raise BundleError(
+                f"the {imp.NAME} format has no {src.role} data (it has: {', '.join(imp.ROLES)})", file=src.name
+            )
         parts[src.role] = imp.read(src.data, src.name, src.role, _options(m, src.role))
         by_role[src.role] = src
         warnings += parts[src.role].notes
@@ -172,20 +190,27 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
     if time_opts.get("gps_utc_s") is not None:
         leap = time_opts["gps_utc_s"]
         if not isinstance(leap, int) or isinstance(leap, bool):
-            raise BundleError(f"expected a whole number of seconds, got {leap!r}", file=MANIFEST_FILE,
-                              field="import.time.gps_utc_s")
+            raise BundleError(
+                f"expected a whole number of seconds, got {leap!r}", file=MANIFEST_FILE, field="import.time.gps_utc_s"
+            )
     else:
         leap = gpstime.gps_minus_utc_s(day)
         uses_gps = any(p.stamps.kind == "gps" for p in parts.values())
         if uses_gps and day > gpstime.LEAP_TABLE_VALID_TO:
-            warnings.append(f"the built-in leap-second table is known complete to {gpstime.LEAP_TABLE_VALID_TO}; "
-                            f"{day} is later: GPS−UTC = {leap} s assumed (set import.time.gps_utc_s if a leap "
-                            "second was inserted since)")
+            warnings.append(
+                f"the built-in leap-second table is known complete to {gpstime.LEAP_TABLE_VALID_TO}; "
+                f"{day} is later: GPS−UTC = {leap} s assumed (set import.time.gps_utc_s if a leap "
+                "second was inserted since)"
+            )
     near_week = gpstime.gps_week_of(day, leap)[0]
     t = {role: to_bundle_time(p.stamps, day, leap, near_week) for role, p in parts.items()}
     for role, p in parts.items():
-        check_increasing(t[role], p.stamps.where, by_role[role].name,
-                         unit="line" if by_role[role].format not in ("ubx", "novatel") else "message")
+        check_increasing(
+            t[role],
+            p.stamps.where,
+            by_role[role].name,
+            unit="line" if by_role[role].format not in ("ubx", "novatel") else "message",
+        )
 
     imu: ImuPart = parts["imu"]
     code = _options(m, "imu").get("axes", imu.axes)
@@ -213,12 +238,22 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         warnings.append(f"ldv.kind not in the partial manifest: '{m['ldv']['kind']}' assumed from the columns")
 
     files = {}
-    files["imu.csv"] = imu_csv(t["imu"], dth, dv, imu.turntable_deg,
-                               comment=f"imported from {by_role['imu'].name} ({by_role['imu'].format}, axes {code})")
+    files["imu.csv"] = imu_csv(
+        t["imu"],
+        dth,
+        dv,
+        imu.turntable_deg,
+        comment=f"imported from {by_role['imu'].name} ({by_role['imu'].format}, axes {code})",
+    )
     lc = ldv.columns
-    files["ldv.csv"] = ldv_csv(t["ldv"], v_fwd_mps=lc.get("v_fwd"), v_up_mps=lc.get("v_up"), quality=lc.get("quality"),
-                               fd_hz=lc.get("fd_hz"), comment=f"imported from {by_role['ldv'].name} "
-                                                              f"({by_role['ldv'].format})")
+    files["ldv.csv"] = ldv_csv(
+        t["ldv"],
+        v_fwd_mps=lc.get("v_fwd"),
+        v_up_mps=lc.get("v_up"),
+        quality=lc.get("quality"),
+        fd_hz=lc.get("fd_hz"),
+        comment=f"imported from {by_role['ldv'].name} ({by_role['ldv'].format})",
+    )
     gnss_track, gnss_rate = [], None
     if "gnss" in parts:
         g: GnssPart = parts["gnss"]
@@ -229,14 +264,22 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
             files["gnss.nmea"], how = _gga_lines(t["gnss"], g, _options(m, "gnss").get("geoid_separation_m"))
         gnss_rate = _rate_hz(t["gnss"])
         step = max(1, len(g.lat_deg) // 500)
-        gnss_track = [[round(float(lo), 8), round(float(la), 8)] for lo, la in zip(g.lon_deg[::step], g.lat_deg[::step])]
+        gnss_track = [
+            [round(float(lo), 8), round(float(la), 8)] for lo, la in zip(g.lon_deg[::step], g.lat_deg[::step])
+        ]
     else:
         how = None
-    prov = {"software": f"ldv-survey {__version__}", "gps_minus_utc_s": leap,
-            "leap_table_valid_to": gpstime.LEAP_TABLE_VALID_TO.isoformat(), "imu_axes": code,
-            "static_tilt_deg": round(tilt, 3),
-            "sources": [{"role": s.role, "format": s.format, "file": s.name,
-                         "sha256": hashlib.sha256(s.data).hexdigest()} for s in sources]}
+    prov = {
+        "software": f"ldv-survey {__version__}",
+        "gps_minus_utc_s": leap,
+        "leap_table_valid_to": gpstime.LEAP_TABLE_VALID_TO.isoformat(),
+        "imu_axes": code,
+        "static_tilt_deg": round(tilt, 3),
+        "sources": [
+            {"role": s.role, "format": s.format, "file": s.name, "sha256": hashlib.sha256(s.data).hexdigest()}
+            for s in sources
+        ],
+    }
     if how:
         prov["gnss_heights"] = how
     m.setdefault("import", {})
@@ -247,9 +290,13 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
     log = parse_files(files)  # the same validation as any upload
     warnings += log.warnings
     spans = [(float(v[0]), float(v[-1])) for v in t.values() if len(v)]
-    summary = {"files": [{"name": s.name, "format": s.format, "role": s.role} for s in sources],
-               "time_span_s": [min(a for a, _ in spans), max(b for _, b in spans)],
-               "rates_hz": {"imu": imu_rate, "ldv": ldv_rate, "gnss": None if gnss_rate is None else round(gnss_rate, 3)},
-               "gnss_track": gnss_track, "date": day.isoformat(), "imu_axes": code,
-               "static_tilt_deg": round(tilt, 3)}
+    summary = {
+        "files": [{"name": s.name, "format": s.format, "role": s.role} for s in sources],
+        "time_span_s": [min(a for a, _ in spans), max(b for _, b in spans)],
+        "rates_hz": {"imu": imu_rate, "ldv": ldv_rate, "gnss": None if gnss_rate is None else round(gnss_rate, 3)},
+        "gnss_track": gnss_track,
+        "date": day.isoformat(),
+        "imu_axes": code,
+        "static_tilt_deg": round(tilt, 3),
+    }
     return ImportResult(files=files, warnings=warnings, summary=summary)

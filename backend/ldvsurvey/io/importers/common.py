@@ -82,8 +82,9 @@ def fix_from_sigma(sigma_h_m: np.ndarray) -> np.ndarray:
     return np.select([s <= 0.05, s <= 0.3, s <= 1.0], [4, 5, 2], 1).astype(np.int16)
 
 
-def read_number_table(data: bytes, file: str, min_cols: int, names: list[str] | None = None,
-                      comment: str = "#") -> tuple[np.ndarray, np.ndarray]:
+def read_number_table(
+    data: bytes, file: str, min_cols: int, names: list[str] | None = None, comment: str = "#"
+) -> tuple[np.ndarray, np.ndarray]:
     """Rows of numbers separated by whitespace or commas (no header).
 
     Returns
@@ -104,11 +105,15 @@ def read_number_table(data: bytes, file: str, min_cols: int, names: list[str] | 
             continue
         parts = s.replace(",", " ").split()
         if len(parts) < min_cols:
-            raise BundleError(f"expected at least {min_cols} fields, got {len(parts)}", file=file, line=lineno,
-                              field=(names[len(parts)] if names and len(parts) < len(names) else None))
+            raise BundleError(
+                f"expected at least {min_cols} fields, got {len(parts)}",
+                file=file,
+                line=lineno,
+                field=(names[len(parts)] if names and len(parts) < len(names) else None),
+            )
         if width is None:
             width = len(parts)
-        parts = parts[:max(min_cols, min(width, len(parts)))]
+        parts = parts[: max(min_cols, min(width, len(parts)))]
         try:
             vals = [float(p) for p in parts]
         except ValueError:
@@ -116,12 +121,20 @@ def read_number_table(data: bytes, file: str, min_cols: int, names: list[str] | 
                 try:
                     float(p)
                 except ValueError:
-                    raise BundleError(f"'{p}' is not a number", file=file, line=lineno,
-                                      field=names[k] if names and k < len(names) else f"column {k + 1}") from None
+                    raise BundleError(
+                        f"'{p}' is not a number",
+                        file=file,
+                        line=lineno,
+                        field=names[k] if names and k < len(names) else f"column {k + 1}",
+                    ) from None
         if not all(np.isfinite(vals)):
             k = int(np.flatnonzero(~np.isfinite(vals))[0])
-            raise BundleError(f"'{parts[k]}' is not a finite number", file=file, line=lineno,
-                              field=names[k] if names and k < len(names) else f"column {k + 1}")
+            raise BundleError(
+                f"'{parts[k]}' is not a finite number",
+                file=file,
+                line=lineno,
+                field=names[k] if names and k < len(names) else f"column {k + 1}",
+            )
         if len(vals) < width:
             vals += [np.nan] * (width - len(vals))
         rows.append(vals[:width])

@@ -28,24 +28,57 @@ NAME = "csv"
 ROLES = ("imu", "gnss", "ldv")
 G0 = 9.80665
 #: unit -> (factor to the bundle unit, per second?)
-ANGLE = {"rad": (1.0, False), "mrad": (1e-3, False), "urad": (1e-6, False), "deg": (math.pi / 180, False),
-         "arcsec": (math.pi / 180 / 3600, False), "rad/s": (1.0, True), "deg/s": (math.pi / 180, True),
-         "deg/h": (math.pi / 180 / 3600, True)}
-VELOCITY_INC = {"m/s": (1.0, False), "ft/s": (0.3048, False), "m/s2": (1.0, True), "m/s^2": (1.0, True),
-                "g": (G0, True), "mg": (G0 * 1e-3, True), "ug": (G0 * 1e-6, True)}
+ANGLE = {
+    "rad": (1.0, False),
+    "mrad": (1e-3, False),
+    "urad": (1e-6, False),
+    "deg": (math.pi / 180, False),
+    "arcsec": (math.pi / 180 / 3600, False),
+    "rad/s": (1.0, True),
+    "deg/s": (math.pi / 180, True),
+    "deg/h": (math.pi / 180 / 3600, True),
+}
+VELOCITY_INC = {
+    "m/s": (1.0, False),
+    "ft/s": (0.3048, False),
+    "m/s2": (1.0, True),
+    "m/s^2": (1.0, True),
+    "g": (G0, True),
+    "mg": (G0 * 1e-3, True),
+    "ug": (G0 * 1e-6, True),
+}
 SPEED = {"m/s": (1.0, False), "km/h": (1 / 3.6, False), "kn": (1852 / 3600, False), "mm/s": (1e-3, False)}
 UNITS = {
-    "imu": {"dtheta_x": ANGLE, "dtheta_y": ANGLE, "dtheta_z": ANGLE, "dvel_x": VELOCITY_INC,
-            "dvel_y": VELOCITY_INC, "dvel_z": VELOCITY_INC, "turntable_deg": {"deg": (1.0, False)}},
-    "gnss": {"lat_deg": {"deg": (1.0, False), "rad": (180 / math.pi, False)},
-             "lon_deg": {"deg": (1.0, False), "rad": (180 / math.pi, False)},
-             "h_m": {"m": (1.0, False), "ft": (0.3048, False)}, "sep_m": {"m": (1.0, False)},
-             "fix": {"": (1.0, False)}, "sigma_h_m": {"m": (1.0, False)}, "n_sat": {"": (1.0, False)}},
-    "ldv": {"v_fwd": SPEED, "v_up": SPEED, "quality": {"": (1.0, False)},
-            "fd_hz": {"hz": (1.0, False), "khz": (1e3, False), "mhz": (1e6, False)}},
+    "imu": {
+        "dtheta_x": ANGLE,
+        "dtheta_y": ANGLE,
+        "dtheta_z": ANGLE,
+        "dvel_x": VELOCITY_INC,
+        "dvel_y": VELOCITY_INC,
+        "dvel_z": VELOCITY_INC,
+        "turntable_deg": {"deg": (1.0, False)},
+    },
+    "gnss": {
+        "lat_deg": {"deg": (1.0, False), "rad": (180 / math.pi, False)},
+        "lon_deg": {"deg": (1.0, False), "rad": (180 / math.pi, False)},
+        "h_m": {"m": (1.0, False), "ft": (0.3048, False)},
+        "sep_m": {"m": (1.0, False)},
+        "fix": {"": (1.0, False)},
+        "sigma_h_m": {"m": (1.0, False)},
+        "n_sat": {"": (1.0, False)},
+    },
+    "ldv": {
+        "v_fwd": SPEED,
+        "v_up": SPEED,
+        "quality": {"": (1.0, False)},
+        "fd_hz": {"hz": (1.0, False), "khz": (1e3, False), "mhz": (1e6, False)},
+    },
 }
-REQUIRED = {"imu": ["dtheta_x", "dtheta_y", "dtheta_z", "dvel_x", "dvel_y", "dvel_z"],
-            "gnss": ["lat_deg", "lon_deg", "h_m"], "ldv": []}
+REQUIRED = {
+    "imu": ["dtheta_x", "dtheta_y", "dtheta_z", "dvel_x", "dvel_y", "dvel_z"],
+    "gnss": ["lat_deg", "lon_deg", "h_m"],
+    "ldv": [],
+}
 TIME_KINDS = {"gps", "utc_tod", "unix", "bundle"}
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 CFG = "import.{role}.csv"
@@ -72,7 +105,9 @@ def read(data: bytes, file: str, role: str, opts: dict):
     comment = str(cfg.get("comment", "#"))
     skip = int(cfg.get("skip_lines", 0))
     lines = data.decode("utf-8-sig", "replace").splitlines()
-    rows = [(i + 1, ln) for i, ln in enumerate(lines) if i >= skip and ln.strip() and not ln.lstrip().startswith(comment)]
+    rows = [
+        (i + 1, ln) for i, ln in enumerate(lines) if i >= skip and ln.strip() and not ln.lstrip().startswith(comment)
+    ]
     header = None
     if cfg.get("header", True):
         if not rows:
@@ -90,13 +125,17 @@ def read(data: bytes, file: str, role: str, opts: dict):
         if header is None:
             raise _cfg_error(role, f"column '{ref}' named but the map says header: false", key)
         if ref not in header:
-            raise BundleError(f"no column '{ref}' in the header (has: {', '.join(header)})", file=file,
-                              line=rows[0][0] - 1, field=str(ref))
+            raise BundleError(
+                f"no column '{ref}' in the header (has: {', '.join(header)})",
+                file=file,
+                line=rows[0][0] - 1,
+                field=str(ref),
+            )
         return header.index(ref)
 
     tcfg = cfg.get("time")
     if not isinstance(tcfg, dict) or "column" not in tcfg:
-        raise _cfg_error(role, "give the time column: {\"column\": ..., \"kind\": gps|utc_tod|unix|bundle}", "time")
+        raise _cfg_error(role, 'give the time column: {"column": ..., "kind": gps|utc_tod|unix|bundle}', "time")
     kind = tcfg.get("kind", "gps")
     if kind not in TIME_KINDS:
         raise _cfg_error(role, f"time kind '{kind}' is not one of {', '.join(sorted(TIME_KINDS))}", "time.kind")
@@ -115,14 +154,19 @@ def read(data: bytes, file: str, role: str, opts: dict):
         unit = str(c.get("unit", next(iter(units[name])))).lower() if units[name] else ""
         table = {k.lower(): v for k, v in units[name].items()}
         if unit not in table:
-            raise _cfg_error(role, f"unit '{unit}' not known for {name} (known: {', '.join(units[name])})",
-                             f"columns.{name}.unit")
+            raise _cfg_error(
+                role, f"unit '{unit}' not known for {name} (known: {', '.join(units[name])})", f"columns.{name}.unit"
+            )
         factor, per_s = table[unit]
         sign = c.get("sign", 1)
         if sign not in (1, -1):
             raise _cfg_error(role, f"sign must be 1 or -1, got {sign!r}", f"columns.{name}.sign")
-        spec[name] = (index_of(c.get("column"), f"columns.{name}.column"), factor * float(c.get("scale", 1.0)) * sign,
-                      per_s, 1.0)
+        spec[name] = (
+            index_of(c.get("column"), f"columns.{name}.column"),
+            factor * float(c.get("scale", 1.0)) * sign,
+            per_s,
+            1.0,
+        )
     missing = [n for n in REQUIRED[role] if n not in spec]
     if role == "ldv" and not ({"v_fwd", "fd_hz"} & set(spec)):
         missing.append("v_fwd or fd_hz")
@@ -135,16 +179,28 @@ def read(data: bytes, file: str, role: str, opts: dict):
         where[r] = lineno
         for name, (j, factor, _per, _) in spec.items():
             if j >= len(cells):
-                raise BundleError(f"row has {len(cells)} fields, the column map needs field {j + 1}", file=file,
-                                  line=lineno, field=name)
+                raise BundleError(
+                    f"row has {len(cells)} fields, the column map needs field {j + 1}",
+                    file=file,
+                    line=lineno,
+                    field=name,
+                )
             try:
                 v = float(cells[j])
             except ValueError:
-                raise BundleError(f"'{cells[j]}' is not a number", file=file, line=lineno,
-                                  field=header[j] if header else f"column {j + 1}") from None
+                raise BundleError(
+                    f"'{cells[j]}' is not a number",
+                    file=file,
+                    line=lineno,
+                    field=header[j] if header else f"column {j + 1}",
+                ) from None
             if not math.isfinite(v):
-                raise BundleError(f"'{cells[j]}' is not a finite number", file=file, line=lineno,
-                                  field=header[j] if header else f"column {j + 1}")
+                raise BundleError(
+                    f"'{cells[j]}' is not a finite number",
+                    file=file,
+                    line=lineno,
+                    field=header[j] if header else f"column {j + 1}",
+                )
             out[name][r] = v * factor
     t_raw = out.pop("time")  # in the file's unit: differences of large integers (UNIX ms) stay exact
     week = out.pop("week", None)
@@ -164,9 +220,14 @@ def read(data: bytes, file: str, role: str, opts: dict):
     stamps = Stamps(kind, t, where, week=None if week is None else week.astype(np.int64), offset_s=offset_s)
     note = [f"{file}: read with the column map of {CFG.format(role=role)}"]
     if role == "imu":
-        return ImuPart(stamps, np.column_stack([out["dtheta_x"], out["dtheta_y"], out["dtheta_z"]]),
-                       np.column_stack([out["dvel_x"], out["dvel_y"], out["dvel_z"]]), axes=opts.get("axes", "RFU"),
-                       turntable_deg=out.get("turntable_deg"), notes=note)
+        return ImuPart(
+            stamps,
+            np.column_stack([out["dtheta_x"], out["dtheta_y"], out["dtheta_z"]]),
+            np.column_stack([out["dvel_x"], out["dvel_y"], out["dvel_z"]]),
+            axes=opts.get("axes", "RFU"),
+            turntable_deg=out.get("turntable_deg"),
+            notes=note,
+        )
     if role == "gnss":
         if "fix" in out:
             fix = out["fix"].astype(np.int16)
@@ -176,9 +237,17 @@ def read(data: bytes, file: str, role: str, opts: dict):
             fix = np.full(len(t), int(cfg.get("fix", 1)), dtype=np.int16)
             note.append(f"{file}: no fix or sigma_h_m column: fix quality {int(cfg.get('fix', 1))} for every epoch")
         keep = fix > 0
-        s = Stamps(kind, t[keep], where[keep], week=None if week is None else week[keep].astype(np.int64),
-                   offset_s=offset_s)
-        return GnssPart(s, out["lat_deg"][keep], out["lon_deg"][keep], out["h_m"][keep], fix[keep],
-                        sep_m=out["sep_m"][keep] if "sep_m" in out else None,
-                        n_sat=out["n_sat"][keep] if "n_sat" in out else None, notes=note)
+        s = Stamps(
+            kind, t[keep], where[keep], week=None if week is None else week[keep].astype(np.int64), offset_s=offset_s
+        )
+        return GnssPart(
+            s,
+            out["lat_deg"][keep],
+            out["lon_deg"][keep],
+            out["h_m"][keep],
+            fix[keep],
+            sep_m=out["sep_m"][keep] if "sep_m" in out else None,
+            n_sat=out["n_sat"][keep] if "n_sat" in out else None,
+            notes=note,
+        )
     return LdvPart(stamps, {k: v for k, v in out.items()}, notes=note)

@@ -43,29 +43,42 @@ def sniff(data: bytes, name: str) -> str | None:
 def read(data: bytes, file: str, role: str, opts: dict) -> ImuPart | GnssPart:
     if role == "imu":
         a, lines = read_number_table(data, file, 7, IMU_NAMES)
-        check_increasing(_unwrapped(a[:, 0]), lines, file,
-                         field="gps_sow")
-        return ImuPart(stamps=Stamps("gps", a[:, 0], lines), dtheta_rad=a[:, 1:4].copy(), dvel_mps=a[:, 4:7].copy(),
-                       axes=opts.get("axes", "FRD"))
+        check_increasing(_unwrapped(a[:, 0]), lines, file, field="gps_sow")
+        return ImuPart(
+            stamps=Stamps("gps", a[:, 0], lines),
+            dtheta_rad=a[:, 1:4].copy(),
+            dvel_mps=a[:, 4:7].copy(),
+            axes=opts.get("axes", "FRD"),
+        )
     if role == "gnss":
         a, lines = read_number_table(data, file, 7, GNSS_NAMES)
         check_increasing(_unwrapped(a[:, 0]), lines, file, field="gps_sow")
         for k, (name, lo, hi) in enumerate([("lat_deg", -90, 90), ("lon_deg", -180, 360)], start=1):
             bad = np.flatnonzero((a[:, k] < lo) | (a[:, k] > hi))
             if len(bad):
-                raise BundleError(f"{a[bad[0], k]} is outside [{lo}, {hi}] degrees", file=file,
-                                  line=int(lines[bad[0]]), field=name)
+                raise BundleError(
+                    f"{a[bad[0], k]} is outside [{lo}, {hi}] degrees", file=file, line=int(lines[bad[0]]), field=name
+                )
         sig = np.flatnonzero(a[:, 4:7] < 0)
         if len(sig):
             r, c = divmod(int(sig[0]), 3)
-            raise BundleError("a standard deviation cannot be negative", file=file, line=int(lines[r]),
-                              field=GNSS_NAMES[4 + c])
+            raise BundleError(
+                "a standard deviation cannot be negative", file=file, line=int(lines[r]), field=GNSS_NAMES[4 + c]
+            )
         sigma_h = np.hypot(a[:, 4], a[:, 5]) / np.sqrt(2.0)
         fix = fix_from_sigma(sigma_h)
         lon = np.where(a[:, 2] > 180.0, a[:, 2] - 360.0, a[:, 2])
-        return GnssPart(stamps=Stamps("gps", a[:, 0], lines), lat_deg=a[:, 1], lon_deg=lon, h_ell_m=a[:, 3], fix=fix,
-                        notes=["kf-gins GNSS: fix quality from the stated horizontal σ (≤5 cm RTK fixed, ≤30 cm "
-                               "float, ≤1 m differential, else single)"])
+        return GnssPart(
+            stamps=Stamps("gps", a[:, 0], lines),
+            lat_deg=a[:, 1],
+            lon_deg=lon,
+            h_ell_m=a[:, 3],
+            fix=fix,
+            notes=[
+                "kf-gins GNSS: fix quality from the stated horizontal σ (≤5 cm RTK fixed, ≤30 cm "
+                "float, ≤1 m differential, else single)"
+            ],
+        )
     raise BundleError(f"the kf-gins format has no '{role}' file (it has: imu, gnss)", file=file)
 
 

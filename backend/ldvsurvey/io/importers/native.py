@@ -28,15 +28,20 @@ def read(data: bytes, file: str, role: str, opts: dict):
     if role == "imu":
         tab = read_numeric_csv(data, file, IMU_COLUMNS, optional=["turntable_deg"])
         c = tab.columns
-        return ImuPart(stamps=Stamps("bundle", c["t"], tab.line_of_row),
-                       dtheta_rad=np.column_stack([c["dtheta_x"], c["dtheta_y"], c["dtheta_z"]]),
-                       dvel_mps=np.column_stack([c["dvel_x"], c["dvel_y"], c["dvel_z"]]), axes=opts.get("axes", "RFU"),
-                       turntable_deg=c.get("turntable_deg"), notes=list(tab.warnings))
+        return ImuPart(
+            stamps=Stamps("bundle", c["t"], tab.line_of_row),
+            dtheta_rad=np.column_stack([c["dtheta_x"], c["dtheta_y"], c["dtheta_z"]]),
+            dvel_mps=np.column_stack([c["dvel_x"], c["dvel_y"], c["dvel_z"]]),
+            axes=opts.get("axes", "RFU"),
+            turntable_deg=c.get("turntable_deg"),
+            notes=list(tab.warnings),
+        )
     if role == "ldv":
         tab = read_numeric_csv(data, file, ["t"], optional=["v_up", "quality"], alternatives=[("v_fwd", "fd_hz")])
         cols = {k: v for k, v in tab.columns.items() if k != "t"}
-        return LdvPart(stamps=Stamps("bundle", tab.columns["t"], tab.line_of_row), columns=cols,
-                       notes=list(tab.warnings))
+        return LdvPart(
+            stamps=Stamps("bundle", tab.columns["t"], tab.line_of_row), columns=cols, notes=list(tab.warnings)
+        )
     if role == "gnss":
         from ldvsurvey.io.nmea import parse_nmea
 
@@ -45,6 +50,12 @@ def read(data: bytes, file: str, role: str, opts: dict):
         except BundleError as exc:
             raise BundleError(exc.message, file=file, line=exc.line, field=exc.field) from None
         ok = g.fix > 0
-        return GnssPart(stamps=Stamps("bundle", g.t_s[ok], g.line_of_row[ok]), lat_deg=g.lat_deg[ok],
-                        lon_deg=g.lon_deg[ok], h_ell_m=g.h_m[ok], fix=g.fix[ok], raw_nmea=data)
+        return GnssPart(
+            stamps=Stamps("bundle", g.t_s[ok], g.line_of_row[ok]),
+            lat_deg=g.lat_deg[ok],
+            lon_deg=g.lon_deg[ok],
+            h_ell_m=g.h_m[ok],
+            fix=g.fix[ok],
+            raw_nmea=data,
+        )
     raise BundleError(f"the native format has no '{role}' file", file=file)

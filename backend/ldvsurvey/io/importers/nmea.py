@@ -102,6 +102,14 @@ def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
     from ldvsurvey.io.importers.gpstime import tod_to_bundle
 
     check_increasing(tod_to_bundle(a[:, 0], dt.date(2000, 1, 1), dt.date(2000, 1, 1)), lines, file)
-    return GnssPart(stamps=Stamps("utc_tod", a[:, 0], lines, day=day), lat_deg=a[:, 1], lon_deg=a[:, 2],
-                    h_ell_m=a[:, 3], sep_m=a[:, 4], fix=a[:, 5].astype(np.int16), n_sat=a[:, 6], hdop=a[:, 7],
-                    notes=notes)
+    return GnssPart(
+        stamps=Stamps("utc_tod", a[:, 0], lines, day=day),
+        lat_deg=a[:, 1],
+        lon_deg=a[:, 2],
+        h_ell_m=a[:, 3],
+        sep_m=a[:, 4],
+        fix=a[:, 5].astype(np.int16),
+        n_sat=a[:, 6],
+        hdop=a[:, 7],
+        notes=notes,
+    )

@@ -28,8 +28,8 @@ NAME = "ubx"
 ROLES = ("imu", "gnss")
 GYRO = {14: 0, 13: 1, 5: 2}
 ACCEL = {16: 0, 17: 1, 18: 2}
-GYRO_LSB_RPS = math.radians(2.0 ** -12)
-ACCEL_LSB_MPS2 = 2.0 ** -10
+GYRO_LSB_RPS = math.radians(2.0**-12)
+ACCEL_LSB_MPS2 = 2.0**-10
 
 
 def sniff(data: bytes, name: str) -> str | None:
@@ -91,8 +91,20 @@ def read(data: bytes, file: str, role: str, opts: dict):
             if itow_s < 1.0 and (gps_s - week * WEEK_S) > WEEK_S - 2.0:
                 week += 1
             fix = 4 if msg.carrSoln == 2 else 5 if msg.carrSoln == 1 else 2 if msg.diffSoln else 1
-            fixes.append((week, itow_s, msg.lat, msg.lon, msg.height / 1000.0, (msg.height - msg.hMSL) / 1000.0,
-                          fix, msg.numSV, msg.pDOP, n))
+            fixes.append(
+                (
+                    week,
+                    itow_s,
+                    msg.lat,
+                    msg.lon,
+                    msg.height / 1000.0,
+                    (msg.height - msg.hMSL) / 1000.0,
+                    fix,
+                    msg.numSV,
+                    msg.pDOP,
+                    n,
+                )
+            )
     notes = []
     if errs:
         notes.append(f"{file}: {len(errs)} UBX frame(s) with a bad checksum or length skipped ({errs[0]})")
@@ -100,9 +112,17 @@ def read(data: bytes, file: str, role: str, opts: dict):
         if not fixes:
             raise BundleError("no NAV-PVT message with a valid date and a fix", file=file)
         a = np.array(fixes, dtype=np.float64)
-        return GnssPart(stamps=Stamps("gps", a[:, 1], a[:, 9].astype(np.int64), week=a[:, 0].astype(np.int64)),
-                        lat_deg=a[:, 2], lon_deg=a[:, 3], h_ell_m=a[:, 4], sep_m=a[:, 5], fix=a[:, 6].astype(np.int16),
-                        n_sat=a[:, 7], hdop=a[:, 8], notes=notes)
+        return GnssPart(
+            stamps=Stamps("gps", a[:, 1], a[:, 9].astype(np.int64), week=a[:, 0].astype(np.int64)),
+            lat_deg=a[:, 2],
+            lon_deg=a[:, 3],
+            h_ell_m=a[:, 4],
+            sep_m=a[:, 5],
+            fix=a[:, 6].astype(np.int16),
+            n_sat=a[:, 7],
+            hdop=a[:, 8],
+            notes=notes,
+        )
     if not samples:
         raise BundleError("no ESF-RAW or ESF-MEAS message", file=file)
     tags = np.array(sorted(samples), dtype=np.float64)
@@ -113,8 +133,9 @@ def read(data: bytes, file: str, role: str, opts: dict):
         k = int(np.flatnonzero(missing)[0])
         which = ["gyro x (14)", "gyro y (13)", "gyro z (5)", "accel x (16)", "accel y (17)", "accel z (18)"]
         gaps = [w for w, v in zip(which, rows[k]) if np.isnan(v)]
-        raise BundleError(f"time tag {int(tags[k])} lacks {', '.join(gaps)}", file=file,
-                          field=f"message {where[k]} dataType")
+        raise BundleError(
+            f"time tag {int(tags[k])} lacks {', '.join(gaps)}", file=file, field=f"message {where[k]} dataType"
+        )
     # ms time tags wrap at 2^32 ms (49.7 days): unwrap, then seconds
     t_s = tags / 1000.0 + float(opts.get("time_offset_s", 0.0))
     if len(t_s) < 2:
@@ -122,8 +143,13 @@ def read(data: bytes, file: str, role: str, opts: dict):
     dt_s = np.diff(t_s)
     dt_s = np.concatenate(([np.median(dt_s)], dt_s))
     notes.append(f"{file}: ESF time tags read as GPS ms of week; rates × interval give the increments")
-    return ImuPart(stamps=Stamps("gps", t_s[:], where), dtheta_rad=rows[:, 0:3] * GYRO_LSB_RPS * dt_s[:, None],
-                   dvel_mps=rows[:, 3:6] * ACCEL_LSB_MPS2 * dt_s[:, None], axes=opts.get("axes", "FRD"), notes=notes)
+    return ImuPart(
+        stamps=Stamps("gps", t_s[:], where),
+        dtheta_rad=rows[:, 0:3] * GYRO_LSB_RPS * dt_s[:, None],
+        dvel_mps=rows[:, 3:6] * ACCEL_LSB_MPS2 * dt_s[:, None],
+        axes=opts.get("axes", "FRD"),
+        notes=notes,
+    )
 
 
 def _put(samples, tag, dtype, value, n):
