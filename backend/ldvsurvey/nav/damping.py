@@ -13,16 +13,27 @@ scale (V^b = C_d^b [0, s ν, 0]). Three modes over the same data, updated once p
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numba as nb
 import numpy as np
 
-from ldvsurvey.nav.attitude import q_to_c
-from ldvsurvey.nav.errmodel import build_f, c_db, discretize, skew_nb
-from ldvsurvey.nav.kfloop import feedback
-from ldvsurvey.nav.mech import mech_step
+from ldvsurvey.nav.errmodel import c_db, skew_nb
+from ldvsurvey.nav.kfloop import N_FIN, _body, _feedback_into, mech_sample, propagate_epoch
+from ldvsurvey.nav.mech import q_to_c_into
 
 MODES = {"undamped": 0, "conventional": 1, "delayed_state": 2}
 N = 16
+
+#: the damping filter's settings: mode (:data:`MODES`), period_s (s between covariance epochs),
+#: ds_every (epochs between the two residuals of a delayed-state measurement: the baseline),
+#: gate (σ on the delayed-state velocity change), zupt_end_s (end of the moored period, s),
+#: p0, qd (16,) prior variances and PSDs, h_ref (m) the water-surface height, vu_sigma (m/s) and
+#: h_sigma (m) of the vertical-channel pseudo-measurements
+Damping = namedtuple("Damping", "mode period_s ds_every gate zupt_end_s p0 qd h_ref vu_sigma h_sigma")
+#: the water-track LDV: ok (N,) bool, nu_f (N,) forward speed (m/s), s0 the inverse scale 1/K at the
+#: start, pitch, heading (rad) its mounting C_d^b, sigma (m/s) 1-σ of one sample
+WaterLdv = namedtuple("WaterLdv", "ok nu_f s0 pitch heading sigma")
 
 
 @nb.njit(cache=True)
@@ -35,55 +46,52 @@ def _update(x, P, h, z, r):
 
 
 @nb.njit(cache=True)
-def run_damping(
-    t,
-    dth,
-    dvel,
-    q0,
-    v0,
-    pos0,
-    mode,
-    period_s,
-    zupt_end,
-    ldv_ok,
-    nu_f,
-    s0,
-    pitch_l,
-    heading_l,
-    p0,
-    qd,
-    ldv_sigma,
-    h_ref,
-    vu_sigma,
-    h_sigma,
-    ds_every,
-    gate,
-    c_bs,
-):
-    """Forward filter; returns q (N,4) of C_s^n, v (N,3), pos (N,3), inverse scale estimate per sample.
+def run_damping(imu, st, ldv, dmp):
+    """Forward filter; returns q (N,4) of C_s^n, v (N,3), pos (N,3), inverse scale estimate per
+    sample, and the number of skipped delayed-state measurements.
 
-    ``c_bs`` (N, 3, 3): C_b^s per sample (a rotating IMU; identity for a fixed one). The
-    mechanization and the biases live in the sensor frame s; the LDV is mounted on the body b,
-    so its velocity is brought to n through C_b^n = C_s^n C_b^s.
+    ``imu`` (:class:`~ldvsurvey.nav.kfloop.ImuIn`): ``c_bs`` (N, 3, 3) C_b^s per sample (a
+    rotating IMU) or (1, 3, 3) for a fixed one (taken as the identity, as the navigation filter
+    does); xi, eta, dg empty (normal gravity) or per sample. ``st``
+    (:class:`~ldvsurvey.nav.kfloop.Start`): initial C_s^n, v, position and biases. The
+    mechanization and the biases live in the sensor frame s; the LDV (:class:`WaterLdv`) is mounted
+    on the body b, so its velocity is brought to n through C_b^n = C_s^n C_b^s.
 
-    Covariance epochs every ``period_s``; the delayed-state measurement compares residuals
-    ``ds_every`` epochs apart (the baseline over which the current must stay constant); a velocity
-    change beyond ``gate`` σ (the current changed) is skipped and the baseline restarts there.
-    Returns also the number of skipped delayed-state measurements.
+    Covariance epochs every ``dmp.period_s``; the delayed-state measurement compares residuals
+    ``dmp.ds_every`` epochs apart (the baseline over which the current must stay constant); a
+    velocity change beyond ``dmp.gate`` σ (the current changed) is skipped and the baseline
+    restarts there. The per-sample mechanization (:func:`~ldvsurvey.nav.kfloop.mech_sample`),
+    Φ and the covariance propagation (:func:`~ldvsurvey.nav.kfloop.propagate_epoch`) and the
+    feedback are the navigation filter's compiled functions; the measurement models are this
+    module's.
     """
+    t, dth, dvel, c_bs = imu.t, imu.dth, imu.dvel, imu.c_bs
+    mode, period_s, zupt_end, ds_every, gate = dmp.mode, dmp.period_s, dmp.zupt_end_s, dmp.ds_every, dmp.gate
+    qd, h_ref, vu_sigma, h_sigma = dmp.qd, dmp.h_ref, dmp.vu_sigma, dmp.h_sigma
+    ldv_ok, nu_f, ldv_sigma = ldv.ok, ldv.nu_f, ldv.sigma
     n_s = len(t)
     q_out = np.empty((n_s, 4))
     v_out = np.empty((n_s, 3))
     p_out = np.empty((n_s, 3))
     s_out = np.empty(n_s)
-    q, v, pos = q0.copy(), v0.copy(), pos0.copy()
+    q, v, pos = st.q.copy(), st.v.copy(), st.pos.copy()
     v_prev, pos_prev = v.copy(), pos.copy()
     dth_prev, dv_prev = dth[0].copy(), dvel[0].copy()
-    b_g = np.zeros(3)
-    b_a = np.zeros(3)
-    s_ldv = s0
-    P = np.diag(p0)
-    cdb = c_db(pitch_l, heading_l)
+    a_th = np.empty(3)
+    a_dv = np.empty(3)
+    f_n = np.empty(3)
+    b_g, b_a = st.bias[:3].copy(), st.bias[3:].copy()
+    s_ldv = ldv.s0
+    P = np.diag(dmp.p0)
+    Pm = np.empty((N, N))
+    Phi = np.empty((N, N))
+    M = np.empty((N, N))
+    fin = np.zeros(N_FIN)  # what Φ is built from, as the navigation filter stores it per epoch
+    no_tau = np.zeros(N)  # no Gauss–Markov states
+    c_sn = np.empty((3, 3))
+    c_bn = np.empty((3, 3))
+    rotating = c_bs.shape[0] > 1
+    cdb = c_db(ldv.pitch, ldv.heading)
     fsum = np.zeros(3)
     racc = np.zeros(3)  # residual v_SINS − v_LDV summed over the period
     vlacc = np.zeros(3)
@@ -103,16 +111,11 @@ def run_damping(
     for k in range(n_s):
         dt = t[k] - t_prev
         t_prev = t[k]
-        a_th = dth[k] - b_g * dt
-        a_dv = dvel[k] - b_a * dt
-        q_new, v_new, p_new, f_n = mech_step(
-            q, v, pos, v_prev, pos_prev, a_th, a_dv, dth_prev, dv_prev, dt, 0.0, 0.0, 0.0
+        mech_sample(
+            imu, k, dt, b_g, b_a, 0.0, -1, q, v, pos, v_prev, pos_prev, dth_prev, dv_prev, a_th, a_dv, f_n, fsum
         )
-        v_prev, pos_prev = v, pos
-        q, v, pos = q_new, v_new, p_new
-        dth_prev, dv_prev = a_th, a_dv
-        fsum += f_n * dt
-        c_bn = q_to_c(q) @ (c_bs[k] if c_bs.shape[0] > 1 else c_bs[0])
+        q_to_c_into(q, c_sn)
+        _body(c_sn, c_bs, k, rotating, c_bn)
         if ldv_ok[k] and t[k] > zupt_end:
             vd = np.array([0.0, nu_f[k] * s_ldv, 0.0])
             v_l = c_bn @ (cdb @ vd)
@@ -130,11 +133,8 @@ def run_damping(
         T = t[k] - t_epoch
         t_epoch = t[k]
         epoch_no += 1
-        F = build_f(N, q_to_c(q), fsum / T, v, pos[0], pos[2])
-        Phi = discretize(F, T)
-        P = Phi @ P @ Phi.T
-        for i in range(N):
-            P[i, i] += qd[i] * T
+        propagate_epoch(fin, c_sn, fsum, v, pos, 0.0, T, no_tau, -1, qd, P, Phi, M, Pm)
+        P, Pm = Pm, P
         # the working covariance: [x_k] alone, or [x_k; clone] when a delayed state is carried
         aug = mode == 2 and have_prev
         na = 2 * N if aug else N
@@ -213,7 +213,7 @@ def run_damping(
             P_cross = P.copy()
             have_prev = True
         # feedback
-        q, v, pos, v_prev, pos_prev, b_g, b_a = feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
+        _feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
         s_ldv = s_ldv - x[15]
         q_out[k] = q
         v_out[k] = v

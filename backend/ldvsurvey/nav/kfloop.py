@@ -15,7 +15,9 @@ with the same arithmetic, so the same numbers bit for bit, and runs backwards th
 per epoch whatever the IMU rate.
 
 Inputs come grouped (:class:`ImuIn`, :class:`Model`, :class:`LdvIn`, :class:`GnssIn`,
-:class:`Start`): named tuples of arrays and scalars that numba compiles as they are.
+:class:`Start`): named tuples of arrays and scalars that numba compiles as they are. The work of
+a sample (:func:`mech_sample`) and of an epoch's covariance propagation (:func:`propagate_epoch`)
+is shared with the water-velocity damping filter (:mod:`ldvsurvey.nav.damping`).
 
 Augmented LDV states (when enabled, in this order after the 15): δs_f, δη_L (rad), δφ_L (rad),
 δs_u, δk_η (rad per m/s²), where s = 1/K is the factor applied to the measured speed
@@ -135,6 +137,46 @@ def _phi_into(fin, T, inv_tau, i_sz, Phi):
             for jj in range(n):
                 Phi[i, jj] = 0.0
             Phi[i, i] = (1.0 + A[i, i]) + 0.5 * (A[i, i] * A[i, i])
+
+
+@nb.njit(cache=True)
+def mech_sample(imu, k, dt, b_g, b_a, s_z, i_sz, q, v, pos, v_prev, pos_prev, dth_prev, dv_prev, a_th, a_dv, f_n, fsum):
+    """Mechanize IMU sample k over ``dt`` (s) with the bias estimates b_g (rad/s), b_a (m/s²) and,
+    when ``i_sz`` ≥ 0, the z-gyro scale factor s_z removed; the work of every sample of the filters
+    (this module's and :mod:`ldvsurvey.nav.damping`). In place: q, v, pos, v_prev, pos_prev (see
+    :func:`~ldvsurvey.nav.mech.mech_step_into`), dth_prev, dv_prev ← the corrected increments
+    a_th, a_dv; f_n ← the mean specific force in n, fsum += f_n dt. Returns the corrected z-gyro
+    increment (rad) for the epoch's mean ω_z."""
+    gx = imu.xi[k] if len(imu.xi) > 0 else 0.0
+    ge = imu.eta[k] if len(imu.xi) > 0 else 0.0
+    gd = imu.dg[k] if len(imu.xi) > 0 else 0.0
+    for i in range(3):
+        a_th[i] = imu.dth[k, i] - b_g[i] * dt
+    if i_sz >= 0:  # z-gyro scale factor: ω̃_z = (1 + s_z) ω_z
+        a_th[2] -= s_z * a_th[2]
+    for i in range(3):
+        a_dv[i] = imu.dvel[k, i] - b_a[i] * dt
+    mech_step_into(q, v, pos, v_prev, pos_prev, a_th, a_dv, dth_prev, dv_prev, dt, gx, ge, gd, f_n)
+    for i in range(3):
+        dth_prev[i] = a_th[i]
+        dv_prev[i] = a_dv[i]
+        fsum[i] += f_n[i] * dt
+    return a_th[2]
+
+
+@nb.njit(cache=True)
+def propagate_epoch(fj, c_sn, fsum, v, pos, wz_sum, T, inv_tau, i_sz, qd, P, Phi, M, out):
+    """Covariance propagation over an epoch of T s: ``fj`` (:data:`N_FIN`) ← what Φ is built from
+    (C_s^n, mean specific force fsum/T, v, lat, h, mean ω_z = wz_sum/T), Φ (into ``Phi``), and
+    out = Φ P Φᵀ + diag(qd) T (M: work space). The same for this module's filter and the damping one."""
+    for i in range(3):
+        for jj in range(3):
+            fj[3 * i + jj] = c_sn[i, jj]
+        fj[9 + i] = fsum[i] / T
+        fj[12 + i] = v[i]
+    fj[15], fj[16], fj[17] = pos[0], pos[2], wz_sum / T
+    _phi_into(fj, T, inv_tau, i_sz, Phi)
+    _propagate(P, Phi, qd, T, M, out)
 
 
 @nb.njit(cache=True)
@@ -317,7 +359,6 @@ def forward(imu, mdl, ldv, gnss, st):
     correction of f_U), fb (N,) (C_s^n b̂_a)_U; per epoch (M+1): packed P⁺, Φ inputs, Δt, dx, LDV
     parameters, biases, normalized innovations (M+1, 9); rejections (3,); z-gyro scale (M+1,)."""
     t, dth, dvel, c_bs = imu.t, imu.dth, imu.dvel, imu.c_bs
-    xi, eta, dg = imu.xi, imu.eta, imu.dg
     decim, qd, inv_tau, i_sz, gate = mdl.decim, mdl.qd, mdl.inv_tau, mdl.i_sz, mdl.gate
     nu_f, nu_u, ldv_ok, l_ldv, aug_idx, a_fwd = ldv.nu_f, ldv.nu_u, ldv.ok, ldv.lever, ldv.aug_idx, ldv.a_fwd
     ldv_up = ldv.up
@@ -374,7 +415,6 @@ def forward(imu, mdl, ldv, gnss, st):
         sig_f[0, i] = np.sqrt(max(P[i, i], 0.0))
     par_out[0] = par
     bias_out[0, :3], bias_out[0, 3:] = b_g, b_a
-    has_g = len(xi) > 0
     t_prev = t[0] - (t[1] - t[0])
     t_epoch = t_prev
     # accumulators over the current epoch
@@ -412,21 +452,11 @@ def forward(imu, mdl, ldv, gnss, st):
     for k in range(n_s):
         dt = t[k] - t_prev
         t_prev = t[k]
-        gx = xi[k] if has_g else 0.0
-        ge = eta[k] if has_g else 0.0
-        gd = dg[k] if has_g else 0.0
-        for i in range(3):
-            a_th[i] = dth[k, i] - b_g[i] * dt
-        if i_sz >= 0:  # z-gyro scale factor: ω̃_z = (1 + s_z) ω_z
-            a_th[2] -= s_z * a_th[2]
-            wz_sum += a_th[2]
-        for i in range(3):
-            a_dv[i] = dvel[k, i] - b_a[i] * dt
-        mech_step_into(q, v, pos, v_prev, pos_prev, a_th, a_dv, dth_prev, dv_prev, dt, gx, ge, gd, f_n)
-        for i in range(3):
-            dth_prev[i] = a_th[i]
-            dv_prev[i] = a_dv[i]
-            fsum[i] += f_n[i] * dt
+        dwz = mech_sample(
+            imu, k, dt, b_g, b_a, s_z, i_sz, q, v, pos, v_prev, pos_prev, dth_prev, dv_prev, a_th, a_dv, f_n, fsum
+        )
+        if i_sz >= 0:
+            wz_sum += dwz
         q_to_c_into(q, c_sn)
         if full:
             fu_out[k] = f_n[2]
@@ -505,15 +535,7 @@ def forward(imu, mdl, ldv, gnss, st):
         j += 1
         T = t[k] - t_epoch
         t_epoch = t[k]
-        fj = fin[j]
-        for i in range(3):
-            for jj in range(3):
-                fj[3 * i + jj] = c_sn[i, jj]
-            fj[9 + i] = fsum[i] / T
-            fj[12 + i] = v[i]
-        fj[15], fj[16], fj[17] = pos[0], pos[2], wz_sum / T
-        _phi_into(fj, T, inv_tau, i_sz, Phi)
-        _propagate(P, Phi, qd, T, M, Pm)
+        propagate_epoch(fin[j], c_sn, fsum, v, pos, wz_sum, T, inv_tau, i_sz, qd, P, Phi, M, Pm)
         P, Pm = Pm, P
         dts[j] = T
         x[:] = 0.0

@@ -7,8 +7,9 @@ from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import q_from_c
-from ldvsurvey.nav.damping import MODES, run_damping
+from ldvsurvey.nav.damping import MODES, Damping, WaterLdv, run_damping
 from ldvsurvey.nav.earth import enu_offset_m
+from ldvsurvey.nav.kfloop import ImuIn, Start
 from ldvsurvey.pipelines.base import (
     LogFacts,
     Params,
@@ -131,33 +132,32 @@ def run(logs, params, progress) -> PipelineResult:
     nom = m.ldv.nominal
     results = {}
     lever = np.asarray(m.gnss.lever_arm_m, float)
+    empty = np.empty(0)
+    imu = ImuIn(inp.t_s, inp.dtheta_rad, inp.dvel_mps, cbs_arr, empty, empty, empty)  # normal gravity
+    start = Start(q0, np.zeros(3), inp.pos0, np.zeros(6))
+    water = WaterLdv(
+        inp.ldv_ok,
+        inp.nu_f_mps,
+        1.0 / nom.scale,
+        nom.pitch_deg * DEG,
+        nom.heading_deg * DEG,
+        float(params["ldv_sigma_mps"]),
+    )
+    dmp = Damping(
+        mode=0,
+        period_s=float(params["period_s"]),
+        ds_every=max(1, int(round(params["delayed_baseline_s"] / params["period_s"]))),
+        gate=float(params["delayed_gate_sigma"]),
+        zupt_end_s=float(inp.static_end_s),
+        p0=p0,
+        qd=qd,
+        h_ref=float(inp.pos0[2]),  # the vessel stays on the water surface
+        vu_sigma=0.05,
+        h_sigma=0.5,
+    )
     for i, name in enumerate(MODES):
         progress(f"{name.replace('_', ' ')} navigation", 0.1 + 0.28 * i)
-        q, v, p, s, n_rej = run_damping(
-            inp.t_s,
-            inp.dtheta_rad,
-            inp.dvel_mps,
-            q0,
-            np.zeros(3),
-            inp.pos0,
-            MODES[name],
-            params["period_s"],
-            inp.static_end_s,
-            inp.ldv_ok,
-            inp.nu_f_mps,
-            1.0 / nom.scale,
-            nom.pitch_deg * DEG,
-            nom.heading_deg * DEG,
-            p0,
-            qd,
-            params["ldv_sigma_mps"],
-            float(inp.pos0[2]),
-            0.05,
-            0.5,
-            max(1, int(round(params["delayed_baseline_s"] / params["period_s"]))),
-            params["delayed_gate_sigma"],
-            cbs_arr,
-        )
+        q, v, p, s, n_rej = run_damping(imu, start, water, dmp._replace(mode=MODES[name]))
         # errors against GNSS (antenna → IMU centre) at the fixes after the moored period
         use = tg > inp.static_end_s
         from ldvsurvey.nav.attitude import c_from_q
