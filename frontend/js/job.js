@@ -36,10 +36,11 @@ export async function jobPage(ctx, app, id) {
 function showState(j) {
   render($("#jobstatus"), html`<span class="status-${j.status}">${j.status}</span>`);
   const running = ACTIVE.includes(j.status);
+  const progress = html`<progress value="${j.progress}" max="100"></progress> <span id="jobstage">${j.stage}</span>`;
   render(
     $("#jobstate"),
     html`<div class="card" id="state">
-      ${running ? html`<progress value="${j.progress}" max="100"></progress> <span id="jobstage">${j.stage}</span>` : ""}
+      ${running ? progress : ""}
       ${j.status === "failed" ? html`<p class="error" id="joberror">${j.error || "failed"}</p>` : ""}
       ${
         j.status === "cancelled"

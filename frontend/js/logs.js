@@ -27,7 +27,7 @@ export async function logsPage(ctx, app) {
           >Platform
           <select id="f-platform">
             <option value="">all</option>
-            ${["vehicle", "vessel"].map((p) => html`<option ${q.get("platform") === p ? "selected" : ""}>${p}</option>`)}
+            ${["vehicle", "vessel"].map((p) => platformOption(p, q))}
           </select></label
         >
         <label>Surveyed from <input type="date" id="f-from" value="${q.get("from") || ""}" /></label>
@@ -96,6 +96,10 @@ async function refreshLogs(ctx, names) {
       refreshLogs(ctx, names);
     }),
   );
+}
+
+function platformOption(p, q) {
+  return html`<option ${q.get("platform") === p ? "selected" : ""}>${p}</option>`;
 }
 
 function row(l, names) {

@@ -55,7 +55,8 @@ def _truth_error(sim, res, column="dg_mgal"):
     tf = zero_phase_lowpass(dg, FIR_S, 100.0) / MGAL
     on = np.array([x != "" for x in g["line"]])
     e = g[column][on] - np.interp(g["t_s"][on], 0.5 * (im.t_s[1:] + im.t_s[:-1]), tf)
-    e -= np.nanmean(e)
+    if np.isfinite(e).any():
+        e -= np.nanmean(e)
     names = np.array(g["line"])[on]
     return {
         n: float(np.sqrt(np.nanmean(e[names == n] ** 2))) if np.isfinite(e[names == n]).any() else np.nan
@@ -136,7 +137,13 @@ def test_sins_gnss_and_gnss_aided_beside(with_dropouts):
     # rest is reported as withheld. The full drive: benchmarks/bench_gravity.py.
     shown = [v for v in err.values() if np.isfinite(v)]
     assert all(v <= 3.0 for v in shown), err
-    assert any(ln["unsupported_s"] > 0 for ln in gc["lines"])  # withheld stretches are reported
+    # on this drive every RTK stretch is shorter than the FIR, so nothing may be shown (the accuracy of
+    # shown values is tested where RTK lasts: tests/pipelines/test_gravity_chains.py); what is withheld
+    # must be said, line by line
+    assert any(ln["unsupported_s"] > 0 for ln in gc["lines"])
+    for name, v in err.items():
+        ln = next(x for x in gc["lines"] if x["name"] == name)
+        assert np.isfinite(v) or ln.get("no_data") or ln["unsupported_s"] > 0, (name, ln)
     for ln in gc["lines"]:
         assert ln.get("no_data") or ln["rms_mgal"] is not None or ln["unsupported_s"] > 0
     aided = s["gnss_aided"]
