@@ -55,13 +55,13 @@ export async function accountPage(ctx, app) {
         method: "POST",
         json: { name: $("#token-name").value, expires_days: days === "" ? null : Number(days) },
       });
+      await refreshTokens(ctx); // the list holds the new token by the time its secret is shown
       render(
         $("#token-msg"),
         html`<p class="ok">
           New token <b>${t.name}</b> (copy it now, it is not shown again): <code id="new-token">${t.token}</code>
         </p>`,
       );
-      await refreshTokens(ctx);
     } catch (err) {
       render($("#token-msg"), html`<p class="error">${err.message}</p>`);
     }
@@ -86,9 +86,13 @@ export async function accountPage(ctx, app) {
   await refreshTokens(ctx);
 }
 
+// the newest request wins: the page's first load of the list may answer after a later refresh
+let tokenListRequest = 0;
+
 async function refreshTokens(ctx) {
+  const request = ++tokenListRequest;
   const tokens = await api("/api/tokens");
-  if (!ctx.alive) return;
+  if (!ctx.alive || request !== tokenListRequest) return;
   const tb = $("#tokens tbody");
   render(
     tb,
