@@ -360,28 +360,13 @@ def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0, name: str 
     archive is read from disk member by member, never held in memory whole).
     Files may sit at the top level or inside one common top folder.
     """
-    try:
-        zf = zipfile.ZipFile(io.BytesIO(data) if isinstance(data, (bytes, bytearray, memoryview)) else data)
-        infos = zf.infolist()
-    except (zipfile.BadZipFile, EOFError, ValueError) as exc:
-        raise BundleError(f"not a readable zip archive (truncated or corrupt: {exc})", file=name) from None
+    zf, infos = _open_zip(io.BytesIO(data) if isinstance(data, (bytes, bytearray, memoryview)) else data, name)
     members = {}
     total = 0
     for info in infos:
         fn = info.filename
-        if fn.startswith(("/", "\\")) or (len(fn) > 1 and fn[1] == ":") or ".." in fn.replace("\\", "/").split("/"):
-            raise BundleError(f"unsafe path in archive: '{fn}'", file=name, field=fn)
-        if info.is_dir() or fn.startswith("__MACOSX/") or posixpath.basename(fn).startswith("._"):
+        if not _screen_member(info, name, total, max_unzipped_bytes, max_ratio):
             continue
-        if info.file_size > max_unzipped_bytes or total + info.file_size > max_unzipped_bytes:
-            raise TooLargeError(f"archive unpacks to more than {max_unzipped_bytes} bytes", file=name, field=fn)
-        if info.compress_size and info.file_size / info.compress_size > max_ratio and info.file_size > 1 << 20:
-            raise TooLargeError(
-                f"member '{fn}' compresses {info.file_size / info.compress_size:.0f}:1 "
-                f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb",
-                file=name,
-                field=fn,
-            )
         try:
             with zf.open(info) as fh:  # read with a hard cap: headers can lie
                 content = fh.read(max_unzipped_bytes - total + 1)
@@ -415,31 +400,15 @@ def stage_zip(
     memory whole; the checks and messages of :func:`read_zip`. Files of the archive that are not
     part of the format map to ``b""`` (the parser names them in a warning; they are not inflated)."""
     name = name or Path(path).name
-    try:
-        zf = zipfile.ZipFile(path)
-        infos = zf.infolist()
-    except (zipfile.BadZipFile, EOFError, ValueError) as exc:
-        raise BundleError(f"not a readable zip archive (truncated or corrupt: {exc})", file=name) from None
+    zf, infos = _open_zip(path, name)
     with zf:
         entries = []
         declared = 0
         for info in infos:
-            fn = info.filename
-            if fn.startswith(("/", "\\")) or (len(fn) > 1 and fn[1] == ":") or ".." in fn.replace("\\", "/").split("/"):
-                raise BundleError(f"unsafe path in archive: '{fn}'", file=name, field=fn)
-            if info.is_dir() or fn.startswith("__MACOSX/") or posixpath.basename(fn).startswith("._"):
+            if not _screen_member(info, name, declared, max_unzipped_bytes, max_ratio):
                 continue
             declared += info.file_size
-            if info.file_size > max_unzipped_bytes or declared > max_unzipped_bytes:
-                raise TooLargeError(f"archive unpacks to more than {max_unzipped_bytes} bytes", file=name, field=fn)
-            if info.compress_size and info.file_size / info.compress_size > max_ratio and info.file_size > 1 << 20:
-                raise TooLargeError(
-                    f"member '{fn}' compresses {info.file_size / info.compress_size:.0f}:1 "
-                    f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb",
-                    file=name,
-                    field=fn,
-                )
-            entries.append((fn, info))
+            entries.append((info.filename, info))
         if not entries:
             raise BundleError("archive holds no files", file=name)
         names = [fn for fn, _ in entries]
@@ -498,3 +467,36 @@ def read_bundle_path(path: str | Path, max_unzipped_bytes: int = 4 << 30) -> dic
 def load_bundle(path: str | Path) -> DriveLog:
     """Read, validate and parse a bundle from a zip or folder path."""
     return parse_files(read_bundle_path(path))
+
+
+def _open_zip(source, name: str):
+    """The open archive of ``source`` (a path or a binary file object) and its member list; a
+    :class:`BundleError` naming ``name`` when it is not a readable zip."""
+    try:
+        zf = zipfile.ZipFile(source)
+        return zf, zf.infolist()
+    except (zipfile.BadZipFile, EOFError, ValueError) as exc:
+        raise BundleError(f"not a readable zip archive (truncated or corrupt: {exc})", file=name) from None
+
+
+def _screen_member(
+    info: zipfile.ZipInfo, name: str, before_bytes: int, max_unzipped_bytes: int, max_ratio: float
+) -> bool:
+    """Whether member ``info`` of archive ``name`` is a file to read (False: a folder or macOS
+    metadata). Refuses an unsafe path, a total past ``max_unzipped_bytes`` (``before_bytes``
+    unpacked before this member) and a compression ratio past ``max_ratio`` (a possible zip bomb)."""
+    fn = info.filename
+    if fn.startswith(("/", "\\")) or (len(fn) > 1 and fn[1] == ":") or ".." in fn.replace("\\", "/").split("/"):
+        raise BundleError(f"unsafe path in archive: '{fn}'", file=name, field=fn)
+    if info.is_dir() or fn.startswith("__MACOSX/") or posixpath.basename(fn).startswith("._"):
+        return False
+    if info.file_size > max_unzipped_bytes or before_bytes + info.file_size > max_unzipped_bytes:
+        raise TooLargeError(f"archive unpacks to more than {max_unzipped_bytes} bytes", file=name, field=fn)
+    if info.compress_size and info.file_size / info.compress_size > max_ratio and info.file_size > 1 << 20:
+        raise TooLargeError(
+            f"member '{fn}' compresses {info.file_size / info.compress_size:.0f}:1 "
+            f"(limit {max_ratio:.0f}:1): refusing a possible zip bomb",
+            file=name,
+            field=fn,
+        )
+    return True
