@@ -18,6 +18,7 @@ from sqlalchemy.exc import IntegrityError
 from ldvsurvey.errors import InputError
 from ldvsurvey.jobs.queue import make_huey
 from ldvsurvey.pipelines.base import Cancelled, LogFacts, Progress, result_files, run_pipeline
+from ldvsurvey.pipelines.gridctx import GRID_CACHE
 from ldvsurvey.store.db import session_scope
 from ldvsurvey.store.models import Job, JobFile
 
@@ -31,6 +32,33 @@ def log_facts(row) -> LogFacts:
 
 def now() -> dt.datetime:
     return dt.datetime.now(dt.UTC)
+
+
+class LazyGridCache:
+    """The database's DOV grid cache (:class:`~ldvsurvey.store.gridcache.DbGridCache`), imported on first use.
+
+    Every job offers the pipeline this cache; most pipelines never ask it for a grid, and importing the
+    store's cache imports the grid code (:mod:`ldvsurvey.nav.dovgrid`) a navigate or gravity job does not need.
+    """
+
+    def __init__(self, database_url: str):
+        self.database_url = database_url
+        self._cache = None
+
+    def _db(self):
+        if self._cache is None:
+            from ldvsurvey.store.gridcache import DbGridCache
+
+            self._cache = DbGridCache(self.database_url)
+        return self._cache
+
+    def get(self, key: str):
+        """The grid stored under ``key`` (a :class:`~ldvsurvey.nav.dovgrid.DovGrid`), or None."""
+        return self._db().get(key)
+
+    def put(self, key: str, grid) -> None:
+        """Store ``grid`` under ``key``."""
+        self._db().put(key, grid)
 
 
 class JobRunner:
@@ -118,17 +146,13 @@ class JobRunner:
                 logs = [load_drivelog(s, i) for i in log_ids]
             if any(lg is None for lg in logs):
                 raise InputError("a log of this job was deleted", field="log_ids")
-            token = None
-            if True:  # every pipeline may use DOV grids: the EGM2008 cache and the uploaded grids
-                from ldvsurvey.pipelines.dov import GRID_CACHE
-                from ldvsurvey.store.gridcache import DbGridCache
-
-                token = GRID_CACHE.set(DbGridCache(url))
+            # every pipeline may use DOV grids (the EGM2008 cache, the uploaded grids): the store's cache,
+            # imported only when a pipeline asks it for a grid
+            token = GRID_CACHE.set(LazyGridCache(url))
             try:
                 result = run_pipeline(pipe, logs, params, Progress(report, cancelled))
             finally:
-                if token is not None:
-                    GRID_CACHE.reset(token)
+                GRID_CACHE.reset(token)
             files = result_files(result)
             try:
                 with session_scope(url) as s:  # results written once, in one transaction

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import contextvars
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -32,12 +31,10 @@ from ldvsurvey.pipelines.base import (
     output_rate,
     rate_within_imu,
 )
+from ldvsurvey.pipelines.gridctx import GRID_CACHE  # defined there, so setting it need not import this module
 from ldvsurvey.pipelines.inputs import c_bs_of, gnss_ins, nav_inputs
 from ldvsurvey.pipelines.plumb import load_grids
 from ldvsurvey.pipelines.tiltfit import tilt_stage
-
-#: a grid cache the caller may provide (the store's database cache); get(key) -> DovGrid | None, put(key, grid)
-GRID_CACHE: contextvars.ContextVar = contextvars.ContextVar("dov_grid_cache", default=None)
 
 
 class DovStudyParams(Params):

@@ -74,7 +74,7 @@ def load_grids(paths) -> DovGrid:
 
 
 def _uploaded(grid_id: str) -> DovGrid:
-    from ldvsurvey.pipelines.dov import GRID_CACHE
+    from ldvsurvey.pipelines.gridctx import GRID_CACHE
 
     cache = GRID_CACHE.get()
     if cache is None:
@@ -88,7 +88,7 @@ def _uploaded(grid_id: str) -> DovGrid:
 
 
 def _egm(lat_deg, lon_deg, progress) -> DovGrid:
-    from ldvsurvey.pipelines.dov import GRID_CACHE
+    from ldvsurvey.pipelines.gridctx import GRID_CACHE
 
     area = area_for_track(lat_deg, lon_deg, EGM_STEP_ARCMIN)
     key = f"egm2008:deg{EGM_DEGREE}:step{EGM_STEP_ARCMIN}:{area}"
