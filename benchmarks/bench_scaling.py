@@ -128,6 +128,11 @@ import ldvsurvey.jobs.worker as worker  # what huey_consumer imports at start
 t1 = time.perf_counter()
 info = {"start_s": time.time() - spawned, "import_s": t1 - t0, "start_cpu_s": cpu(), "start_rss_mb": hwm_mb(),
         "warming": worker._warmup_thread is not None, "jobs": []}
+if len(sys.argv) > 6:  # the breakdown: the pipeline's modules imported before its first job, timed apart
+    from ldvsurvey.pipelines.registry import get
+    ta, ca = time.perf_counter(), cpu()
+    get(sys.argv[1])
+    info["pipeline_import_s"], info["pipeline_import_cpu_s"] = time.perf_counter() - ta, cpu() - ca
 from sqlalchemy import func, select
 from ldvsurvey.store.db import session_scope
 from ldvsurvey.store.models import Job, JobFile
@@ -305,6 +310,15 @@ def bench_jobs(
                 )
                 for m in ("job first", "job warm")
             )
+            # the breakdown of the first job's extra: a third fresh worker imports the pipeline before its job
+            cmd = [py, "-c", WORKER, name, str(stored["log_id"]), json.dumps(params), repr(time.time()), "1", "import"]
+            _, _, rc, text, _ = _run(cmd, env)
+            pre = json.loads(text.strip().splitlines()[-1]) if rc == 0 else {}
+            if pre.get("jobs") and pre["jobs"][0]["status"] == "succeeded":
+                first["pipeline_import_s"] = pre["pipeline_import_s"]
+                first["pipeline_import_cpu_s"] = pre["pipeline_import_cpu_s"]
+                first["after_import_cpu_s"] = pre["jobs"][0]["cpu_s"]
+                first["after_import_s"] = pre["jobs"][0]["wall_s"]
             if first["ok"] and warm["ok"]:
                 first["extra_s"] = first["wall_s"] - warm["wall_s"]
                 first["extra_cpu_s"] = first["cpu_s"] - warm["cpu_s"]
@@ -318,6 +332,15 @@ def bench_jobs(
                     f"+{first['extra_new_process_s']:.2f} s in a process that starts with the job",
                     flush=True,
                 )
+                if "pipeline_import_cpu_s" in first:
+                    print(
+                        f"{'':>20}of which: the pipeline's imports {first['pipeline_import_s']:.2f} s "
+                        f"(CPU {first['pipeline_import_cpu_s']:.2f} s); the first job after them "
+                        f"{first['after_import_s']:.2f} s (CPU {first['after_import_cpu_s']:.2f} s: +"
+                        f"{first['after_import_cpu_s'] - warm['cpu_s']:.2f} s over warm: numba's cached code, "
+                        "first calls)",
+                        flush=True,
+                    )
 
 
 def marginal(rows: list[dict]) -> list[dict]:
