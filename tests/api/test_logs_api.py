@@ -23,6 +23,26 @@ def test_health(client):
     assert r.status_code == 200 and r.json()["status"] == "ok"
 
 
+def test_server_start_and_stop_start_and_stop_the_job_consumer(settings):
+    """The app's lifespan: the reaper and the in-process job consumer run while the server does."""
+    from fastapi.testclient import TestClient
+
+    from ldvsurvey.api.app import create_app
+
+    app = create_app(settings)
+    consumer = app.state.consumer
+    assert not consumer._reaper.is_alive()  # building the app starts nothing
+    threads = [t for _, t in consumer.consumer.worker_threads]
+    assert len(threads) == settings.workers and not any(t.is_alive() for t in threads)
+    with TestClient(app):
+        assert consumer._reaper.is_alive() and all(t.is_alive() for t in threads)
+        assert not consumer.consumer.stop_flag.is_set()
+    assert consumer._stop.is_set() and consumer.consumer.stop_flag.is_set()
+    for t in [consumer._reaper, *threads]:
+        t.join(30)
+        assert not t.is_alive()
+
+
 def test_openapi_docs(client):
     assert client.get("/docs").status_code == 200
     paths = client.get("/openapi.json").json()["paths"]
