@@ -136,6 +136,8 @@ def test_job_download_as_geojson_and_kml(client, recordings):
     k = client.get(f"/api/jobs/{job_id}/files/trajectory.csv?format=kml")
     assert k.status_code == 200 and b'xmlns="http://www.opengis.net/kml/2.2"' in k.content
     assert client.get(f"/api/jobs/{job_id}/files/trajectory.csv?format=shp").status_code == 422
+    missing = client.get(f"/api/jobs/{job_id}/files/no_such.csv?format=geojson")
+    assert missing.status_code == 404 and missing.json()["detail"] == f"job {job_id} has no file 'no_such.csv'"
 
 
 def test_formats_hint_and_partial_manifest_as_a_json_file(client):
