@@ -11,7 +11,7 @@ import pytest
 
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, manifest, simulate
-from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu
+from tests.io.import_helpers import kfgins_gnss, kfgins_imu
 
 
 @pytest.fixture(scope="module")
