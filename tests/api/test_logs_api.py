@@ -23,6 +23,26 @@ def test_health(client):
     assert r.status_code == 200 and r.json()["status"] == "ok"
 
 
+def test_server_start_and_stop_start_and_stop_the_job_consumer(settings):
+    """The app's lifespan: the reaper and the in-process job consumer run while the server does."""
+    from fastapi.testclient import TestClient
+
+    from ldvsurvey.api.app import create_app
+
+    app = create_app(settings)
+    consumer = app.state.consumer
+    assert not consumer._reaper.is_alive()  # building the app starts nothing
+    threads = [t for _, t in consumer.consumer.worker_threads]
+    assert len(threads) == settings.workers and not any(t.is_alive() for t in threads)
+    with TestClient(app):
+        assert consumer._reaper.is_alive() and all(t.is_alive() for t in threads)
+        assert not consumer.consumer.stop_flag.is_set()
+    assert consumer._stop.is_set() and consumer.consumer.stop_flag.is_set()
+    for t in [consumer._reaper, *threads]:
+        t.join(30)
+        assert not t.is_alive()
+
+
 def test_openapi_docs(client):
     assert client.get("/docs").status_code == 200
     paths = client.get("/openapi.json").json()["paths"]
@@ -81,6 +101,91 @@ def test_delete_removes_every_row_and_blob(client, db_counts):
     assert client.delete(f"/api/logs/{a}").status_code == 404
     assert client.delete(f"/api/logs/{b}").status_code == 204
     assert db_counts() == EMPTY
+
+
+#: downloads an original in a fresh process (no other test's threads allocating meanwhile) and
+#: prints the bytes, their SHA-256 and the peak of Python allocations while it ran
+_MEASURE_DOWNLOAD = """
+import hashlib, json, sys, tracemalloc
+from fastapi.testclient import TestClient
+from ldvsurvey.api.app import create_app
+from ldvsurvey.settings import Settings
+
+settings, url = Settings.model_validate_json(sys.argv[1]), sys.argv[2]
+with TestClient(create_app(settings)) as client:
+    n, digest = 0, hashlib.sha256()
+    tracemalloc.start()
+    with client.stream("GET", url, headers={"Accept-Encoding": "identity"}) as r:
+        for piece in r.iter_raw():
+            n += len(piece)
+            digest.update(piece)
+    peak = tracemalloc.get_traced_memory()[1]
+print(json.dumps({"status": r.status_code, "n": n, "sha256": digest.hexdigest(), "peak": peak}))
+"""
+
+
+def test_large_original_streams_from_its_file(settings, monkeypatch):
+    """An original too large for its row is sent from the blob folder a piece at a time: byte for
+    byte, with the headers a small one gets, never read whole into memory."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from fastapi.testclient import TestClient
+    from sqlalchemy import select
+
+    from ldvsurvey.api.app import create_app
+    from ldvsurvey.api.logs import DOWNLOAD_CHUNK_BYTES
+    from ldvsurvey.store import blobs
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.models import LogFile
+
+    files = make_bundle(seed=25, n_imu=40000)
+    big = files["imu.csv"]
+    sha = hashlib.sha256(big).hexdigest()
+    assert len(big) > 4 * blobs.INLINE_MAX_BYTES and len(big) > 16 * DOWNLOAD_CHUNK_BYTES
+    settings = settings.model_copy(update={"run_consumer": False})
+    app = create_app(settings)
+    with TestClient(app) as client:
+        r = _post_zip(client, zip_bytes(files))
+        assert r.status_code == 201, r.text
+        url = f"/api/logs/{r.json()['id']}/files/imu.csv"
+        with session_scope(app.state.database_url) as s:
+            where = dict(s.execute(select(LogFile.name, LogFile.blob).where(LogFile.log_id == r.json()["id"])).all())
+        assert where["imu.csv"] is not None and where["gnss.nmea"] is None  # one in the blob folder, one in its row
+
+        plain = {"Accept-Encoding": "identity"}
+        with monkeypatch.context() as mp:  # the route must not load the file (LogFile.content reads it whole)
+            mp.setattr(LogFile, "content", property(lambda _f: pytest.fail("the download read the whole file")))
+            pieces, digest = [], hashlib.sha256()
+            with client.stream("GET", url, headers=plain) as f:
+                for piece in f.iter_raw():  # each ASGI body message as sent: the test client passes them one by one
+                    digest.update(piece)
+                    pieces.append(len(piece))
+        assert f.status_code == 200 and sum(pieces) == len(big) and digest.hexdigest() == sha
+        assert max(pieces) <= DOWNLOAD_CHUNK_BYTES and len(pieces) >= len(big) // DOWNLOAD_CHUNK_BYTES
+        assert f.headers["content-type"] == "text/csv; charset=utf-8"
+        assert f.headers["content-disposition"] == 'attachment; filename="imu.csv"'
+        assert f.headers["content-length"] == str(len(big)) and f.headers["x-content-sha256"] == sha
+        small = client.get(url.replace("imu.csv", "gnss.nmea"), headers=plain)
+        assert small.content == files["gnss.nmea"] and set(f.headers) == set(small.headers)
+
+        # compressed on the way, as the whole-body answer was: decoded, the same bytes
+        z = client.get(url)
+        assert z.headers["content-encoding"] == "gzip" and z.content == big and z.headers["x-content-sha256"] == sha
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    out = subprocess.run(
+        [sys.executable, "-c", _MEASURE_DOWNLOAD, settings.model_dump_json(), url],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+    )
+    got = json.loads(out.stdout.splitlines()[-1])
+    assert got["status"] == 200 and got["n"] == len(big) and got["sha256"] == sha
+    assert got["peak"] < len(big) / 2, f"{got['peak']} bytes allocated at the peak of a {len(big)}-byte download"
 
 
 @pytest.mark.parametrize("name", badinput.CASES)

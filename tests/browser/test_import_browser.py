@@ -13,7 +13,7 @@ from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, manifest, simulate
 from tests.browser.helpers import shot
 from tests.browser.test_dashboard import drop_files
-from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu
+from tests.io.import_helpers import kfgins_gnss, kfgins_imu
 
 pytestmark = pytest.mark.browser
 

@@ -19,7 +19,7 @@ from ldvsurvey.sim.motion import Static
 from ldvsurvey.sim.road import Ramps, Road
 from ldvsurvey.sim.scenario import Scenario, bundle_files, manifest, simulate
 from tests.helpers.nmea import sentence
-from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu, sow_of_midnight
+from tests.io.import_helpers import kfgins_gnss, kfgins_imu, sow_of_midnight
 
 OUT = Path("docs/examples")
 
@@ -58,7 +58,7 @@ def main():
     nv = OUT / "novatel"
     nv.mkdir(exist_ok=True)
     (nv / "span.log").write_bytes(ascii_log(sim, day, np.eye(3), HG1700_AG58))
-    from tests.io.test_import_helpers import rfu_to_frd
+    from tests.io.import_helpers import rfu_to_frd
     from tests.io.test_import_ubx import esf_raw_frames, nav_pvt_frames
 
     _, s0 = sow_of_midnight(day)

@@ -11,7 +11,7 @@ import pytest
 
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, manifest, simulate
-from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu
+from tests.io.import_helpers import kfgins_gnss, kfgins_imu
 
 
 @pytest.fixture(scope="module")
@@ -136,6 +136,8 @@ def test_job_download_as_geojson_and_kml(client, recordings):
     k = client.get(f"/api/jobs/{job_id}/files/trajectory.csv?format=kml")
     assert k.status_code == 200 and b'xmlns="http://www.opengis.net/kml/2.2"' in k.content
     assert client.get(f"/api/jobs/{job_id}/files/trajectory.csv?format=shp").status_code == 422
+    missing = client.get(f"/api/jobs/{job_id}/files/no_such.csv?format=geojson")
+    assert missing.status_code == 404 and missing.json()["detail"] == f"job {job_id} has no file 'no_such.csv'"
 
 
 def test_formats_hint_and_partial_manifest_as_a_json_file(client):

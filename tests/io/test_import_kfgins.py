@@ -16,7 +16,7 @@ from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
-from tests.io.test_import_helpers import kfgins_gnss, kfgins_imu
+from tests.io.import_helpers import kfgins_gnss, kfgins_imu
 
 R_EARTH_M = 6.371e6
 

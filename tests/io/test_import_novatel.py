@@ -16,7 +16,7 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.importers import Source, build_bundle, detect
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, manifest, simulate
-from tests.io.test_import_helpers import sow_of_midnight
+from tests.io.import_helpers import sow_of_midnight
 
 pytest.importorskip("novatel_edie")
 

@@ -14,7 +14,7 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.importers import Source, build_bundle, gpstime
 from ldvsurvey.io.nmea import format_gga
 from tests.helpers.nmea import sentence
-from tests.io.test_import_helpers import sow_of_midnight
+from tests.io.import_helpers import sow_of_midnight
 
 G = 9.80665
 PARTIAL = {"platform": "vehicle", "ldv": {"kind": "1d"}, "imu": {"gyro_bias_dph": 0.01}}

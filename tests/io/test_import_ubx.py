@@ -15,7 +15,7 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.importers import Source, build_bundle, detect, get_importer
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, manifest, simulate
-from tests.io.test_import_helpers import rfu_to_frd, sow_of_midnight
+from tests.io.import_helpers import rfu_to_frd, sow_of_midnight
 
 pyubx2 = pytest.importorskip("pyubx2")
 from pyubx2 import GET, UBXMessage  # noqa: E402

@@ -113,3 +113,36 @@ def test_rotvec_and_attitude_error():
     phi = np.array([1e-5, -2e-5, 3e-5])
     c_est = (np.eye(3) - att.skew(phi)) @ c
     np.testing.assert_allclose(att.attitude_error_rad(c_est, c), phi, atol=1e-12)
+
+
+def _q_to_c_reference(q):
+    """The quaternion-to-matrix formula as both compiled copies wrote it before they became one,
+    in plain Python floats (IEEE double, no contraction: what the compiled code must reproduce)."""
+    w, x, y, z = (float(a) for a in q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def test_q_to_c_and_its_in_place_form_are_one_formula():
+    from ldvsurvey.nav import mech
+
+    rng = np.random.default_rng(7)
+    qs = rng.normal(size=(200, 4))
+    qs /= np.linalg.norm(qs, axis=1, keepdims=True)
+    c = np.full((3, 3), np.nan)
+    for q in qs:
+        ref = _q_to_c_reference(q)
+        np.testing.assert_array_equal(att.q_to_c(q), ref)  # bit for bit
+        att.q_to_c_into(q, c)
+        np.testing.assert_array_equal(c, ref)
+        mech.q_to_c_into(q, c)  # the name the filter loops use
+        np.testing.assert_array_equal(c, ref)
+    # and the formula is the rotation of q (scipy wants scalar-last quaternions)
+    np.testing.assert_allclose(
+        [att.q_to_c(q) for q in qs], Rotation.from_quat(qs[:, [1, 2, 3, 0]]).as_matrix(), rtol=0, atol=1e-15
+    )

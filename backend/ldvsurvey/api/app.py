@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 from pathlib import Path
 
 from fastapi import FastAPI, Request
@@ -49,6 +51,21 @@ def _say_how_to_log_in(url: str, settings: Settings) -> None:
         )
 
 
+@asynccontextmanager
+async def _lifespan(app: FastAPI) -> AsyncIterator[None]:
+    """Start the app's job consumer (``app.state.consumer``) when the server starts, stop it when it
+    stops; when jobs run in this process, compile the numerical core in the background first."""
+    app.state.consumer.start()
+    if app.state.settings.run_consumer:
+        import logging
+
+        from ldvsurvey.pipelines.warmup import start_background_warmup
+
+        start_background_warmup(log=logging.getLogger("ldvsurvey.warmup").info)
+    yield
+    app.state.consumer.stop()
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the app; runs the database migrations (``upgrade head``) first."""
     settings = settings or get_settings()
@@ -64,6 +81,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         docs_url=None,
         redoc_url=None,
         description="Drive logs of SINS + LDV + GNSS: upload, validate, process, compare.",
+        lifespan=_lifespan,
     )
     app.state.settings = settings
     app.state.database_url = url
@@ -116,23 +134,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     from ldvsurvey.jobs.runner import Consumer, JobRunner
 
     app.state.runner = JobRunner(url, settings)  # routes queue jobs through it (ldvsurvey.api.deps.RunnerDep)
-    consumer = Consumer(
+    app.state.consumer = Consumer(  # started and stopped with the server (_lifespan)
         app.state.runner, workers=settings.workers, reap_every_s=settings.reap_every_s, consume=settings.run_consumer
     )
-
-    @app.on_event("startup")
-    def _start_consumer():
-        consumer.start()
-        if settings.run_consumer:  # jobs run in this process: compile the numerical core before the first one
-            import logging
-
-            from ldvsurvey.pipelines.warmup import start_background_warmup
-
-            start_background_warmup(log=logging.getLogger("ldvsurvey.warmup").info)
-
-    @app.on_event("shutdown")
-    def _stop_consumer():
-        consumer.stop()
 
     if FRONTEND_DIR.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")

@@ -10,13 +10,14 @@ from __future__ import annotations
 import hashlib
 import json
 
-from fastapi import APIRouter, File, Form, HTTPException, Request, Response, UploadFile
+from fastapi import APIRouter, File, Form, Request, Response, UploadFile
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api import models as m
 from ldvsurvey.api.auth import CurrentUser, check_upload_rate
 from ldvsurvey.api.deps import SessionDep, SettingsDep
 from ldvsurvey.api.uploads import part_names
+from ldvsurvey.api.views import job_file
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.importers import REGISTRY, Source, build_bundle, detect, parse_partial_manifest
 
@@ -160,22 +161,13 @@ def create_import(
 
 def job_geo_file(session: Session, job, name: str, fmt: str) -> Response:
     """A job's result table converted to GeoJSON or KML (``GET /api/jobs/{id}/files/{name}?format=``)."""
-    from sqlalchemy import select
-
     from ldvsurvey.io.writers import geo_export
     from ldvsurvey.store.logs import load_array
-    from ldvsurvey.store.models import JobFile
-
-    def content(n):
-        f = session.scalar(select(JobFile).where(JobFile.job_id == job.id, JobFile.name == n))
-        if f is None:
-            raise HTTPException(404, f"job {job.id} has no file '{n}'")
-        return f.content
 
     if not name.endswith(".csv"):
         raise BundleError("only the CSV tables convert to GeoJSON or KML", file=name, field="format")
-    data = content(name)
-    summary = json.loads(content("summary.json"))
+    data = job_file(session, job.id, name)
+    summary = json.loads(job_file(session, job.id, "summary.json"))
     header = data.split(b"\n", 1)[0].decode().split(",")
     track = None
     if "lat_deg" not in header and job.log_ids:

@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import datetime as dt
 import mimetypes
+import os
+from collections.abc import Iterator
+from typing import BinaryIO
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
+from fastapi.responses import StreamingResponse
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api import models as m
@@ -14,10 +18,14 @@ from ldvsurvey.api.deps import ID_MAX, LogId, SessionDep, SettingsDep
 from ldvsurvey.api.uploads import read_upload
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.quality import quality_report
+from ldvsurvey.store import blobs
 from ldvsurvey.store import logs as store
 from ldvsurvey.store import users as ustore
 
 router = APIRouter(prefix="/api/logs", tags=["logs"])
+
+#: bytes read from a stored original per piece of its download
+DOWNLOAD_CHUNK_BYTES = 256 * 1024
 
 
 def log_summary(row) -> dict:
@@ -145,11 +153,23 @@ def get_file(log_id: LogId, name: str, session: SessionDep, who: CurrentUser) ->
     ctype = {"manifest.json": "application/json", "imu.csv": "text/csv", "ldv.csv": "text/csv"}.get(
         name, mimetypes.guess_type(name)[0] or "application/octet-stream"
     )
-    return Response(
-        content=f.content,
-        media_type=ctype,
-        headers={"Content-Disposition": f'attachment; filename="{name}"', "X-Content-SHA256": f.sha256},
-    )
+    headers = {"Content-Disposition": f'attachment; filename="{name}"', "X-Content-SHA256": f.sha256}
+    if f.blob is None:  # a small file kept in its row
+        return Response(content=f.inline, media_type=ctype, headers=headers)
+    # a large one is sent from its file in the blob folder, a piece at a time (an 8-h imu.csv is
+    # close to 1 GB); opened here, so a deletion committed meanwhile cannot cut the download short
+    fh = blobs.blob_path(f, f.blob).open("rb")
+    headers["Content-Length"] = str(os.fstat(fh.fileno()).st_size)
+    return StreamingResponse(_pieces(fh), media_type=ctype, headers=headers)
+
+
+def _pieces(fh: BinaryIO) -> Iterator[bytes]:
+    """The bytes of an open file, :data:`DOWNLOAD_CHUNK_BYTES` at a time; closes it at the end."""
+    try:
+        while piece := fh.read(DOWNLOAD_CHUNK_BYTES):
+            yield piece
+    finally:
+        fh.close()
 
 
 @router.delete("/{log_id}", status_code=204, summary="Delete a log with all its files and arrays")

@@ -185,8 +185,16 @@ def q_rotvec(v):
 
 @nb.njit(cache=True)
 def q_to_c(q):
-    w, x, y, z = q[0], q[1], q[2], q[3]
+    """C (3×3) of the unit quaternion q = [w, x, y, z] (:func:`q_to_c_into` into a new array)."""
     c = np.empty((3, 3))
+    q_to_c_into(q, c)
+    return c
+
+
+@nb.njit(cache=True, inline="always")
+def q_to_c_into(q, c):
+    """C (3×3, written into ``c``) of the unit quaternion q = [w, x, y, z], without allocating."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
     c[0, 0] = 1 - 2 * (y * y + z * z)
     c[0, 1] = 2 * (x * y - w * z)
     c[0, 2] = 2 * (x * z + w * y)
@@ -196,7 +204,6 @@ def q_to_c(q):
     c[2, 0] = 2 * (x * z - w * y)
     c[2, 1] = 2 * (y * z + w * x)
     c[2, 2] = 1 - 2 * (x * x + y * y)
-    return c
 
 
 @nb.njit(cache=True)

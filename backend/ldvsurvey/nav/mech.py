@@ -14,6 +14,7 @@ import numba as nb
 import numpy as np
 
 from ldvsurvey.nav.attitude import cross, q_rotvec, q_to_c, qmul
+from ldvsurvey.nav.attitude import q_to_c_into as q_to_c_into  # the filter loops import it from here
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity_nb, radii_nb
 
 
@@ -57,21 +58,6 @@ def mech_step(q, v, pos, v_prev, pos_prev, dth, dv, dth_prev, dv_prev, dt, xi, e
     q_new = qmul(q_rotvec(-w_in * dt), qmul(q, q_rotvec(phi)))
     q_new = q_new / np.sqrt(np.sum(q_new * q_new))
     return q_new, v_new, np.array([lat_new, lon_new, h_new]), dv_n / dt
-
-
-@nb.njit(cache=True, inline="always")
-def q_to_c_into(q, c):
-    """C (3×3, written into ``c``) of the unit quaternion q = [w, x, y, z] (as :func:`attitude.q_to_c`)."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    c[0, 0] = 1 - 2 * (y * y + z * z)
-    c[0, 1] = 2 * (x * y - w * z)
-    c[0, 2] = 2 * (x * z + w * y)
-    c[1, 0] = 2 * (x * y + w * z)
-    c[1, 1] = 1 - 2 * (x * x + z * z)
-    c[1, 2] = 2 * (y * z - w * x)
-    c[2, 0] = 2 * (x * z - w * y)
-    c[2, 1] = 2 * (y * z + w * x)
-    c[2, 2] = 1 - 2 * (x * x + y * y)
 
 
 @nb.njit(cache=True, inline="always")

@@ -203,7 +203,15 @@ def run(logs, params, progress) -> PipelineResult:
     k_static = inp.t_s <= inp.static_end_s
     h_ref = (ref.pos[:, 2], ref.v_n[:, 2])
     pos0 = ref.pos[0].copy()
-    p_unc = _mechanize(inp.t_s, inp.dtheta_rad, inp.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot)
+
+    def free_inertial(dtheta_rad=inp.dtheta_rad, dvel_mps=inp.dvel_mps, dov=None):
+        """Positions of a free-inertial mechanization of the increments; ``dov`` = (ξ, η) per sample
+        (rad) compensates the gravity vector and the alignment with that deflection."""
+        kw = {} if dov is None else {"gravity": (*dov, np.zeros_like(dov[0])), "dov0": (dov[0][0], dov[1][0])}
+        return _mechanize(inp.t_s, dtheta_rad, dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot, **kw)
+
+    p_unc = free_inertial()
+    p_exact = None  # compensated with the DOV along the track: computed once, used by both studies
     if params["imu_nodov"]:
         path = Path(params["imu_nodov"])
         if not path.is_file():
@@ -212,21 +220,10 @@ def run(logs, params, progress) -> PipelineResult:
         check_no_long_gaps(imu2.long_gaps, path.name)
         if len(imu2.t_s) != len(inp.t_s) or not np.allclose(imu2.t_s, inp.t_s):
             raise ParameterError("imu_nodov must have the same sample times as imu.csv", file=path.name, field="t")
-        p_ref = _mechanize(inp.t_s, imu2.dtheta_rad, imu2.dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot)
+        p_ref = free_inertial(imu2.dtheta_rad, imu2.dvel_mps)
         theo_kind = "two IMU files (with and without DOV)"
     else:
-        p_ref = _mechanize(
-            inp.t_s,
-            inp.dtheta_rad,
-            inp.dvel_mps,
-            k_static,
-            lat[0],
-            pos0,
-            h_ref,
-            rot=rot,
-            gravity=(xi, eta, np.zeros_like(xi)),
-            dov0=(xi[0], eta[0]),
-        )
+        p_ref = p_exact = free_inertial(dov=(xi, eta))
         theo_kind = "uncompensated vs compensated mechanization (no imu_nodov given)"
         warnings.append(
             "theoretical error from compensated vs uncompensated mechanization: give imu_nodov "
@@ -241,19 +238,8 @@ def run(logs, params, progress) -> PipelineResult:
     # compensation study: residual of a compensated INS against the exactly compensated one
     comp = []
     if params["compensation"]:
-        exact = (xi, eta, np.zeros_like(xi))
-        p_exact = _mechanize(
-            inp.t_s,
-            inp.dtheta_rad,
-            inp.dvel_mps,
-            k_static,
-            lat[0],
-            pos0,
-            h_ref,
-            rot=rot,
-            gravity=exact,
-            dov0=(xi[0], eta[0]),
-        )
+        if p_exact is None:
+            p_exact = free_inertial(dov=(xi, eta))
         steps, updates = params["compensation_steps_arcmin"], params["compensation_updates_s"]
         for i, st in enumerate(steps):
             g2 = grid if abs(st - grid.step_arcmin) < 1e-9 else grid.resample(st)
@@ -262,19 +248,8 @@ def run(logs, params, progress) -> PipelineResult:
                 progress(f"compensation study: {st}' grid, {u} s updates", 0.55 + 0.4 * i / len(steps))
                 k = np.floor((inp.t_s - inp.t_s[0]) / u).astype(int)
                 first = np.r_[0, np.flatnonzero(np.diff(k)) + 1]
-                held = np.repeat(first, np.diff(np.r_[first, len(k)]))
-                p_c = _mechanize(
-                    inp.t_s,
-                    inp.dtheta_rad,
-                    inp.dvel_mps,
-                    k_static,
-                    lat[0],
-                    pos0,
-                    h_ref,
-                    rot=rot,
-                    gravity=(xs[held], es[held], np.zeros_like(xs)),
-                    dov0=(xs[0], es[0]),
-                )
+                held = np.repeat(first, np.diff(np.r_[first, len(k)]))  # the DOV of each update held until the next
+                p_c = free_inertial(dov=(xs[held], es[held]))
                 r = enu_offset_m(p_exact[:, 0], p_exact[:, 1], p_exact[:, 2], p_c[:, 0], p_c[:, 1], p_exact[:, 2])
                 comp.append(
                     {"grid_step_arcmin": st, "update_s": u, "max_residual_m": float(np.max(np.hypot(r[:, 0], r[:, 1])))}
