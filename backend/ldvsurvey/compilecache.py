@@ -14,11 +14,19 @@ The place is, in this order:
    (``scripts/setup.sh`` warms it there, and a Docker image built with it ships it warm);
 4. ``<LDVSURVEY_DATA_DIR or ./data>/numba-cache``.
 
+Inside that place the code lives in a folder named after the compiled core's source
+(``core-<12 hex digits>``, :func:`code_key`). numba invalidates a cached function only when *its
+own* file changes, not when a function it inlines from another file does (``q_to_c_into`` of
+``nav/attitude.py`` is compiled into ``nav/kfloop.py``'s filter loop, for one): without the key an
+upgrade that changed only the inlined function would keep running the old machine code. A new
+key starts from an empty folder, so every change of ``nav/`` or ``units.py`` is compiled afresh.
+
 This module imports nothing heavy (no numba, no pydantic): it runs on every start.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
 import sys
 from pathlib import Path
@@ -43,13 +51,34 @@ def default_cache_dir() -> Path:
     return Path(os.environ.get("LDVSURVEY_DATA_DIR") or "data").resolve() / "numba-cache"
 
 
-def cache_dir() -> Path:
-    """The cache place this process uses (see the module docstring for the order)."""
+def base_dir() -> Path:
+    """The cache place chosen by the settings (see the module docstring for the order)."""
     if os.environ.get(ENV):
         return Path(os.environ[ENV]).expanduser().resolve()
     if os.environ.get("NUMBA_CACHE_DIR"):
-        return Path(os.environ["NUMBA_CACHE_DIR"]).expanduser().resolve()
+        place = Path(os.environ["NUMBA_CACHE_DIR"]).expanduser().resolve()
+        # configure() set it to a core folder in a parent process: its base is one level up
+        return place.parent if place.name.startswith("core-") else place
     return default_cache_dir()
+
+
+def core_sources() -> list[Path]:
+    """The source files whose code numba compiles (``nav/*.py``) and the constants they import."""
+    root = Path(__file__).resolve().parent
+    return sorted((root / "nav").glob("*.py")) + [root / "units.py"]
+
+
+def code_key() -> str:
+    """12 hex digits of the SHA-256 of the compiled core's source files (names and contents)."""
+    h = hashlib.sha256()
+    for f in core_sources():
+        h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:12]
+
+
+def cache_dir() -> Path:
+    """The folder this process's numba cache lives in: ``<base_dir()>/core-<code_key()>``."""
+    return base_dir() / f"core-{code_key()}"
 
 
 def configure() -> Path:

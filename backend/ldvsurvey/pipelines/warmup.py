@@ -229,4 +229,17 @@ def warmup(names: list[str] | None = None, variants: bool = True, log=None) -> W
             (Path(report.cache_dir) / STAMP).write_text(fingerprint() + "\n")
         except OSError:
             pass
+        _prune_other_cores(Path(report.cache_dir), log)
     return report
+
+
+def _prune_other_cores(current: Path, log) -> None:
+    """Remove the cache folders of other versions of the compiled core beside ``current`` (``core-*``,
+    and the ``nav_*`` folders numba wrote directly into the cache place before the folders had a key):
+    after an upgrade they are never read again. Only a complete warm-up prunes."""
+    import shutil
+
+    for old in current.parent.iterdir():
+        if old != current and old.is_dir() and (old.name.startswith("core-") or old.name.startswith("nav_")):
+            shutil.rmtree(old, ignore_errors=True)
+            log(f"removed the compiled code of another version: {old}")
