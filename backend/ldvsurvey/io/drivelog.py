@@ -10,6 +10,7 @@ import shutil
 import tempfile
 import weakref
 import zipfile
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -172,8 +173,6 @@ class BundleFiles(dict):
         if len(items) == 1:
             done = [one(0, *items[0])]
         else:
-            from concurrent.futures import ThreadPoolExecutor
-
             with ThreadPoolExecutor(max_workers=min(len(items), os.cpu_count() or 2)) as pool:
                 futures = [pool.submit(one, k, name, chunks) for k, (name, chunks) in enumerate(items)]
             done = [f.result() for f in futures]  # in order: the first member's error first
@@ -330,14 +329,22 @@ def _parse_files(files: dict[str, bytes | Path]) -> DriveLog:
         if name in files:
             files[name] = _small(files[name])
     manifest = parse_manifest(files["manifest.json"])
-    imu, w = parse_imu(files["imu.csv"], manifest)
-    warnings += w
-    ldv, w = parse_ldv(files["ldv.csv"], manifest)
-    warnings += w
-    gnss = None
-    if "gnss.nmea" in files:
-        gnss = parse_nmea(files["gnss.nmea"], t_ref_s=float(imu.t_s[0]))
-        warnings += gnss.warnings
+    # ldv.csv (then gnss.nmea, which needs the IMU's start) is parsed in a second thread while imu.csv
+    # is (pyarrow releases the GIL); the results are taken in the old order, so a bundle with several
+    # defects still names the same first one
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        ldv_job = pool.submit(parse_ldv, files["ldv.csv"], manifest)
+        imu, w = parse_imu(files["imu.csv"], manifest)
+        warnings += w
+        gnss_job = None
+        if "gnss.nmea" in files:
+            gnss_job = pool.submit(parse_nmea, files["gnss.nmea"], t_ref_s=float(imu.t_s[0]))
+        ldv, w = ldv_job.result()
+        warnings += w
+        gnss = None
+        if gnss_job is not None:
+            gnss = gnss_job.result()
+            warnings += gnss.warnings
     if ldv.t_s[-1] < imu.t_s[0] or ldv.t_s[0] > imu.t_s[-1]:
         raise BundleError(
             f"LDV times [{ldv.t_s[0]:.2f}, {ldv.t_s[-1]:.2f}] s do not overlap the IMU's "
