@@ -329,22 +329,20 @@ def _parse_files(files: dict[str, bytes | Path]) -> DriveLog:
         if name in files:
             files[name] = _small(files[name])
     manifest = parse_manifest(files["manifest.json"])
-    # ldv.csv (then gnss.nmea, which needs the IMU's start) is parsed in a second thread while imu.csv
-    # is (pyarrow releases the GIL); the results are taken in the old order, so a bundle with several
-    # defects still names the same first one
+    imu, w = parse_imu(files["imu.csv"], manifest)
+    warnings += w
+    # gnss.nmea (mostly Python) is parsed in a second thread while pyarrow parses ldv.csv (releasing the
+    # GIL); ldv.csv's result is taken first, so a bundle with defects in both still names ldv.csv's.
+    # (imu.csv is parsed alone: two large Arrow tables at once would raise the peak memory.)
     with ThreadPoolExecutor(max_workers=1) as pool:
-        ldv_job = pool.submit(parse_ldv, files["ldv.csv"], manifest)
-        imu, w = parse_imu(files["imu.csv"], manifest)
-        warnings += w
         gnss_job = None
         if "gnss.nmea" in files:
             gnss_job = pool.submit(parse_nmea, files["gnss.nmea"], t_ref_s=float(imu.t_s[0]))
-        ldv, w = ldv_job.result()
+        ldv, w = parse_ldv(files["ldv.csv"], manifest)
         warnings += w
-        gnss = None
-        if gnss_job is not None:
-            gnss = gnss_job.result()
-            warnings += gnss.warnings
+        gnss = gnss_job.result() if gnss_job is not None else None
+    if gnss is not None:
+        warnings += gnss.warnings
     if ldv.t_s[-1] < imu.t_s[0] or ldv.t_s[0] > imu.t_s[-1]:
         raise BundleError(
             f"LDV times [{ldv.t_s[0]:.2f}, {ldv.t_s[-1]:.2f}] s do not overlap the IMU's "
