@@ -76,20 +76,6 @@ def test_numeric_table_matches_pyarrow_conversion(seed):
     assert int(lines[1].split(b",")[3]) == columns["i64"][0]  # integers written whole
 
 
-def test_long_numeric_table_written_in_parts(monkeypatch):
-    """Row slices written side by side (here 3, of 100 rows or so) join to the same bytes."""
-    import os
-
-    from ldvsurvey.pipelines import base
-
-    x = _floats(301, 5)
-    columns = {"a": x, "b": -x, "n": np.arange(301)}
-    whole = table_csv(columns)
-    monkeypatch.setattr(base, "_CSV_PART_CELLS", 200)
-    monkeypatch.setattr(os, "cpu_count", lambda: 3)
-    assert table_csv(columns) == whole == _pyarrow_reference(columns)
-
-
 def test_empty_and_short_tables():
     assert table_csv({}) == b"\n"
     assert table_csv({"a": np.array([]), "b": []}) == b"a,b\n"

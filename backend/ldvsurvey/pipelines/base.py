@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import contextvars
 import datetime as dt
+import io
 import json
 import math
-import os
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated
@@ -404,33 +403,17 @@ def _arrow_column(c: np.ndarray):
     return pa.Array.from_buffers(pa.from_numpy_dtype(c.dtype), len(c), [validity, pa.py_buffer(c)], null_count=nulls)
 
 
-#: cells of a numeric table per CSV writer thread at least (pyarrow writes one table on one core)
-_CSV_PART_CELLS = 1 << 18
-
-
 def _arrow_csv(header: str, names: list[str], cols: list[np.ndarray]) -> bytes:
-    """The CSV bytes of numeric columns, written by pyarrow after ``header``: a long table in row
-    slices written side by side (CSV rows are independent, so the bytes are the same)."""
+    """The CSV bytes of numeric columns, written by pyarrow after ``header`` (into one growing buffer
+    whose bytes are returned without a copy: the table's text exists once)."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
     table = pa.Table.from_arrays([_arrow_column(c) for c in cols], names=names)
-    options = pacsv.WriteOptions(include_header=False, quoting_style="none")
-
-    def write(part) -> bytes:
-        out = pa.BufferOutputStream()
-        pacsv.write_csv(part, out, write_options=options)
-        return out.getvalue()
-
-    n = table.num_rows
-    k = max(1, min(os.cpu_count() or 1, n * len(cols) // _CSV_PART_CELLS))
-    if k == 1:
-        parts = [write(table)]
-    else:
-        bounds = [n * i // k for i in range(k + 1)]
-        with ThreadPoolExecutor(max_workers=k) as pool:
-            parts = list(pool.map(write, [table.slice(a, b - a) for a, b in zip(bounds, bounds[1:])]))
-    return b"".join([header.encode(), *parts])
+    out = io.BytesIO()
+    out.write(header.encode())
+    pacsv.write_csv(table, out, write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"))
+    return out.getvalue()
 
 
 def table_csv(columns: dict) -> bytes:
