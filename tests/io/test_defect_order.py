@@ -1,5 +1,5 @@
 """A bundle with defects in several files names the same first one however its files are parsed
-(imu.csv, then ldv.csv, then gnss.nmea): ldv.csv and gnss.nmea are parsed beside imu.csv."""
+(imu.csv, then ldv.csv, then gnss.nmea), though gnss.nmea is parsed in a thread beside ldv.csv."""
 
 import pytest
 
