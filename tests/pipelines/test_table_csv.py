@@ -81,3 +81,5 @@ def test_empty_and_short_tables():
     assert table_csv({"a": np.array([]), "b": []}) == b"a,b\n"
     with pytest.raises(IndexError):  # a column shorter than the first is an error, as it always was
         table_csv({"a": [1, 2, 3], "b": [1]})
+    with pytest.raises(pa.ArrowNotImplementedError):  # refused, not written from the swapped bytes
+        table_csv({"a": np.arange(3.0).astype(">f8")})

@@ -391,7 +391,7 @@ def _arrow_column(c: np.ndarray):
 
     if c.dtype.kind == "b":
         c = c.astype(float)
-    if c.ndim != 1:
+    if c.ndim != 1 or not c.dtype.isnative:
         return pa.array(c, from_pandas=True)  # refused there, as before
     c = np.ascontiguousarray(c)
     validity, nulls = None, 0
