@@ -10,6 +10,7 @@ import shutil
 import tempfile
 import weakref
 import zipfile
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -172,8 +173,6 @@ class BundleFiles(dict):
         if len(items) == 1:
             done = [one(0, *items[0])]
         else:
-            from concurrent.futures import ThreadPoolExecutor
-
             with ThreadPoolExecutor(max_workers=min(len(items), os.cpu_count() or 2)) as pool:
                 futures = [pool.submit(one, k, name, chunks) for k, (name, chunks) in enumerate(items)]
             done = [f.result() for f in futures]  # in order: the first member's error first
@@ -332,11 +331,17 @@ def _parse_files(files: dict[str, bytes | Path]) -> DriveLog:
     manifest = parse_manifest(files["manifest.json"])
     imu, w = parse_imu(files["imu.csv"], manifest)
     warnings += w
-    ldv, w = parse_ldv(files["ldv.csv"], manifest)
-    warnings += w
-    gnss = None
-    if "gnss.nmea" in files:
-        gnss = parse_nmea(files["gnss.nmea"], t_ref_s=float(imu.t_s[0]))
+    # gnss.nmea (mostly Python) is parsed in a second thread while pyarrow parses ldv.csv (releasing the
+    # GIL); ldv.csv's result is taken first, so a bundle with defects in both still names ldv.csv's.
+    # (imu.csv is parsed alone: two large Arrow tables at once would raise the peak memory.)
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        gnss_job = None
+        if "gnss.nmea" in files:
+            gnss_job = pool.submit(parse_nmea, files["gnss.nmea"], t_ref_s=float(imu.t_s[0]))
+        ldv, w = parse_ldv(files["ldv.csv"], manifest)
+        warnings += w
+        gnss = gnss_job.result() if gnss_job is not None else None
+    if gnss is not None:
         warnings += gnss.warnings
     if ldv.t_s[-1] < imu.t_s[0] or ldv.t_s[0] > imu.t_s[-1]:
         raise BundleError(

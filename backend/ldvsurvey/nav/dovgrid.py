@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import RectBivariateSpline, RegularGridInterpolator
 
 from ldvsurvey.units import RAD_PER_ARCSEC as ARCSEC  # noqa: E402  (rad per arcsecond)
 
@@ -49,6 +48,8 @@ class DovGrid:
 
     def interpolate(self, lat_deg, lon_deg, method: str = "linear"):
         """ξ, η (rad) and Δg (m/s², 0 without) at the points; method 'linear' (bilinear) or 'cubic'."""
+        from scipy.interpolate import RectBivariateSpline, RegularGridInterpolator
+
         la = np.asarray(lat_deg, float).ravel()
         lo = np.asarray(lon_deg, float).ravel()
         pts = np.column_stack([la, lo])
@@ -68,6 +69,8 @@ class DovGrid:
 
     def resample(self, step_arcmin: float) -> DovGrid:
         """The grid's values sampled at a coarser step, covering at least the original extent."""
+        from scipy.interpolate import RegularGridInterpolator
+
         st = step_arcmin / 60.0
         # nodes from the south-west corner until past the north-east one (the last row/column is
         # extrapolated linearly by less than one coarse step), so the coarse grid covers the fine one

@@ -29,7 +29,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from ldvsurvey.nav.attitude import c_bs
 
@@ -53,6 +52,8 @@ def find_stops(
 ) -> list[Stop]:
     """Stretches where the encoder angle stays within ``tol_rad`` over every ``window_s`` window for
     at least ``min_dwell_s`` (encoder jitter of a few counts does not end a stop)."""
+    from scipy.ndimage import maximum_filter1d, minimum_filter1d
+
     t = np.asarray(t_s, float)
     eta = np.asarray(eta_rad, float)
     if len(t) < 2:

@@ -373,31 +373,64 @@ def _cell(v) -> str:
     return s
 
 
+def _text_column(c) -> list[str]:
+    """The cells of one column as :func:`_cell` writes them, a numeric array at once."""
+    if isinstance(c, np.ndarray) and c.ndim == 1:
+        if c.dtype.kind == "f":
+            x = c.astype(float)
+            return [repr(v) if ok else "" for v, ok in zip(x.tolist(), np.isfinite(x).tolist())]
+        if c.dtype.kind in "iub":
+            return [str(int(v)) for v in c.tolist()]
+    return [_cell(v) for v in c]
+
+
+def _arrow_column(c: np.ndarray):
+    """A 1-D numeric column as an Arrow array, NaN as null (as ``pa.array(c, from_pandas=True)``), built
+    from its buffers: ``pa.array`` would import pandas (a third of a second at every start)."""
+    import pyarrow as pa
+
+    if c.dtype.kind == "b":
+        c = c.astype(float)
+    if c.ndim != 1 or not c.dtype.isnative:
+        return pa.array(c, from_pandas=True)  # refused there, as before
+    c = np.ascontiguousarray(c)
+    validity, nulls = None, 0
+    if c.dtype.kind == "f":
+        nan = np.isnan(c)
+        nulls = int(np.count_nonzero(nan))
+        if nulls:
+            validity = pa.py_buffer(np.packbits(~nan, bitorder="little"))
+    return pa.Array.from_buffers(pa.from_numpy_dtype(c.dtype), len(c), [validity, pa.py_buffer(c)], null_count=nulls)
+
+
+def _arrow_csv(header: str, names: list[str], cols: list[np.ndarray]) -> bytes:
+    """The CSV bytes of numeric columns, written by pyarrow after ``header`` (into one growing buffer
+    whose bytes are returned without a copy: the table's text exists once)."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    table = pa.Table.from_arrays([_arrow_column(c) for c in cols], names=names)
+    out = io.BytesIO()
+    out.write(header.encode())
+    pacsv.write_csv(table, out, write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"))
+    return out.getvalue()
+
+
 def table_csv(columns: dict) -> bytes:
     """CSV bytes of a column dict: floats in shortest round-trip form, NaN as empty, text protected."""
     names = list(columns)
     cols = [np.asarray(columns[n]) if not isinstance(columns[n], list) else columns[n] for n in names]
     n = len(cols[0]) if cols else 0
-    buf = io.StringIO()
-    buf.write(",".join(names) + "\n")
+    header = ",".join(names) + "\n"
     numeric = [isinstance(c, np.ndarray) and c.dtype.kind in "fiub" for c in cols]
     if all(numeric) and n:  # fast path: pyarrow, NaN written as an empty cell
-        import pyarrow as pa
-        import pyarrow.csv as pacsv
-
-        table = pa.table(
-            {
-                nm: pa.array(c.astype(float) if c.dtype.kind == "b" else c, from_pandas=True)
-                for nm, c in zip(names, cols)
-            }
-        )
-        out = io.BytesIO()
-        out.write(buf.getvalue().encode())
-        pacsv.write_csv(table, out, write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"))
-        return out.getvalue()
-    for i in range(n):
-        buf.write(",".join(_cell(c[i]) for c in cols) + "\n")
-    return buf.getvalue().encode()
+        return _arrow_csv(header, names, cols)
+    if any(len(c) < n for c in cols):  # a short column: the row-by-row loop raises as it always did
+        body = "".join(",".join(_cell(c[i]) for c in cols) + "\n" for i in range(n))
+    else:
+        texts = [_text_column(c[:n]) for c in cols]
+        body = "".join(",".join(row) + "\n" for row in zip(*texts))
+    return (header + body).encode()
 
 
 def result_files(result: PipelineResult) -> dict[str, bytes]:
