@@ -5,13 +5,14 @@ Settings come from the environment through :func:`ldvsurvey.settings.get_setting
 LDVSURVEY_DATA_DIR, LDVSURVEY_HEARTBEAT_S). ``huey`` is a module attribute only because
 ``huey_consumer`` looks it up by that dotted name; the runner itself holds no module state.
 At start, unless ``scripts/setup.sh`` (``ldv-survey warmup``) already filled numba's cache for this
-very code, the compiled core is warmed in a background thread so the first job does not pay it.
+very code, the compiled core is warmed in a background thread so the first job does not pay it;
+when it did, the pipelines' modules and libraries are imported here, before the first job comes.
 """
 
 import logging
 
 from ldvsurvey.jobs.runner import JobRunner
-from ldvsurvey.pipelines.warmup import start_background_warmup
+from ldvsurvey.pipelines.warmup import preload, start_background_warmup
 from ldvsurvey.settings import get_settings
 from ldvsurvey.store.db import upgrade_head
 
@@ -27,3 +28,5 @@ def make_runner(settings=None) -> JobRunner:
 runner = make_runner()
 huey = runner.huey
 _warmup_thread = start_background_warmup(log=logging.getLogger("ldvsurvey.warmup").info)
+if _warmup_thread is None:  # the cache is warm: only the imports are left for a first job to pay
+    preload(log=logging.getLogger("ldvsurvey.warmup").info)

@@ -152,6 +152,50 @@ def start_background_warmup(log=None) -> threading.Thread | None:
         return _background
 
 
+#: libraries the pipelines import only inside the functions that use them (so that a CLI run pays only
+#: for what it uses); a worker imports them at start instead of in its first job
+RUN_TIME_IMPORTS = (
+    "scipy.ndimage",
+    "scipy.signal",
+    "scipy.interpolate",
+    "scipy.spatial",
+    "pyarrow.compute",
+    "ldvsurvey.nav.egm",
+)
+
+
+def preload(log=None) -> float:
+    """Import every registered pipeline's module and :data:`RUN_TIME_IMPORTS`, so that the first job
+    of a worker whose numba cache is already warm pays no imports (about 1–1.6 s of CPU otherwise).
+
+    Returns
+    -------
+    float
+        Seconds taken.
+    """
+    import importlib
+
+    from ldvsurvey.pipelines.registry import PIPELINES
+
+    t0 = time.perf_counter()
+    for name in PIPELINES:
+        PIPELINES[name]  # noqa: B018  (the lookup imports the module)
+    for mod in RUN_TIME_IMPORTS:
+        importlib.import_module(mod)
+    elapsed = time.perf_counter() - t0
+    if log:
+        log(f"pipelines and their libraries imported in {elapsed:.1f} s")
+    return elapsed
+
+
+def start_background_preload(log=None) -> threading.Thread:
+    """:func:`preload` in a daemon thread (a job arriving meanwhile waits only for the module it needs:
+    Python's import locks are per module)."""
+    th = threading.Thread(target=preload, kwargs={"log": log}, name="ldvsurvey-preload", daemon=True)
+    th.start()
+    return th
+
+
 def _variants(pipe) -> list[dict]:
     """The default parameters, then each non-default choice of every choice parameter."""
     out = [{}]
