@@ -230,12 +230,14 @@ def _cov_row(P, H, row, r, ph, nz):
         if H[row, jj] != 0.0:
             nz[n_nz] = jj
             n_nz += 1
-    hph = 0.0
     for i in range(n):
-        acc = 0.0
-        for a in range(n_nz):
-            acc += P[i, nz[a]] * H[row, nz[a]]
-        ph[i] = acc
+        ph[i] = 0.0
+    for a in range(n_nz):  # column by column: each ph[i] still summed over the non-zeros in order
+        c = nz[a]
+        h = H[row, c]
+        for i in range(n):
+            ph[i] += P[i, c] * h
+    hph = 0.0
     for a in range(n_nz):
         hph += H[row, nz[a]] * ph[nz[a]]
     return hph + r
