@@ -463,7 +463,8 @@ def forward(imu, mdl, ldv, gnss, st):
             if use_k:  # C_d^b(η_L + k a, φ_L): forward and up columns
                 ak = a_fwd[k]
                 ee = par[1] + par[4] * ak
-                ce, se, cp, sp = np.cos(ee), np.sin(ee), np.cos(par[2]), np.sin(par[2])
+                ce, se = np.cos(ee), np.sin(ee)
+                cp, sp = cdb[0, 0], cdb[1, 0]  # cos φ_L, sin φ_L: computed once per epoch, in C_d^b
                 vb0 = -sp * ce * vd1 + sp * se * vd2
                 vb1 = cp * ce * vd1 - cp * se * vd2
                 vb2 = se * vd1 + ce * vd2
@@ -765,11 +766,12 @@ def rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zupt_sigma, keep_cov
             _chol_solve(pmj, Mj, L, at)
             for i in range(n):
                 tmp[i] = xs[j + 1, i] + dxs[j + 1, i]
-            for i in range(n):
-                s = 0.0
-                for k in range(n):
-                    s += at[k, i] * tmp[k]
-                xs[j, i] = s
+            for i in range(n):  # x_s(j) = A tmp, all rows at once (each summed over k in order)
+                xs[j, i] = 0.0
+            for k in range(n):
+                tk = tmp[k]
+                for i in range(n):
+                    xs[j, i] += at[k, i] * tk
             # P_s(j) = P⁺_j + A (P_s(j+1) − P⁻_{j+1}) Aᵀ, with D = P_s(j+1) − P⁻ and E = D Aᵀ
             for i in range(n):
                 for k in range(n):
