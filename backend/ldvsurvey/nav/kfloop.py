@@ -16,8 +16,9 @@ per epoch whatever the IMU rate.
 
 Inputs come grouped (:class:`ImuIn`, :class:`Model`, :class:`LdvIn`, :class:`GnssIn`,
 :class:`Start`): named tuples of arrays and scalars that numba compiles as they are. The work of
-a sample (:func:`mech_sample`) and of an epoch's covariance propagation (:func:`propagate_epoch`)
-is shared with the water-velocity damping filter (:mod:`ldvsurvey.nav.damping`).
+a sample (:func:`mech_sample`), of an epoch's covariance propagation (:func:`propagate_epoch`),
+the body attitude (:func:`c_bn_into`) and the feedback (:func:`feedback_into`) are shared with the
+water-velocity damping filter (:mod:`ldvsurvey.nav.damping`).
 
 Augmented LDV states (when enabled, in this order after the 15): δs_f, δη_L (rad), δφ_L (rad),
 δs_u, δk_η (rad per m/s²), where s = 1/K is the factor applied to the measured speed
