@@ -19,7 +19,7 @@ import numba as nb
 import numpy as np
 
 from ldvsurvey.nav.errmodel import c_db, skew_nb
-from ldvsurvey.nav.kfloop import N_FIN, _body, _feedback_into, mech_sample, propagate_epoch
+from ldvsurvey.nav.kfloop import N_FIN, c_bn_into, feedback_into, mech_sample, propagate_epoch
 from ldvsurvey.nav.mech import q_to_c_into
 
 MODES = {"undamped": 0, "conventional": 1, "delayed_state": 2}
@@ -115,7 +115,7 @@ def run_damping(imu, st, ldv, dmp):
             imu, k, dt, b_g, b_a, 0.0, -1, q, v, pos, v_prev, pos_prev, dth_prev, dv_prev, a_th, a_dv, f_n, fsum
         )
         q_to_c_into(q, c_sn)
-        _body(c_sn, c_bs, k, rotating, c_bn)
+        c_bn_into(c_sn, c_bs, k, rotating, c_bn)
         if ldv_ok[k] and t[k] > zupt_end:
             vd = np.array([0.0, nu_f[k] * s_ldv, 0.0])
             v_l = c_bn @ (cdb @ vd)
@@ -213,7 +213,7 @@ def run_damping(imu, st, ldv, dmp):
             P_cross = P.copy()
             have_prev = True
         # feedback
-        _feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
+        feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
         s_ldv = s_ldv - x[15]
         q_out[k] = q
         v_out[k] = v

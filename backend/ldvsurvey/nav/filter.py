@@ -272,7 +272,27 @@ def forward_accel_mps2(t_s, nu_f_mps, ok, window_s: float = 0.5) -> np.ndarray:
     return (vs[ib] - vs[ia]) / np.maximum(t[ib] - t[ia], dt)
 
 
-def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gnss, c_bs):
+def _prepare(
+    t,
+    dtheta_rad,
+    dvel_mps,
+    q0_sn,
+    v0_n,
+    pos0,
+    noise: ImuNoise,
+    cfg: FilterConfig,
+    c_bs,
+    zupt_intervals,
+    ldv,
+    gnss,
+    gravity,
+    bias0,
+    attitude_only,
+):
+    """The compiled filter's grouped inputs (:class:`~ldvsurvey.nav.kfloop.ImuIn`, ``Model``, ``LdvIn``,
+    ``GnssIn``, ``Start``) and the epoch times ep_t (M+1,) s (see :func:`run_filter` for the arguments;
+    ``t`` float64 contiguous). Arrays already float64 and contiguous are passed on, not copied."""
+    n_s = len(t)
     decim = max(1, int(round(1.0 / (cfg.rate_hz * np.median(np.diff(t))))))
     m = n_s // decim
     aug = [a for a in AUG_NAMES if a in cfg.ldv_aug]
@@ -321,62 +341,64 @@ def _prepare(n_s, t, cfg: FilterConfig, noise: ImuNoise, zupt_intervals, ldv, gn
     for a, b in zupt_intervals:
         zupt |= (ep_t >= a) & (ep_t <= b)
     zupt[0] = False
+    mdl = kfloop.Model(
+        decim, p0, qd, inv_tau, zupt, float(cfg.zupt_sigma_mps), float(cfg.gate_sigma), i_sz, not attitude_only
+    )
+    sig_ldv = np.asarray(cfg.ldv_sigma_mps, float)
     if ldv is None:
-        ldv_ok = np.zeros(n_s, dtype=np.bool_)
-        nu_f = nu_u = np.zeros(0)  # never read: no sample is usable
-        par0 = np.array([1.0, 0.0, 0.0, 1.0, 0.0])
-        l_ldv = np.zeros(3)
-        up = False
-        a_f = np.zeros(0)
-    else:
-        ldv_ok = np.ascontiguousarray(ldv.ok, dtype=np.bool_)
-        nu_f = np.ascontiguousarray(ldv.nu_f_mps, dtype=float)
-        up = ldv.nu_u_mps is not None
-        nu_u = np.ascontiguousarray(ldv.nu_u_mps, dtype=float) if up else np.zeros(0)  # 1-D: never read
-        par0 = np.array(
-            [1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up, ldv.pitch_k_rad_per_mps2], float
+        e = np.zeros(0)  # never read: no sample is usable
+        lin = kfloop.LdvIn(
+            np.zeros(n_s, dtype=np.bool_),
+            e,
+            e,
+            np.array([1.0, 0.0, 0.0, 1.0, 0.0]),
+            np.zeros(3),
+            sig_ldv,
+            False,
+            aug_idx,
+            e,
         )
-        l_ldv = np.asarray(ldv.lever_arm_m, float)
+    else:
+        up = ldv.nu_u_mps is not None
         a_f = np.zeros(0) if ldv.accel_fwd_mps2 is None else np.ascontiguousarray(ldv.accel_fwd_mps2, float)
         if "pitch_k" in cfg.ldv_aug and len(a_f) == 0:
             raise ValueError("the pitch-compliance state needs LdvAid.accel_fwd_mps2")
+        lin = kfloop.LdvIn(
+            np.ascontiguousarray(ldv.ok, dtype=np.bool_),
+            np.ascontiguousarray(ldv.nu_f_mps, dtype=float),
+            np.ascontiguousarray(ldv.nu_u_mps, dtype=float) if up else np.zeros(0),  # 1-D: never read
+            np.array(
+                [1.0 / ldv.scale, ldv.pitch_rad, ldv.heading_rad, 1.0 / ldv.scale_up, ldv.pitch_k_rad_per_mps2], float
+            ),
+            np.asarray(ldv.lever_arm_m, float),
+            sig_ldv,
+            up,
+            aug_idx,
+            a_f,
+        )
     if gnss is None:
-        g_t = np.zeros(0)
-        g_pos = np.zeros((0, 3))
-        g_sig = np.zeros((0, 2))
-        l_g = np.zeros(3)
+        gin = kfloop.GnssIn(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(3))
     else:
         ok = np.isfinite(gnss.lat_rad) & np.isfinite(gnss.sigma_h_m)
-        g_t = np.ascontiguousarray(gnss.t_s[ok], dtype=float)
-        g_pos = np.ascontiguousarray(np.column_stack([gnss.lat_rad[ok], gnss.lon_rad[ok], gnss.h_m[ok]]))
-        g_sig = np.ascontiguousarray(np.column_stack([gnss.sigma_h_m[ok], gnss.sigma_v_m[ok]]))
-        l_g = np.asarray(gnss.lever_arm_m, float)
+        gin = kfloop.GnssIn(
+            np.ascontiguousarray(gnss.t_s[ok], dtype=float),
+            np.ascontiguousarray(np.column_stack([gnss.lat_rad[ok], gnss.lon_rad[ok], gnss.h_m[ok]])),
+            np.ascontiguousarray(np.column_stack([gnss.sigma_h_m[ok], gnss.sigma_v_m[ok]])),
+            np.asarray(gnss.lever_arm_m, float),
+        )
+    e = np.zeros(0)
+    xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     c_bs_arr = np.eye(3)[None] if c_bs is None else np.ascontiguousarray(c_bs, dtype=float)  # (1, 3, 3): fixed
-    return (
-        decim,
-        m,
-        n,
-        aug,
-        aug_idx,
-        p0,
-        qd,
-        ep_t,
-        zupt,
-        ldv_ok,
-        nu_f,
-        nu_u,
-        par0,
-        l_ldv,
-        up,
-        g_t,
-        g_pos,
-        g_sig,
-        l_g,
-        c_bs_arr,
-        a_f,
-        inv_tau,
-        i_sz,
+    imu = kfloop.ImuIn(
+        t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr, xi, eta, dg
     )
+    st = kfloop.Start(
+        np.asarray(q0_sn, float),
+        np.asarray(v0_n, float),
+        np.asarray(pos0, float),
+        np.zeros(6) if bias0 is None else np.asarray(bias0, float),
+    )
+    return imu, mdl, lin, gin, st, ep_t
 
 
 def run_filter(
@@ -412,47 +434,29 @@ def run_filter(
     """
     cfg = cfg or FilterConfig()
     t = np.ascontiguousarray(t_s, dtype=float)
-    n_s = len(t)
-    (
-        decim,
-        m,
-        n,
-        aug,
-        aug_idx,
-        p0,
-        qd,
-        ep_t,
-        zupt,
-        ldv_ok,
-        nu_f,
-        nu_u,
-        par0,
-        l_ldv,
-        up,
-        g_t,
-        g_pos,
-        g_sig,
-        l_g,
-        c_bs_arr,
-        a_f,
-        inv_tau,
-        i_sz,
-    ) = _prepare(n_s, t, cfg, noise, zupt_intervals, ldv, gnss, c_bs)
-    e = np.zeros(0)
-    xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
-    b0 = np.zeros(6) if bias0 is None else np.asarray(bias0, float)
-    imu = kfloop.ImuIn(
-        t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr, xi, eta, dg
+    imu, mdl, lin, gin, st, ep_t = _prepare(
+        t,
+        dtheta_rad,
+        dvel_mps,
+        q0_sn,
+        v0_n,
+        pos0,
+        noise,
+        cfg,
+        c_bs,
+        zupt_intervals,
+        ldv,
+        gnss,
+        gravity,
+        bias0,
+        attitude_only,
     )
-    mdl = kfloop.Model(
-        decim, p0, qd, inv_tau, zupt, float(cfg.zupt_sigma_mps), float(cfg.gate_sigma), i_sz, not attitude_only
-    )
-    lin = kfloop.LdvIn(ldv_ok, nu_f, nu_u, par0, l_ldv, np.asarray(cfg.ldv_sigma_mps, float), up, aug_idx, a_f)
-    gin = kfloop.GnssIn(g_t, g_pos, g_sig, l_g)
-    st = kfloop.Start(np.asarray(q0_sn, float), np.asarray(v0_n, float), np.asarray(pos0, float), b0)
+    decim, qd, inv_tau, i_sz, aug_idx, par0 = mdl.decim, mdl.qd, mdl.inv_tau, mdl.i_sz, lin.aug_idx, lin.par0
+    m = len(t) // decim
     (q, v, p, f_u, f_en, f_b, ck, upd, sig_f, fin, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(
         imu, mdl, lin, gin, st
     )
+    del imu, lin, gin
     zs = float(cfg.zupt_sigma_mps)
     if smooth:
         xs, sig_ep, ps = kfloop.rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zs, keep_cov)

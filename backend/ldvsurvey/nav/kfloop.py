@@ -16,8 +16,9 @@ per epoch whatever the IMU rate.
 
 Inputs come grouped (:class:`ImuIn`, :class:`Model`, :class:`LdvIn`, :class:`GnssIn`,
 :class:`Start`): named tuples of arrays and scalars that numba compiles as they are. The work of
-a sample (:func:`mech_sample`) and of an epoch's covariance propagation (:func:`propagate_epoch`)
-is shared with the water-velocity damping filter (:mod:`ldvsurvey.nav.damping`).
+a sample (:func:`mech_sample`), of an epoch's covariance propagation (:func:`propagate_epoch`),
+the body attitude (:func:`c_bn_into`) and the feedback (:func:`feedback_into`) are shared with the
+water-velocity damping filter (:mod:`ldvsurvey.nav.damping`).
 
 Augmented LDV states (when enabled, in this order after the 15): δs_f, δη_L (rad), δφ_L (rad),
 δs_u, δk_η (rad per m/s²), where s = 1/K is the factor applied to the measured speed
@@ -33,27 +34,16 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
-from ldvsurvey.nav.attitude import q_rotvec, qmul
 from ldvsurvey.nav.earth import radii_nb
 from ldvsurvey.nav.errmodel import build_f_into, c_db
 from ldvsurvey.nav.mech import mech_step_into, q_to_c_into
 
 
 @nb.njit(cache=True)
-def feedback(x, q, v, pos, v_prev, pos_prev, b_g, b_a):
-    """Closed-loop reset of the 15 base states: C ← (I + [φ×]) C, v ← v − δv, p ← p − δp (metres to
-    lat/lon), biases += estimates. The previous velocity/position (used for mid-interval
-    extrapolation) get the same correction. Returns the corrected (q, v, pos, v_prev, pos_prev, b_g, b_a)."""
-    q = qmul(q_rotvec(x[0:3]), q)
-    q = q / np.sqrt(np.sum(q * q))
-    rm, rn = radii_nb(pos[0])
-    dpos = np.array([x[7] / (rm + pos[2]), x[6] / ((rn + pos[2]) * np.cos(pos[0])), x[8]])
-    return (q, v - x[3:6], pos - dpos, v_prev - x[3:6], pos_prev - dpos, b_g + x[9:12], b_a + x[12:15])
-
-
-@nb.njit(cache=True)
-def _feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a):
-    """:func:`feedback` in place, without allocation."""
+def feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a):
+    """Closed-loop reset of the 15 base states, in place: C ← (I + [φ×]) C, v ← v − δv, p ← p − δp
+    (metres to lat/lon), biases += estimates; the previous velocity/position (used for mid-interval
+    extrapolation) get the same correction. Shared with :mod:`ldvsurvey.nav.damping`."""
     c, s = _rv(x[0], x[1], x[2])
     a0, a1, a2, a3 = c, s * x[0], s * x[1], s * x[2]
     w, qx, qy, qz = q[0], q[1], q[2], q[3]
@@ -105,14 +95,15 @@ N_FIN = 18
 
 
 @nb.njit(cache=True)
-def _phi_into(fin, T, inv_tau, i_sz, Phi):
-    """Φ = I + F T + (F T)²/2 of one epoch into ``Phi`` (n×n), F from the stored ``fin`` row.
+def _phi_into(fin, T, inv_tau, i_sz, Phi, A, sq):
+    """Φ = I + F T + (F T)²/2 of one epoch into ``Phi`` (n×n), F from the stored ``fin`` row;
+    ``A`` (n×n) and ``sq`` (n,) are work space (overwritten: no allocation per epoch).
 
     Rows 9.. of F (biases, LDV and scale-factor states) hold only their diagonal (−1/τ), so the
     square needs the full sum only in the first nine rows."""
     n = Phi.shape[0]
     c_sn = fin[0:9].reshape((3, 3))
-    A = np.zeros((n, n))
+    A[:, :] = 0.0
     build_f_into(A, c_sn, fin[9], fin[10], fin[11], fin[12], fin[13], fin[14], fin[15], fin[16])
     if i_sz >= 0:  # φ̇ = −C_s^n δω^s, δω^s = [0, 0, δs_z ω_z]
         for i in range(3):
@@ -122,7 +113,6 @@ def _phi_into(fin, T, inv_tau, i_sz, Phi):
     for i in range(n):
         for jj in range(n):
             A[i, jj] *= T
-    sq = np.zeros(n)
     for i in range(n):
         if i < 9:
             sq[:] = 0.0
@@ -168,14 +158,15 @@ def mech_sample(imu, k, dt, b_g, b_a, s_z, i_sz, q, v, pos, v_prev, pos_prev, dt
 def propagate_epoch(fj, c_sn, fsum, v, pos, wz_sum, T, inv_tau, i_sz, qd, P, Phi, M, out):
     """Covariance propagation over an epoch of T s: ``fj`` (:data:`N_FIN`) ← what Φ is built from
     (C_s^n, mean specific force fsum/T, v, lat, h, mean ω_z = wz_sum/T), Φ (into ``Phi``), and
-    out = Φ P Φᵀ + diag(qd) T (M: work space). The same for this module's filter and the damping one."""
+    out = Φ P Φᵀ + diag(qd) T (M: work space; ``out`` must not be P). The same for this module's filter
+    and the damping one."""
     for i in range(3):
         for jj in range(3):
             fj[3 * i + jj] = c_sn[i, jj]
         fj[9 + i] = fsum[i] / T
         fj[12 + i] = v[i]
     fj[15], fj[16], fj[17] = pos[0], pos[2], wz_sum / T
-    _phi_into(fj, T, inv_tau, i_sz, Phi)
+    _phi_into(fj, T, inv_tau, i_sz, Phi, M, out[0])  # M and out: written only after Φ is complete
     _propagate(P, Phi, qd, T, M, out)
 
 
@@ -240,12 +231,14 @@ def _cov_row(P, H, row, r, ph, nz):
         if H[row, jj] != 0.0:
             nz[n_nz] = jj
             n_nz += 1
-    hph = 0.0
     for i in range(n):
-        acc = 0.0
-        for a in range(n_nz):
-            acc += P[i, nz[a]] * H[row, nz[a]]
-        ph[i] = acc
+        ph[i] = 0.0
+    for a in range(n_nz):  # column by column: each ph[i] still summed over the non-zeros in order
+        c = nz[a]
+        h = H[row, c]
+        for i in range(n):
+            ph[i] += P[i, c] * h
+    hph = 0.0
     for a in range(n_nz):
         hph += H[row, nz[a]] * ph[nz[a]]
     return hph + r
@@ -447,7 +440,7 @@ def forward(imu, mdl, ldv, gnss, st):
     c_bn = np.empty((3, 3))
     c_bn_prev = np.empty((3, 3))
     q_to_c_into(q, c_sn)
-    _body(c_sn, c_bs, 0, rotating, c_bn_prev)
+    c_bn_into(c_sn, c_bs, 0, rotating, c_bn_prev)
     j = 0
     for k in range(n_s):
         dt = t[k] - t_prev
@@ -463,7 +456,7 @@ def forward(imu, mdl, ldv, gnss, st):
             fen_out[k, 0] = f_n[0]
             fen_out[k, 1] = f_n[1]
             fb_out[k] = c_sn[2, 0] * b_a[0] + c_sn[2, 1] * b_a[1] + c_sn[2, 2] * b_a[2]
-        _body(c_sn, c_bs, k, rotating, c_bn)
+        c_bn_into(c_sn, c_bs, k, rotating, c_bn)
         if ldv_ok[k]:
             vd1 = nu_f[k] * par[0]
             vd2 = (nu_u[k] * par[3]) if ldv_up else 0.0
@@ -471,7 +464,8 @@ def forward(imu, mdl, ldv, gnss, st):
             if use_k:  # C_d^b(η_L + k a, φ_L): forward and up columns
                 ak = a_fwd[k]
                 ee = par[1] + par[4] * ak
-                ce, se, cp, sp = np.cos(ee), np.sin(ee), np.cos(par[2]), np.sin(par[2])
+                ce, se = np.cos(ee), np.sin(ee)
+                cp, sp = cdb[0, 0], cdb[1, 0]  # cos φ_L, sin φ_L: computed once per epoch, in C_d^b
                 vb0 = -sp * ce * vd1 + sp * se * vd2
                 vb1 = cp * ce * vd1 - cp * se * vd2
                 vb2 = se * vd1 + ce * vd2
@@ -607,13 +601,13 @@ def forward(imu, mdl, ldv, gnss, st):
             g_pending = False
         _symmetrize(P)
         # ---- feedback ----
-        _feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
+        feedback_into(x, q, v, pos, v_prev, pos_prev, b_g, b_a)
         for a in range(5):
             if aug_idx[a] >= 0:
                 par[a] -= x[aug_idx[a]]
         cdb = c_db(par[1], par[2])
         q_to_c_into(q, c_sn)
-        _body(c_sn, c_bs, k, rotating, c_bn_prev)
+        c_bn_into(c_sn, c_bs, k, rotating, c_bn_prev)
         dxs[j] = x
         if j % CK_EVERY == 0:
             _pack(P, ck[j // CK_EVERY])
@@ -662,8 +656,9 @@ def forward(imu, mdl, ldv, gnss, st):
 
 
 @nb.njit(cache=True, inline="always")
-def _body(c_sn, c_bs, k, rotating, out):
-    """out = C_b^n = C_s^n C_b^s[k] (a copy of C_s^n for a fixed IMU)."""
+def c_bn_into(c_sn, c_bs, k, rotating, out):
+    """out = C_b^n = C_s^n C_b^s[k] (a copy of C_s^n for a fixed IMU, ``rotating`` False).
+    Shared with :mod:`ldvsurvey.nav.damping`."""
     if rotating:
         cb = c_bs[k]
         for i in range(3):
@@ -686,16 +681,16 @@ def _block_covs(ck, upd, fin, dts, b, qd, inv_tau, i_sz, aug_idx, zupt_r, blk, w
     j0 = b * CK_EVERY
     j1 = min(j0 + CK_EVERY, m1)
     _unpack(ck[b], blk[0])
-    Phi, M = ws[0], ws[1]
+    Phi, M, A = ws[0], ws[1], ws[2]
     H = np.zeros((3, n))
     ph = np.empty(n)
     nz = np.empty(n, dtype=np.int64)
     for e in range(j0 + 1, j1):
-        _phi_into(fin[e], dts[e], inv_tau, i_sz, Phi)
+        _phi_into(fin[e], dts[e], inv_tau, i_sz, Phi, A, ph)
         P = blk[e - j0]
-        _propagate(blk[e - j0 - 1], Phi, qd, dts[e], M, P)
-        if keep:  # what the smoother's step j = e − 1 needs: Φ P⁺_j and P⁻_{j+1}
-            blk_m[e - j0] = M
+        # what the smoother's step j = e − 1 needs, when kept: Φ P⁺_j (written in place) and P⁻_{j+1}
+        _propagate(blk[e - j0 - 1], Phi, qd, dts[e], blk_m[e - j0] if keep else M, P)
+        if keep:
             blk_pm[e - j0] = P
         _redo_updates(P, upd[e], aug_idx, zupt_r, H, ph, nz)
     return j1 - j0
@@ -739,6 +734,7 @@ def rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zupt_sigma, keep_cov
     Phi = np.empty((n, n))
     M = np.empty((n, n))
     pm = np.empty((n, n))
+    D = np.empty((n, n))
     L = np.empty((n, n))
     at = np.empty((n, n))
     E = np.empty((n, n))
@@ -760,25 +756,28 @@ def rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zupt_sigma, keep_cov
                     ps_all[j] = Ps
                 continue
             if j + 1 < j0 + cnt:  # redone with the block
-                M[:, :] = blk_m[j + 1 - j0]
-                pm[:, :] = blk_pm[j + 1 - j0]
+                Mj = blk_m[j + 1 - j0]
+                pmj = blk_pm[j + 1 - j0]
             else:  # epoch j + 1 opens the next block
-                _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, Phi)
+                _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, Phi, M, tmp)
                 _propagate(Pp, Phi, qd, dts[j + 1], M, pm)
+                Mj = M
+                pmj = pm
             # A = P⁺_j Φᵀ (P⁻_{j+1})⁻¹  ⇒  Aᵀ = (P⁻)⁻¹ Φ P⁺_j, by Cholesky (P⁻ is symmetric positive definite)
-            _chol_solve(pm, M, L, at)
+            _chol_solve(pmj, Mj, L, at)
             for i in range(n):
                 tmp[i] = xs[j + 1, i] + dxs[j + 1, i]
-            for i in range(n):
-                s = 0.0
-                for k in range(n):
-                    s += at[k, i] * tmp[k]
-                xs[j, i] = s
+            for i in range(n):  # x_s(j) = A tmp, all rows at once (each summed over k in order)
+                xs[j, i] = 0.0
+            for k in range(n):
+                tk = tmp[k]
+                for i in range(n):
+                    xs[j, i] += at[k, i] * tk
             # P_s(j) = P⁺_j + A (P_s(j+1) − P⁻_{j+1}) Aᵀ, with D = P_s(j+1) − P⁻ and E = D Aᵀ
             for i in range(n):
                 for k in range(n):
-                    pm[i, k] = Ps[i, k] - pm[i, k]
-            np.dot(pm, at, E)  # BLAS: at n ≈ 20 twice as fast as loops
+                    D[i, k] = Ps[i, k] - pmj[i, k]
+            np.dot(D, at, E)  # BLAS: at n ≈ 20 twice as fast as loops
             for i in range(n):
                 for k in range(n):
                     a_[i, k] = at[k, i]
@@ -814,21 +813,38 @@ def _chol_solve(S, B, L, X):
                 s -= L[i, k] * L[jj, k]
             L[i, jj] = s / d
     m = B.shape[1]
+    # the substitutions take four rows of X per pass over the columns, X[i] ← (((X[i] − l₀X[k]) − l₁X[k+1])
+    # − l₂X[k+2]) − l₃X[k+3]: the same operations in the same order as one row at a time, so the same
+    # numbers, with a quarter of the passes and of the loads and stores of X[i]
     for i in range(n):  # L Y = B, row by row (all columns at once)
         for c in range(m):
             X[i, c] = B[i, c]
-        for k in range(i):
+        k = 0
+        while k + 4 <= i:
+            l0, l1, l2, l3 = L[i, k], L[i, k + 1], L[i, k + 2], L[i, k + 3]
+            for c in range(m):
+                X[i, c] = (((X[i, c] - l0 * X[k, c]) - l1 * X[k + 1, c]) - l2 * X[k + 2, c]) - l3 * X[k + 3, c]
+            k += 4
+        while k < i:
             lik = L[i, k]
             for c in range(m):
                 X[i, c] -= lik * X[k, c]
+            k += 1
         d = L[i, i]
         for c in range(m):
             X[i, c] /= d
     for i in range(n - 1, -1, -1):  # Lᵀ X = Y
-        for k in range(i + 1, n):
+        k = i + 1
+        while k + 4 <= n:
+            l0, l1, l2, l3 = L[k, i], L[k + 1, i], L[k + 2, i], L[k + 3, i]
+            for c in range(m):
+                X[i, c] = (((X[i, c] - l0 * X[k, c]) - l1 * X[k + 1, c]) - l2 * X[k + 2, c]) - l3 * X[k + 3, c]
+            k += 4
+        while k < n:
             lki = L[k, i]
             for c in range(m):
                 X[i, c] -= lki * X[k, c]
+            k += 1
         d = L[i, i]
         for c in range(m):
             X[i, c] /= d

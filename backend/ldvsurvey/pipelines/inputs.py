@@ -148,7 +148,19 @@ def c_bs_of(inp: NavInputs, alpha_rad: float = 0.0, beta_rad: float = 0.0):
 
 
 def initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
-    """Coarse alignment over the static period (or on the move): C_s^n at the start of the log."""
+    """Coarse alignment over the static period (or on the move): C_s^n at the start of the log.
+
+    Kept in ``inp.cache`` for the last ``cbs`` asked (the calibration and the navigation of a run
+    align with the same one)."""
+    hit = inp.cache.get("initial_attitude")
+    if hit is not None and hit[0] is cbs:
+        return hit[1].copy()
+    c0 = _initial_attitude(inp, cbs)
+    inp.cache["initial_attitude"] = (cbs, c0)
+    return c0.copy()
+
+
+def _initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
     if inp.c_bn0 is not None:
         return inp.c_bn0 if cbs is None else inp.c_bn0 @ cbs[0].T
     k = inp.t_s <= inp.static_end_s
