@@ -177,8 +177,10 @@ def per_nominal_interval(f_u_mps2, t_s):
 def ldv_chain(inp, sol, setup):
     """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times.
 
-    Per-sample work in blocks (:data:`BLOCK`): besides its own columns the chain holds two per-sample
-    series at a time (the LDV up velocity, then the bridged one and f_U), never an attitude matrix per sample.
+    Per-sample work in blocks (:data:`BLOCK`): besides its own columns (time, δg, the static δg for the
+    drift ties) the chain forms one per-sample series at a time (the LDV up velocity, then the bridged one),
+    never an attitude matrix per sample; latitude, longitude, height and speed are
+    :class:`IntervalColumn` s over the navigation's position and velocity.
     """
     t = inp.t_s
     n = len(t)
@@ -194,7 +196,7 @@ def ldv_chain(inp, sol, setup):
     v_u = bridge_velocity(v_u, use, v_ref, edge_n=LDV_EDGE_N)
     del ok
     dt0 = nominal_interval_s(t)
-    cols = {k: np.empty(n - 1) for k in ("t_s", "dg", "dg_static", "lat", "lon", "h", "speed")}
+    cols = {k: np.empty(n - 1) for k in ("t_s", "dg", "dg_static")}
     # interval k (samples k, k + 1) of the chain; per block the intervals a..b−2 and the one to the next block
     for a, b in _blocks(n):
         b1 = min(b + 1, n)  # samples a..b1−1 give the intervals a..b1−2
@@ -211,13 +213,14 @@ def ldv_chain(inp, sol, setup):
         cols["t_s"][k] = 0.5 * (t[a + 1 : b1] + t[a : b1 - 1])
         cols["dg"][k] = dg
         cols["dg_static"][k] = dg + vdot_u
-        cols["lat"][k] = lat
-        cols["lon"][k] = 0.5 * (pos[1:, 1] + pos[:-1, 1])
-        cols["h"][k] = h
-        cols["speed"][k] = np.hypot(v_mid[:, 0], v_mid[:, 1])
     bridged = ~(use[1:] & use[:-1])  # intervals touching a bridged sample
     return {
         **cols,
+        # formed where indexed (the lines' samples, the stops, the table's rows): no copy of the navigation
+        "lat": _mid_column(sol.pos, 0),
+        "lon": _mid_column(sol.pos, 1),
+        "h": _mid_column(sol.pos, 2),
+        "speed": _mid_speed_column(sol.v_n),
         "fs": 1.0 / dt0,
         "bridged": bridged,
         "screened": int(bad.sum()),
@@ -227,12 +230,14 @@ def ldv_chain(inp, sol, setup):
 
 
 def _double_integral(t, sol) -> np.ndarray:
-    """S (N,) in m: ∫∫ (f_U − γ + Eötvös) dt² at the IMU times (trapezoid outside, rectangle per interval inside).
+    """S (N,) in m: ∫∫ (f_U − γ + Eötvös) dt² at the IMU times (rectangle per interval, then trapezoid).
 
-    The integrand per interval in blocks; the running sums are numpy's sequential cumulative sums in place."""
+    In blocks of intervals; each running sum carries the previous block's last value into the first term of
+    its block's cumulative sum, which is then the very sequence of additions of one sum over the whole log."""
     n = len(t)
-    w = np.empty(n)  # ∫ (f_U − γ + Eötvös) dt at the IMU times
-    w[0] = 0.0
+    s = np.empty(n)
+    s[0] = 0.0
+    w_end = s_end = 0.0  # ∫ (f_U − γ + Eötvös) dt and S at the last sample of the previous block
     for a, b in _blocks(n):
         b1 = min(b + 1, n)  # intervals a..b1−2 (samples a..b1−1)
         if b1 - a < 2:
@@ -248,15 +253,65 @@ def _double_integral(t, sol) -> np.ndarray:
             + (v_mid[:, 0] / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_m)) * v_mid[:, 0]
             + v_mid[:, 1] ** 2 / (rm + h_m)
         )
-        w[a + 1 : b1] = acc * np.diff(t[a:b1])
-    np.cumsum(w, out=w)
-    s = np.empty(n)  # and once more
-    s[0] = 0.0
-    for a, b in _blocks(n):
-        b1 = min(b + 1, n)
-        s[a + 1 : b1] = 0.5 * (w[a + 1 : b1] + w[a : b1 - 1]) * np.diff(t[a:b1])
-    np.cumsum(s, out=s)
+        dt = np.diff(t[a:b1])
+        x = acc * dt
+        x[0] += w_end
+        w = np.cumsum(x)  # at the samples a+1..b1−1
+        y = 0.5 * (w + np.r_[w_end, w[:-1]]) * dt
+        y[0] += s_end
+        s[a + 1 : b1] = np.cumsum(y)
+        w_end, s_end = w[-1], s[b1 - 1]
     return s
+
+
+class IntervalColumn:
+    """A per-interval column of a chain (e.g. latitude at the interval mid-times) formed from the navigation's
+    per-sample arrays only where it is indexed, so the chain holds no copy of them.
+
+    ``fn(k)`` gives the values of the intervals ``k`` (int array). ``col[idx]`` (indices, mask or slice)
+    and ``np.asarray(col)`` equal the materialized column's values bit for bit.
+    """
+
+    def __init__(self, n: int, fn):
+        self._n, self._fn = int(n), fn
+
+    def __len__(self) -> int:
+        return self._n
+
+    @property
+    def shape(self):
+        return (self._n,)
+
+    def __getitem__(self, idx):
+        if isinstance(idx, slice):
+            return self._fn(np.arange(*idx.indices(self._n)))
+        k = np.asarray(idx)
+        if k.dtype == bool:
+            if k.shape != (self._n,):
+                raise IndexError(f"boolean index of shape {k.shape} for a column of {self._n}")
+            return self._fn(np.flatnonzero(k))
+        if k.ndim == 0:
+            j = int(k) + self._n if int(k) < 0 else int(k)
+            if not 0 <= j < self._n:
+                raise IndexError(f"index {int(k)} out of range for a column of {self._n}")
+            return self._fn(np.array([j]))[0]
+        return self._fn(np.where(k < 0, k + self._n, k))
+
+    def __array__(self, dtype=None, copy=None):
+        out = self[:]
+        return out if dtype is None else out.astype(dtype)
+
+
+def _mid_column(x, i: int) -> IntervalColumn:
+    """0.5 (x[k, i] + x[k + 1, i]) for the intervals k of the samples of x (N, m)."""
+    return IntervalColumn(len(x) - 1, lambda k: 0.5 * (x[k + 1, i] + x[k, i]))
+
+
+def _mid_speed_column(v_n) -> IntervalColumn:
+    """Horizontal speed from the interval-mean velocity, per interval of the samples of v_n (N, 3)."""
+    return IntervalColumn(
+        len(v_n) - 1, lambda k: np.hypot(0.5 * (v_n[k + 1, 0] + v_n[k, 0]), 0.5 * (v_n[k + 1, 1] + v_n[k, 1]))
+    )
 
 
 def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float = 4.0):

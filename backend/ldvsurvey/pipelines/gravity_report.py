@@ -92,6 +92,8 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
     ``leveling`` "bias": every line is shifted by its mean residual about the mean line (line
     leveling: removes each line's share of a drift the stops could not tie; the shifts sum to zero,
     so the level of the survey stays), and the coincidence is that of the levelled lines.
+    Returns a dict; its ``per_line`` holds per line (name, chain index, the indices of the line's trimmed
+    samples with a filtered value, their along-track distance, lateral offset, east, north (m), info).
     """
     filtered = []
     for ch in chains:
@@ -104,7 +106,8 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
     for name, ci, a, b in lines:
         ch = chains[ci]
         whole = (ch["t_s"] >= a) & (ch["t_s"] <= b)
-        k = trim_line(ch["t_s"], a, b, trim_s) & np.isfinite(filtered[ci])
+        # the line's samples as indices (a mask per line would be a byte per sample of the log, per line)
+        k = np.flatnonzero(trim_line(ch["t_s"], a, b, trim_s) & np.isfinite(filtered[ci]))
         info = {
             "bridged_s": float(np.sum(ch["bridged"][whole]) / ch["fs"]),
             "bridged_share": float(np.mean(ch["bridged"][whole])) if whole.any() else 0.0,
@@ -112,7 +115,7 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
             "duration_s": float(b - a),
             "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s)),
         }
-        if k.sum() < 10:
+        if len(k) < 10:
             if strict:
                 raise ParameterError(
                     f"line {name} [{a}, {b}] s holds no data after trimming {trim_s:g} s at each end",
