@@ -133,14 +133,21 @@ def screen_velocity(v_u, ok, v_ref, window: int = 201, k_sigma: float = 8.0, flo
     The slow part of v − v_ref (moving mean over ``window`` valid samples) is removed; what stays
     is LDV noise. Flagged: |rest| > max(k σ, floor) with σ from the median absolute deviation.
     """
-    r = np.where(ok, v_u - v_ref, 0.0)
+    # in place where it can be: at most three per-sample float series at a time (the screen runs on the whole log)
+    r = np.subtract(v_u, v_ref)
+    r[~ok] = 0.0
     w = uniform_filter1d(ok.astype(float), window)
-    slow = uniform_filter1d(r, window) / np.maximum(w, 1e-9)
-    rest = r - slow
+    np.maximum(w, 1e-9, out=w)
+    rest = uniform_filter1d(r, window)
+    rest /= w  # the slow part
+    del w
+    np.subtract(r, rest, out=rest)
+    del r
     if ok.sum() < 10:
         return np.zeros_like(ok)
-    sig = 1.4826 * np.median(np.abs(rest[ok]))
-    return ok & (np.abs(rest) > max(k_sigma * sig, floor_mps))
+    sig = 1.4826 * np.median(np.abs(rest[ok]), overwrite_input=True)
+    np.abs(rest, out=rest)
+    return ok & (rest > max(k_sigma * sig, floor_mps))
 
 
 def ldv_noise_estimate_mps(v_u, ok):
