@@ -80,6 +80,17 @@ def vertical_force(inp, sol):
     return out
 
 
+def _body_rotation(c_a, c_b) -> np.ndarray:
+    """(K, 3) twice the rotation vector of C_aᵀ C_b (small angles), from its antisymmetric part, rad.
+
+    Only the six off-diagonal terms of the product are formed (the sums in the order einsum takes them)."""
+
+    def rel(i, j):
+        return c_a[:, 0, i] * c_b[:, 0, j] + c_a[:, 1, i] * c_b[:, 1, j] + c_a[:, 2, i] * c_b[:, 2, j]
+
+    return np.column_stack([rel(2, 1) - rel(1, 2), rel(0, 2) - rel(2, 0), rel(1, 0) - rel(0, 1)])
+
+
 def _ldv_velocity_blocks(inp, sol, setup):
     """(a, b, LDV velocity (b − a, 3) ENU at the IMU centre) for consecutive blocks of samples, m/s.
 
@@ -107,8 +118,7 @@ def _ldv_velocity_blocks(inp, sol, setup):
         )
         c_k = c_bn[a - a0 : a - a0 + (b - a)]
         v_head = np.einsum("kij,kj->ki", c_k, v_b)
-        rel = np.einsum("kji,kjl->kil", c_bn[:-1], c_bn[1:])
-        w = np.column_stack([rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0], rel[:, 1, 0] - rel[:, 0, 1]])
+        w = _body_rotation(c_bn[:-1], c_bn[1:])
         dt = np.diff(t[a0:b0])
         if a == 0:
             w = np.vstack([w[:1], w[: b - 1]]) / (2 * np.r_[dt[:1], dt[: b - 1]])[:, None]
