@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import median_filter, uniform_filter1d
 
+from ldvsurvey.nav.attitude import c_from_q
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.gravity import bridge_velocity, disturbance_mps2, runs, zero_phase_lowpass
 from ldvsurvey.pipelines.calibration import accel_fwd, ldv_body_velocity
@@ -80,6 +81,18 @@ def vertical_force(inp, sol):
     return out
 
 
+class _AttitudeRows:
+    """C_b^n of the samples it is indexed with, from the solution's quaternions (and C_b^s of a rotating
+    IMU): what :func:`attitude_at` takes for the whole log's C_b^n, formed only at the samples it reads."""
+
+    def __init__(self, sol):
+        self.sol = sol
+
+    def __getitem__(self, k):
+        c = c_from_q(self.sol.q_sn[k])
+        return c if self.sol.c_bs is None else c @ self.sol.c_bs[k]
+
+
 def _body_rotation(c_a, c_b) -> np.ndarray:
     """(K, 3) twice the rotation vector of C_aᵀ C_b (small angles), from its antisymmetric part, rad.
 
@@ -105,7 +118,7 @@ def _ldv_velocity_blocks(inp, sol, setup):
     for a, b in _blocks(n):
         a0 = max(a - 1, 0)  # the interval (a − 1, a] gives sample a's body rate; sample 0 takes (0, 1]
         b0 = b + 1 if a == 0 else b
-        c_bn = sol.c_bn(slice(a0, b0))
+        c_bn = _AttitudeRows(sol)[a0:b0]
         v_b = ldv_body_velocity(
             inp.nu_f_mps[a:b],
             None if nu_u is None else nu_u[a:b],
@@ -348,7 +361,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         raise ValueError(f"fewer than 20 GNSS fixes of quality {'/'.join(map(str, fixes))}")
     tg = g.t_s[keep]
     lever = np.asarray(log.manifest.gnss.lever_arm_m, float)
-    h_g = g.h_m[keep] - (attitude_at(sol, tg) @ lever)[:, 2]
+    h_g = g.h_m[keep] - (attitude_at(sol, tg, _AttitudeRows(sol)) @ lever)[:, 2]
     sig_v = np.array([GNSS_SIGMA.get(int(f), (np.nan, 5.0))[1] for f in g.fix[keep]])
     ref = sol if ref is None else ref
     res = h_g - np.interp(tg, t, ref.pos[:, 2])
