@@ -122,13 +122,13 @@ def to_mgal(x):
 
 def runs(mask):
     """(start, stop) index pairs of the True runs of a boolean array."""
-    e = np.flatnonzero(np.diff(np.r_[0, np.asarray(mask, int), 0]))
+    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
+    e = np.flatnonzero(m[1:] != m[:-1])  # where the padded mask changes (bytes, not an int per sample)
     return list(zip(e[::2], e[1::2]))
 
 
-def _edge_offset(off, lo: int, hi: int, at: int, fit: str) -> float:
-    """The offset at sample ``at`` from the valid samples ``off[lo:hi]`` next to it (mean or line)."""
-    seg = off[lo:hi]
+def _edge_offset(seg, lo: int, hi: int, at: int, fit: str) -> float:
+    """The offset at sample ``at`` from the valid samples lo..hi−1 next to it, ``seg`` their offsets (mean or line)."""
     if fit == "line" and len(seg) >= 3:
         x = np.arange(lo, hi, dtype=float) - at
         _slope, a0 = np.polyfit(x, seg, 1)
@@ -156,14 +156,15 @@ def bridge_velocity(v_mps, ok, v_ref_mps, edge_n: int = 1, edge_fit: str = "mean
     ok = np.asarray(ok, bool) & np.isfinite(v)
     if not ok.any():
         raise ValueError("no valid sample to bridge from")
-    off = v - v_ref_mps
     n = len(v)
     segs = runs(~ok)
     for i, (a, b) in enumerate(segs):
         lo = segs[i - 1][1] if i > 0 else 0
         hi = segs[i + 1][0] if i + 1 < len(segs) else n
-        oa = _edge_offset(off, max(lo, a - edge_n), a, a - 1, edge_fit) if a > 0 else None
-        ob = _edge_offset(off, b, min(hi, b + edge_n), b, edge_fit) if b < n else None
+        # the offsets v − v_ref only next to the gap (never a whole per-sample series of them)
+        la, hb = max(lo, a - edge_n), min(hi, b + edge_n)
+        oa = _edge_offset(v[la:a] - v_ref_mps[la:a], la, a, a - 1, edge_fit) if a > 0 else None
+        ob = _edge_offset(v[b:hb] - v_ref_mps[b:hb], b, hb, b, edge_fit) if b < n else None
         oa = ob if oa is None else oa
         ob = oa if ob is None else ob
         w = (np.arange(a, b) - (a - 1)) / (b - a + 1)
