@@ -175,3 +175,49 @@ def test_interval_column_indexes_like_the_materialized_column():
         col[49]
     with pytest.raises(IndexError):
         col[np.ones(48, bool)]
+
+
+def previous_bridge(v_mps, ok, v_ref_mps, edge_n=1, edge_fit="mean"):
+    """bridge_velocity as it was: the offsets v − v_ref of every sample formed first, runs from int64 steps."""
+    v = np.array(v_mps, float, copy=True)
+    ok = np.asarray(ok, bool) & np.isfinite(v)
+    off = v - v_ref_mps
+    n = len(v)
+    e = np.flatnonzero(np.diff(np.r_[0, np.asarray(~ok, int), 0]))
+    segs = list(zip(e[::2], e[1::2]))
+
+    def edge(lo, hi, at):
+        seg = off[lo:hi]
+        if edge_fit == "line" and len(seg) >= 3:
+            return float(np.polyfit(np.arange(lo, hi, dtype=float) - at, seg, 1)[1])
+        return float(np.mean(seg))
+
+    for i, (a, b) in enumerate(segs):
+        lo = segs[i - 1][1] if i > 0 else 0
+        hi = segs[i + 1][0] if i + 1 < len(segs) else n
+        oa = edge(max(lo, a - edge_n), a, a - 1) if a > 0 else None
+        ob = edge(b, min(hi, b + edge_n), b) if b < n else None
+        oa = ob if oa is None else oa
+        ob = oa if ob is None else ob
+        w = (np.arange(a, b) - (a - 1)) / (b - a + 1)
+        v[a:b] = v_ref_mps[a:b] + (1 - w) * oa + w * ob
+    return v
+
+
+@pytest.mark.parametrize("edge_fit", ["mean", "line"])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_bridge_equals_its_previous_implementation(edge_fit, seed):
+    rng = np.random.default_rng(seed)
+    n = 3000
+    v_ref = np.cumsum(rng.normal(0.0, 0.01, n))
+    v = v_ref + 0.3 + np.cumsum(rng.normal(0.0, 0.002, n))
+    ok = rng.uniform(size=n) > 0.1  # single dropped samples ...
+    ok[:7] = False  # ... a gap at the start, one at the end, long ones between gaps close together
+    ok[-4:] = False
+    ok[1000:1400] = False
+    ok[1403:1405] = False
+    v[~ok] = np.where(rng.uniform(size=(~ok).sum()) < 0.5, np.nan, 1e3)
+    for edge_n in (1, 3, 50):
+        got = gc.bridge_velocity(v, ok, v_ref, edge_n=edge_n, edge_fit=edge_fit)
+        np.testing.assert_array_equal(got, previous_bridge(v, ok, v_ref, edge_n, edge_fit))
+        assert np.all(np.isfinite(got)) and np.array_equal(got[ok & np.isfinite(v)], v[ok & np.isfinite(v)])
