@@ -44,13 +44,15 @@ def fir_taps(length_s: float, fs_hz: float) -> np.ndarray:
     return firwin(n, 1.0 / length_s, window="blackman", fs=fs_hz)
 
 
-def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5, weights=None):
+def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5, weights=None, den_cache=None):
     """Forward-backward FIR (as filtfilt) of a regularly sampled series; NaN samples are gaps.
 
     The filter is applied to the data and to the valid-sample mask and the two are divided,
     so gaps are bridged by the neighbours (normalized convolution). Optional ``weights``
     (e.g. 1/σ²) let better samples dominate; they are scaled to a maximum of 1. Output is NaN
     where the valid weight under the (doubled) filter is below ``min_weight``.
+    ``den_cache``: a dict the caller keeps while it filters several series of one length; the
+    filtered mask of a series without gaps or weights (the same for all of them) is computed once.
     """
     x = np.asarray(x, dtype=float)
     h = fir_taps(length_s, fs_hz)
@@ -61,7 +63,13 @@ def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5
         w = w * np.nan_to_num(np.asarray(weights, float))
         w = w / max(float(w.max()), 1e-300)
     num = oaconvolve(np.where(ok, x, 0.0) * w, h2, mode="same")
-    den = oaconvolve(w, h2, mode="same")
+    key = (len(x), float(length_s), float(fs_hz))
+    if den_cache is not None and weights is None and key in den_cache and ok.all():
+        den = den_cache[key]
+    else:
+        den = oaconvolve(w, h2, mode="same")
+        if den_cache is not None and weights is None and ok.all():
+            den_cache[key] = den
     with np.errstate(invalid="ignore", divide="ignore"):
         y = num / den
     y[den < min_weight] = np.nan
