@@ -221,3 +221,48 @@ def test_bridge_equals_its_previous_implementation(edge_fit, seed):
         got = gc.bridge_velocity(v, ok, v_ref, edge_n=edge_n, edge_fit=edge_fit)
         np.testing.assert_array_equal(got, previous_bridge(v, ok, v_ref, edge_n, edge_fit))
         assert np.all(np.isfinite(got)) and np.array_equal(got[ok & np.isfinite(v)], v[ok & np.isfinite(v)])
+
+
+def test_shared_filtered_mask_and_line_bisection_equal_the_plain_computation():
+    """zero_phase_lowpass with a den_cache equals it without; evaluate's lines (found by bisection of the
+    chain times) hold exactly the samples the masks over the whole log select."""
+    from ldvsurvey.nav.gravity import trim_line, zero_phase_lowpass
+    from ldvsurvey.pipelines.gravity_report import evaluate
+
+    rng = np.random.default_rng(7)
+    fs, n = 10.0, 20000
+    t = 50.0 + np.arange(n) / fs
+    x, y = rng.normal(0.0, 1e-5, n), rng.normal(0.0, 1e-5, n)
+    cache = {}
+    a1 = zero_phase_lowpass(x, 60.0, fs, den_cache=cache)
+    assert len(cache) == 1
+    np.testing.assert_array_equal(zero_phase_lowpass(y, 60.0, fs, den_cache=cache), zero_phase_lowpass(y, 60.0, fs))
+    np.testing.assert_array_equal(a1, zero_phase_lowpass(x, 60.0, fs))
+    x_gap = x.copy()
+    x_gap[5000:5100] = np.nan  # with gaps the mask differs: not taken from (nor put into) the cache
+    np.testing.assert_array_equal(
+        zero_phase_lowpass(x_gap, 60.0, fs, den_cache=cache), zero_phase_lowpass(x_gap, 60.0, fs)
+    )
+    assert len(cache) == 1
+    # two passes over the same 10-km road, out (t 100..900 s) and back (1100..1900 s)
+    s_m = np.interp(t, [50, 100, 900, 1100, 1900, 2100], [0, 0, 10000, 10000, 0, 0])
+    bridged = rng.uniform(size=n - 1) < 0.02
+    ch = {
+        "t_s": t,
+        "dg": 1e-5 * np.sin(s_m / 700.0) + x,
+        "lat": np.radians(48.0) + s_m / 6.37e6,
+        "lon": np.full(n, 0.2),
+        "speed": np.full(n, 12.5),
+        "fs": fs,
+        "bridged": np.r_[bridged, False],
+        "kind": "ldv",
+    }
+    lines = [("L1", 0, 100.0, 900.0), ("L2", 0, 1100.0, 1900.0)]
+    res = evaluate([ch], lines, 60.0, 10.0, 30.0)
+    for (_name, _ci, k, *_rest, info), (_, _, a, b) in zip(res["per_line"], lines):
+        whole = (t >= a) & (t <= b)
+        np.testing.assert_array_equal(k, np.flatnonzero(trim_line(t, a, b, 30.0) & np.isfinite(res["filtered"][0])))
+        assert info["bridged_s"] == np.sum(ch["bridged"][whole]) / fs
+        assert info["bridged_share"] == np.mean(ch["bridged"][whole]) > 0
+        assert info["unsupported_s"] == np.sum(ch["unsupported"][whole]) / fs
+    assert res["coincidence"].total < 0.5  # the same δg twice: the lines agree to their noise
