@@ -45,7 +45,7 @@ LDV_EDGE_N = 50
 
 #: IMU samples per block of the per-sample work (attitude matrices, LDV velocity, the chains' terms): the
 #: temporaries stay a few MB whatever the log's length, and every value is computed exactly as on the whole log
-BLOCK = 1 << 16
+BLOCK = 1 << 15
 
 
 def _blocks(n: int, size: int | None = None):
@@ -228,7 +228,7 @@ def ldv_chain(inp, sol, setup):
     v_u = bridge_velocity(v_u, use, v_ref, edge_n=LDV_EDGE_N)
     del ok
     dt0 = nominal_interval_s(t)
-    cols = {k: np.empty(n - 1) for k in ("t_s", "dg", "dg_static")}
+    cols = {k: np.empty(n - 1) for k in ("dg", "dg_static")}
     # interval k (samples k, k + 1) of the chain; per block the intervals a..b−2 and the one to the next block
     for a, b in _blocks(n):
         b1 = min(b + 1, n)  # samples a..b1−1 give the intervals a..b1−2
@@ -242,11 +242,12 @@ def ldv_chain(inp, sol, setup):
         h = 0.5 * (pos[1:, 2] + pos[:-1, 2])
         dg = disturbance_mps2(f_u, vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
         k = slice(a, b1 - 1)
-        cols["t_s"][k] = 0.5 * (t[a + 1 : b1] + t[a : b1 - 1])
         cols["dg"][k] = dg
         cols["dg_static"][k] = dg + vdot_u
+    del v_u  # before the third column
     bridged = ~(use[1:] & use[:-1])  # intervals touching a bridged sample
     return {
+        "t_s": 0.5 * (t[1:] + t[:-1]),
         **cols,
         # formed where indexed (the lines' samples, the stops, the table's rows): no copy of the navigation
         "lat": _mid_column(sol.pos, 0),
