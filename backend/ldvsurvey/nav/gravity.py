@@ -44,13 +44,15 @@ def fir_taps(length_s: float, fs_hz: float) -> np.ndarray:
     return firwin(n, 1.0 / length_s, window="blackman", fs=fs_hz)
 
 
-def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5, weights=None):
+def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5, weights=None, den_cache=None):
     """Forward-backward FIR (as filtfilt) of a regularly sampled series; NaN samples are gaps.
 
     The filter is applied to the data and to the valid-sample mask and the two are divided,
     so gaps are bridged by the neighbours (normalized convolution). Optional ``weights``
     (e.g. 1/σ²) let better samples dominate; they are scaled to a maximum of 1. Output is NaN
     where the valid weight under the (doubled) filter is below ``min_weight``.
+    ``den_cache``: a dict the caller keeps while it filters several series of one length; the
+    filtered mask of a series without gaps or weights (the same for all of them) is computed once.
     """
     x = np.asarray(x, dtype=float)
     h = fir_taps(length_s, fs_hz)
@@ -61,7 +63,13 @@ def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5
         w = w * np.nan_to_num(np.asarray(weights, float))
         w = w / max(float(w.max()), 1e-300)
     num = oaconvolve(np.where(ok, x, 0.0) * w, h2, mode="same")
-    den = oaconvolve(w, h2, mode="same")
+    key = (len(x), float(length_s), float(fs_hz))
+    if den_cache is not None and weights is None and key in den_cache and ok.all():
+        den = den_cache[key]
+    else:
+        den = oaconvolve(w, h2, mode="same")
+        if den_cache is not None and weights is None and ok.all():
+            den_cache[key] = den
     with np.errstate(invalid="ignore", divide="ignore"):
         y = num / den
     y[den < min_weight] = np.nan
@@ -122,13 +130,13 @@ def to_mgal(x):
 
 def runs(mask):
     """(start, stop) index pairs of the True runs of a boolean array."""
-    e = np.flatnonzero(np.diff(np.r_[0, np.asarray(mask, int), 0]))
+    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
+    e = np.flatnonzero(m[1:] != m[:-1])  # where the padded mask changes (bytes, not an int per sample)
     return list(zip(e[::2], e[1::2]))
 
 
-def _edge_offset(off, lo: int, hi: int, at: int, fit: str) -> float:
-    """The offset at sample ``at`` from the valid samples ``off[lo:hi]`` next to it (mean or line)."""
-    seg = off[lo:hi]
+def _edge_offset(seg, lo: int, hi: int, at: int, fit: str) -> float:
+    """The offset at sample ``at`` from the valid samples lo..hi−1 next to it, ``seg`` their offsets (mean or line)."""
     if fit == "line" and len(seg) >= 3:
         x = np.arange(lo, hi, dtype=float) - at
         _slope, a0 = np.polyfit(x, seg, 1)
@@ -156,14 +164,15 @@ def bridge_velocity(v_mps, ok, v_ref_mps, edge_n: int = 1, edge_fit: str = "mean
     ok = np.asarray(ok, bool) & np.isfinite(v)
     if not ok.any():
         raise ValueError("no valid sample to bridge from")
-    off = v - v_ref_mps
     n = len(v)
     segs = runs(~ok)
     for i, (a, b) in enumerate(segs):
         lo = segs[i - 1][1] if i > 0 else 0
         hi = segs[i + 1][0] if i + 1 < len(segs) else n
-        oa = _edge_offset(off, max(lo, a - edge_n), a, a - 1, edge_fit) if a > 0 else None
-        ob = _edge_offset(off, b, min(hi, b + edge_n), b, edge_fit) if b < n else None
+        # the offsets v − v_ref only next to the gap (never a whole per-sample series of them)
+        la, hb = max(lo, a - edge_n), min(hi, b + edge_n)
+        oa = _edge_offset(v[la:a] - v_ref_mps[la:a], la, a, a - 1, edge_fit) if a > 0 else None
+        ob = _edge_offset(v[b:hb] - v_ref_mps[b:hb], b, hb, b, edge_fit) if b < n else None
         oa = ob if oa is None else oa
         ob = oa if ob is None else ob
         w = (np.arange(a, b) - (a - 1)) / (b - a + 1)

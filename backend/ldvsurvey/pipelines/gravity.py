@@ -219,30 +219,38 @@ def run(logs, params, progress) -> PipelineResult:
         progress(f"bundle {i + 1}/{len(logs)}: SINS/LDV navigation", 0.05 + 0.6 * i / len(logs))
         inp, setup, sol = run_navigation(navigation_log(log), nav_params, progress)
         warnings += setup.warnings
+        has_gnss = log.gnss is not None and np.count_nonzero(np.isin(log.gnss.fix, fixes)) > 100
+        gch = gskip = None
+        if params["gnss_comparison"] and has_gnss:
+            # before the SINS/LDV chain: its few per-sample temporaries then never meet that chain's columns
+            progress(f"bundle {i + 1}/{len(logs)}: SINS/GNSS chain", 0.05 + 0.6 * (i + 0.3) / len(logs))
+            try:
+                # f_U, attitude and the Eötvös velocity of the SINS/LDV navigation: the chains then differ
+                # only in the vertical acceleration (LDV vs GNSS heights), and no third filter runs
+                gch = gnss_chain(log, inp, sol, fir_s, fixes)
+                fl = floor_of(log, gch, fir_s)
+                if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
+                    gch["edge_gain_max"] = edge_gain_max(fl)
+            except ValueError as exc:
+                gskip = f"SINS/GNSS chain skipped for bundle {i + 1}: {exc}"
         ch = ldv_chain(inp, sol, setup)
         ch["still"] = inp.still
         if ch["screened"]:
             warnings.append(f"{ch['screened']} LDV sample(s) far off the navigation velocity treated as gaps")
         chains.append(ch)
-        has_gnss = log.gnss is not None and np.count_nonzero(np.isin(log.gnss.fix, fixes)) > 100
-        gchains.append(None)
-        if params["gnss_comparison"] and has_gnss:
-            progress(f"bundle {i + 1}/{len(logs)}: SINS/GNSS chain", 0.05 + 0.6 * (i + 0.3) / len(logs))
-            try:
-                # f_U, attitude and the Eötvös velocity of the SINS/LDV navigation: the chains then differ
-                # only in the vertical acceleration (LDV vs GNSS heights), and no third filter runs
-                gchains[-1] = gnss_chain(log, inp, sol, fir_s, fixes)
-                fl = floor_of(log, gchains[-1], fir_s)
-                if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
-                    gchains[-1]["edge_gain_max"] = edge_gain_max(fl)
-            except ValueError as exc:
-                warnings.append(f"SINS/GNSS chain skipped for bundle {i + 1}: {exc}")
+        gchains.append(gch)
+        if gskip:
+            warnings.append(gskip)
         if params["gnss_aided"]:
             if log.gnss is None:
                 raise ParameterError("gnss_aided needs GNSS: the bundle has no gnss.nmea", field="gnss_aided")
             progress(f"bundle {i + 1}/{len(logs)}: LDV+GNSS navigation", 0.05 + 0.6 * (i + 0.6) / len(logs))
             sol_a = navigate(inp, cbs=setup.cbs, ldv=ldv_aid_of(inp, setup), gnss=gnss_aid(log), smooth=True)
             achains.append(ldv_chain(inp, sol_a, setup))
+            del sol_a
+        # the chains hold what follows needs: the navigation's per-sample result goes before the statistics
+        # (and before the next bundle's navigation)
+        del inp, setup, sol
         prefix = f"B{i + 1}-" if len(logs) > 1 else ""
         if params["lines"]:
             found = parse_lines(params["lines"])
@@ -392,10 +400,12 @@ def gravity_table(chains, res, rate_hz, extra):
         idx = np.arange(step // 2, n, step)
         name_col = np.array([""] * len(idx), dtype=object)
         dist = np.full(len(idx), np.nan)
-        for name, k, s in line_of.get(ci, []):
-            sel = k[idx]
+        for name, k, s in line_of.get(ci, []):  # k: the line's sample indices (sorted)
+            if not len(s):
+                continue
+            sel = k[np.minimum(np.searchsorted(k, idx), len(k) - 1)] == idx
             name_col[sel] = name
-            dist[sel] = np.interp(idx[sel], np.flatnonzero(k), s)
+            dist[sel] = np.interp(idx[sel], k, s)
         t = ch["t_s"][idx]
         cols["t_s"] += list(t)
         cols["line"] += list(name_col)

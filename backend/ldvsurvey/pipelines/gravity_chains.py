@@ -43,48 +43,112 @@ GNSS_BRIDGE_PASSES = 4
 LDV_EDGE_N = 50
 
 
-def _c_sn_c_bn(sol):
-    """(C_s^n, C_b^n) of every sample, computed once per solution (both chains use them)."""
-    cache = sol.__dict__.setdefault("_gravity_att", {})
-    if "c_sn" not in cache:
-        cache["c_sn"] = c_from_q(sol.q_sn)
-        cache["c_bn"] = cache["c_sn"] if sol.c_bs is None else cache["c_sn"] @ sol.c_bs
-    return cache["c_sn"], cache["c_bn"]
+#: IMU samples per block of the per-sample work (attitude matrices, LDV velocity, the chains' terms): the
+#: temporaries stay a few MB whatever the log's length, and every value is computed exactly as on the whole log
+BLOCK = 1 << 15
+
+
+def _blocks(n: int, size: int | None = None):
+    """(start, stop) of consecutive blocks covering range(n) (``size`` default: :data:`BLOCK`)."""
+    size = size or BLOCK
+    for a in range(0, n, size):
+        yield a, min(n, a + size)
+
+
+def _vertical_force_block(sol, a: int, b: int) -> np.ndarray:
+    """:func:`vertical_force` of the samples a..b−1 (the up row of C_s^n from the quaternions only)."""
+    q = np.asarray(sol.q_sn[a:b], float)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)  # as attitude.c_from_q
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    c_20, c_21 = 2 * (x * z - w * y), 2 * (y * z + w * x)
+    f_raw = sol.f_u_mps2[a:b] + sol.f_u_bias_mps2[a:b]  # C_s^n Δv / Δt as mechanized, no bias removed
+    bias = sol.accel_bias_mps2
+    return f_raw - (c_20 * bias[0] + c_21 * bias[1])
 
 
 def vertical_force(inp, sol):
-    """Up specific force (N,) per IMU interval of the navigation's own mechanization step, and the IMU gaps.
+    """Up specific force (N,) per IMU interval of the navigation's own mechanization step, m/s².
 
     ``sol.f_u_mps2`` (smoothed with the attitude) with the bias correction added back, minus the
     horizontal accelerometer biases only: the vertical bias is not separable from Δg without a
     base tie and stays (a constant offset). Rows missing from ``imu.csv`` were bridged when the
-    log was read (:mod:`ldvsurvey.io.imutime`); the pipeline reports how many.
+    log was read (:mod:`ldvsurvey.io.imutime`); the pipeline reports how many. Computed block by
+    block (no per-sample attitude matrix is formed).
     """
-    f_raw = sol.f_u_mps2 + sol.f_u_bias_mps2  # C_s^n Δv / Δt as mechanized, no bias removed
-    c_sn = _c_sn_c_bn(sol)[0]
-    b = sol.accel_bias_mps2
-    f_u = f_raw - (c_sn[:, 2, 0] * b[0] + c_sn[:, 2, 1] * b[1])
-    return f_u
+    n = len(sol.t_s)
+    out = np.empty(n)
+    for a, b in _blocks(n):
+        out[a:b] = _vertical_force_block(sol, a, b)
+    return out
+
+
+class _AttitudeRows:
+    """C_b^n of the samples it is indexed with, from the solution's quaternions (and C_b^s of a rotating
+    IMU): what :func:`attitude_at` takes for the whole log's C_b^n, formed only at the samples it reads."""
+
+    def __init__(self, sol):
+        self.sol = sol
+
+    def __getitem__(self, k):
+        c = c_from_q(self.sol.q_sn[k])
+        return c if self.sol.c_bs is None else c @ self.sol.c_bs[k]
+
+
+def _body_rotation(c_a, c_b) -> np.ndarray:
+    """(K, 3) twice the rotation vector of C_aᵀ C_b (small angles), from its antisymmetric part, rad.
+
+    Only the six off-diagonal terms of the product are formed (the sums in the order einsum takes them)."""
+
+    def rel(i, j):
+        return c_a[:, 0, i] * c_b[:, 0, j] + c_a[:, 1, i] * c_b[:, 1, j] + c_a[:, 2, i] * c_b[:, 2, j]
+
+    return np.column_stack([rel(2, 1) - rel(1, 2), rel(0, 2) - rel(2, 0), rel(1, 0) - rel(0, 1)])
+
+
+def _ldv_velocity_blocks(inp, sol, setup):
+    """(a, b, LDV velocity (b − a, 3) ENU at the IMU centre) for consecutive blocks of samples, m/s.
+
+    Per block: C_b^n of the block's samples (and of the sample before it, for the body rate over the
+    interval that ends at the block's first sample); the arithmetic per sample is that of the whole log."""
+    t = inp.t_s
+    n = len(t)
+    pk = getattr(setup, "pitch_k_rad_per_mps2", 0.0)
+    a_f = (setup.accel_fwd_mps2 if setup.accel_fwd_mps2 is not None else accel_fwd(inp)) if pk else None
+    lever = np.asarray(inp.log.manifest.ldv.lever_arm_m, float)
+    nu_u = inp.nu_u_mps
+    for a, b in _blocks(n):
+        a0 = max(a - 1, 0)  # the interval (a − 1, a] gives sample a's body rate; sample 0 takes (0, 1]
+        b0 = b + 1 if a == 0 else b
+        c_bn = _AttitudeRows(sol)[a0:b0]
+        v_b = ldv_body_velocity(
+            inp.nu_f_mps[a:b],
+            None if nu_u is None else nu_u[a:b],
+            setup.scale,
+            setup.pitch_rad,
+            setup.heading_rad,
+            setup.scale_up,
+            pk,
+            None if a_f is None else a_f[a:b],
+        )
+        c_k = c_bn[a - a0 : a - a0 + (b - a)]
+        v_head = np.einsum("kij,kj->ki", c_k, v_b)
+        w = _body_rotation(c_bn[:-1], c_bn[1:])
+        dt = np.diff(t[a0:b0])
+        if a == 0:
+            w = np.vstack([w[:1], w[: b - 1]]) / (2 * np.r_[dt[:1], dt[: b - 1]])[:, None]
+        else:
+            w = w / (2 * dt)[:, None]
+        yield a, b, v_head - np.einsum("kij,kj->ki", c_k, np.cross(w, lever))
 
 
 def ldv_velocity_imu(inp, sol, setup):
     """LDV velocity (N, 3) ENU at the IMU centre (lever arm through the body rate), m/s.
 
     The travel direction the LDV sees includes the calibrated pitch compliance (squat/dive)."""
-    t = inp.t_s
-    dt = np.diff(t)
-    c_bn = _c_sn_c_bn(sol)[1]
-    pk = getattr(setup, "pitch_k_rad_per_mps2", 0.0)
-    a_f = (setup.accel_fwd_mps2 if setup.accel_fwd_mps2 is not None else accel_fwd(inp)) if pk else None
-    v_b = ldv_body_velocity(
-        inp.nu_f_mps, inp.nu_u_mps, setup.scale, setup.pitch_rad, setup.heading_rad, setup.scale_up, pk, a_f
-    )
-    v_head = np.einsum("kij,kj->ki", c_bn, v_b)
-    rel = np.einsum("kji,kjl->kil", c_bn[:-1], c_bn[1:])
-    w = np.column_stack([rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0], rel[:, 1, 0] - rel[:, 0, 1]])
-    w = np.vstack([w[:1], w]) / (2 * np.r_[dt[:1], dt])[:, None]
-    lever = np.asarray(inp.log.manifest.ldv.lever_arm_m, float)
-    return v_head - np.einsum("kij,kj->ki", c_bn, np.cross(w, lever))
+    out = np.empty((len(inp.t_s), 3))
+    for a, b, v in _ldv_velocity_blocks(inp, sol, setup):
+        out[a:b] = v
+    return out
 
 
 def screen_velocity(v_u, ok, v_ref, window: int = 201, k_sigma: float = 8.0, floor_mps: float = 0.05):
@@ -93,23 +157,31 @@ def screen_velocity(v_u, ok, v_ref, window: int = 201, k_sigma: float = 8.0, flo
     The slow part of v − v_ref (moving mean over ``window`` valid samples) is removed; what stays
     is LDV noise. Flagged: |rest| > max(k σ, floor) with σ from the median absolute deviation.
     """
-    r = np.where(ok, v_u - v_ref, 0.0)
+    # in place where it can be: at most three per-sample float series at a time (the screen runs on the whole log)
+    r = np.subtract(v_u, v_ref)
+    r[~ok] = 0.0
     w = uniform_filter1d(ok.astype(float), window)
-    slow = uniform_filter1d(r, window) / np.maximum(w, 1e-9)
-    rest = r - slow
+    np.maximum(w, 1e-9, out=w)
+    rest = uniform_filter1d(r, window)
+    rest /= w  # the slow part
+    del w
+    np.subtract(r, rest, out=rest)
+    del r
     if ok.sum() < 10:
         return np.zeros_like(ok)
-    sig = 1.4826 * np.median(np.abs(rest[ok]))
-    return ok & (np.abs(rest) > max(k_sigma * sig, floor_mps))
+    sig = 1.4826 * np.median(np.abs(rest[ok]), overwrite_input=True)
+    np.abs(rest, out=rest)
+    return ok & (rest > max(k_sigma * sig, floor_mps))
 
 
 def ldv_noise_estimate_mps(v_u, ok):
     """White noise σ (m/s) of a velocity series from its second differences (σ = std(Δ²v)/√6, robust)."""
     good = ok[2:] & ok[1:-1] & ok[:-2]
-    d2 = np.diff(v_u, 2)[good]
+    d2 = np.concatenate([np.diff(v_u[a : b + 2], 2)[good[a:b]] for a, b in _blocks(len(good))])
     if len(d2) < 100:
         return None
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
+    np.subtract(d2, np.median(d2), out=d2)
+    return float(1.4826 * np.median(np.abs(d2, out=d2), overwrite_input=True) / np.sqrt(6.0))
 
 
 def nominal_interval_s(t_s) -> float:
@@ -135,37 +207,144 @@ def per_nominal_interval(f_u_mps2, t_s):
 
 
 def ldv_chain(inp, sol, setup):
-    """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times."""
+    """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times.
+
+    Per-sample work in blocks (:data:`BLOCK`): besides its own columns (time, δg, the static δg for the
+    drift ties) the chain forms one per-sample series at a time (the LDV up velocity, then the bridged one),
+    never an attitude matrix per sample; latitude, longitude, height and speed are
+    :class:`IntervalColumn` s over the navigation's position and velocity.
+    """
     t = inp.t_s
-    f_u = vertical_force(inp, sol)
-    v_imu = ldv_velocity_imu(inp, sol, setup)
-    ok = inp.ldv_ok & np.all(np.isfinite(v_imu), axis=1)
-    bad = screen_velocity(v_imu[:, 2], ok, sol.v_n[:, 2])
-    noise = ldv_noise_estimate_mps(v_imu[:, 2], ok & ~bad)
+    n = len(t)
+    v_u = np.empty(n)
+    ok = np.array(inp.ldv_ok, bool, copy=True)
+    for a, b, v in _ldv_velocity_blocks(inp, sol, setup):
+        v_u[a:b] = v[:, 2]
+        ok[a:b] &= np.all(np.isfinite(v), axis=1)
+    v_ref = sol.v_n[:, 2]
+    bad = screen_velocity(v_u, ok, v_ref)
     use = ok & ~bad
-    v_u = bridge_velocity(v_imu[:, 2], use, sol.v_n[:, 2], edge_n=LDV_EDGE_N)
-    f_u, dt0 = per_nominal_interval(f_u, t)
-    vdot_u = np.diff(v_u) / dt0
+    noise = ldv_noise_estimate_mps(v_u, use)
+    v_u = bridge_velocity(v_u, use, v_ref, edge_n=LDV_EDGE_N)
+    del ok
+    dt0 = nominal_interval_s(t)
+    cols = {k: np.empty(n - 1) for k in ("dg", "dg_static")}
+    # interval k (samples k, k + 1) of the chain; per block the intervals a..b−2 and the one to the next block
+    for a, b in _blocks(n):
+        b1 = min(b + 1, n)  # samples a..b1−1 give the intervals a..b1−2
+        if b1 - a < 2:
+            continue
+        f_u = _vertical_force_block(sol, a + 1, b1) * np.diff(t[a:b1]) / dt0  # per_nominal_interval
+        vdot_u = np.diff(v_u[a:b1]) / dt0
+        v_n, pos = sol.v_n[a:b1], sol.pos[a:b1]
+        v_mid = 0.5 * (v_n[1:] + v_n[:-1])
+        lat = 0.5 * (pos[1:, 0] + pos[:-1, 0])
+        h = 0.5 * (pos[1:, 2] + pos[:-1, 2])
+        dg = disturbance_mps2(f_u, vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
+        k = slice(a, b1 - 1)
+        cols["dg"][k] = dg
+        cols["dg_static"][k] = dg + vdot_u
+    del v_u  # before the third column
     bridged = ~(use[1:] & use[:-1])  # intervals touching a bridged sample
-    v_mid = 0.5 * (sol.v_n[1:] + sol.v_n[:-1])
-    lat = 0.5 * (sol.pos[1:, 0] + sol.pos[:-1, 0])
-    lon = 0.5 * (sol.pos[1:, 1] + sol.pos[:-1, 1])
-    h = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
-    dg = disturbance_mps2(f_u[1:], vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
     return {
         "t_s": 0.5 * (t[1:] + t[:-1]),
-        "dg": dg,
-        "dg_static": dg + vdot_u,
-        "lat": lat,
-        "lon": lon,
-        "h": h,
-        "speed": np.hypot(v_mid[:, 0], v_mid[:, 1]),
+        **cols,
+        # formed where indexed (the lines' samples, the stops, the table's rows): no copy of the navigation
+        "lat": _mid_column(sol.pos, 0),
+        "lon": _mid_column(sol.pos, 1),
+        "h": _mid_column(sol.pos, 2),
+        "speed": _mid_speed_column(sol.v_n),
         "fs": 1.0 / dt0,
         "bridged": bridged,
         "screened": int(bad.sum()),
         "ldv_noise_mps": noise,
         "kind": "ldv",
     }
+
+
+def _double_integral(t, sol) -> np.ndarray:
+    """S (N,) in m: ∫∫ (f_U − γ + Eötvös) dt² at the IMU times (rectangle per interval, then trapezoid).
+
+    In blocks of intervals; each running sum carries the previous block's last value into the first term of
+    its block's cumulative sum, which is then the very sequence of additions of one sum over the whole log."""
+    n = len(t)
+    s = np.empty(n)
+    s[0] = 0.0
+    w_end = s_end = 0.0  # ∫ (f_U − γ + Eötvös) dt and S at the last sample of the previous block
+    for a, b in _blocks(n):
+        b1 = min(b + 1, n)  # intervals a..b1−2 (samples a..b1−1)
+        if b1 - a < 2:
+            continue
+        pos, v_n = sol.pos[a:b1], sol.v_n[a:b1]
+        lat_m = 0.5 * (pos[1:, 0] + pos[:-1, 0])
+        h_m = 0.5 * (pos[1:, 2] + pos[:-1, 2])
+        v_mid = 0.5 * (v_n[1:] + v_n[:-1])
+        rm, rn = radii(lat_m)
+        acc = (
+            _vertical_force_block(sol, a + 1, b1)
+            - normal_gravity(lat_m, h_m)
+            + (v_mid[:, 0] / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_m)) * v_mid[:, 0]
+            + v_mid[:, 1] ** 2 / (rm + h_m)
+        )
+        dt = np.diff(t[a:b1])
+        x = acc * dt
+        x[0] += w_end
+        w = np.cumsum(x)  # at the samples a+1..b1−1
+        y = 0.5 * (w + np.r_[w_end, w[:-1]]) * dt
+        y[0] += s_end
+        s[a + 1 : b1] = np.cumsum(y)
+        w_end, s_end = w[-1], s[b1 - 1]
+    return s
+
+
+class IntervalColumn:
+    """A per-interval column of a chain (e.g. latitude at the interval mid-times) formed from the navigation's
+    per-sample arrays only where it is indexed, so the chain holds no copy of them.
+
+    ``fn(k)`` gives the values of the intervals ``k`` (int array). ``col[idx]`` (indices, mask or slice)
+    and ``np.asarray(col)`` equal the materialized column's values bit for bit.
+    """
+
+    def __init__(self, n: int, fn):
+        self._n, self._fn = int(n), fn
+
+    def __len__(self) -> int:
+        return self._n
+
+    @property
+    def shape(self):
+        return (self._n,)
+
+    def __getitem__(self, idx):
+        if isinstance(idx, slice):
+            return self._fn(np.arange(*idx.indices(self._n)))
+        k = np.asarray(idx)
+        if k.dtype == bool:
+            if k.shape != (self._n,):
+                raise IndexError(f"boolean index of shape {k.shape} for a column of {self._n}")
+            return self._fn(np.flatnonzero(k))
+        if k.ndim == 0:
+            j = int(k) + self._n if int(k) < 0 else int(k)
+            if not 0 <= j < self._n:
+                raise IndexError(f"index {int(k)} out of range for a column of {self._n}")
+            return self._fn(np.array([j]))[0]
+        return self._fn(np.where(k < 0, k + self._n, k))
+
+    def __array__(self, dtype=None, copy=None):
+        out = self[:]
+        return out if dtype is None else out.astype(dtype)
+
+
+def _mid_column(x, i: int) -> IntervalColumn:
+    """0.5 (x[k, i] + x[k + 1, i]) for the intervals k of the samples of x (N, m)."""
+    return IntervalColumn(len(x) - 1, lambda k: 0.5 * (x[k + 1, i] + x[k, i]))
+
+
+def _mid_speed_column(v_n) -> IntervalColumn:
+    """Horizontal speed from the interval-mean velocity, per interval of the samples of v_n (N, 3)."""
+    return IntervalColumn(
+        len(v_n) - 1, lambda k: np.hypot(0.5 * (v_n[k + 1, 0] + v_n[k, 0]), 0.5 * (v_n[k + 1, 1] + v_n[k, 1]))
+    )
 
 
 def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float = 4.0):
@@ -185,7 +364,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         raise ValueError(f"fewer than 20 GNSS fixes of quality {'/'.join(map(str, fixes))}")
     tg = g.t_s[keep]
     lever = np.asarray(log.manifest.gnss.lever_arm_m, float)
-    h_g = g.h_m[keep] - (attitude_at(sol, tg, _c_sn_c_bn(sol)[1]) @ lever)[:, 2]
+    h_g = g.h_m[keep] - (attitude_at(sol, tg, _AttitudeRows(sol)) @ lever)[:, 2]
     sig_v = np.array([GNSS_SIGMA.get(int(f), (np.nan, 5.0))[1] for f in g.fix[keep]])
     ref = sol if ref is None else ref
     res = h_g - np.interp(tg, t, ref.pos[:, 2])
@@ -198,20 +377,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
     tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
     if len(tg) < 20:
         raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")
-    f_u = vertical_force(inp, sol)
-    dt = np.diff(t)
-    lat_m = 0.5 * (sol.pos[1:, 0] + sol.pos[:-1, 0])
-    h_m = 0.5 * (sol.pos[1:, 2] + sol.pos[:-1, 2])
-    v_mid = 0.5 * (sol.v_n[1:] + sol.v_n[:-1])
-    rm, rn = radii(lat_m)
-    acc = (
-        f_u[1:]
-        - normal_gravity(lat_m, h_m)
-        + (v_mid[:, 0] / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_m)) * v_mid[:, 0]
-        + v_mid[:, 1] ** 2 / (rm + h_m)
-    )
-    w = np.concatenate([[0.0], np.cumsum(acc * dt)])  # ∫ (f_U − γ + Eötvös) dt at the IMU times
-    s = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * dt)])  # and once more
+    s = _double_integral(t, sol)
     # the fixes on a regular grid; the heights bridged through S tied to the gap edges
     step = float(np.median(np.diff(tg)))
     grid = tg[0] + step * np.arange(int(np.floor((tg[-1] - tg[0]) / step + 1e-6)) + 1)

@@ -53,14 +53,18 @@ def break_edges(ch, fir_s):
     return ~(gain <= gmax)
 
 
-def unsupported(bridged, fir_s, fs):
-    """Samples whose filtered value is mostly the bridge rather than data (see MAX_*_SHARE)."""
+def unsupported(bridged, fir_s, fs, den_cache=None):
+    """Samples whose filtered value is mostly the bridge rather than data (see MAX_*_SHARE).
+
+    ``den_cache``: see :func:`zero_phase_lowpass` (both shares are series without gaps)."""
     long = np.zeros(len(bridged), bool)
     for a, b in runs(bridged):
         if (b - a) / fs > LONG_GAP_FIR_SHARE * fir_s:
             long[a:b] = True
-    share = zero_phase_lowpass(bridged.astype(float), fir_s, fs)
-    share_long = zero_phase_lowpass(long.astype(float), fir_s, fs) if long.any() else np.zeros(len(bridged))
+    share = zero_phase_lowpass(bridged.astype(float), fir_s, fs, den_cache=den_cache)
+    share_long = (
+        zero_phase_lowpass(long.astype(float), fir_s, fs, den_cache=den_cache) if long.any() else np.zeros(len(bridged))
+    )
     return ~((share <= MAX_BRIDGED_SHARE) & (share_long <= MAX_LONG_GAP_SHARE))
 
 
@@ -92,27 +96,39 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
     ``leveling`` "bias": every line is shifted by its mean residual about the mean line (line
     leveling: removes each line's share of a drift the stops could not tie; the shifts sum to zero,
     so the level of the survey stays), and the coincidence is that of the levelled lines.
+    Returns a dict; its ``per_line`` holds per line (name, chain index, the indices of the line's trimmed
+    samples with a filtered value, their along-track distance, lateral offset, east, north (m), info).
     """
     filtered = []
     for ch in chains:
-        f = zero_phase_lowpass(ch["dg"], fir_s, ch["fs"])
-        ch["unsupported"] = unsupported(ch["bridged"], fir_s, ch["fs"]) | break_edges(ch, fir_s)
+        den_cache = {}  # δg without gaps and the bridged shares: one filtered mask for all of them
+        f = zero_phase_lowpass(ch["dg"], fir_s, ch["fs"], den_cache=den_cache)
+        ch["unsupported"] = unsupported(ch["bridged"], fir_s, ch["fs"], den_cache) | break_edges(ch, fir_s)
+        del den_cache
         f[ch["unsupported"]] = np.nan
         filtered.append(f)
+    ordered = [bool(np.all(ch["t_s"][1:] >= ch["t_s"][:-1])) for ch in chains]
     ref = None
     per_line = []
     for name, ci, a, b in lines:
         ch = chains[ci]
-        whole = (ch["t_s"] >= a) & (ch["t_s"] <= b)
-        k = trim_line(ch["t_s"], a, b, trim_s) & np.isfinite(filtered[ci])
+        if ordered[ci]:  # the line's samples by bisection, not by masks over the whole log
+            t = ch["t_s"]
+            whole = slice(np.searchsorted(t, a, "left"), np.searchsorted(t, b, "right"))
+            j0, j1 = np.searchsorted(t, a + trim_s, "left"), np.searchsorted(t, b - trim_s, "right")
+            k = j0 + np.flatnonzero(np.isfinite(filtered[ci][j0 : max(j0, j1)]))
+        else:
+            whole = (ch["t_s"] >= a) & (ch["t_s"] <= b)
+            k = np.flatnonzero(trim_line(ch["t_s"], a, b, trim_s) & np.isfinite(filtered[ci]))
+        # (the line's samples as indices: a mask per line would be a byte per sample of the log, per line)
         info = {
             "bridged_s": float(np.sum(ch["bridged"][whole]) / ch["fs"]),
-            "bridged_share": float(np.mean(ch["bridged"][whole])) if whole.any() else 0.0,
+            "bridged_share": float(np.mean(ch["bridged"][whole])) if ch["bridged"][whole].size else 0.0,
             "unsupported_s": float(np.sum(ch["unsupported"][whole]) / ch["fs"]),
             "duration_s": float(b - a),
             "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s)),
         }
-        if k.sum() < 10:
+        if len(k) < 10:
             if strict:
                 raise ParameterError(
                     f"line {name} [{a}, {b}] s holds no data after trimming {trim_s:g} s at each end",
