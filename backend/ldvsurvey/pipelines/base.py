@@ -12,6 +12,7 @@ import datetime as dt
 import io
 import json
 import math
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -40,17 +41,52 @@ class Cancelled(Exception):
     """Raised between stages when the job was asked to stop."""
 
 
+_malloc_trim: list = []  # glibc's malloc_trim, looked up once (None where there is none)
+
+
+def release_free_memory() -> None:
+    """Give freed memory back to the system: pyarrow's memory pool (what parsing or reading Parquet
+    left in it) and the C heap's free pages (glibc ``malloc_trim(0)``; a no-op elsewhere).
+
+    A stage frees its large temporaries when it ends, but glibc keeps freed blocks below its (dynamic,
+    up to 32 MB) mmap threshold in the process, and pyarrow's pool keeps what it allocated: on an
+    8-hour 200 Hz log the loaded log held about 0.19 GB more than its arrays, and the final
+    navigation started about 0.45 GB higher than the arrays alive at that moment. Called at each new
+    stage.
+    """
+    pa = sys.modules.get("pyarrow")
+    if pa is not None:
+        pa.default_memory_pool().release_unused()
+    if not _malloc_trim:
+        import ctypes
+        import ctypes.util
+
+        try:
+            _malloc_trim.append(ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim)
+        except (OSError, AttributeError):  # not glibc (musl, macOS): nothing to release this way
+            _malloc_trim.append(None)
+    if _malloc_trim[0] is not None:
+        _malloc_trim[0](0)
+
+
 class Progress:
-    """Stage/fraction reporter; ``check()`` raises :class:`Cancelled` when cancellation was asked."""
+    """Stage/fraction reporter; ``check()`` raises :class:`Cancelled` when cancellation was asked.
+
+    At each new stage the memory the previous stage freed is given back (:func:`release_free_memory`).
+    """
 
     def __init__(
         self, callback: Callable[[str, float], None] | None = None, cancelled: Callable[[], bool] | None = None
     ):
         self._cb = callback
         self._cancelled = cancelled
+        self._stage: str | None = None
 
     def __call__(self, stage: str, fraction: float) -> None:
         self.check()
+        if stage != self._stage:
+            self._stage = stage
+            release_free_memory()
         if self._cb is not None:
             self._cb(stage, max(0.0, min(1.0, float(fraction))))
 
