@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextvars
 import datetime as dt
+import functools
 import io
 import json
 import math
@@ -41,7 +42,16 @@ class Cancelled(Exception):
     """Raised between stages when the job was asked to stop."""
 
 
-_malloc_trim: list = []  # glibc's malloc_trim, looked up once (None where there is none)
+@functools.cache
+def _malloc_trim():
+    """glibc's ``malloc_trim``, looked up once; None where there is none (musl, macOS)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        return ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
+    except (OSError, AttributeError):
+        return None
 
 
 def release_free_memory() -> None:
@@ -57,16 +67,9 @@ def release_free_memory() -> None:
     pa = sys.modules.get("pyarrow")
     if pa is not None:
         pa.default_memory_pool().release_unused()
-    if not _malloc_trim:
-        import ctypes
-        import ctypes.util
-
-        try:
-            _malloc_trim.append(ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim)
-        except (OSError, AttributeError):  # not glibc (musl, macOS): nothing to release this way
-            _malloc_trim.append(None)
-    if _malloc_trim[0] is not None:
-        _malloc_trim[0](0)
+    trim = _malloc_trim()
+    if trim is not None:
+        trim(0)
 
 
 class Progress:
