@@ -54,17 +54,15 @@ def _say_how_to_log_in(url: str, settings: Settings) -> None:
 @asynccontextmanager
 async def _lifespan(app: FastAPI) -> AsyncIterator[None]:
     """Start the app's job consumer (``app.state.consumer``) when the server starts, stop it when it
-        stops; when jobs run in this process, compile the numerical core (or, when it is compiled, import
+    stops; when jobs run in this process, compile the numerical core (or, when it is compiled, import
     the pipelines) in the background first."""
     app.state.consumer.start()
     if app.state.settings.run_consumer:
         import logging
 
-        from ldvsurvey.pipelines.warmup import start_background_preload, start_background_warmup
+        from ldvsurvey.pipelines.warmup import ready_for_jobs
 
-        log = logging.getLogger("ldvsurvey.warmup").info
-        if start_background_warmup(log=log) is None:  # warm cache: import the pipelines before a job comes
-            start_background_preload(log=log)
+        ready_for_jobs(log=logging.getLogger("ldvsurvey.warmup").info)
     yield
     app.state.consumer.stop()
 

@@ -12,7 +12,7 @@ when it did, the pipelines' modules and libraries are imported here, before the 
 import logging
 
 from ldvsurvey.jobs.runner import JobRunner
-from ldvsurvey.pipelines.warmup import preload, start_background_warmup
+from ldvsurvey.pipelines.warmup import ready_for_jobs
 from ldvsurvey.settings import get_settings
 from ldvsurvey.store.db import upgrade_head
 
@@ -27,6 +27,5 @@ def make_runner(settings=None) -> JobRunner:
 
 runner = make_runner()
 huey = runner.huey
-_warmup_thread = start_background_warmup(log=logging.getLogger("ldvsurvey.warmup").info)
-if _warmup_thread is None:  # the cache is warm: only the imports are left for a first job to pay
-    preload(log=logging.getLogger("ldvsurvey.warmup").info)
+# the warm-up's thread when the cache is not warm (else the pipelines are imported now, before any job)
+_warmup_thread = ready_for_jobs(log=logging.getLogger("ldvsurvey.warmup").info, wait=True)

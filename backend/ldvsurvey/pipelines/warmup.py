@@ -188,9 +188,24 @@ def preload(log=None) -> float:
     return elapsed
 
 
-def start_background_preload(log=None) -> threading.Thread:
-    """:func:`preload` in a daemon thread (a job arriving meanwhile waits only for the module it needs:
-    Python's import locks are per module)."""
+def ready_for_jobs(log=None, wait: bool = False) -> threading.Thread | None:
+    """Get a process that runs jobs (a worker, the API's in-process consumer) ready for its first job:
+    warm numba's cache in a background thread when it is not warm for this code
+    (:func:`start_background_warmup`), else import the pipelines and their libraries (:func:`preload`),
+    now when ``wait``, else in a daemon thread (a job arriving meanwhile waits only for the module it
+    needs: Python's import locks are per module).
+
+    Returns
+    -------
+    threading.Thread or None
+        The warm-up's thread, or the preload's when it runs in the background; None when done.
+    """
+    th = start_background_warmup(log=log)
+    if th is not None:
+        return th
+    if wait:
+        preload(log=log)
+        return None
     th = threading.Thread(target=preload, kwargs={"log": log}, name="ldvsurvey-preload", daemon=True)
     th.start()
     return th
