@@ -16,6 +16,7 @@ from ldvsurvey.nav.innovations import variance_inflation
 from ldvsurvey.nav.tilt import TiltEstimate
 from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Reason, window_inside
 from ldvsurvey.pipelines.inputs import (
+    NAV_FIXES,
     NavInputs,
     attitude_at,
     c_bs_of,
@@ -48,6 +49,9 @@ class Calibration:
     #: factors (≥ 1) applied to the filter's 1-σ for time-correlated GNSS residuals (horizontal:
     #: heading, scale; vertical: pitch, compliance, up scale) with the innovation statistics
     sigma_inflation: dict | None = None
+    #: the navigation the estimate came from when it was made jointly with the final navigation
+    #: (``joint``: every sample's velocity, position and specific force kept), else None
+    solution: object = None
 
 
 #: fix qualities for the calibration, best first: RTK fixed, then RTK float and differential
@@ -131,19 +135,43 @@ def _dead_reckon(t, c_bn, nu_f, nu_u, ok, scale, pitch, heading, scale_up, pitch
     return np.vstack([np.zeros(3), np.cumsum(0.5 * (v_n[1:] + v_n[:-1]) * dt[:, None], axis=0)])
 
 
-def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibration:
+#: the fix qualities of the automatic calibration: RTK fixed, RTK float, differential
+CAL_FIXES = (4, 5, 2)
+
+
+def _epochs_fixed_by(epoch_t_s: np.ndarray, gnss, fixes, aided=NAV_FIXES) -> np.ndarray:
+    """(M+1,) bool: the filter epochs whose GNSS update came from a fix of the qualities ``fixes``,
+    the filter having taken the fixes of the qualities ``aided`` (a fix at t updates the epoch
+    ending at or after t; of several in one epoch, the last one)."""
+    ok = np.isfinite(gnss.lat_deg) & np.isin(gnss.fix, aided)
+    j = np.searchsorted(epoch_t_s, gnss.t_s[ok], side="left")
+    inside = j < len(epoch_t_s)
+    out = np.zeros(len(epoch_t_s), dtype=bool)
+    out[j[inside]] = np.isin(gnss.fix[ok][inside], fixes)  # fancy assignment: the last one wins
+    return out
+
+
+def calibration_stage(inp: NavInputs, cbs, window=None, progress=None, joint: bool = False) -> Calibration:
     """The Kalman estimate of the travel direction the LDV sees (η_L, φ_L, pitch compliance k_η)
     and the scale K, with the closed-form dead-reckoning comparison beside.
 
     One navigation: the filter with the LDV states augmented, LDV everywhere and GNSS (fix 4, else
     4/5/2) in the window; its attitude also serves the closed form (no separate GNSS/INS run).
+
+    ``joint`` (no ``window``): the navigation of ``navigate`` with ``aiding=ldv+gnss``, i.e. every
+    fix the navigation takes (:func:`~ldvsurvey.pipelines.inputs.gnss_aid`'s qualities, the
+    single-point ones included, each with its quality's σ), kept whole in ``Calibration.solution``:
+    the LDV calibration estimated together with the navigation in one filter and smoother, instead
+    of a second run with the estimate held fixed.
     """
+    if joint and window is not None:
+        raise ValueError("a joint calibration takes every fix of the log: no window")
     log = inp.log
     (a, b), fixes = _choose_window(inp, window)
     # the filter: a given window, else every good fix of the log (RTK fixed, float and differential,
     # each weighted by its quality's σ) — all starts, stops and both directions of travel
-    if window is None:
-        kf_fixes = (4, 5, 2)
+    if joint or window is None:
+        kf_fixes = NAV_FIXES if joint else CAL_FIXES
         g_ok = np.isin(log.gnss.fix, kf_fixes) & np.isfinite(log.gnss.lat_deg)
         kf_win = (float(log.gnss.t_s[g_ok][0]), float(log.gnss.t_s[g_ok][-1]))
     else:
@@ -165,14 +193,16 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
     aid = ldv_aid(inp)
     aid.accel_fwd_mps2 = a_f
     sol = navigate(
-        inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg, attitude_only=True
-    )  # its use: the LDV states and the attitude
+        inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg, attitude_only=not joint
+    )  # its use: the LDV states and the attitude (joint: the whole navigation)
     p = sol.ldv_params
     pk, spk = p.get("pitch_k", (0.0, None)) if k_obs else (0.0, None)
     # GNSS errors are time-correlated (and unmodelled IMU errors show in the GNSS residuals the same
     # way): the filter, which takes them as white, is over-confident by √(s²·τ) of its GNSS
     # innovations (nav/innovations.py); horizontal residuals carry heading and scale, vertical pitch
     inn = sol.normalized_innovations[:, 6:9]
+    if joint:  # the 1-σ speak for the calibration's own fixes (4, 5, 2), as in a calibration alone
+        inn = np.where(_epochs_fixed_by(sol.epoch_t_s, log.gnss, CAL_FIXES)[:, None], inn, np.nan)
     infl = [variance_inflation(inn[:, i], gate=cfg.gate_sigma or np.inf) for i in range(3)]
     f_h = np.sqrt(max(infl[0]["factor"], infl[1]["factor"]))
     f_v = np.sqrt(infl[2]["factor"])
@@ -194,6 +224,7 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None) -> Calibr
         pitch_k_rad_per_mps2=pk,
         fixes=kf_fixes,
         sigma_inflation={"horizontal": float(f_h), "vertical": float(f_v), "gnss_innovations": dict(zip("enu", infl))},
+        solution=sol if joint else None,
     )
     # 2) closed form over the window with the filter's attitude: similarity fit of the horizontal
     # tracks, slope of the height residual (no compliance: it shows what a constant mounting gives)
@@ -341,10 +372,17 @@ class LdvSetup:
     warnings: list
     pitch_k_rad_per_mps2: float = 0.0
     accel_fwd_mps2: np.ndarray | None = None  #: at the IMU samples
+    #: the LDV+GNSS navigation the calibration was estimated jointly with (see ``ldv_setup``), else None
+    solution: object = None
 
 
-def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
-    """Base tilt (if the IMU rotates), then the LDV calibration: given, automatic or nominal."""
+def ldv_setup(inp: NavInputs, params: dict, progress, joint: bool = False) -> LdvSetup:
+    """Base tilt (if the IMU rotates), then the LDV calibration: given, automatic or nominal.
+
+    ``joint`` (for a smoothed LDV+GNSS navigation): when the calibration is automatic over the whole
+    log and no ldv_* value is given, estimate it together with that navigation, in one filter with
+    the LDV states augmented, and hand the navigation back in ``LdvSetup.solution``; otherwise (a
+    calibration window, a given value, nominal) the calibration, if any, runs alone as without."""
     log = inp.log
     m = log.manifest
     warnings = list(inp.warnings)
@@ -370,7 +408,9 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
             warnings.append("no GNSS: the LDV is used with its nominal mounting (no calibration)")
         else:
             progress("LDV calibration against GNSS", 0.15)
-            cal = calibration_stage(inp, cbs, params.get("calibration_window"))
+            window = params.get("calibration_window")
+            joint = joint and window is None and not given
+            cal = calibration_stage(inp, cbs, window, joint=joint)
             pitch, heading, scale, scale_up = cal.pitch_rad, cal.heading_rad, cal.scale, cal.scale_up
             pitch_k = cal.pitch_k_rad_per_mps2
             info = {
@@ -385,6 +425,8 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
                 },
                 "sigma_inflation": cal.sigma_inflation,
             }
+            if joint:
+                info["estimated_with_navigation"] = True
     if "ldv_pitch_deg" in given:
         pitch = given["ldv_pitch_deg"] * RAD
     if "ldv_heading_deg" in given:
@@ -406,8 +448,19 @@ def ldv_setup(inp: NavInputs, params: dict, progress) -> LdvSetup:
     )
     if inp.nu_u_mps is not None:
         info["ldv_scale_up"] = scale_up
+    solution = cal.solution if info["source"] == "calibrate" else None
     return LdvSetup(
-        cbs, est, pitch, heading, scale, scale_up, info, warnings, pitch_k, accel_fwd(inp) if pitch_k else None
+        cbs,
+        est,
+        pitch,
+        heading,
+        scale,
+        scale_up,
+        info,
+        warnings,
+        pitch_k,
+        accel_fwd(inp) if pitch_k else None,
+        solution,
     )
 
 

@@ -176,7 +176,11 @@ def _initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
     return c_bn if cbs is None else c_bn @ cbs[0].T  # C_s^n = C_b^n (C_b^s)ᵀ
 
 
-def gnss_aid(log: DriveLog, fixes=(4, 2, 5, 1), window=None) -> GnssAid | None:
+#: the fix qualities a navigation takes: RTK fixed, differential, RTK float, single point
+NAV_FIXES = (4, 2, 5, 1)
+
+
+def gnss_aid(log: DriveLog, fixes=NAV_FIXES, window=None) -> GnssAid | None:
     """GNSS antenna fixes of the accepted qualities (optionally within a time window)."""
     g = log.gnss
     if g is None:

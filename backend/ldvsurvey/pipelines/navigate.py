@@ -51,7 +51,9 @@ def run_navigation(log, params, progress):
     use_gnss = "gnss" in aiding
     if use_gnss and log.gnss is None:
         raise ParameterError("aiding includes gnss but the bundle has no gnss.nmea", field="aiding")
-    setup = ldv_setup(inp, params, progress) if use_ldv else None
+    smooth = params.get("smooth", True)
+    # LDV and GNSS, smoothed: the automatic calibration and the navigation are one filter run
+    setup = ldv_setup(inp, params, progress, joint=use_gnss and smooth) if use_ldv else None
     cbs = setup.cbs if setup else None
     if setup is None and inp.eta_rad is not None:
         from ldvsurvey.pipelines.inputs import c_bs_of
@@ -59,13 +61,15 @@ def run_navigation(log, params, progress):
 
         est, _ = tilt_stage(inp)
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
+    if setup is not None and setup.solution is not None:
+        return inp, setup, setup.solution
     progress(f"navigation ({aiding})", 0.5)
     sol = navigate(
         inp,
         cbs=cbs,
         ldv=ldv_aid_of(inp, setup) if use_ldv else None,
         gnss=gnss_aid(log) if use_gnss else None,
-        smooth=params.get("smooth", True),
+        smooth=smooth,
     )
     return inp, setup, sol
 
