@@ -407,9 +407,10 @@ def ldv_setup(inp: NavInputs, params: dict, progress, joint: bool = False) -> Ld
         if log.gnss is None:
             warnings.append("no GNSS: the LDV is used with its nominal mounting (no calibration)")
         else:
-            progress("LDV calibration against GNSS", 0.15)
             window = params.get("calibration_window")
             joint = joint and window is None and not given
+            stage = "LDV calibration and navigation (ldv+gnss), one filter" if joint else "LDV calibration against GNSS"
+            progress(stage, 0.15)
             cal = calibration_stage(inp, cbs, window, joint=joint)
             pitch, heading, scale, scale_up = cal.pitch_rad, cal.heading_rad, cal.scale, cal.scale_up
             pitch_k = cal.pitch_k_rad_per_mps2
