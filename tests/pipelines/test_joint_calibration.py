@@ -20,7 +20,8 @@ from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.pipelines import calibration as CAL
 from ldvsurvey.pipelines import navigate as NV
-from ldvsurvey.pipelines.base import run_pipeline
+from ldvsurvey.pipelines.base import Progress, run_pipeline
+from ldvsurvey.pipelines.inputs import NAV_FIXES
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
@@ -78,7 +79,7 @@ def runs(drive):
     joint = run_pipeline(get("navigate"), [log], PARAMS)
     mp = pytest.MonkeyPatch()
     real = NV.ldv_setup
-    mp.setattr(NV, "ldv_setup", lambda inp, params, progress, joint=False: real(inp, params, progress, joint=False))
+    mp.setattr(NV, "ldv_setup", lambda inp, params, progress, joint=False, **kw: real(inp, params, progress, **kw))
     try:
         two = run_pipeline(get("navigate"), [log], PARAMS)
     finally:
@@ -90,8 +91,10 @@ def runs(drive):
 def test_ldv_gnss_navigation_runs_one_filter(drive, monkeypatch):
     _, log = drive
     calls = _count_forward(monkeypatch)
+    run_pipeline(get("navigate"), [log], {"aiding": "gnss"})
+    n_nav = calls.pop()  # the navigation's own states
     r = run_pipeline(get("navigate"), [log], PARAMS)
-    assert len(calls) == 1 and calls[0] > 15  # the LDV states ride along in the one run
+    assert len(calls) == 1 and calls[0] > n_nav  # the LDV states ride along in the one run
     assert r.summary["calibration"]["estimated_with_navigation"] is True
     # where the joint run does not apply, the calibration still runs first and alone
     t0 = float(log.gnss.t_s[0])
@@ -104,7 +107,7 @@ def test_ldv_gnss_navigation_runs_one_filter(drive, monkeypatch):
         calls.clear()
         r = run_pipeline(get("navigate"), [log], params)
         assert len(calls) == 2, params
-        assert calls[1] < calls[0]
+        assert calls[1] == n_nav < calls[0]
         assert "estimated_with_navigation" not in r.summary["calibration"]
 
 
@@ -159,3 +162,29 @@ def test_epochs_fixed_by():
     assert CAL._epochs_fixed_by(ep, g, CAL.CAL_FIXES).tolist() == [False, False, True, True]
     g.lat_deg[2] = np.nan  # a fix without a position is no update
     assert CAL._epochs_fixed_by(ep, g, CAL.CAL_FIXES).tolist() == [False, False, False, True]
+
+
+def test_epochs_fixed_by_matches_the_filter(drive):
+    """The epochs the compiled filter updated with GNSS (a normalized innovation, taken or gated)
+    are exactly those the mapping gives for the fixes the navigation takes."""
+    _, log = drive
+    _, _, sol = NV.run_navigation(log, PARAMS, Progress())
+    took = np.isfinite(sol.normalized_innovations[:, 6])
+    assert took.sum() > 500
+    assert np.array_equal(CAL._epochs_fixed_by(sol.epoch_t_s, log.gnss, NAV_FIXES), took)
+    good = CAL._epochs_fixed_by(sol.epoch_t_s, log.gnss, CAL.CAL_FIXES)
+    assert (good <= took).all() and 0 < good.sum() < took.sum()
+
+
+@pytest.mark.parametrize("aiding", ["ldv+gnss", "ldv"])
+def test_navigation_without_specific_force_is_the_same(drive, aiding):
+    """navigate keeps no per-sample specific force (only gravity reads it): the same solution, bit
+    for bit, as with it."""
+    _, log = drive
+    params = {**PARAMS, "aiding": aiding}
+    _, _, with_f = NV.run_navigation(log, params, Progress())
+    _, _, without = NV.run_navigation(log, params, Progress(), specific_force=False)
+    assert len(with_f.f_u_mps2) == len(with_f.t_s) and len(without.f_u_mps2) == 0 == len(without.f_u_bias_mps2)
+    for name in ("q_sn", "v_n", "pos", "epoch_sigma"):
+        assert np.array_equal(getattr(with_f, name), getattr(without, name)), name
+    assert with_f.ldv_params == without.ldv_params

@@ -288,6 +288,7 @@ def _prepare(
     gravity,
     bias0,
     attitude_only,
+    specific_force=True,
 ):
     """The compiled filter's grouped inputs (:class:`~ldvsurvey.nav.kfloop.ImuIn`, ``Model``, ``LdvIn``,
     ``GnssIn``, ``Start``) and the epoch times ep_t (M+1,) s (see :func:`run_filter` for the arguments;
@@ -342,7 +343,16 @@ def _prepare(
         zupt |= (ep_t >= a) & (ep_t <= b)
     zupt[0] = False
     mdl = kfloop.Model(
-        decim, p0, qd, inv_tau, zupt, float(cfg.zupt_sigma_mps), float(cfg.gate_sigma), i_sz, not attitude_only
+        decim,
+        p0,
+        qd,
+        inv_tau,
+        zupt,
+        float(cfg.zupt_sigma_mps),
+        float(cfg.gate_sigma),
+        i_sz,
+        not attitude_only,
+        bool(specific_force),
     )
     sig_ldv = np.asarray(cfg.ldv_sigma_mps, float)
     if ldv is None:
@@ -419,6 +429,7 @@ def run_filter(
     bias0=None,
     keep_cov: bool = False,
     attitude_only: bool = False,
+    specific_force: bool = True,
 ) -> NavSolution:
     """Forward closed-loop filter, then (optionally) the RTS smoother.
 
@@ -431,6 +442,8 @@ def run_filter(
     gravity : optional (xi_rad, eta_rad, dg_mps2) per sample for the gravity model.
     attitude_only : keep only the attitude per sample (v_n, pos, f_u_mps2, f_u_bias_mps2 come back
         empty): for a run whose use is its parameters and attitude, at 40 % of the memory.
+    specific_force : False: f_u_mps2 and f_u_bias_mps2 come back empty (a navigation that will not
+        serve gravity: 24 bytes per sample less).
     """
     cfg = cfg or FilterConfig()
     t = np.ascontiguousarray(t_s, dtype=float)
@@ -450,6 +463,7 @@ def run_filter(
         gravity,
         bias0,
         attitude_only,
+        specific_force,
     )
     decim, qd, inv_tau, i_sz, aug_idx, par0 = mdl.decim, mdl.qd, mdl.inv_tau, mdl.i_sz, lin.aug_idx, lin.par0
     m = len(t) // decim
@@ -457,6 +471,9 @@ def run_filter(
         imu, mdl, lin, gin, st
     )
     del imu, lin, gin
+    par = par[[0, -1]]  # the LDV parameters are read at the first or last epoch only
+    if smooth:
+        del sig_f  # the smoother's 1-σ replace the forward ones: not held through the smoother
     zs = float(cfg.zupt_sigma_mps)
     if smooth:
         xs, sig_ep, ps = kfloop.rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zs, keep_cov)

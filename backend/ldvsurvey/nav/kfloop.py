@@ -79,8 +79,9 @@ ImuIn = namedtuple("ImuIn", "t dth dvel c_bs xi eta dg")
 #: the error model: decim (IMU samples per epoch), p0 (n,) prior variances, qd (n,) PSDs, inv_tau (n,)
 #: 1/τ of Gauss–Markov states (1/s), zupt (M+1,) bool epochs standing still, zupt_sigma (m/s),
 #: gate (σ, 0 = off), i_sz (index of the z-gyro scale-factor state, −1: none), full (False: keep only the
-#: attitude per sample; velocity, position and specific force come back empty)
-Model = namedtuple("Model", "decim p0 qd inv_tau zupt zupt_sigma gate i_sz full")
+#: attitude per sample; velocity, position and specific force come back empty), forces (with full: keep
+#: the up specific force per sample too; False: it comes back empty, 16 bytes per sample less)
+Model = namedtuple("Model", "decim p0 qd inv_tau zupt zupt_sigma gate i_sz full forces")
 #: LDV: ok (N,) bool, nu_f, nu_u (N,) m/s, par0 (5,) [s_f, η_L, φ_L, s_u, k_η], lever (3,) m,
 #: sigma (3,) m/s per sample, up (2-D LDV), aug_idx (5,) state index of each LDV state (−1: none),
 #: a_fwd (N,) or empty: forward acceleration for the pitch compliance (m/s²)
@@ -363,10 +364,12 @@ def forward(imu, mdl, ldv, gnss, st):
     n_o = n_s if mdl.full else 0  # attitude only: no per-sample velocity, position or specific force
     v_out = np.empty((n_o, 3))
     p_out = np.empty((n_o, 3))
-    fu_out = np.empty(n_o)  # up specific force in n over each interval, as integrated
-    fen_out = np.empty((n_o, 2), dtype=np.float32)  # its E, N components (for the smoother's φ × f)
-    fb_out = np.empty(n_o)  # up component of the accelerometer-bias correction (C_s^n b̂_a)_U
     full = mdl.full
+    forces = mdl.full and mdl.forces
+    n_f = n_s if forces else 0
+    fu_out = np.empty(n_f)  # up specific force in n over each interval, as integrated
+    fen_out = np.empty((n_f, 2), dtype=np.float32)  # its E, N components (for the smoother's φ × f)
+    fb_out = np.empty(n_f)  # up component of the accelerometer-bias correction (C_s^n b̂_a)_U
     ck = np.empty((m // CK_EVERY + 1, n * (n + 1) // 2))  # P⁺ every CK_EVERY epochs (packed)
     upd = np.zeros((m + 1, N_UPD))
     sig_f = np.empty((m + 1, n))  # forward 1-σ
@@ -451,7 +454,7 @@ def forward(imu, mdl, ldv, gnss, st):
         if i_sz >= 0:
             wz_sum += dwz
         q_to_c_into(q, c_sn)
-        if full:
+        if forces:
             fu_out[k] = f_n[2]
             fen_out[k, 0] = f_n[0]
             fen_out[k, 1] = f_n[1]
@@ -858,9 +861,10 @@ def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, fu, fen, fb):
     The up specific force f_U (n frame, per interval) gets the same attitude correction,
     f ← (I + [φ×]) f (with the E, N components ``fen``), and the smoothed accelerometer-bias
     correction, f ← f − C_s^n δ∇; ``fb`` (the up component of C_s^n b̂_a) gets + (C_s^n δ∇)_U.
-    Empty v, p, f (an attitude-only run): only q is corrected."""
+    Empty v, p, f (an attitude-only run): only q is corrected; empty f alone: q, v, p."""
     n_s = len(t)
     full = len(v) == n_s
+    forces = len(fu) == n_s
     x = np.zeros(15)
     for k in range(n_s):
         if k < m * decim:
@@ -895,6 +899,8 @@ def apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, fu, fen, fb):
         p[k, 0] = p0 - x[7] / (rm + p2)
         p[k, 1] = p[k, 1] - x[6] / ((rn + p2) * np.cos(p0))
         p[k, 2] = p2 - x[8]
+        if not forces:
+            continue
         # (C_s^n δ∇)_U with the corrected attitude: its third row
         c20 = 2 * (n1 * n3 - n0 * n2)
         c21 = 2 * (n2 * n3 + n0 * n1)

@@ -144,14 +144,16 @@ def _epochs_fixed_by(epoch_t_s: np.ndarray, gnss, fixes, aided=NAV_FIXES) -> np.
     the filter having taken the fixes of the qualities ``aided`` (a fix at t updates the epoch
     ending at or after t; of several in one epoch, the last one)."""
     ok = np.isfinite(gnss.lat_deg) & np.isin(gnss.fix, aided)
-    j = np.searchsorted(epoch_t_s, gnss.t_s[ok], side="left")
-    inside = j < len(epoch_t_s)
+    j = np.searchsorted(epoch_t_s, gnss.t_s[ok], side="left")  # fix times never decrease: j sorted
+    last = np.append(j[1:] != j[:-1], True) & (j < len(epoch_t_s))  # the last fix of each epoch
     out = np.zeros(len(epoch_t_s), dtype=bool)
-    out[j[inside]] = np.isin(gnss.fix[ok][inside], fixes)  # fancy assignment: the last one wins
+    out[j[last]] = np.isin(gnss.fix[ok][last], fixes)
     return out
 
 
-def calibration_stage(inp: NavInputs, cbs, window=None, progress=None, joint: bool = False) -> Calibration:
+def calibration_stage(
+    inp: NavInputs, cbs, window=None, progress=None, joint: bool = False, specific_force: bool = True
+) -> Calibration:
     """The Kalman estimate of the travel direction the LDV sees (η_L, φ_L, pitch compliance k_η)
     and the scale K, with the closed-form dead-reckoning comparison beside.
 
@@ -162,7 +164,8 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None, joint: bo
     fix the navigation takes (:func:`~ldvsurvey.pipelines.inputs.gnss_aid`'s qualities, the
     single-point ones included, each with its quality's σ), kept whole in ``Calibration.solution``:
     the LDV calibration estimated together with the navigation in one filter and smoother, instead
-    of a second run with the estimate held fixed.
+    of a second run with the estimate held fixed (``specific_force``: whether that navigation keeps
+    the up specific force per sample, as gravity needs).
     """
     if joint and window is not None:
         raise ValueError("a joint calibration takes every fix of the log: no window")
@@ -190,10 +193,16 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None, joint: bo
     k_obs = float(np.count_nonzero(win & inp.ldv_ok & (np.abs(a_f) > 0.3))) * np.median(np.diff(inp.t_s)) >= 10.0
     aug = ("scale", "pitch", "heading") + (("scale_up",) if up_obs else ()) + (("pitch_k",) if k_obs else ())
     cfg = pipeline_cfg(ldv_aug=aug)
-    aid = ldv_aid(inp)
+    aid = ldv_aid(inp, scale_up=nom.scale)  # the up scale starts from (unobservable: stays at) the nominal
     aid.accel_fwd_mps2 = a_f
     sol = navigate(
-        inp, cbs=cbs, ldv=aid, gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win), cfg=cfg, attitude_only=not joint
+        inp,
+        cbs=cbs,
+        ldv=aid,
+        gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win),
+        cfg=cfg,
+        attitude_only=not joint,
+        specific_force=specific_force,
     )  # its use: the LDV states and the attitude (joint: the whole navigation)
     p = sol.ldv_params
     pk, spk = p.get("pitch_k", (0.0, None)) if k_obs else (0.0, None)
@@ -202,7 +211,7 @@ def calibration_stage(inp: NavInputs, cbs, window=None, progress=None, joint: bo
     # innovations (nav/innovations.py); horizontal residuals carry heading and scale, vertical pitch
     inn = sol.normalized_innovations[:, 6:9]
     if joint:  # the 1-σ speak for the calibration's own fixes (4, 5, 2), as in a calibration alone
-        inn = np.where(_epochs_fixed_by(sol.epoch_t_s, log.gnss, CAL_FIXES)[:, None], inn, np.nan)
+        inn = np.where(_epochs_fixed_by(sol.epoch_t_s, log.gnss, CAL_FIXES, kf_fixes)[:, None], inn, np.nan)
     infl = [variance_inflation(inn[:, i], gate=cfg.gate_sigma or np.inf) for i in range(3)]
     f_h = np.sqrt(max(infl[0]["factor"], infl[1]["factor"]))
     f_v = np.sqrt(infl[2]["factor"])
@@ -376,7 +385,7 @@ class LdvSetup:
     solution: object = None
 
 
-def ldv_setup(inp: NavInputs, params: dict, progress, joint: bool = False) -> LdvSetup:
+def ldv_setup(inp: NavInputs, params: dict, progress, joint: bool = False, specific_force: bool = True) -> LdvSetup:
     """Base tilt (if the IMU rotates), then the LDV calibration: given, automatic or nominal.
 
     ``joint`` (for a smoothed LDV+GNSS navigation): when the calibration is automatic over the whole
@@ -411,7 +420,7 @@ def ldv_setup(inp: NavInputs, params: dict, progress, joint: bool = False) -> Ld
             joint = joint and window is None and not given
             stage = "LDV calibration and navigation (ldv+gnss), one filter" if joint else "LDV calibration against GNSS"
             progress(stage, 0.15)
-            cal = calibration_stage(inp, cbs, window, joint=joint)
+            cal = calibration_stage(inp, cbs, window, joint=joint, specific_force=specific_force)
             pitch, heading, scale, scale_up = cal.pitch_rad, cal.heading_rad, cal.scale, cal.scale_up
             pitch_k = cal.pitch_k_rad_per_mps2
             info = {

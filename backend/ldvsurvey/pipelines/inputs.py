@@ -255,9 +255,10 @@ def navigate(
     smooth: bool = True,
     zupt: bool = True,
     attitude_only: bool = False,
+    specific_force: bool = True,
 ) -> NavSolution:
-    """Coarse alignment then the filter (ZUPT in still periods) with the given aids (``attitude_only``:
-    see :func:`ldvsurvey.nav.filter.run_filter`)."""
+    """Coarse alignment then the filter (ZUPT in still periods) with the given aids (``attitude_only``,
+    ``specific_force``: see :func:`ldvsurvey.nav.filter.run_filter`)."""
     c0 = initial_attitude(inp, cbs)
     if inp.gravity is not None and inp.v0_n is None:  # a static alignment levels to the plumb line
         from ldvsurvey.nav.attitude import skew
@@ -290,6 +291,7 @@ def navigate(
         smooth=smooth,
         gravity=inp.gravity,
         attitude_only=attitude_only,
+        specific_force=specific_force,
     )
 
 

@@ -40,8 +40,9 @@ def applicable(logs: list[LogFacts], params: NavigateParams) -> list[Reason]:
     return gnss + calibration_applicable(logs, params) + rate_within_imu(logs, params)
 
 
-def run_navigation(log, params, progress):
-    """The navigation solution and what was used (shared with the gravity pipeline)."""
+def run_navigation(log, params, progress, specific_force: bool = True):
+    """The navigation solution and what was used (shared with the gravity pipeline; ``specific_force``
+    False: the solution carries no per-sample up specific force, which only gravity reads)."""
     inp = nav_inputs(log)
     # pipelines that share this function without the dov parameters keep normal gravity
     dov_info, dov_warn = ({"source": "none"}, []) if "dov" not in params else apply_dov(inp, params, progress)
@@ -53,7 +54,9 @@ def run_navigation(log, params, progress):
         raise ParameterError("aiding includes gnss but the bundle has no gnss.nmea", field="aiding")
     smooth = params.get("smooth", True)
     # LDV and GNSS, smoothed: the automatic calibration and the navigation are one filter run
-    setup = ldv_setup(inp, params, progress, joint=use_gnss and smooth) if use_ldv else None
+    setup = (
+        ldv_setup(inp, params, progress, joint=use_gnss and smooth, specific_force=specific_force) if use_ldv else None
+    )
     cbs = setup.cbs if setup else None
     if setup is None and inp.eta_rad is not None:
         from ldvsurvey.pipelines.inputs import c_bs_of
@@ -70,6 +73,7 @@ def run_navigation(log, params, progress):
         ldv=ldv_aid_of(inp, setup) if use_ldv else None,
         gnss=gnss_aid(log) if use_gnss else None,
         smooth=smooth,
+        specific_force=specific_force,
     )
     return inp, setup, sol
 
@@ -96,7 +100,7 @@ def errors_vs_gnss(log, sol, fixes=(4,)):
 def run(logs, params, progress) -> PipelineResult:
     log = logs[0]
     progress("preparing", 0.02)
-    inp, setup, sol = run_navigation(log, params, progress)
+    inp, setup, sol = run_navigation(log, params, progress, specific_force=False)
     progress("writing", 0.9)
     horiz, vert, n_ref = errors_vs_gnss(log, sol)
     step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(sol.t_s))))))
