@@ -50,7 +50,7 @@ class Calibration:
     #: heading, scale; vertical: pitch, compliance, up scale) with the innovation statistics
     sigma_inflation: dict | None = None
     #: the navigation the estimate came from when it was made jointly with the final navigation
-    #: (``joint``: every sample's velocity, position and specific force kept), else None
+    #: (``joint``: every sample's velocity and position kept, and its specific force if asked), else None
     solution: object = None
 
 
