@@ -18,9 +18,9 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
+from ldvsurvey.nav.attitude import q_to_c_into
 from ldvsurvey.nav.errmodel import c_db, skew_nb
 from ldvsurvey.nav.kfloop import N_FIN, c_bn_into, feedback_into, mech_sample, propagate_epoch
-from ldvsurvey.nav.mech import q_to_c_into
 
 MODES = {"undamped": 0, "conventional": 1, "delayed_state": 2}
 N = 16

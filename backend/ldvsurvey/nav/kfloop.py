@@ -34,9 +34,10 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
+from ldvsurvey.nav.attitude import q_to_c_into
 from ldvsurvey.nav.earth import radii_nb
 from ldvsurvey.nav.errmodel import build_f_into, c_db
-from ldvsurvey.nav.mech import mech_step_into, q_to_c_into
+from ldvsurvey.nav.mech import mech_step_into
 
 
 @nb.njit(cache=True)

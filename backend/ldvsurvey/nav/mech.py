@@ -14,7 +14,6 @@ import numba as nb
 import numpy as np
 
 from ldvsurvey.nav.attitude import cross, q_rotvec, q_to_c, qmul
-from ldvsurvey.nav.attitude import q_to_c_into as q_to_c_into  # the filter loops import it from here
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity_nb, radii_nb
 
 
