@@ -272,27 +272,10 @@ def forward_accel_mps2(t_s, nu_f_mps, ok, window_s: float = 0.5) -> np.ndarray:
     return (vs[ib] - vs[ia]) / np.maximum(t[ib] - t[ia], dt)
 
 
-def _prepare(
-    t,
-    dtheta_rad,
-    dvel_mps,
-    q0_sn,
-    v0_n,
-    pos0,
-    noise: ImuNoise,
-    cfg: FilterConfig,
-    c_bs,
-    zupt_intervals,
-    ldv,
-    gnss,
-    gravity,
-    bias0,
-    attitude_only,
-    specific_force=True,
-):
-    """The compiled filter's grouped inputs (:class:`~ldvsurvey.nav.kfloop.ImuIn`, ``Model``, ``LdvIn``,
-    ``GnssIn``, ``Start``) and the epoch times ep_t (M+1,) s (see :func:`run_filter` for the arguments;
-    ``t`` float64 contiguous). Arrays already float64 and contiguous are passed on, not copied."""
+def _model(t, noise: ImuNoise, cfg: FilterConfig, zupt_intervals, attitude_only, specific_force):
+    """The compiled filter's error model (:class:`~ldvsurvey.nav.kfloop.Model`), the state index of
+    each LDV state (−1: none) and the epoch times ep_t (M+1,) s (see :func:`run_filter` for the
+    arguments; ``t`` float64 contiguous)."""
     n_s = len(t)
     decim = max(1, int(round(1.0 / (cfg.rate_hz * np.median(np.diff(t))))))
     m = n_s // decim
@@ -354,6 +337,12 @@ def _prepare(
         not attitude_only,
         bool(specific_force),
     )
+    return mdl, aug_idx, ep_t
+
+
+def _ldv_in(ldv: LdvAid | None, cfg: FilterConfig, aug_idx, n_s: int):
+    """The compiled filter's LDV input (:class:`~ldvsurvey.nav.kfloop.LdvIn`) for ``n_s`` IMU samples;
+    arrays already float64 and contiguous are passed on, not copied."""
     sig_ldv = np.asarray(cfg.ldv_sigma_mps, float)
     if ldv is None:
         e = np.zeros(0)  # never read: no sample is usable
@@ -386,6 +375,12 @@ def _prepare(
             aug_idx,
             a_f,
         )
+    return lin
+
+
+def _gnss_in(gnss: GnssAid | None):
+    """The compiled filter's GNSS input (:class:`~ldvsurvey.nav.kfloop.GnssIn`): the fixes with a
+    position and a σ."""
     if gnss is None:
         gin = kfloop.GnssIn(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 2)), np.zeros(3))
     else:
@@ -396,19 +391,18 @@ def _prepare(
             np.ascontiguousarray(np.column_stack([gnss.sigma_h_m[ok], gnss.sigma_v_m[ok]])),
             np.asarray(gnss.lever_arm_m, float),
         )
+    return gin
+
+
+def _imu_in(t, dtheta_rad, dvel_mps, c_bs, gravity):
+    """The compiled filter's IMU input (:class:`~ldvsurvey.nav.kfloop.ImuIn`); arrays already float64
+    and contiguous are passed on, not copied."""
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
     c_bs_arr = np.eye(3)[None] if c_bs is None else np.ascontiguousarray(c_bs, dtype=float)  # (1, 3, 3): fixed
-    imu = kfloop.ImuIn(
+    return kfloop.ImuIn(
         t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr, xi, eta, dg
     )
-    st = kfloop.Start(
-        np.asarray(q0_sn, float),
-        np.asarray(v0_n, float),
-        np.asarray(pos0, float),
-        np.zeros(6) if bias0 is None else np.asarray(bias0, float),
-    )
-    return imu, mdl, lin, gin, st, ep_t
 
 
 def run_filter(
@@ -447,25 +441,17 @@ def run_filter(
     """
     cfg = cfg or FilterConfig()
     t = np.ascontiguousarray(t_s, dtype=float)
-    imu, mdl, lin, gin, st, ep_t = _prepare(
-        t,
-        dtheta_rad,
-        dvel_mps,
-        q0_sn,
-        v0_n,
-        pos0,
-        noise,
-        cfg,
-        c_bs,
-        zupt_intervals,
-        ldv,
-        gnss,
-        gravity,
-        bias0,
-        attitude_only,
-        specific_force,
+    mdl, aug_idx, ep_t = _model(t, noise, cfg, zupt_intervals, attitude_only, specific_force)
+    lin = _ldv_in(ldv, cfg, aug_idx, len(t))
+    gin = _gnss_in(gnss)
+    imu = _imu_in(t, dtheta_rad, dvel_mps, c_bs, gravity)
+    st = kfloop.Start(
+        np.asarray(q0_sn, float),
+        np.asarray(v0_n, float),
+        np.asarray(pos0, float),
+        np.zeros(6) if bias0 is None else np.asarray(bias0, float),
     )
-    decim, qd, inv_tau, i_sz, aug_idx, par0 = mdl.decim, mdl.qd, mdl.inv_tau, mdl.i_sz, lin.aug_idx, lin.par0
+    decim, qd, inv_tau, i_sz, par0 = mdl.decim, mdl.qd, mdl.inv_tau, mdl.i_sz, lin.par0
     m = len(t) // decim
     (q, v, p, f_u, f_en, f_b, ck, upd, sig_f, fin, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(
         imu, mdl, lin, gin, st
