@@ -8,4 +8,4 @@ ENV PATH="/app/.venv/bin:${PATH}" \
     LDVSURVEY_DATA_DIR=/data
 VOLUME ["/data"]
 EXPOSE 8000
-CMD ["uvicorn", "ldvsurvey.api.asgi:app", "--host", "0.0.0.0", "--port", "8000", "--workers", "4"]
+CMD ["uvicorn", "ldvsurvey.api.asgi:app", "--host", "0.0.0.0", "--port", "8000", "--workers", "4", "--no-proxy-headers"]

@@ -1,6 +1,7 @@
 """The compose file parses without an engine, fails fast without secrets, and the image installs the README's way."""
 
 import os
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -49,3 +50,15 @@ def test_dockerfile_installs_with_the_readme_setup():
     readme = (ROOT / "README.md").read_text()
     assert "RUN ./scripts/setup.sh" in docker
     assert "scripts/setup.sh" in readme
+
+
+def test_uvicorn_in_the_image_and_compose_does_not_believe_proxy_headers():
+    """The app reads X-Forwarded-For itself, from LDVSURVEY_TRUSTED_PROXIES only; uvicorn's default
+    (believe it from 127.0.0.1) would hand it a forged client address (issue 28)."""
+    r = _compose({"POSTGRES_PASSWORD": "pw", "LDVSURVEY_ADMIN_PASSWORD": "admin-pw"})
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.split("\n  api:\n", 1)[1].splitlines()
+    api = lines[: next((i for i, ln in enumerate(lines) if re.match(r"^ {0,2}\S", ln)), len(lines))]
+    assert "    - --no-proxy-headers" in api
+    cmd = [ln for ln in (ROOT / "Dockerfile").read_text().splitlines() if ln.startswith("CMD")]
+    assert cmd and "--no-proxy-headers" in cmd[0]

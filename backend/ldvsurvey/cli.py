@@ -50,7 +50,9 @@ def _cmd_serve(args) -> int:
 
         load_demo_survey(app.state.database_url, settings.data_dir, app.state.runner.enqueue)
         print(f"dashboard with the demo survey: http://{args.host}:{args.port}/", flush=True)
-    uvicorn.run(app, host=args.host, port=args.port, log_level="info")
+    # X-Forwarded-For is read by the app itself, only from LDVSURVEY_TRUSTED_PROXIES
+    # (ldvsurvey.api.throttle.client_address): uvicorn must not believe it from 127.0.0.1 first
+    uvicorn.run(app, host=args.host, port=args.port, log_level="info", proxy_headers=False)
     return 0
 
 

@@ -7,6 +7,7 @@ without a session acts as the clearly marked demo account.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections import defaultdict, deque
@@ -107,21 +108,50 @@ class RateLimiter:
             q.append(now)
             return True
 
+    def wait_s(self, key, limit: int, window_s: float = 60.0) -> int:
+        """Whole seconds until ``key`` is allowed again (``Retry-After``; at least 1)."""
+        now = time.monotonic()
+        with self._lock:
+            q = self._hits[key]
+            if len(q) < limit:
+                return 1
+            return max(1, math.ceil(q[len(q) - limit] + window_s - now))
+
 
 def check_upload_rate(request: Request, who: Principal, st: Settings) -> None:
-    key = who.user.id if who.user is not None else request.client.host if request.client else "anon"
-    if not request.app.state.rate_limiter.allow(("upload", key), st.uploads_per_minute):
-        raise HTTPException(429, f"more than {st.uploads_per_minute} uploads a minute: slow down")
+    key = who.user.id if who.user is not None else client_address(request, st)
+    limiter = request.app.state.rate_limiter
+    if not limiter.allow(("upload", key), st.uploads_per_minute):
+        raise HTTPException(
+            429,
+            f"more than {st.uploads_per_minute} uploads a minute: slow down",
+            headers={"Retry-After": str(limiter.wait_s(("upload", key), st.uploads_per_minute))},
+        )
+
+
+#: ``Retry-After`` of a refusal over the job limit: jobs end at their own pace (s)
+JOB_QUOTA_RETRY_S = 30
 
 
 def check_job_quota(session: Session, who: Principal, st: Settings) -> None:
+    """Refuse (429) one more queued or running job for the user past ``max_active_jobs_per_user``.
+
+    Counts under the user's write lock (:func:`ldvsurvey.store.users.lock_user`), held until the
+    session commits: the caller adds its job and commits, so concurrent submissions by one user are
+    counted one after the other.
+    """
     if who.user is None:
         return
+    ustore.lock_user(session, who.user.id)
     active = session.scalar(
         select(func.count()).select_from(Job).where(Job.user_id == who.user.id, Job.status.in_(("queued", "running")))
     )
     if active >= st.max_active_jobs_per_user:
-        raise HTTPException(429, f"{active} jobs already queued or running (limit {st.max_active_jobs_per_user})")
+        raise HTTPException(
+            429,
+            f"{active} jobs already queued or running (limit {st.max_active_jobs_per_user})",
+            headers={"Retry-After": str(JOB_QUOTA_RETRY_S)},
+        )
 
 
 class Login(BaseModel):
@@ -140,9 +170,10 @@ class Login(BaseModel):
 def login(body: Login, request: Request, response: Response, session: SessionDep, st: SettingsDep) -> m.LoginOut:
     throttle = request.app.state.login_throttle
     client = client_address(request, st)
-    reason = throttle.blocked(body.username, client)
-    if reason:
-        raise HTTPException(429, reason)
+    refused = throttle.blocked(body.username, client)
+    if refused:
+        reason, wait_s = refused
+        raise HTTPException(429, reason, headers={"Retry-After": str(wait_s)})
     user = ustore.verify(session, body.username, body.password)
     if user is None:
         throttle.failed(body.username, client)

@@ -220,8 +220,12 @@ def cancel_job(job_id: JobId, session: SessionDep, who: CurrentUser) -> m.Job:
 
 
 @router.post("/api/jobs/{job_id}/retry", summary="Run a failed or cancelled job again")
-def retry_job(job_id: JobId, session: SessionDep, who: CurrentUser, runner: RunnerDep) -> m.Job:
+def retry_job(job_id: JobId, session: SessionDep, who: CurrentUser, st: SettingsDep, runner: RunnerDep) -> m.Job:
     j = visible_job(session, who, job_id)
+    if j.status not in ("failed", "cancelled"):
+        raise HTTPException(409, f"only failed or cancelled jobs can be retried (job {job_id} is {j.status})")
+    check_job_quota(session, who, st)  # active again: it counts like a new one
+    session.refresh(j)  # as it is under the lock (another request may have retried it meanwhile)
     if j.status not in ("failed", "cancelled"):
         raise HTTPException(409, f"only failed or cancelled jobs can be retried (job {job_id} is {j.status})")
     j.status, j.stage, j.progress, j.error, j.cancel_requested = "queued", "queued", 0.0, None, False

@@ -8,6 +8,8 @@ only when the peer is one of ``LDVSURVEY_TRUSTED_PROXIES``.
 from __future__ import annotations
 
 import ipaddress
+import logging
+import math
 import time
 import uuid
 
@@ -34,18 +36,58 @@ def _trusted(addr: str, nets: list) -> bool:
     return any(ip in n for n in nets)
 
 
+#: the one key of every request whose peer a server in front replaced from ``X-Forwarded-For``
+#: without being told to by ``LDVSURVEY_TRUSTED_PROXIES``: its real peer is unknown, so all such
+#: requests share one count (rotating the header gives no fresh address)
+UNVERIFIED_CLIENT = "forwarded-unverified"
+
+_log = logging.getLogger("ldvsurvey.throttle")
+_warned = False
+
+
+def _hop_host(hop: str) -> str:
+    """The address of one ``X-Forwarded-For`` hop, without a port (``1.2.3.4:80``, ``[::1]:80``)."""
+    hop = hop.strip()
+    if hop.startswith("[") and "]" in hop:
+        return hop[1 : hop.index("]")]
+    if hop.count(":") == 1:
+        return hop.split(":", 1)[0]
+    return hop
+
+
 def client_address(request: Request, settings) -> str:
-    """The client's address: the peer, or the right-most untrusted hop of ``X-Forwarded-For``
-    when the peer is one of ``settings.trusted_proxies``."""
+    """The client's address for counting: the peer, or the right-most untrusted hop of
+    ``X-Forwarded-For`` when the peer is one of ``settings.trusted_proxies``.
+
+    A server in front of the app may already have replaced the peer with a hop of the header
+    (uvicorn does by default for requests from 127.0.0.1: ``--proxy-headers``); the real peer is then
+    lost. Such a request (its peer is one of the header's hops) counts under its own address only
+    when a proxy is configured and that address is the one the rule above picks; otherwise it
+    counts under :data:`UNVERIFIED_CLIENT`, and a warning says how to start the server.
+    """
     peer = request.client.host if request.client else "unknown"
     nets = _networks(settings.trusted_proxies)
-    if not nets or not _trusted(peer, nets):
+    hops = [_hop_host(h) for h in request.headers.get("x-forwarded-for", "").split(",") if h.strip()]
+    if nets and _trusted(peer, nets):
+        for hop in reversed(hops):
+            if not _trusted(hop, nets):
+                return hop
+        return hops[0] if hops else peer
+    if peer not in hops:
         return peer
-    hops = [h.strip() for h in request.headers.get("x-forwarded-for", "").split(",") if h.strip()]
-    for hop in reversed(hops):
-        if not _trusted(hop, nets):
-            return hop
-    return hops[0] if hops else peer
+    if nets and next((h for h in reversed(hops) if not _trusted(h, nets)), None) == peer:
+        return peer  # the server in front applied our rule (it must trust the same proxies)
+    global _warned
+    if not _warned:
+        _warned = True
+        _log.warning(
+            "the server in front of the app replaced the client address from X-Forwarded-For "
+            "(LDVSURVEY_TRUSTED_PROXIES=%r): all such requests share one login-failure count. Start uvicorn "
+            "with --no-proxy-headers (ldv-survey serve and the image do), or set --forwarded-allow-ips "
+            "to LDVSURVEY_TRUSTED_PROXIES",
+            settings.trusted_proxies,
+        )
+    return UNVERIFIED_CLIENT
 
 
 class LoginThrottle:
@@ -70,24 +112,37 @@ class LoginThrottle:
     def keys(account: str, client: str) -> tuple[str, str]:
         return f"account:{account.strip().lower()}", f"client:{client}"
 
-    def _count(self, key: str) -> int:
+    def _times(self, key: str) -> list[float]:
+        """The times (Unix s, oldest first) of the key's failures within the window."""
         if self.redis is not None:
             k = self.prefix + key
             self.redis.zremrangebyscore(k, 0, time.time() - self.window_s)
-            return int(self.redis.zcard(k))
+            return [float(t) for _, t in self.redis.zrange(k, 0, -1, withscores=True)]
         with session_scope(self.url) as s:
-            return ustore.login_failures(s, key, self.window_s)
+            return ustore.login_failure_times(s, key, self.window_s)
 
-    def blocked(self, account: str, client: str) -> str | None:
-        """A reason to refuse the attempt without looking at the password, or None."""
+    def _wait_s(self, times: list[float], limit: int) -> int:
+        """Whole seconds until fewer than ``limit`` of ``times`` are inside the window (>= 1)."""
+        oldest_to_expire = times[len(times) - limit]
+        return max(1, math.ceil(oldest_to_expire + self.window_s - time.time()))
+
+    def blocked(self, account: str, client: str) -> tuple[str, int] | None:
+        """A reason to refuse the attempt without looking at the password and the seconds to wait
+        before the next attempt can count (``Retry-After``), or None."""
         ka, kc = self.keys(account, client)
-        if self._count(ka) >= self.max_account:
+        times = self._times(ka)
+        if len(times) >= self.max_account:
             return (
                 f"too many failed logins for this account: wait up to {self.window_s / 60:.0f} min "
-                "or ask an admin to set a new password"
+                "or ask an admin to set a new password",
+                self._wait_s(times, self.max_account),
             )
-        if self._count(kc) >= self.max_client:
-            return f"too many failed logins from your address: wait up to {self.window_s / 60:.0f} min"
+        times = self._times(kc)
+        if len(times) >= self.max_client:
+            return (
+                f"too many failed logins from your address: wait up to {self.window_s / 60:.0f} min",
+                self._wait_s(times, self.max_client),
+            )
         return None
 
     def failed(self, account: str, client: str) -> None:

@@ -283,6 +283,32 @@ def login_failures(s: Session, key: str, window_s: float) -> int:
     )
 
 
+def lock_user(s: Session, user_id: int) -> None:
+    """Take the write lock for one user's rows until the session's transaction ends, so that a
+    count followed by an insert (the active-job limit) cannot interleave with another session's.
+
+    PostgreSQL (and other servers): the user's row, ``SELECT … FOR UPDATE``. SQLite locks the whole
+    database instead: what the session read so far is committed and a new transaction starts with
+    ``BEGIN IMMEDIATE`` (waiting up to the busy timeout for other writers), so that the count that
+    follows sees every committed job.
+    """
+    if s.get_bind().dialect.name == "sqlite":
+        s.commit()
+        s.connection().exec_driver_sql("BEGIN IMMEDIATE")
+        return
+    s.execute(select(User.id).where(User.id == user_id).with_for_update())
+
+
+def login_failure_times(s: Session, key: str, window_s: float) -> list[float]:
+    """The times (Unix s, oldest first) of the key's failed logins within the last ``window_s``."""
+    since = _now() - dt.timedelta(seconds=window_s)
+    rows = s.scalars(
+        select(LoginFailure.at).where(LoginFailure.key == key[:300], LoginFailure.at >= since).order_by(LoginFailure.at)
+    )
+    # SQLite gives back naive times: they were written in UTC (_now)
+    return [(t if t.tzinfo else t.replace(tzinfo=dt.UTC)).timestamp() for t in rows]
+
+
 def forget_login_failures(s: Session, keys: list[str]) -> None:
     s.execute(delete(LoginFailure).where(LoginFailure.key.in_([k[:300] for k in keys])))
 
