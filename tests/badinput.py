@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import struct
 import zipfile
 
 from tests.bundles import make_bundle, zip_bytes
@@ -182,3 +183,19 @@ def bomb_zip(size: int) -> bytes:
             zf.writestr(n, d)
         zf.writestr("padding.bin", b"\0" * size)
     return buf.getvalue()
+
+
+def member_data_offset(archive: bytes, member: str) -> int:
+    """Where the (compressed) data of ``member`` starts in ``archive``: after its local header."""
+    info = zipfile.ZipFile(io.BytesIO(archive)).getinfo(member)
+    name_len, extra_len = struct.unpack("<HH", archive[info.header_offset + 26 : info.header_offset + 30])
+    return info.header_offset + 30 + name_len + extra_len
+
+
+def corrupt_deflate_zip(member: str = "imu.csv") -> bytes:
+    """A bundle zip whose ``member`` has corrupt deflate data (its directory and sizes intact): the
+    first block claims to be a stored block, so inflating fails with zlib's "invalid stored block
+    lengths"."""
+    z = bytearray(zip_bytes(make_bundle(seed=12, n_imu=500)))
+    z[member_data_offset(bytes(z), member)] = 0x00  # BFINAL=0, BTYPE=00 (stored), then garbage lengths
+    return bytes(z)

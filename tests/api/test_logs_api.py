@@ -218,6 +218,14 @@ def test_bad_zip(client, db_counts, make, status):
     assert db_counts() == EMPTY
 
 
+@pytest.mark.parametrize("member", ["imu.csv", "gnss.nmea"])
+def test_corrupt_deflate_data_is_422_naming_the_member(client, db_counts, member):
+    r = _post_zip(client, badinput.corrupt_deflate_zip(member))
+    assert r.status_code == 422, r.text
+    assert r.json()["error"]["file"] == "bundle.zip" and r.json()["error"]["field"] == member
+    assert db_counts() == EMPTY
+
+
 def test_upload_over_limit_is_413(client, db_counts):
     big = make_bundle(seed=25, n_imu=60000)  # ~7 MB of CSV, limit is 5 MB in the tests
     r = _post_files(client, big)

@@ -60,3 +60,16 @@ def test_zip_bomb_refused():
         read_zip(badinput.bomb_zip(20 * 1024 * 1024), 10 * 1024 * 1024)
     with pytest.raises(TooLargeError, match="zip bomb"):  # ratio guard even within the size limit
         read_zip(badinput.bomb_zip(20 * 1024 * 1024), 10**9, max_ratio=200)
+
+
+@pytest.mark.parametrize("member", ["imu.csv", "ldv.csv", "manifest.json"])
+def test_corrupt_deflate_data_names_the_member(member, tmp_path, capsys):
+    """zlib.error from a member's deflate data was not caught (issue 28): a 500 in the API."""
+    bad = badinput.corrupt_deflate_zip(member)
+    with pytest.raises(BundleError, match="truncated or corrupt") as ei:
+        read_zip(bad, 10**9)
+    assert ei.value.field == member
+    path = tmp_path / "bad.zip"
+    path.write_bytes(bad)
+    assert main(["validate", str(path)]) == 2  # stage_zip, the command line's reader
+    assert f"field '{member}'" in capsys.readouterr().err

@@ -17,7 +17,7 @@ from typing import BinaryIO
 from fastapi import UploadFile
 
 from ldvsurvey.errors import BundleError, TooLargeError
-from ldvsurvey.io.drivelog import KNOWN_FILES, BundleFiles
+from ldvsurvey.io.drivelog import KNOWN_FILES, ZIP_READ_ERRORS, BundleFiles
 
 CHUNK = 1 << 20
 #: members smaller than this are not judged by their own ratio (tiny files compress oddly)
@@ -107,7 +107,7 @@ def read_zip_safely(
     """
     try:
         zf = zipfile.ZipFile(fh)
-    except (zipfile.BadZipFile, EOFError, ValueError, OSError) as exc:
+    except ZIP_READ_ERRORS as exc:
         raise BundleError(f"not a readable zip archive (truncated or corrupt: {exc})", file=archive) from None
     with zf:
         inflate, ignored = plan_zip(
@@ -132,7 +132,7 @@ def read_zip_safely(
                                     field=info.filename,
                                 )
                             yield chunk
-                except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
+                except ZIP_READ_ERRORS as exc:
                     raise BundleError(
                         f"member '{info.filename}' cannot be read (truncated or corrupt: {exc})",
                         file=archive,

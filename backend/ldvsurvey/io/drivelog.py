@@ -7,9 +7,11 @@ import io
 import os
 import posixpath
 import shutil
+import struct
 import tempfile
 import weakref
 import zipfile
+import zlib
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -358,6 +360,12 @@ def _parse_files(files: dict[str, bytes | Path]) -> DriveLog:
     )
 
 
+#: what reading a damaged archive raises: a bad directory or header (BadZipFile, EOFError,
+#: struct.error, ValueError), corrupt deflate data (zlib.error), a wrong CRC (BadZipFile), an unknown
+#: compression method (NotImplementedError); each becomes a BundleError naming the archive and member
+ZIP_READ_ERRORS = (zipfile.BadZipFile, zlib.error, struct.error, EOFError, OSError, ValueError, NotImplementedError)
+
+
 def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0, name: str = "upload.zip") -> dict[str, bytes]:
     """Members of a bundle zip, refusing traversal, absolute paths and zip bombs.
 
@@ -375,7 +383,7 @@ def read_zip(data, max_unzipped_bytes: int, max_ratio: float = 200.0, name: str 
         try:
             with zf.open(info) as fh:  # read with a hard cap: headers can lie
                 content = fh.read(max_unzipped_bytes - total + 1)
-        except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
+        except ZIP_READ_ERRORS as exc:
             raise BundleError(
                 f"member '{fn}' cannot be read (truncated or corrupt: {exc})", file=name, field=fn
             ) from None
@@ -443,7 +451,7 @@ def stage_zip(
                                     field=fn,
                                 )
                             yield chunk
-                except (zipfile.BadZipFile, EOFError, OSError, ValueError, NotImplementedError) as exc:
+                except ZIP_READ_ERRORS as exc:
                     raise BundleError(
                         f"member '{fn}' cannot be read (truncated or corrupt: {exc})", file=name, field=fn
                     ) from None
@@ -480,7 +488,7 @@ def _open_zip(source, name: str):
     try:
         zf = zipfile.ZipFile(source)
         return zf, zf.infolist()
-    except (zipfile.BadZipFile, EOFError, ValueError) as exc:
+    except ZIP_READ_ERRORS as exc:
         raise BundleError(f"not a readable zip archive (truncated or corrupt: {exc})", file=name) from None
 
 
