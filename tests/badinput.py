@@ -199,3 +199,15 @@ def corrupt_deflate_zip(member: str = "imu.csv") -> bytes:
     z = bytearray(zip_bytes(make_bundle(seed=12, n_imu=500)))
     z[member_data_offset(bytes(z), member)] = 0x00  # BFINAL=0, BTYPE=00 (stored), then garbage lengths
     return bytes(z)
+
+
+def encrypted_flag_zip(member: str = "imu.csv") -> bytes:
+    """A bundle zip whose central directory marks ``member`` as encrypted (general-purpose flag bit
+    0): zipfile then asks for a password (a RuntimeError)."""
+    z = bytearray(zip_bytes(make_bundle(seed=12, n_imu=500)))
+    info = zipfile.ZipFile(io.BytesIO(bytes(z))).getinfo(member)
+    pos = z.find(b"PK\x01\x02")
+    while struct.unpack("<I", z[pos + 42 : pos + 46])[0] != info.header_offset:
+        pos = z.find(b"PK\x01\x02", pos + 4)
+    z[pos + 8] |= 0x1
+    return bytes(z)

@@ -226,6 +226,14 @@ def test_corrupt_deflate_data_is_422_naming_the_member(client, db_counts, member
     assert db_counts() == EMPTY
 
 
+def test_encrypted_member_is_422_naming_the_member(client, db_counts):
+    """Found by tests/api/test_upload_fuzz.py: a flipped encryption flag gave a 500 (RuntimeError)."""
+    r = _post_zip(client, badinput.encrypted_flag_zip("ldv.csv"))
+    assert r.status_code == 422, r.text
+    assert r.json()["error"]["field"] == "ldv.csv" and "encrypted" in r.json()["detail"]
+    assert db_counts() == EMPTY
+
+
 def test_upload_over_limit_is_413(client, db_counts):
     big = make_bundle(seed=25, n_imu=60000)  # ~7 MB of CSV, limit is 5 MB in the tests
     r = _post_files(client, big)

@@ -73,3 +73,10 @@ def test_corrupt_deflate_data_names_the_member(member, tmp_path, capsys):
     path.write_bytes(bad)
     assert main(["validate", str(path)]) == 2  # stage_zip, the command line's reader
     assert f"field '{member}'" in capsys.readouterr().err
+
+
+def test_encrypted_member_names_the_member(tmp_path, capsys):
+    path = tmp_path / "enc.zip"
+    path.write_bytes(badinput.encrypted_flag_zip("imu.csv"))
+    assert main(["validate", str(path)]) == 2
+    assert "field 'imu.csv'" in capsys.readouterr().err

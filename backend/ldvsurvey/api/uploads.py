@@ -17,7 +17,7 @@ from typing import BinaryIO
 from fastapi import UploadFile
 
 from ldvsurvey.errors import BundleError, TooLargeError
-from ldvsurvey.io.drivelog import KNOWN_FILES, ZIP_READ_ERRORS, BundleFiles
+from ldvsurvey.io.drivelog import KNOWN_FILES, ZIP_READ_ERRORS, BundleFiles, refuse_encrypted
 
 CHUNK = 1 << 20
 #: members smaller than this are not judged by their own ratio (tiny files compress oddly)
@@ -52,6 +52,8 @@ def plan_zip(
         files.append(info)
     if not files:
         raise BundleError("archive holds no files", file=archive)
+    for i in files:
+        refuse_encrypted(i, archive)
     declared = sum(i.file_size for i in files)
     if declared > max_unzipped:
         raise TooLargeError(

@@ -492,6 +492,17 @@ def _open_zip(source, name: str):
         raise BundleError(f"not a readable zip archive (truncated or corrupt: {exc})", file=name) from None
 
 
+def refuse_encrypted(info: zipfile.ZipInfo, archive: str) -> None:
+    """A :class:`BundleError` naming the member when the archive says it is encrypted (flag bit 0):
+    a bundle is never, and reading one would need a password."""
+    if info.flag_bits & 0x1:
+        raise BundleError(
+            f"member '{info.filename}' is encrypted: send the bundle without a password",
+            file=archive,
+            field=info.filename,
+        )
+
+
 def _screen_member(
     info: zipfile.ZipInfo, name: str, before_bytes: int, max_unzipped_bytes: int, max_ratio: float
 ) -> bool:
@@ -503,6 +514,7 @@ def _screen_member(
         raise BundleError(f"unsafe path in archive: '{fn}'", file=name, field=fn)
     if info.is_dir() or fn.startswith("__MACOSX/") or posixpath.basename(fn).startswith("._"):
         return False
+    refuse_encrypted(info, name)
     if info.file_size > max_unzipped_bytes or before_bytes + info.file_size > max_unzipped_bytes:
         raise TooLargeError(f"archive unpacks to more than {max_unzipped_bytes} bytes", file=name, field=fn)
     if info.compress_size and info.file_size / info.compress_size > max_ratio and info.file_size > 1 << 20:
