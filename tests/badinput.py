@@ -211,3 +211,11 @@ def encrypted_flag_zip(member: str = "imu.csv") -> bytes:
         pos = z.find(b"PK\x01\x02", pos + 4)
     z[pos + 8] |= 0x1
     return bytes(z)
+
+
+def wide_imu(files: dict[str, bytes], extra: int) -> dict[str, bytes]:
+    """``files`` with ``extra`` unknown columns added to the header of imu.csv (line 2, after a comment)."""
+    lines = files["imu.csv"].split(b"\n")
+    assert lines[0].startswith(b"#") and lines[1].startswith(b"t,")
+    lines[1] += b"," + b",".join(b"c%d" % i for i in range(extra))
+    return {**files, "imu.csv": b"\n".join(lines)}

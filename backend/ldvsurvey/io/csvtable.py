@@ -41,6 +41,21 @@ class NumericTable:
         return len(self.line_of_row)
 
 
+#: the most columns a header may have: a bundle file has a handful (``imu.csv`` 7-8); a wider header
+#: is refused before it is split, so that a file of a million columns costs nothing to refuse
+MAX_COLUMNS = 256
+
+
+def check_column_count(header: bytes | str, file: str, line: int, *, whole: bool = True) -> None:
+    """A :class:`BundleError` naming file and line when ``header`` (the whole line, or with ``whole``
+    False its beginning) has more than :data:`MAX_COLUMNS` comma-separated columns (counted without
+    splitting it)."""
+    n = header.count(b"," if isinstance(header, bytes) else ",") + 1
+    if n > MAX_COLUMNS:
+        has = f"{n} columns" if whole else f"more than {MAX_COLUMNS} columns"
+        raise BundleError(f"header has {has}; at most {MAX_COLUMNS} are accepted", file=file, line=line)
+
+
 _CHUNK = 1 << 26  # bytes scanned at a time: no file-sized temporaries for long logs
 
 
@@ -132,9 +147,10 @@ def _read_exact(data: bytes, file, required, optional, alternatives, groups) -> 
     if len(kept) == 0:
         raise BundleError("no header row (only comments or blank lines)", file=file, line=1)
     header_idx = kept[0]
+    hline = int(header_idx) + 1
+    check_column_count(data[starts[header_idx] : ends[header_idx]], file, hline)
     header_line = data[starts[header_idx] : ends[header_idx]].decode("utf-8", "replace").lstrip("\ufeff")
     names = [c.strip() for c in header_line.split(",")]
-    hline = int(header_idx) + 1
     _check_header(names, file, hline, required, optional, alternatives)
     rows = kept[1:]
     if len(rows) == 0:
@@ -247,13 +263,17 @@ def _read_regular(data, file, required, optional, alternatives, groups) -> Numer
     pos, hline = 0, 0
     while True:
         nl = head.find(b"\n", pos)
-        if nl < 0:
+        if nl < 0:  # a line longer than the head: refused here when it is a header too wide
+            text = head[pos:]
+            if text.strip() and not text.startswith(b"#"):
+                check_column_count(text, file, hline + 1, whole=False)
             return None
         hline += 1
         text = head[pos:nl].rstrip(b"\r")
         if text.strip() and not text.startswith(b"#"):
             break
         pos = nl + 1
+    check_column_count(text, file, hline)
     body_at = nl + 1
     names = [c.strip() for c in text.decode("utf-8", "replace").lstrip("\ufeff").split(",")]
     if len(names) < 2:

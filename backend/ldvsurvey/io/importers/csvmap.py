@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from ldvsurvey.errors import BundleError
+from ldvsurvey.io.csvtable import MAX_COLUMNS
 from ldvsurvey.io.importers.common import GnssPart, ImuPart, LdvPart, Stamps, fix_from_sigma
 
 NAME = "csv"
@@ -112,7 +113,14 @@ def read(data: bytes, file: str, role: str, opts: dict):
     if cfg.get("header", True):
         if not rows:
             raise BundleError("file holds no header row", file=file, line=1)
-        header = _split(rows[0][1], delim)
+        first = rows[0][1]
+        if (first.count(delim) + 1 if delim else len(first.split(None, MAX_COLUMNS))) > MAX_COLUMNS:
+            raise BundleError(
+                f"header has more than {MAX_COLUMNS} columns; at most {MAX_COLUMNS} are accepted",
+                file=file,
+                line=rows[0][0],
+            )
+        header = _split(first, delim)
         rows = rows[1:]
     if not rows:
         raise BundleError("file holds no data rows", file=file, line=1)
