@@ -118,6 +118,12 @@ function row(l, names) {
       <span class="badge ${lowq > 0.05 ? "warn" : ""}">LDV low-q ${pct(lowq)}</span>
       ${b.warnings ? html`<span class="badge warn">${b.warnings} warnings</span>` : ""}
     </td>
-    <td><button class="del" data-id="${l.id}">delete</button></td>
+    <td>
+      ${
+        session.me && session.me.demo
+          ? "" /* the demo account is read-only for what it did not create: the API says 403 */
+          : html`<button class="del" data-id="${l.id}">delete</button>`
+      }
+    </td>
   </tr>`;
 }

@@ -6,7 +6,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.browser.helpers import shot
+from tests.browser.helpers import ADMIN, shot
 from tests.bundles import make_bundle
 
 pytestmark = pytest.mark.browser
@@ -131,9 +131,25 @@ def test_frontend_source_rules():
             assert "&amp;" not in text and "&lt;" not in text, f"{f.name} escapes by itself"
 
 
-def test_delete_is_visible_at_once(server):
-    """Over real HTTP the 204 comes after the commit: an immediate GET says 404 every time."""
-    for seed in range(95, 100):
-        log_id = upload(server, seed)
-        assert httpx.delete(f"{server}/api/logs/{log_id}").status_code == 204
-        assert httpx.get(f"{server}/api/logs/{log_id}").status_code == 404
+def test_delete_is_visible_at_once(auth_server):
+    """Over real HTTP the 204 comes after the commit: an immediate GET says 404 every time (as a
+    logged-in user: the demo account deletes nothing, tests/api/test_demo_readonly.py)."""
+    with httpx.Client(base_url=auth_server, timeout=60) as c:
+        r = c.post("/api/login", json={"username": ADMIN[0], "password": ADMIN[1]})
+        assert r.status_code == 200, r.text
+        c.headers["X-CSRF-Token"] = r.json()["csrf"]
+        for seed in range(95, 100):
+            up = c.post(
+                "/api/logs", files=[("files", (n, d, "x")) for n, d in make_bundle(seed=seed, n_imu=300).items()]
+            )
+            assert up.status_code in (200, 201), up.text
+            log_id = up.json()["id"]
+            assert c.delete(f"/api/logs/{log_id}").status_code == 204
+            assert c.get(f"/api/logs/{log_id}").status_code == 404
+
+
+def test_demo_page_offers_no_delete(server, page):
+    upload(server, 94)
+    page.goto(server + "/#/logs")
+    page.wait_for_selector("#logs tbody tr td a")
+    assert page.locator("button.del").count() == 0

@@ -90,6 +90,21 @@ def visible_job(session: Session, who: Principal, job_id: int) -> Job:
     return j
 
 
+def refuse_demo(who: Principal, what: str) -> None:
+    """403 when the principal is the demo account, which every visitor of a demo shares: it is
+    read-only for data it did not create. ``what`` completes "the demo account cannot …"."""
+    if who.user is not None and who.user.is_demo:
+        raise HTTPException(
+            403, f"the demo account cannot {what}: it is read-only for data it did not create (log in to do this)"
+        )
+
+
+def check_job_owner(who: Principal, job: Job, what: str) -> None:
+    """The demo account changes only the jobs it started (403 naming ``what`` otherwise)."""
+    if who.user is not None and who.user.is_demo and job.user_id != who.user.id:
+        refuse_demo(who, f"{what} a job it did not start")
+
+
 class RateLimiter:
     """Sliding-window count per key (per process)."""
 

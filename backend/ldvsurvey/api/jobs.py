@@ -10,7 +10,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api import models as m
-from ldvsurvey.api.auth import CurrentUser, check_job_quota, principal, visible_job, visible_log
+from ldvsurvey.api.auth import CurrentUser, check_job_owner, check_job_quota, principal, visible_job, visible_log
 from ldvsurvey.api.deps import BodyId, JobId, LogId, RunnerDep, SessionDep, SettingsDep
 from ldvsurvey.api.views import VIEWS, build_view, job_file, views_of
 from ldvsurvey.errors import ParameterError
@@ -209,6 +209,7 @@ def get_job(job_id: JobId, session: SessionDep, who: CurrentUser) -> m.JobDetail
 @router.post("/api/jobs/{job_id}/cancel", summary="Ask a job to stop (between stages)")
 def cancel_job(job_id: JobId, session: SessionDep, who: CurrentUser) -> m.Job:
     j = visible_job(session, who, job_id)
+    check_job_owner(who, j, "cancel")
     if j.status in ("succeeded", "failed", "cancelled"):
         raise HTTPException(409, f"job {job_id} already {j.status}")
     j.cancel_requested = True
@@ -222,6 +223,7 @@ def cancel_job(job_id: JobId, session: SessionDep, who: CurrentUser) -> m.Job:
 @router.post("/api/jobs/{job_id}/retry", summary="Run a failed or cancelled job again")
 def retry_job(job_id: JobId, session: SessionDep, who: CurrentUser, st: SettingsDep, runner: RunnerDep) -> m.Job:
     j = visible_job(session, who, job_id)
+    check_job_owner(who, j, "retry")
     if j.status not in ("failed", "cancelled"):
         raise HTTPException(409, f"only failed or cancelled jobs can be retried (job {job_id} is {j.status})")
     check_job_quota(session, who, st)  # active again: it counts like a new one

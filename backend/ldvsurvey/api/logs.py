@@ -13,7 +13,7 @@ from fastapi.responses import StreamingResponse
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api import models as m
-from ldvsurvey.api.auth import CurrentUser, Principal, check_upload_rate, visible_log
+from ldvsurvey.api.auth import CurrentUser, Principal, check_upload_rate, refuse_demo, visible_log
 from ldvsurvey.api.deps import ID_MAX, LogId, SessionDep, SettingsDep
 from ldvsurvey.api.uploads import read_upload
 from ldvsurvey.io.drivelog import parse_files
@@ -175,6 +175,7 @@ def _pieces(fh: BinaryIO) -> Iterator[bytes]:
 @router.delete("/{log_id}", status_code=204, summary="Delete a log with all its files and arrays")
 def delete_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> Response:
     visible_log(session, who, log_id)
+    refuse_demo(who, "delete logs")  # logs do not record their uploader: none is the demo's to delete
     store.delete_log(session, log_id)
     session.commit()  # answer only once it is gone: an immediate GET says 404
     return Response(status_code=204)

@@ -10,7 +10,7 @@ from pydantic import BaseModel, Field
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api import models as m
-from ldvsurvey.api.auth import CurrentUser, Principal
+from ldvsurvey.api.auth import CurrentUser, Principal, refuse_demo
 from ldvsurvey.api.deps import BodyId, PathId, SessionDep
 from ldvsurvey.store import users as ustore
 from ldvsurvey.store.models import User
@@ -48,6 +48,7 @@ class PasswordChange(BaseModel):
 @router.post("/api/password", summary="Change your password (ends all your sessions: log in again)")
 def change_password(body: PasswordChange, response: Response, who: CurrentUser, session: SessionDep) -> m.Ok:
     user = _me(who)
+    refuse_demo(who, "change its password")
     if ustore.verify(session, user.username, body.old_password) is None:
         raise HTTPException(403, "the current password is wrong")
     ustore.set_password(session, user, body.new_password)
@@ -68,6 +69,7 @@ def list_tokens(who: CurrentUser, session: SessionDep) -> list[m.TokenOut]:
 
 @router.post("/api/tokens", status_code=201, summary="Create an API token (the secret is shown once)")
 def create_token(body: TokenRequest, who: CurrentUser, session: SessionDep) -> m.NewToken:
+    refuse_demo(who, "hold API tokens")  # shared by every visitor, who needs none
     token = ustore.new_api_token(session, _me(who), body.name, body.expires_days)
     session.commit()
     row = ustore.list_tokens(session, who.user)[-1]
@@ -76,6 +78,7 @@ def create_token(body: TokenRequest, who: CurrentUser, session: SessionDep) -> m
 
 @router.delete("/api/tokens/{token_id}", status_code=204, summary="Revoke one of your API tokens")
 def revoke_token(token_id: PathId, who: CurrentUser, session: SessionDep) -> Response:
+    refuse_demo(who, "revoke API tokens")
     if not ustore.revoke_token(session, _me(who), token_id):
         raise HTTPException(404, f"you have no token {token_id}")
     session.commit()
