@@ -186,6 +186,21 @@ def _cmd_migrate(args) -> int:
     return 0
 
 
+def _cmd_clean(args) -> int:
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.leftovers import clean_leftovers, folders_of, scan
+
+    settings = get_settings()
+    gone = clean_leftovers(settings)
+    print(f"{gone.message()} left by stopped processes (killed mid-upload)")
+    for p in gone.paths:
+        print(f"  {p}")
+    _, busy = scan(*folders_of(settings), remove=False)
+    if busy.staging_folders or busy.part_blobs:
+        print(f"kept: {busy.message('in progress:')} held by running processes")
+    return 0
+
+
 def _db():
     from ldvsurvey.settings import get_settings
     from ldvsurvey.store.db import session_scope, upgrade_head
@@ -318,6 +333,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     mg = sub.add_parser("migrate", help="bring the database (LDVSURVEY_DATABASE_URL) to the newest schema")
     mg.set_defaults(func=_cmd_migrate)
+
+    cl = sub.add_parser(
+        "clean",
+        help="remove the staging folders and .part blobs left by processes killed mid-upload "
+        "(the server also does this at start and every LDVSURVEY_CLEAN_EVERY_S)",
+    )
+    cl.set_defaults(func=_cmd_clean)
 
     u = sub.add_parser("user", help="manage users (in LDVSURVEY_DATABASE_URL / LDVSURVEY_DATA_DIR)")
     ua = u.add_subparsers(dest="action", required=True)

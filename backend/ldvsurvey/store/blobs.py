@@ -10,7 +10,9 @@ PostgreSQL and separate API and worker containers, a shared volume at ``LDVSURVE
 
 Files are written before the rows that name them and fsynced; a transaction that rolls back removes
 the files it wrote, and files of deleted rows are removed once the deletion is committed
-(:func:`track_written`, :func:`unlink_after_commit`). Every file belongs to exactly one row (names
+(:func:`track_written`, :func:`unlink_after_commit`). A file is written as ``<name>.part`` under its
+writer's lock and renamed once fsynced; a ``.part`` nobody holds was left by a process that died and
+is removed by :mod:`ldvsurvey.store.leftovers`. Every file belongs to exactly one row (names
 are random), so removing one never touches another log.
 """
 
@@ -26,7 +28,10 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 from sqlalchemy import event
+from sqlalchemy.engine import make_url
 from sqlalchemy.orm import Session, object_session
+
+from ldvsurvey.store.leftovers import hold
 
 #: files smaller than this stay in their database row
 INLINE_MAX_BYTES = 1 << 20
@@ -131,9 +136,14 @@ def register_root(database_url: str, folder: str | Path) -> None:
 
 
 def root_for(session: Session) -> Path | None:
-    """The blob folder of the session's database: registered, else ``blobs`` beside a SQLite file,
+    """The blob folder of the session's database (see :func:`root_for_url`)."""
+    return root_for_url(session.get_bind().url)
+
+
+def root_for_url(url) -> Path | None:
+    """The blob folder of the database at ``url``: registered, else ``blobs`` beside a SQLite file,
     else ``<LDVSURVEY_DATA_DIR>/blobs``; None for an in-memory SQLite database (all in rows)."""
-    url = session.get_bind().url
+    url = make_url(url) if isinstance(url, str) else url
     key = url.render_as_string(hide_password=False)
     if key in _roots:
         return _roots[key]
@@ -193,34 +203,71 @@ class Writer:
         track_written(self.session, dst)
         return key, dst, dst.with_name(dst.name + ".part")
 
-    def _finish(self, tmp: Path, dst: Path) -> None:
+    def _finish(self, tmp: Path, dst: Path, fh) -> None:
+        """fsync and rename in the background; ``fh`` holds the ``.part``'s lock until renamed (a
+        ``.part`` nobody holds was left by a stopped process: :mod:`ldvsurvey.store.leftovers`)."""
+
         def sync():
-            _fsync(tmp)
-            os.replace(tmp, dst)
+            try:
+                _fsync(tmp)
+                os.replace(tmp, dst)
+            finally:
+                fh.close()
 
         self._pending.append(self._pool.submit(sync))
+
+    @staticmethod
+    def _locked_part(tmp: Path):
+        """A new ``.part`` file, created under this process's lock (no moment without it)."""
+        fh = open(tmp, "xb")
+        try:
+            hold(fh.fileno())
+        except BaseException:
+            fh.close()
+            raise
+        return fh
 
     def file(self, src: Path | bytes, suffix: str = "", link: bool = False) -> str:
         """Store a file's bytes as a new blob; a path is copied, or hard-linked when ``link`` (only
         for a temporary file nobody else writes to) and the file system allows it."""
         key, dst, tmp = self._target(suffix)
-        if isinstance(src, (bytes, bytearray, memoryview)):
-            tmp.write_bytes(src)
-        else:
-            try:
-                if not link:
-                    raise OSError
-                os.link(src, tmp)  # the upload's temporary file on the same file system: no copy
-            except OSError:
-                shutil.copyfile(src, tmp)
-        self._finish(tmp, dst)
+        fh = None
+        try:
+            if isinstance(src, (bytes, bytearray, memoryview)):
+                fh = self._locked_part(tmp)
+                fh.write(src)
+                fh.flush()
+            else:
+                if link:
+                    try:  # the upload's temporary file on the same file system: no copy. Locked
+                        # first (the lock is the file's, so the link is born locked)
+                        fh = open(src, "rb")
+                        hold(fh.fileno())
+                        os.link(src, tmp)
+                    except OSError:
+                        if fh is not None:
+                            fh.close()
+                            fh = None
+                if fh is None:
+                    fh = self._locked_part(tmp)
+                    shutil.copyfile(src, tmp)  # same file (inode): the lock stays
+        except BaseException:
+            if fh is not None:
+                fh.close()
+            raise
+        self._finish(tmp, dst, fh)
         return key
 
     def parquet(self, columns: dict[str, np.ndarray]) -> str:
         """Store columns as a new Parquet blob."""
         key, dst, tmp = self._target(".parquet")
-        write_parquet(columns, str(tmp))
-        self._finish(tmp, dst)
+        fh = self._locked_part(tmp)
+        try:
+            write_parquet(columns, str(tmp))
+        except BaseException:
+            fh.close()
+            raise
+        self._finish(tmp, dst, fh)
         return key
 
     def done(self) -> None:
