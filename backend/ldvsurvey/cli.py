@@ -201,6 +201,25 @@ def _cmd_clean(args) -> int:
     return 0
 
 
+def _cmd_blobs(args) -> int:
+    from pathlib import Path
+
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.blobs import migrate_to_database
+    from ldvsurvey.store.db import upgrade_head
+
+    settings = get_settings()
+    url = settings.resolved_database_url()
+    if url.startswith("sqlite"):
+        print("SQLite keeps its blobs in the folder beside the database file: nothing to migrate")
+        return 0
+    upgrade_head(url)
+    folder = Path(args.folder) if args.folder else Path(settings.data_dir) / "blobs"
+    n, nbytes = migrate_to_database(url, folder)
+    print(f"moved {n} blobs ({nbytes / 1e6:.1f} MB) from {folder} into the database")
+    return 0
+
+
 def _db():
     from ldvsurvey.settings import get_settings
     from ldvsurvey.store.db import session_scope, upgrade_head
@@ -340,6 +359,16 @@ def build_parser() -> argparse.ArgumentParser:
         "(the server also does this at start and every LDVSURVEY_CLEAN_EVERY_S)",
     )
     cl.set_defaults(func=_cmd_clean)
+
+    bl = sub.add_parser("blobs", help="where the large files of stored logs live")
+    ba = bl.add_subparsers(dest="action", required=True)
+    x = ba.add_parser(
+        "migrate",
+        help="PostgreSQL: move the blobs of an older blob folder into the database (safe to repeat, "
+        "also while the server runs); SQLite keeps its folder",
+    )
+    x.add_argument("--folder", help="the old blob folder (default: LDVSURVEY_DATA_DIR/blobs)")
+    bl.set_defaults(func=_cmd_blobs)
 
     u = sub.add_parser("user", help="manage users (in LDVSURVEY_DATABASE_URL / LDVSURVEY_DATA_DIR)")
     ua = u.add_subparsers(dest="action", required=True)

@@ -97,7 +97,10 @@ class DriveLog:
     def size_of(self, name: str) -> int:
         """Size in bytes of one original file."""
         v = self.files[name]
-        return len(v) if isinstance(v, (bytes, bytearray, memoryview)) else os.path.getsize(v)
+        if isinstance(v, (bytes, bytearray, memoryview)):
+            return len(v)
+        size = getattr(v, "size_bytes", None)  # a stored file named without being read
+        return size if size is not None else os.path.getsize(v)
 
     @property
     def sha256(self) -> str:
