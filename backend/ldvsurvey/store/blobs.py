@@ -532,14 +532,21 @@ def download(row, key: str, piece_bytes: int = CHUNK_BYTES) -> tuple[Iterator[by
     except BaseException:
         conn.close()
         raise
-    one = text("SELECT data FROM blob_chunks WHERE key = :k AND seq = :i")
+    # a piece at a time out of its chunk (substr of an uncompressed out-of-line value reads only that
+    # slice): a whole 1-MiB chunk would cost several MiB on the way (PostgreSQL sends bytea as hex)
+    piece = text("SELECT substr(data, :a, :n) FROM blob_chunks WHERE key = :k AND seq = :i")
 
     def pieces() -> Iterator[bytes]:
         try:
-            for i in range((reader.size + CHUNK_BYTES - 1) // CHUNK_BYTES or 1):
-                data = memoryview(conn.execute(one, {"k": key, "i": i}).scalar_one())
-                for a in range(0, max(len(data), 1), piece_bytes):
-                    yield bytes(data[a : a + piece_bytes])
+            at = 0
+            while at < reader.size:
+                i, a = divmod(at, CHUNK_BYTES)
+                n = min(piece_bytes, CHUNK_BYTES - a, reader.size - at)
+                data = conn.execute(piece, {"k": key, "i": i, "a": a + 1, "n": n}).scalar_one()
+                if data is None or len(data) != n:
+                    raise OSError(f"stored blob '{key}' ends early at byte {at}")
+                at += n
+                yield bytes(data)
         finally:
             conn.close()
 
