@@ -220,6 +220,29 @@ def _cmd_blobs(args) -> int:
     return 0
 
 
+def _cmd_backup(args) -> int:
+    from pathlib import Path
+
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.backup import backup
+    from ldvsurvey.store.db import upgrade_head
+
+    url = get_settings().resolved_database_url()
+    upgrade_head(url)
+    backup(url, Path(args.dir))
+    return 0
+
+
+def _cmd_restore(args) -> int:
+    from pathlib import Path
+
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.backup import restore
+
+    restore(get_settings().resolved_database_url(), Path(args.dir), force=args.force)
+    return 0
+
+
 def _db():
     from ldvsurvey.settings import get_settings
     from ldvsurvey.store.db import session_scope, upgrade_head
@@ -369,6 +392,21 @@ def build_parser() -> argparse.ArgumentParser:
     )
     x.add_argument("--folder", help="the old blob folder (default: LDVSURVEY_DATA_DIR/blobs)")
     bl.set_defaults(func=_cmd_blobs)
+
+    x = sub.add_parser(
+        "backup",
+        help="copy the database and the stored logs' files into a new folder DIR, consistently while the "
+        "server runs (SQLite: online backup; PostgreSQL: pg_dump), with the SHA-256 of every file",
+    )
+    x.add_argument("dir")
+    x.set_defaults(func=_cmd_backup)
+    x = sub.add_parser(
+        "restore",
+        help="check every file of a backup by SHA-256, then restore it (stop the server first)",
+    )
+    x.add_argument("dir")
+    x.add_argument("--force", action="store_true", help="replace a database that already holds data")
+    x.set_defaults(func=_cmd_restore)
 
     u = sub.add_parser("user", help="manage users (in LDVSURVEY_DATABASE_URL / LDVSURVEY_DATA_DIR)")
     ua = u.add_subparsers(dest="action", required=True)

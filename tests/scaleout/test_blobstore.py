@@ -150,3 +150,52 @@ def test_a_corrupt_folder_blob_is_not_moved(pg_fresh, tmp_path, monkeypatch):
     assert len(_files(folder)) == 7  # nothing of that log moved or removed
     with create_engine(db).connect() as c:
         assert c.execute(text("SELECT count(*) FROM blob_chunks")).scalar() == 0
+
+
+def test_backup_and_restore_round_trip_on_postgresql(pg_fresh, tmp_path, drive):
+    """pg_dump/pg_restore through `ldv-survey backup` / `restore`: a database with logs (their blobs
+    inside) and a job comes back into a new database, served byte for byte."""
+    from fastapi.testclient import TestClient
+    from sqlalchemy.engine import make_url
+
+    from ldvsurvey.api.app import create_app
+    from ldvsurvey.settings import Settings
+    from ldvsurvey.store.backup import backup, restore
+    from ldvsurvey.store.db import dispose_engines
+    from tests.bundles import make_bundle, zip_bytes
+    from tests.store.test_backup import _served
+
+    db, _ = pg_fresh
+    target = make_url(db).set(database=make_url(db).database + "_restored")
+    admin = create_engine(make_url(db).set(database="postgres"), isolation_level="AUTOCOMMIT")
+    with admin.connect() as c:
+        c.execute(text(f'DROP DATABASE IF EXISTS "{target.database}" WITH (FORCE)'))
+        c.execute(text(f'CREATE DATABASE "{target.database}"'))
+    target_url = target.render_as_string(hide_password=False)
+
+    def settings(url, d):
+        return Settings(data_dir=tmp_path / d, database_url=url, auth_enabled=False, run_consumer=False)
+
+    app = create_app(settings(db, "a"))
+    with TestClient(app) as c:
+        logs = []
+        for files in (drive, make_bundle(seed=81)):
+            r = c.post("/api/logs", files=[("files", ("b.zip", zip_bytes(files), "application/zip"))])
+            assert r.status_code == 201, r.text
+            logs.append(r.json()["id"])
+        job = c.post(
+            f"/api/logs/{logs[0]}/jobs", json={"pipeline": "navigate", "parameters": {"calibration": "nominal"}}
+        ).json()["id"]
+        assert app.state.runner.execute(job) == "succeeded"
+        before = _served(c, logs, [job])
+        m = backup(db, tmp_path / "bk")  # while the server runs
+    assert m["engine"] == "postgresql" and m["counts"] == {"logs": 2, "jobs": 1}
+    restore(target_url, tmp_path / "bk")
+    try:
+        with TestClient(create_app(settings(target_url, "b"))) as c:
+            assert _served(c, logs, [job]) == before
+        assert list((tmp_path / "b").rglob("blobs/*")) == []
+    finally:
+        dispose_engines()
+        with admin.connect() as c:
+            c.execute(text(f'DROP DATABASE IF EXISTS "{target.database}" WITH (FORCE)'))
