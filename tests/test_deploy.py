@@ -33,6 +33,20 @@ def test_compose_file_validates_and_scales_workers():
     assert "service_completed_successfully" in out and "huey_consumer" in out and "healthcheck" in out
 
 
+def test_compose_runs_two_workers_without_a_shared_volume():
+    """The workers need only PostgreSQL and Redis (the logs' files are in the database): no volume of
+    the API's, so they may run on other machines."""
+    import yaml
+
+    r = _compose({"POSTGRES_PASSWORD": "pw", "LDVSURVEY_ADMIN_PASSWORD": "admin-pw"})
+    assert r.returncode == 0, r.stderr
+    services = yaml.safe_load(r.stdout)["services"]
+    worker = services["worker"]
+    assert worker.get("scale", 1) >= 2 or worker.get("deploy", {}).get("replicas", 1) >= 2
+    assert not worker.get("volumes")
+    assert worker["environment"]["LDVSURVEY_DATABASE_URL"].startswith("postgresql")
+
+
 def test_compose_fails_fast_without_secrets():
     env = {k: v for k, v in os.environ.items() if k not in ("POSTGRES_PASSWORD", "LDVSURVEY_ADMIN_PASSWORD")}
     r = subprocess.run(

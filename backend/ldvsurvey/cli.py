@@ -188,6 +188,63 @@ def _cmd_migrate(args) -> int:
     return 0
 
 
+def _cmd_clean(args) -> int:
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.leftovers import clean_leftovers, folders_of, scan
+
+    settings = get_settings()
+    gone = clean_leftovers(settings)
+    print(f"{gone.message()} left by stopped processes (killed mid-upload)")
+    for p in gone.paths:
+        print(f"  {p}")
+    _, busy = scan(*folders_of(settings), remove=False)
+    if busy.staging_folders or busy.part_blobs:
+        print(f"kept: {busy.message('in progress:')} held by running processes")
+    return 0
+
+
+def _cmd_blobs(args) -> int:
+    from pathlib import Path
+
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.blobs import migrate_to_database
+    from ldvsurvey.store.db import upgrade_head
+
+    settings = get_settings()
+    url = settings.resolved_database_url()
+    if url.startswith("sqlite"):
+        print("SQLite keeps its blobs in the folder beside the database file: nothing to migrate")
+        return 0
+    upgrade_head(url)
+    folder = Path(args.folder) if args.folder else Path(settings.data_dir) / "blobs"
+    n, nbytes = migrate_to_database(url, folder)
+    print(f"moved {n} blobs ({nbytes / 1e6:.1f} MB) from {folder} into the database")
+    return 0
+
+
+def _cmd_backup(args) -> int:
+    from pathlib import Path
+
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.backup import backup
+    from ldvsurvey.store.db import upgrade_head
+
+    url = get_settings().resolved_database_url()
+    upgrade_head(url)
+    backup(url, Path(args.dir))
+    return 0
+
+
+def _cmd_restore(args) -> int:
+    from pathlib import Path
+
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.backup import restore
+
+    restore(get_settings().resolved_database_url(), Path(args.dir), force=args.force)
+    return 0
+
+
 def _db():
     from ldvsurvey.settings import get_settings
     from ldvsurvey.store.db import session_scope, upgrade_head
@@ -320,6 +377,38 @@ def build_parser() -> argparse.ArgumentParser:
 
     mg = sub.add_parser("migrate", help="bring the database (LDVSURVEY_DATABASE_URL) to the newest schema")
     mg.set_defaults(func=_cmd_migrate)
+
+    cl = sub.add_parser(
+        "clean",
+        help="remove the staging folders and .part blobs left by processes killed mid-upload "
+        "(the server also does this at start and every LDVSURVEY_CLEAN_EVERY_S)",
+    )
+    cl.set_defaults(func=_cmd_clean)
+
+    bl = sub.add_parser("blobs", help="where the large files of stored logs live")
+    ba = bl.add_subparsers(dest="action", required=True)
+    x = ba.add_parser(
+        "migrate",
+        help="PostgreSQL: move the blobs of an older blob folder into the database (safe to repeat, "
+        "also while the server runs); SQLite keeps its folder",
+    )
+    x.add_argument("--folder", help="the old blob folder (default: LDVSURVEY_DATA_DIR/blobs)")
+    bl.set_defaults(func=_cmd_blobs)
+
+    x = sub.add_parser(
+        "backup",
+        help="copy the database and the stored logs' files into a new folder DIR, consistently while the "
+        "server runs (SQLite: online backup; PostgreSQL: pg_dump), with the SHA-256 of every file",
+    )
+    x.add_argument("dir")
+    x.set_defaults(func=_cmd_backup)
+    x = sub.add_parser(
+        "restore",
+        help="check every file of a backup by SHA-256, then restore it (stop the server first)",
+    )
+    x.add_argument("dir")
+    x.add_argument("--force", action="store_true", help="replace a database that already holds data")
+    x.set_defaults(func=_cmd_restore)
 
     u = sub.add_parser("user", help="manage users (in LDVSURVEY_DATABASE_URL / LDVSURVEY_DATA_DIR)")
     ua = u.add_subparsers(dest="action", required=True)

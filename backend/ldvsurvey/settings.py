@@ -24,6 +24,7 @@ class Settings(BaseSettings):
     heartbeat_s: float = 5.0  # running jobs refresh their heartbeat this often
     stale_s: float = 60.0  # a running job without heartbeat for this long is re-queued
     reap_every_s: float = 30.0
+    clean_every_s: float = 600.0  # leftovers of stopped uploads (staging folders, .part blobs) removed this often
     auth_enabled: bool = True  # users, projects, sessions; off only for local single-user use
     demo_mode: bool = False  # visitors act as the clearly marked demo account
     admin_user: str | None = None  # first admin, created at start when set

@@ -59,11 +59,12 @@ class Stack:
         os.killpg(self.api.pid, signal.SIGKILL)
         self.api.wait()
 
-    def start_worker(self):
+    def start_worker(self, **env):
+        """A huey worker process; ``env`` overrides variables (e.g. its own LDVSURVEY_DATA_DIR)."""
         log = open(self.tmp / f"worker-{len(self.workers)}.log", "w")
         p = subprocess.Popen(
             [sys.executable, "-m", "huey.bin.huey_consumer", "ldvsurvey.jobs.worker.huey", "-w", "1", "-k", "thread"],
-            env={**self.env, "LDVSURVEY_WORKER": "1"},
+            env={**self.env, "LDVSURVEY_WORKER": "1", **env},
             stdout=log,
             stderr=subprocess.STDOUT,
             start_new_session=True,

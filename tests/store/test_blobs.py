@@ -28,6 +28,14 @@ def _blob_files(root: Path) -> list[Path]:
     return sorted(p for p in root.rglob("*") if p.is_file()) if root.exists() else []
 
 
+def _stored(url: str, root: Path) -> list:
+    """The stored blobs: files of the blob folder (SQLite), keys of ``blob_chunks`` (PostgreSQL)."""
+    if url.startswith("sqlite"):
+        return _blob_files(root)
+    with session_scope(url) as s:
+        return list(s.scalars(text("SELECT DISTINCT key FROM blob_chunks")))
+
+
 def test_upload_download_reload_delete(client, all_in_blobs):
     files = make_bundle(seed=31)
     r = client.post("/api/logs", files=[("files", ("b.zip", zip_bytes(files), "application/zip"))])
@@ -35,8 +43,10 @@ def test_upload_download_reload_delete(client, all_in_blobs):
     log_id = r.json()["id"]
     url = client.app_state.database_url
     root = Path(client.app_state.settings.data_dir) / "blobs"
-    stored = _blob_files(root)
+    stored = _stored(url, root)
     assert len(stored) == len(files) + 3  # every original and the three Parquet arrays
+    if not url.startswith("sqlite"):
+        assert _blob_files(root) == []  # in the database: nothing on the API's disk
     for name, data in files.items():
         f = client.get(f"/api/logs/{log_id}/files/{name}")
         assert f.status_code == 200 and f.content == data
@@ -52,7 +62,7 @@ def test_upload_download_reload_delete(client, all_in_blobs):
     assert {n: back.sha256_of(n) for n in files} == {n: hashlib.sha256(d).hexdigest() for n, d in files.items()}
     assert back.sha256 == ref.sha256
     assert client.delete(f"/api/logs/{log_id}").status_code == 204
-    assert _blob_files(root) == []
+    assert _stored(url, root) == []
     with session_scope(url) as s:
         assert count_rows(s) == {"logs": 0, "log_files": 0, "log_arrays": 0}
 

@@ -24,6 +24,7 @@ from ldvsurvey.api.logs import router as logs_router
 from ldvsurvey.api.models import Health
 from ldvsurvey.api.people import router as people_router
 from ldvsurvey.api.security import SecurityHeaders
+from ldvsurvey.api.storage import router as storage_router
 from ldvsurvey.api.throttle import LoginThrottle
 from ldvsurvey.errors import InputError
 from ldvsurvey.settings import Settings, get_settings
@@ -76,6 +77,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         from ldvsurvey.store.blobs import register_root
 
         register_root(url, Path(settings.data_dir) / "blobs")
+    from ldvsurvey.store.leftovers import Report, clean_leftovers
+
+    leftovers = Report()
+    clean_leftovers(settings, leftovers)  # what a process killed mid-upload left behind
     app = FastAPI(
         title="ldv-survey",
         version=__version__,
@@ -86,6 +91,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.database_url = url
+    app.state.leftovers = leftovers  # what was cleaned (GET /api/admin/storage)
     app.state.rate_limiter = RateLimiter()
     app.state.login_throttle = LoginThrottle(url, settings)
     if settings.auth_enabled:
@@ -111,6 +117,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     mount_docs(app)
     app.include_router(imports_router)
     app.include_router(grids_router)
+    app.include_router(storage_router)
 
     import plotly
 
@@ -136,7 +143,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     app.state.runner = JobRunner(url, settings)  # routes queue jobs through it (ldvsurvey.api.deps.RunnerDep)
     app.state.consumer = Consumer(  # started and stopped with the server (_lifespan)
-        app.state.runner, workers=settings.workers, reap_every_s=settings.reap_every_s, consume=settings.run_consumer
+        app.state.runner,
+        workers=settings.workers,
+        reap_every_s=settings.reap_every_s,
+        consume=settings.run_consumer,
+        housekeeping=lambda: clean_leftovers(settings, leftovers),
+        housekeeping_every_s=settings.clean_every_s,
     )
 
     if FRONTEND_DIR.is_dir():

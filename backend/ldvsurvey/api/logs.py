@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import datetime as dt
 import mimetypes
-import os
-from collections.abc import Iterator
-from typing import BinaryIO
 
 from fastapi import APIRouter, File, Form, HTTPException, Query, Request, Response, UploadFile
 from fastapi.responses import StreamingResponse
@@ -156,20 +153,11 @@ def get_file(log_id: LogId, name: str, session: SessionDep, who: CurrentUser) ->
     headers = {"Content-Disposition": f'attachment; filename="{name}"', "X-Content-SHA256": f.sha256}
     if f.blob is None:  # a small file kept in its row
         return Response(content=f.inline, media_type=ctype, headers=headers)
-    # a large one is sent from its file in the blob folder, a piece at a time (an 8-h imu.csv is
-    # close to 1 GB); opened here, so a deletion committed meanwhile cannot cut the download short
-    fh = blobs.blob_path(f, f.blob).open("rb")
-    headers["Content-Length"] = str(os.fstat(fh.fileno()).st_size)
-    return StreamingResponse(_pieces(fh), media_type=ctype, headers=headers)
-
-
-def _pieces(fh: BinaryIO) -> Iterator[bytes]:
-    """The bytes of an open file, :data:`DOWNLOAD_CHUNK_BYTES` at a time; closes it at the end."""
-    try:
-        while piece := fh.read(DOWNLOAD_CHUNK_BYTES):
-            yield piece
-    finally:
-        fh.close()
+    # a large one is sent from the blob folder or the database, a piece at a time (an 8-h imu.csv
+    # is close to 1 GB); opened here, so a deletion committed meanwhile cannot cut the download short
+    pieces, size = blobs.download(f, f.blob, DOWNLOAD_CHUNK_BYTES)
+    headers["Content-Length"] = str(size)
+    return StreamingResponse(pieces, media_type=ctype, headers=headers)
 
 
 @router.delete("/{log_id}", status_code=204, summary="Delete a log with all its files and arrays")

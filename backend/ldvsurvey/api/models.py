@@ -247,3 +247,18 @@ class Comparison(Out):
     reference_job: int
     jobs: list[int]
     statistics: list[CompareStat]
+
+
+class LeftoverCounts(Out):
+    staging_folders: int = Field(description="staging folders of uploads (<data dir>/tmp)")
+    part_blobs: int = Field(description="blob files being written (.part)")
+    bytes: int
+
+
+class StorageOut(Out):
+    stored_bytes: int = Field(description="bytes of the stored logs' original files")
+    leftovers_removed: LeftoverCounts = Field(
+        description="left by stopped processes (killed mid-upload), removed since this server started"
+    )
+    last_clean_at: float | None = Field(description="Unix time (s) of the last clean-up")
+    leftovers_now: LeftoverCounts = Field(description="uploads and blob writes in progress now (not data)")

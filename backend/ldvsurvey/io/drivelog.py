@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import io
 import os
@@ -98,7 +99,10 @@ class DriveLog:
     def size_of(self, name: str) -> int:
         """Size in bytes of one original file."""
         v = self.files[name]
-        return len(v) if isinstance(v, (bytes, bytearray, memoryview)) else os.path.getsize(v)
+        if isinstance(v, (bytes, bytearray, memoryview)):
+            return len(v)
+        size = getattr(v, "size_bytes", None)  # a stored file named without being read
+        return size if size is not None else os.path.getsize(v)
 
     @property
     def sha256(self) -> str:
@@ -128,6 +132,28 @@ def bundle_sha256(files: dict[str, bytes | Path]) -> str:
     return _combine({name: file_sha256(v) for name, v in files.items()})
 
 
+#: the lock file of a staging folder, held (``flock``) by the process using the folder
+FOLDER_LOCK = ".lock"
+
+
+def _lock_folder(path: Path) -> int:
+    """Create and hold ``path/.lock``; the kernel frees the lock when the process ends, even killed."""
+    fd = os.open(path / FOLDER_LOCK, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def _remove_folder(path: str, lock_fd: int) -> None:
+    try:
+        shutil.rmtree(path, True)
+    finally:
+        os.close(lock_fd)
+
+
 class _TempFolder:
     """A temporary folder removed when the last object referring to it goes (or at exit)."""
 
@@ -135,7 +161,10 @@ class _TempFolder:
         if parent is not None:
             Path(parent).mkdir(parents=True, exist_ok=True)
         self.path = Path(tempfile.mkdtemp(prefix="ldvs-bundle-", dir=parent))
-        self._done = weakref.finalize(self, shutil.rmtree, str(self.path), True)
+        # held while the folder lives: a folder whose lock is free was left by a process that died
+        # (ldvsurvey.store.leftovers removes it)
+        lock = _lock_folder(self.path)
+        self._done = weakref.finalize(self, _remove_folder, str(self.path), lock)
 
     def cleanup(self) -> None:
         self._done()

@@ -264,7 +264,15 @@ def user_message(pipeline: str, stage: str, exc: Exception) -> str:
 class Consumer:
     """The periodic reaper and, unless workers run as separate processes, the huey consumer."""
 
-    def __init__(self, runner: JobRunner, workers: int = 2, reap_every_s: float = 30.0, consume: bool = True):
+    def __init__(
+        self,
+        runner: JobRunner,
+        workers: int = 2,
+        reap_every_s: float = 30.0,
+        consume: bool = True,
+        housekeeping=None,
+        housekeeping_every_s: float = 600.0,
+    ):
         self.runner = runner
         self.consumer = (
             runner.huey.create_consumer(workers=workers, worker_type="thread", periodic=False, check_worker_health=True)
@@ -272,15 +280,26 @@ class Consumer:
             else None
         )
         self.reap_every_s = reap_every_s
+        #: called every ``housekeeping_every_s`` from the reaper's thread (the server's clean-up of
+        #: what stopped uploads left, :func:`ldvsurvey.store.leftovers.clean_leftovers`)
+        self.housekeeping = housekeeping
+        self.housekeeping_every_s = housekeeping_every_s
         self._stop = threading.Event()
         self._reaper = threading.Thread(target=self._reap_loop, daemon=True)
 
     def _reap_loop(self):
-        while not self._stop.wait(self.reap_every_s):
+        last = time.monotonic()
+        while not self._stop.wait(min(self.reap_every_s, self.housekeeping_every_s)):
             try:
                 self.runner.reap()
             except Exception:
                 traceback.print_exc()
+            if self.housekeeping is not None and time.monotonic() - last >= self.housekeeping_every_s:
+                last = time.monotonic()
+                try:
+                    self.housekeeping()
+                except Exception:
+                    traceback.print_exc()
 
     def start(self):
         self.runner.reap()

@@ -1,16 +1,23 @@
-"""Column dicts of numpy arrays to and from Parquet, and the blob folder of large log files.
+"""Column dicts of numpy arrays to and from Parquet, and where the large files of a log live.
 
-Large originals and the Parquet arrays of a log do not go into database rows: a row holds the name
-of a file in the *blob folder* (``<data_dir>/blobs``; for a SQLite database file, ``blobs`` beside
-it). A database row is limited to 1 GB in SQLite and PostgreSQL alike and is copied through memory
-on every read and write; a file is streamed, linked from the upload's temporary folder and read
-column by column. The folder must be shared by every process that uses the database: with
-PostgreSQL and separate API and worker containers, a shared volume at ``LDVSURVEY_DATA_DIR``
-(``docker-compose.yml`` mounts ``appdata`` at ``/data`` in both).
+Large originals and the Parquet arrays of a log do not go into their own database rows (a row is
+limited to 1 GB in SQLite and PostgreSQL alike and is copied through memory on every read and
+write). A row names a *blob* by its key instead, which lives
+
+- with SQLite, in the *blob folder* (``blobs`` beside the database file): a file streamed, linked
+  from the upload's temporary folder and read column by column;
+- with PostgreSQL (any other database), in the database itself: the key is ``db:…`` and the bytes
+  are the 1-MiB rows of ``blob_chunks`` (:class:`~ldvsurvey.store.models.BlobChunk`), written and
+  read a chunk at a time (never whole in memory), in the transaction of the rows that name them. So
+  API and workers share nothing but the database: workers may run on other machines. Keys of an
+  older folder (``<LDVSURVEY_DATA_DIR>/blobs``) stay readable there until ``ldv-survey blobs
+  migrate`` moves them in (:func:`migrate_to_database`).
 
 Files are written before the rows that name them and fsynced; a transaction that rolls back removes
 the files it wrote, and files of deleted rows are removed once the deletion is committed
-(:func:`track_written`, :func:`unlink_after_commit`). Every file belongs to exactly one row (names
+(:func:`track_written`, :func:`unlink_after_commit`). A file is written as ``<name>.part`` under its
+writer's lock and renamed once fsynced; a ``.part`` nobody holds was left by a process that died and
+is removed by :mod:`ldvsurvey.store.leftovers`. Every file belongs to exactly one row (names
 are random), so removing one never touches another log.
 """
 
@@ -19,14 +26,19 @@ from __future__ import annotations
 import io
 import os
 import shutil
+import threading
 import uuid
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 from sqlalchemy import event
+from sqlalchemy.engine import make_url
 from sqlalchemy.orm import Session, object_session
+
+from ldvsurvey.store.leftovers import hold
 
 #: files smaller than this stay in their database row
 INLINE_MAX_BYTES = 1 << 20
@@ -89,16 +101,21 @@ def _to_numpy(chunk: pa.Array) -> np.ndarray:
 _NUMPY = {str(t): np.dtype(k) for k, t in _ARROW.items()}
 
 
-def from_parquet(data: bytes | Path) -> dict[str, np.ndarray]:
+def from_parquet(data) -> dict[str, np.ndarray]:
     """Inverse of :func:`to_parquet` (Parquet bytes or a file path)."""
     return read_parquet_into(data)
 
 
-def read_parquet_into(data: bytes | Path, stacks: dict[str, list[str]] | None = None) -> dict[str, np.ndarray]:
-    """Columns of a Parquet blob or file, read one row group at a time into preallocated arrays;
+def read_parquet_into(data, stacks: dict[str, list[str]] | None = None) -> dict[str, np.ndarray]:
+    """Columns of Parquet bytes, file path or open binary file, read one row group at a time into preallocated arrays;
     ``stacks`` names (N, k) arrays to fill from k columns (``{"dtheta_rad": [x, y, z]}``), so a
     stacked array costs no second copy. Returns the plain columns and the stacks by name."""
-    pf = pq.ParquetFile(io.BytesIO(data) if isinstance(data, (bytes, bytearray, memoryview)) else str(data))
+    if isinstance(data, (bytes, bytearray, memoryview)):
+        pf = pq.ParquetFile(io.BytesIO(data))
+    elif hasattr(data, "read"):  # an open blob (the database's chunks)
+        pf = pq.ParquetFile(data)
+    else:
+        pf = pq.ParquetFile(str(data))
     n = pf.metadata.num_rows
     names = pf.schema_arrow.names
     stacks = {k: v for k, v in (stacks or {}).items() if all(c in names for c in v)}
@@ -131,9 +148,14 @@ def register_root(database_url: str, folder: str | Path) -> None:
 
 
 def root_for(session: Session) -> Path | None:
-    """The blob folder of the session's database: registered, else ``blobs`` beside a SQLite file,
+    """The blob folder of the session's database (see :func:`root_for_url`)."""
+    return root_for_url(session.get_bind().url)
+
+
+def root_for_url(url) -> Path | None:
+    """The blob folder of the database at ``url``: registered, else ``blobs`` beside a SQLite file,
     else ``<LDVSURVEY_DATA_DIR>/blobs``; None for an in-memory SQLite database (all in rows)."""
-    url = session.get_bind().url
+    url = make_url(url) if isinstance(url, str) else url
     key = url.render_as_string(hide_password=False)
     if key in _roots:
         return _roots[key]
@@ -157,7 +179,8 @@ def blob_path(row, key: str) -> Path:
     if not path.is_file():  # say where it was looked for: the usual cause is a folder not shared
         raise FileNotFoundError(
             f"stored file {path} is missing: every API and worker process must see the same "
-            "blob folder (LDVSURVEY_DATA_DIR on a shared volume)"
+            "blob folder (LDVSURVEY_DATA_DIR on a shared volume), or, with PostgreSQL, the blobs "
+            "moved into the database (ldv-survey blobs migrate)"
         )
     return path
 
@@ -193,34 +216,71 @@ class Writer:
         track_written(self.session, dst)
         return key, dst, dst.with_name(dst.name + ".part")
 
-    def _finish(self, tmp: Path, dst: Path) -> None:
+    def _finish(self, tmp: Path, dst: Path, fh) -> None:
+        """fsync and rename in the background; ``fh`` holds the ``.part``'s lock until renamed (a
+        ``.part`` nobody holds was left by a stopped process: :mod:`ldvsurvey.store.leftovers`)."""
+
         def sync():
-            _fsync(tmp)
-            os.replace(tmp, dst)
+            try:
+                _fsync(tmp)
+                os.replace(tmp, dst)
+            finally:
+                fh.close()
 
         self._pending.append(self._pool.submit(sync))
+
+    @staticmethod
+    def _locked_part(tmp: Path):
+        """A new ``.part`` file, created under this process's lock (no moment without it)."""
+        fh = open(tmp, "xb")
+        try:
+            hold(fh.fileno())
+        except BaseException:
+            fh.close()
+            raise
+        return fh
 
     def file(self, src: Path | bytes, suffix: str = "", link: bool = False) -> str:
         """Store a file's bytes as a new blob; a path is copied, or hard-linked when ``link`` (only
         for a temporary file nobody else writes to) and the file system allows it."""
         key, dst, tmp = self._target(suffix)
-        if isinstance(src, (bytes, bytearray, memoryview)):
-            tmp.write_bytes(src)
-        else:
-            try:
-                if not link:
-                    raise OSError
-                os.link(src, tmp)  # the upload's temporary file on the same file system: no copy
-            except OSError:
-                shutil.copyfile(src, tmp)
-        self._finish(tmp, dst)
+        fh = None
+        try:
+            if isinstance(src, (bytes, bytearray, memoryview)):
+                fh = self._locked_part(tmp)
+                fh.write(src)
+                fh.flush()
+            else:
+                if link:
+                    try:  # the upload's temporary file on the same file system: no copy. Locked
+                        # first (the lock is the file's, so the link is born locked)
+                        fh = open(src, "rb")
+                        hold(fh.fileno())
+                        os.link(src, tmp)
+                    except OSError:
+                        if fh is not None:
+                            fh.close()
+                            fh = None
+                if fh is None:
+                    fh = self._locked_part(tmp)
+                    shutil.copyfile(src, tmp)  # same file (inode): the lock stays
+        except BaseException:
+            if fh is not None:
+                fh.close()
+            raise
+        self._finish(tmp, dst, fh)
         return key
 
     def parquet(self, columns: dict[str, np.ndarray]) -> str:
         """Store columns as a new Parquet blob."""
         key, dst, tmp = self._target(".parquet")
-        write_parquet(columns, str(tmp))
-        self._finish(tmp, dst)
+        fh = self._locked_part(tmp)
+        try:
+            write_parquet(columns, str(tmp))
+        except BaseException:
+            fh.close()
+            raise
+        self._finish(tmp, dst, fh)
         return key
 
     def done(self) -> None:
@@ -265,3 +325,299 @@ def _after_transaction_end(session: Session, transaction) -> None:
     # what is left was not committed (rolled back or closed): its new files go, deleted ones stay
     session.info.pop("ldvs_blobs_unlink", None)
     _remove(session.info.pop("ldvs_blobs_written", []))
+
+
+# --- blobs in the database (PostgreSQL) ---------------------------------------------------------
+
+#: key prefix of a blob kept in the database (``blob_chunks``); folder keys never hold a colon
+DB_PREFIX = "db:"
+#: bytes per row of ``blob_chunks``
+CHUNK_BYTES = 1 << 20
+
+
+def in_database(session: Session) -> bool:
+    """Whether new blobs of this session's database go into the database (all but SQLite)."""
+    return session.get_bind().dialect.name != "sqlite"
+
+
+def writer_for(session: Session):
+    """The writer of new blobs for this session's database: :class:`DbWriter` (PostgreSQL),
+    :class:`Writer` on the blob folder (SQLite file), None (in-memory SQLite: all in rows)."""
+    if in_database(session):
+        return DbWriter(session)
+    root = root_for(session)
+    return Writer(session, root) if root is not None else None
+
+
+def _chunks_table():
+    from ldvsurvey.store.models import BlobChunk
+
+    return BlobChunk.__table__
+
+
+class _ChunkSink(io.RawIOBase):
+    """A write-only file whose bytes become consecutive ``blob_chunks`` rows of one key (at most one
+    chunk held in memory)."""
+
+    def __init__(self, conn, key: str):
+        super().__init__()
+        self.conn, self.key, self.seq, self.pos = conn, key, 0, 0
+        self.buf = bytearray()
+        self.table = _chunks_table()
+
+    def writable(self) -> bool:
+        return True
+
+    def tell(self) -> int:
+        return self.pos
+
+    def write(self, b) -> int:
+        mv = memoryview(b).cast("B")
+        n = len(mv)
+        self.pos += n
+        while len(mv):
+            take = min(CHUNK_BYTES - len(self.buf), len(mv))
+            self.buf += mv[:take]
+            mv = mv[take:]
+            if len(self.buf) == CHUNK_BYTES:
+                self._flush_chunk()
+        return n
+
+    def _flush_chunk(self) -> None:
+        self.conn.execute(self.table.insert(), {"key": self.key, "seq": self.seq, "data": bytes(self.buf)})
+        self.seq += 1
+        self.buf.clear()
+
+    def close(self) -> None:
+        if not self.closed:
+            if self.buf or self.seq == 0:  # an empty blob still has its one (empty) chunk
+                self._flush_chunk()
+        super().close()
+
+
+class DbWriter:
+    """Writes the blobs of one store operation into ``blob_chunks`` through the session's own
+    connection: they commit or roll back with the rows that name them."""
+
+    def __init__(self, session: Session):
+        self.session = session
+
+    def _sink(self, suffix: str) -> tuple[str, _ChunkSink]:
+        key = f"{DB_PREFIX}{uuid.uuid4().hex}{suffix}"[:200]
+        return key, _ChunkSink(self.session.connection(), key)
+
+    def file(self, src: Path | bytes, suffix: str = "", link: bool = False) -> str:
+        """Store a file's bytes (or bytes) as a new blob, read and written a chunk at a time."""
+        key, sink = self._sink(suffix)
+        with sink:
+            if isinstance(src, (bytes, bytearray, memoryview)):
+                sink.write(src)
+            else:
+                with open(src, "rb") as fh:
+                    while piece := fh.read(CHUNK_BYTES):
+                        sink.write(piece)
+        return key
+
+    def parquet(self, columns: dict[str, np.ndarray]) -> str:
+        """Store columns as a new Parquet blob (written row group by row group)."""
+        key, sink = self._sink(".parquet")
+        with sink:
+            write_parquet(columns, sink)
+        return key
+
+    def done(self) -> None:
+        pass
+
+
+class DbBlobReader(io.RawIOBase):
+    """A read-only, seekable file over the chunks of one blob in the database (fetches the chunks a
+    read needs; keeps the last one for the small reads around it)."""
+
+    def __init__(self, conn, key: str):
+        super().__init__()
+        from sqlalchemy import text
+
+        self.conn, self.key, self.pos = conn, key, 0
+        self._lock = threading.Lock()
+        self._last: tuple[int, bytes] | None = None
+        row = conn.execute(
+            text("SELECT seq, length(data) FROM blob_chunks WHERE key = :k ORDER BY seq DESC LIMIT 1"), {"k": key}
+        ).first()
+        if row is None:
+            raise FileNotFoundError(f"stored blob '{key}' is missing from the database (blob_chunks)")
+        self.size = int(row[0]) * CHUNK_BYTES + int(row[1])
+        self._range = text("SELECT seq, data FROM blob_chunks WHERE key = :k AND seq >= :a AND seq <= :b ORDER BY seq")
+
+    def readable(self) -> bool:
+        return True
+
+    def seekable(self) -> bool:
+        return True
+
+    def tell(self) -> int:
+        return self.pos
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        base = {0: 0, 1: self.pos, 2: self.size}[whence]
+        self.pos = max(0, base + offset)
+        return self.pos
+
+    def _chunks(self, a: int, b: int) -> list[bytes]:
+        if self._last is not None and a == b == self._last[0]:
+            return [self._last[1]]
+        rows = self.conn.execute(self._range, {"k": self.key, "a": a, "b": b}).all()
+        if len(rows) != b - a + 1:
+            raise OSError(f"stored blob '{self.key}' lost chunks {a}..{b} while being read")
+        self._last = (rows[-1][0], bytes(rows[-1][1]))
+        return [bytes(r[1]) for r in rows]
+
+    def read(self, n: int = -1) -> bytes:
+        with self._lock:
+            end = self.size if n is None or n < 0 else min(self.size, self.pos + n)
+            if end <= self.pos:
+                return b""
+            a, b = self.pos // CHUNK_BYTES, (end - 1) // CHUNK_BYTES
+            data = b"".join(self._chunks(a, b))
+            out = data[self.pos - a * CHUNK_BYTES : end - a * CHUNK_BYTES]
+            self.pos = end
+            return out
+
+    def readall(self) -> bytes:
+        return self.read(-1)
+
+    def readinto(self, buf) -> int:
+        data = self.read(len(buf))
+        memoryview(buf).cast("B")[: len(data)] = data
+        return len(data)
+
+
+def open_blob(row, key: str):
+    """An open binary file of blob ``key`` named by a row bound to a session (the database's chunks
+    through the session's connection, or the folder's file)."""
+    if key.startswith(DB_PREFIX):
+        session = object_session(row)
+        if session is None:
+            raise RuntimeError(f"blob '{key}' cannot be read: the row is not bound to a session")
+        return DbBlobReader(session.connection(), key)
+    return blob_path(row, key).open("rb")
+
+
+class StoredBlob:
+    """A stored original named by a loaded :class:`~ldvsurvey.io.drivelog.DriveLog` without reading
+    it (``files[name]`` of a log loaded from the database)."""
+
+    def __init__(self, key: str, size_bytes: int):
+        self.key, self.size_bytes = key, size_bytes
+
+    def __repr__(self) -> str:
+        return f"StoredBlob({self.key!r}, {self.size_bytes})"
+
+
+def download(row, key: str, piece_bytes: int = CHUNK_BYTES) -> tuple[Iterator[bytes], int]:
+    """(pieces of at most ``piece_bytes``, size) of a blob for an HTTP answer streamed after the
+    route returned: a folder's file is opened now, a database blob is read in a transaction of its
+    own begun now (REPEATABLE READ), so a deletion committed meanwhile cannot cut the download short."""
+    if not key.startswith(DB_PREFIX):
+        fh = blob_path(row, key).open("rb")
+        return _file_pieces(fh, piece_bytes), os.fstat(fh.fileno()).st_size
+    from sqlalchemy import text
+
+    engine = object_session(row).get_bind()
+    conn = engine.connect()
+    if engine.dialect.name == "postgresql":
+        conn = conn.execution_options(isolation_level="REPEATABLE READ")
+    try:
+        conn.begin()
+        reader = DbBlobReader(conn, key)  # the snapshot is taken by this first query
+    except BaseException:
+        conn.close()
+        raise
+    # a piece at a time out of its chunk (substr of an uncompressed out-of-line value reads only that
+    # slice): a whole 1-MiB chunk would cost several MiB on the way (PostgreSQL sends bytea as hex)
+    piece = text("SELECT substr(data, :a, :n) FROM blob_chunks WHERE key = :k AND seq = :i")
+
+    def pieces() -> Iterator[bytes]:
+        try:
+            at = 0
+            while at < reader.size:
+                i, a = divmod(at, CHUNK_BYTES)
+                n = min(piece_bytes, CHUNK_BYTES - a, reader.size - at)
+                data = conn.execute(piece, {"k": key, "i": i, "a": a + 1, "n": n}).scalar_one()
+                if data is None or len(data) != n:
+                    raise OSError(f"stored blob '{key}' ends early at byte {at}")
+                at += n
+                yield bytes(data)
+        finally:
+            conn.close()
+
+    return pieces(), reader.size
+
+
+def _file_pieces(fh, piece_bytes: int) -> Iterator[bytes]:
+    try:
+        while piece := fh.read(piece_bytes):
+            yield piece
+    finally:
+        fh.close()
+
+
+def delete_from_database(session: Session, keys: list[str]) -> None:
+    """Delete the chunks of database blobs (in the session's transaction)."""
+    from sqlalchemy import delete
+
+    from ldvsurvey.store.models import BlobChunk
+
+    db_keys = [k for k in keys if k.startswith(DB_PREFIX)]
+    for a in range(0, len(db_keys), 500):
+        session.execute(delete(BlobChunk).where(BlobChunk.key.in_(db_keys[a : a + 500])))
+
+
+def migrate_to_database(database_url: str, folder: Path, log=print) -> tuple[int, int]:
+    """Move every blob of the folder named by a row into the database (PostgreSQL), one log per
+    transaction: the chunks are written and the row renamed together, an original's SHA-256 checked
+    against its row on the way; the file is removed once that is committed. Returns (blobs, bytes).
+    Safe to repeat and to run while the server runs (a log deleted meanwhile is skipped)."""
+    import hashlib
+
+    from sqlalchemy import select
+
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.models import Log, LogArray, LogFile
+
+    register_root(database_url, folder)
+    n = nbytes = 0
+    with session_scope(database_url) as s:
+        if not in_database(s):
+            raise RuntimeError("SQLite keeps its blobs in the folder beside the database: nothing to migrate")
+        log_ids = list(s.scalars(select(Log.id).order_by(Log.id)))
+    for log_id in log_ids:
+        with session_scope(database_url) as s:
+            if s.get(Log, log_id, with_for_update=True) is None:
+                continue
+            gone = []
+            for t in (LogFile, LogArray):
+                for row in s.scalars(select(t).where(t.log_id == log_id, t.blob.is_not(None))):
+                    if row.blob.startswith(DB_PREFIX):
+                        continue
+                    path = blob_path(row, row.blob)
+                    key = f"{DB_PREFIX}{row.blob.replace('/', '-')}"[:200]
+                    h = hashlib.sha256()
+                    size = 0
+                    with _ChunkSink(s.connection(), key) as sink, open(path, "rb") as fh:
+                        while piece := fh.read(CHUNK_BYTES):
+                            h.update(piece)
+                            size += len(piece)
+                            sink.write(piece)
+                    if isinstance(row, LogFile) and (h.hexdigest() != row.sha256 or size != row.size_bytes):
+                        raise RuntimeError(
+                            f"{path}: SHA-256 {h.hexdigest()} ({size} bytes) differs from the stored "
+                            f"{row.sha256} ({row.size_bytes} bytes) of log {log_id} file '{row.name}': not moved"
+                        )
+                    row.blob = key
+                    gone.append(path)
+                    n += 1
+                    nbytes += size
+            unlink_after_commit(s, gone)
+        if gone:
+            log(f"log {log_id}: {len(gone)} blobs moved into the database")
+    return n, nbytes

@@ -96,8 +96,7 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
     session.add(row)
     try:
         session.flush()
-        root = blobs.root_for(session)
-        writer = blobs.Writer(session, root) if root is not None else None
+        writer = blobs.writer_for(session)  # the folder (SQLite) or the database (PostgreSQL)
         try:
             for name, content in sorted(log.files.items()):
                 size = log.size_of(name)
@@ -118,7 +117,7 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
                 session.add(a)
         finally:
             if writer is not None:
-                writer.done()  # every blob on disk (fsynced) before a row names it
+                writer.done()  # every blob on disk (fsynced) or in the database before a row names it
         session.flush()
     except IntegrityError:  # a concurrent upload of the same bundle won the race
         session.rollback()
@@ -180,9 +179,11 @@ def delete_log(session: Session, log_id: int) -> bool:
     session.execute(delete(LogArray).where(LogArray.log_id == log_id))
     session.execute(delete(LogFile).where(LogFile.log_id == log_id))
     session.execute(delete(Log).where(Log.id == log_id))
-    root = blobs.root_for(session) if keys else None
+    blobs.delete_from_database(session, keys)  # in this transaction
+    in_folder = [k for k in keys if not k.startswith(blobs.DB_PREFIX)]
+    root = blobs.root_for(session) if in_folder else None
     if root is not None:  # the files go once the deletion is committed
-        blobs.unlink_after_commit(session, [root / k for k in keys])
+        blobs.unlink_after_commit(session, [root / k for k in in_folder])
     return True
 
 
@@ -191,8 +192,12 @@ def count_rows(session: Session) -> dict[str, int]:
     return {t.__tablename__: session.scalar(select(func.count()).select_from(t)) for t in (Log, LogFile, LogArray)}
 
 
-def _array_source(session: Session, a: LogArray) -> bytes | Path:
-    return blobs.blob_path(a, a.blob) if a.blob is not None else a.parquet
+def _array_source(session: Session, a: LogArray):
+    if a.blob is None:
+        return a.parquet
+    if a.blob.startswith(blobs.DB_PREFIX):
+        return blobs.open_blob(a, a.blob)
+    return blobs.blob_path(a, a.blob)
 
 
 def load_array(session: Session, log_id: int, name: str) -> dict[str, np.ndarray] | None:
@@ -223,7 +228,12 @@ def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
     }
     files, sha = {}, {}
     for f in session.scalars(select(LogFile).where(LogFile.log_id == log_id)):
-        files[f.name] = blobs.blob_path(f, f.blob) if f.blob is not None else f.inline
+        if f.blob is None:
+            files[f.name] = f.inline
+        elif f.blob.startswith(blobs.DB_PREFIX):  # named, not read (the pipelines read the arrays)
+            files[f.name] = blobs.StoredBlob(f.blob, f.size_bytes)
+        else:
+            files[f.name] = blobs.blob_path(f, f.blob)
         sha[f.name] = f.sha256
     manifest = Manifest.model_validate(row.manifest, strict=False)
     i = arrays["imu"]

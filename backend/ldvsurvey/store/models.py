@@ -64,8 +64,9 @@ class Log(Base):
 
 
 class LogFile(Base):
-    """An original file of a bundle, byte for byte: in the row (``content``) or, when large, in a
-    file of the blob folder (``blob``, see :mod:`ldvsurvey.store.blobs`)."""
+    """An original file of a bundle, byte for byte: in the row (``content``) or, when large, a blob
+    (``blob``: a file of the blob folder, or ``db:…`` chunks in ``blob_chunks``; see
+    :mod:`ldvsurvey.store.blobs`)."""
 
     __tablename__ = "log_files"
     __table_args__ = (UniqueConstraint("log_id", "name"),)
@@ -88,14 +89,15 @@ class LogFile(Base):
         """The file's bytes (read from the blob folder when it lives there)."""
         if self.blob is None:
             return self.inline
-        from ldvsurvey.store.blobs import blob_path
+        from ldvsurvey.store.blobs import open_blob
 
-        return blob_path(self, self.blob).read_bytes()
+        with open_blob(self, self.blob) as fh:
+            return fh.read()
 
 
 class LogArray(Base):
-    """A parsed stream (``imu``, ``ldv``, ``gnss``) as Parquet: in the row (``parquet``) or in a file
-    of the blob folder (``blob``)."""
+    """A parsed stream (``imu``, ``ldv``, ``gnss``) as Parquet: in the row (``parquet``) or a blob
+    (``blob``, as :class:`LogFile`)."""
 
     __tablename__ = "log_arrays"
     __table_args__ = (UniqueConstraint("log_id", "name"),)
@@ -108,6 +110,18 @@ class LogArray(Base):
     blob: Mapped[str | None] = mapped_column(String(200), nullable=True)
 
     log: Mapped[Log] = relationship(back_populates="arrays")
+
+
+class BlobChunk(Base):
+    """One piece of a blob kept in the database (PostgreSQL): the blob ``key`` (``db:…``, named by
+    ``LogFile.blob`` / ``LogArray.blob``) is the concatenation of its chunks in ``seq`` order
+    (:mod:`ldvsurvey.store.blobs`)."""
+
+    __tablename__ = "blob_chunks"
+
+    key: Mapped[str] = mapped_column(String(200), primary_key=True)
+    seq: Mapped[int] = mapped_column(Integer, primary_key=True)
+    data: Mapped[bytes] = mapped_column(LargeBinary, nullable=False)
 
 
 class DovGridRow(Base):

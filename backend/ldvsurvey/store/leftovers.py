@@ -1,0 +1,201 @@
+"""What a process killed mid-write leaves on disk, and its removal.
+
+Two kinds of leftovers: the *staging folder* of an upload (``<data_dir>/tmp/ldvs-bundle-*``, the
+inflated members, see :class:`ldvsurvey.io.drivelog.BundleFiles`) and a ``.part`` file of the blob
+folder (a blob being written, renamed to its final name once fsynced, see
+:class:`ldvsurvey.store.blobs.Writer`). The process writing either holds an exclusive ``flock`` on it
+(the folder's ``.lock`` file, the ``.part`` file itself) for as long as it writes; the kernel drops the
+lock when the process dies, even by ``kill -9``. So a leftover is one whose lock is free: no guess by
+age about whether its writer is still alive, and several API and worker processes sharing the data
+folder never remove each other's work. One that carries no lock yet (created a moment ago, before the
+lock was taken, or by an older version) is removed only once older than :data:`GRACE_S`, a ``.part``
+nobody holds once older than :data:`PART_GRACE_S`.
+
+The server cleans at start and every ``LDVSURVEY_CLEAN_EVERY_S`` (:func:`clean_leftovers`), logs what
+it removed, and ``GET /api/admin/storage`` and ``ldv-survey clean`` report it; leftovers are never
+counted as stored data (:func:`stored_bytes` sums the stored logs' files only).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import logging
+import os
+import shutil
+import threading
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from ldvsurvey.io.drivelog import FOLDER_LOCK
+
+#: a staging folder without a lock is left alone while younger than this (s)
+GRACE_S = 60.0
+#: a ``.part`` file nobody holds is left alone while younger than this (s): it is created a moment
+#: before its writer takes the lock
+PART_GRACE_S = 5.0
+STAGING_GLOB = "ldvs-bundle-*"
+
+log = logging.getLogger("ldvsurvey.leftovers")
+
+
+def hold(fd: int) -> None:
+    """Take the exclusive lock that marks a file as being written by this process (kept until the
+    descriptor is closed or the process ends)."""
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+
+def _held(path: Path) -> bool | None:
+    """Whether a live process holds the lock on ``path`` (None: the file does not exist)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_CLOEXEC)
+    except FileNotFoundError:
+        return None
+    except OSError:
+        return True  # unreadable: not ours to judge
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return True
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return False
+    finally:
+        os.close(fd)
+
+
+def _size(path: Path) -> int:
+    if path.is_dir():
+        return sum(p.lstat().st_size for p in path.rglob("*") if p.is_file())
+    return path.lstat().st_size
+
+
+@dataclass
+class Leftovers:
+    """Counts and bytes of staging folders and ``.part`` blobs (removed, or found in progress)."""
+
+    staging_folders: int = 0
+    part_blobs: int = 0
+    bytes: int = 0
+    paths: list[str] = field(default_factory=list, repr=False)
+
+    def message(self, verb: str = "removed") -> str:
+        return (
+            f"{verb} {self.staging_folders} staging folder{'s' * (self.staging_folders != 1)} and "
+            f"{self.part_blobs} .part blob{'s' * (self.part_blobs != 1)} "
+            f"({self.bytes / 1e6:.1f} MB)"
+        )
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d.pop("paths")
+        return d
+
+
+def _orphan(path: Path, lock: Path, now: float, grace_s: float, free_lock_suffices: bool) -> bool:
+    """Nobody holds ``lock``, and it is missing or not proof enough (a ``.part`` is its own lock,
+    unlocked for a moment after its creation) and ``path`` is older than ``grace_s``."""
+    held = _held(lock)
+    if held:
+        return False
+    if held is None or not free_lock_suffices:
+        try:
+            return now - path.lstat().st_mtime > grace_s
+        except FileNotFoundError:
+            return False
+    return True
+
+
+def scan(tmp_dir: Path | None, blob_root: Path | None, remove: bool) -> tuple[Leftovers, Leftovers]:
+    """(leftovers, in progress) under the staging folder ``tmp_dir`` and the blob folder; leftovers
+    removed when ``remove``."""
+    now = time.time()
+    gone, busy = Leftovers(), Leftovers()
+    if tmp_dir is not None and tmp_dir.is_dir():
+        for d in sorted(tmp_dir.glob(STAGING_GLOB)):
+            if not d.is_dir():
+                continue
+            try:
+                size = _size(d)
+            except OSError:
+                size = 0
+            if _orphan(d, d / FOLDER_LOCK, now, GRACE_S, True):
+                if remove:
+                    shutil.rmtree(d, ignore_errors=True)
+                    if d.exists():
+                        continue
+                gone.staging_folders += 1
+                gone.bytes += size
+                gone.paths.append(str(d))
+            else:
+                busy.staging_folders += 1
+                busy.bytes += size
+    if blob_root is not None and blob_root.is_dir():
+        for p in sorted(blob_root.glob("*/*.part")):
+            try:
+                size = p.lstat().st_size
+            except FileNotFoundError:
+                continue
+            if _orphan(p, p, now, PART_GRACE_S, False):
+                if remove:
+                    try:
+                        p.unlink()
+                    except FileNotFoundError:
+                        continue
+                    except OSError:
+                        continue
+                gone.part_blobs += 1
+                gone.bytes += size
+                gone.paths.append(str(p))
+            else:
+                busy.part_blobs += 1
+                busy.bytes += size
+    return gone, busy
+
+
+def folders_of(settings) -> tuple[Path, Path | None]:
+    """The staging folder (``<data_dir>/tmp``) and the blob folder of the settings' database."""
+    from ldvsurvey.store.blobs import root_for_url
+
+    return Path(settings.data_dir) / "tmp", root_for_url(settings.resolved_database_url())
+
+
+class Report:
+    """What this process removed since it started, for ``GET /api/admin/storage``."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self.total = Leftovers()
+        self.last_at: float | None = None
+
+    def add(self, gone: Leftovers) -> None:
+        with self._lock:
+            self.total.staging_folders += gone.staging_folders
+            self.total.part_blobs += gone.part_blobs
+            self.total.bytes += gone.bytes
+            self.last_at = time.time()
+
+
+def clean_leftovers(settings, report: Report | None = None) -> Leftovers:
+    """Remove the leftovers of stopped processes under the settings' data and blob folders; log a
+    line naming what went (nothing when there was nothing)."""
+    tmp_dir, root = folders_of(settings)
+    gone, _ = scan(tmp_dir, root, remove=True)
+    if gone.staging_folders or gone.part_blobs:
+        log.warning("%s left by a stopped process (killed mid-upload): %s", gone.message(), ", ".join(gone.paths))
+    if report is not None:
+        report.add(gone)
+    return gone
+
+
+def stored_bytes(database_url: str) -> int:
+    """Bytes of the stored logs' original files (the data; leftovers and Parquet copies not counted)."""
+    from sqlalchemy import func, select
+
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.models import Log
+
+    with session_scope(database_url) as s:
+        return int(s.scalar(select(func.coalesce(func.sum(Log.size_bytes), 0))))
