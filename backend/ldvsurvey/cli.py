@@ -140,6 +140,8 @@ def _cmd_import(args) -> int:
     os.close(fd)
     try:
         write_bundle(result.files, tmp)
+        for name, content in result.beside.items():  # e.g. the receiver's INS solution: BUNDLE.reference.csv
+            out.with_name(f"{out.stem}.{name}").write_bytes(content)
         os.replace(tmp, out)
     finally:
         if os.path.exists(tmp):
