@@ -13,6 +13,7 @@ import numpy as np
 
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.importers.common import GnssPart, Stamps
+from ldvsurvey.io.importers.contract import Importer
 from ldvsurvey.io.nmea import parse_nmea
 
 NAME = "nmea"
@@ -46,3 +47,6 @@ def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
         hdop=g.hdop[ok],
         notes=notes,
     )
+
+
+IMPORTER = Importer(NAME, ROLES, read, sniff, summary="NMEA 0183 text: GGA fixes, the first RMC for the date")

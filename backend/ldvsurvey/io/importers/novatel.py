@@ -35,6 +35,7 @@ import numpy as np
 
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.importers.common import GnssPart, ImuPart, Reference, Stamps
+from ldvsurvey.io.importers.contract import Importer, Option
 
 NAME = "novatel"
 ROLES = ("imu", "gnss")
@@ -450,3 +451,18 @@ def _reference(rows: list, file: str, notes: list) -> Reference | None:
         rpy_deg=a[:, 8:11],
         status=[r[12] for r in keep],
     )
+
+
+IMPORTER = Importer(
+    NAME,
+    ROLES,
+    read,
+    sniff,
+    options=(
+        Option("imu_type", (str, int), "IMU type (name or number) for RAWIMU/RAWIMUS, which do not state it", ("imu",)),
+        Option(
+            "rate_hz", (float,), "data rate of a rate-scaled IMU (Epson) when the time tags cannot tell, Hz", ("imu",)
+        ),
+    ),
+    summary="NovAtel OEM4/6/7 logs, ASCII or binary: RAWIMU family, BESTGNSSPOS/BESTPOS, INSPVA (reference)",
+)
