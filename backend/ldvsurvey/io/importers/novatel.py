@@ -260,17 +260,26 @@ def read(data: bytes, file: str, role: str, opts: dict):
     left_out: dict[str, int] = {}
     ins_types = 0
     types, type_names = set(), set()
-    seen: dict[tuple, str] = {}
+    seen: dict[tuple, int] = {}  # (name, time) -> hash of the body: a repeat on another port has the same
+    names_of: dict[type, list] = {}
     repeats = 0
     for n, name, msg in _messages(data, file, bad, nmea):
         want = (role == "imu" and name in RAW_IMU + CORR_IMU) or (role == "gnss" and name in POSITIONS)
         if not want and name not in INS_PVA:
             continue
-        d = msg.to_dict()
-        h = d.get("header") or {}
-        crc = h.get("message_definition_crc")
-        key = (name, h.get("week"), h.get("milliseconds"), d.get("gps_seconds", d.get("seconds")))
-        body = repr([(k, v) for k, v in d.items() if k != "header"])
+        kind = type(msg)
+        if kind not in names_of:  # one definition version: its field names, once
+            names_of[kind] = msg.get_field_names()
+        values = msg.get_field_values()
+        d = dict(zip(names_of[kind], values))
+        hdr = msg.header
+        h = {"week": hdr.week, "milliseconds": hdr.milliseconds}
+        crc = hdr.message_definition_crc
+        key = (name, h["week"], h["milliseconds"], d.get("gps_seconds", d.get("seconds")))
+        try:
+            body = hash(tuple(values))
+        except TypeError:  # array fields
+            body = hash(repr(values))
         if key in seen:
             if seen[key] == body:  # the same message logged on another port
                 repeats += 1
