@@ -131,5 +131,36 @@ def main():
     (cs / "partial.json").write_text(json.dumps(p, indent=2) + "\n")
 
 
+def real_nmea_companions():
+    """For the worked example on a real NMEA log (docs/examples/real/telit-he910.nmea, gpsd's Telit
+    HE910 log of 2019-03-12, trimmed): a simulated IMU (KF-GINS text, 5 Hz) and LDV standing still
+    at the log's place and time, and their partial manifest."""
+    src = Path("tests/fixtures/real/nmea/gpsd/telit-he910.log")
+    out = OUT / "real"
+    out.mkdir(exist_ok=True)
+    (out / "telit-he910.nmea").write_bytes(src.read_bytes())
+    road = Road(50.8402 * RAD, 4.3471 * RAD, 156.0, 1000.0, Ramps(30 * RAD))
+    sc = Scenario(
+        name="telit",
+        road=road,
+        segments=[Static(90.0)],
+        static_s=12.0,
+        imu_rate_hz=5.0,
+        ldv_rate_hz=5.0,
+        date="2019-03-12",
+        t0_s=39110.0,
+    )
+    sim = simulate(sc, seed=3)
+    day = dt.date.fromisoformat(sc.date)
+    files = bundle_files(sim)
+    (out / "telit-imu.txt").write_bytes(kfgins_imu(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, day))
+    (out / "telit-ldv.csv").write_bytes(files["ldv.csv"])
+    partial = json.loads((OUT / "partial.json").read_text())
+    partial.update(name="Telit HE910 log (real NMEA)", date=sc.date)
+    partial["initial"].update(lat_deg=50.8402, lon_deg=4.3471, h_m=156.0)
+    (out / "telit-partial.json").write_text(json.dumps(partial, indent=2) + "\n")
+
+
 if __name__ == "__main__":
     main()
+    real_nmea_companions()
