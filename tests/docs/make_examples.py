@@ -131,34 +131,48 @@ def main():
     (cs / "partial.json").write_text(json.dumps(p, indent=2) + "\n")
 
 
-def real_nmea_companions():
-    """For the worked example on a real NMEA log (docs/examples/real/telit-he910.nmea, gpsd's Telit
-    HE910 log of 2019-03-12, trimmed): a simulated IMU (KF-GINS text, 5 Hz) and LDV standing still
-    at the log's place and time, and their partial manifest."""
-    src = Path("tests/fixtures/real/nmea/gpsd/telit-he910.log")
+def _standing_companions(prefix: str, name: str, lat: float, lon: float, h: float, date: str, t0: float, dur: float):
+    """A simulated IMU (KF-GINS text, 5 Hz) and LDV standing still at a real log's place and time,
+    and their partial manifest, as docs/examples/real/<prefix>-imu.txt, -ldv.csv, -partial.json."""
     out = OUT / "real"
     out.mkdir(exist_ok=True)
-    (out / "telit-he910.nmea").write_bytes(src.read_bytes())
-    road = Road(50.8402 * RAD, 4.3471 * RAD, 156.0, 1000.0, Ramps(30 * RAD))
+    road = Road(lat * RAD, lon * RAD, h, 1000.0, Ramps(30 * RAD))
     sc = Scenario(
-        name="telit",
+        name=prefix,
         road=road,
-        segments=[Static(90.0)],
+        segments=[Static(dur)],
         static_s=12.0,
         imu_rate_hz=5.0,
         ldv_rate_hz=5.0,
-        date="2019-03-12",
-        t0_s=39110.0,
+        date=date,
+        t0_s=t0,
     )
     sim = simulate(sc, seed=3)
     day = dt.date.fromisoformat(sc.date)
     files = bundle_files(sim)
-    (out / "telit-imu.txt").write_bytes(kfgins_imu(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, day))
-    (out / "telit-ldv.csv").write_bytes(files["ldv.csv"])
+    (out / f"{prefix}-imu.txt").write_bytes(kfgins_imu(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, day))
+    (out / f"{prefix}-ldv.csv").write_bytes(files["ldv.csv"])
     partial = json.loads((OUT / "partial.json").read_text())
-    partial.update(name="Telit HE910 log (real NMEA)", date=sc.date)
-    partial["initial"].update(lat_deg=50.8402, lon_deg=4.3471, h_m=156.0)
-    (out / "telit-partial.json").write_text(json.dumps(partial, indent=2) + "\n")
+    partial.update(name=name, date=sc.date)
+    partial["initial"].update(lat_deg=lat, lon_deg=lon, h_m=h)
+    (out / f"{prefix}-partial.json").write_text(json.dumps(partial, indent=2) + "\n")
+
+
+def real_nmea_companions():
+    """The worked examples on real GNSS logs: gpsd's Telit HE910 NMEA log of 2019-03-12 (as in
+    tests/fixtures/real) and the first 90 epochs of rtklib-py's RTKPOST demo5 solution of 2020-12-24,
+    each with a simulated IMU and LDV standing still at its place and time."""
+    out = OUT / "real"
+    out.mkdir(exist_ok=True)
+    (out / "telit-he910.nmea").write_bytes(Path("tests/fixtures/real/nmea/gpsd/telit-he910.log").read_bytes())
+    _standing_companions("telit", "Telit HE910 log (real NMEA)", 50.8402, 4.3471, 156.0, "2019-03-12", 39110.0, 90.0)
+    lines = Path("tests/fixtures/real/rtklib/rtklib-py-demo5-b34f.pos").read_text().splitlines(keepends=True)
+    head = [ln for ln in lines if ln.startswith("%")]
+    (out / "rtklib-demo5.pos").write_text("".join(head + [ln for ln in lines if not ln.startswith("%")][:90]))
+    # 2020-12-24 21:28:42 GPST is 21:28:24 UTC
+    _standing_companions(
+        "rtklib", "RTKPOST demo5 solution (real)", 40.0970, -105.1472, 1578.8, "2020-12-24", 77300.0, 96.0
+    )
 
 
 if __name__ == "__main__":
