@@ -142,6 +142,8 @@ def _cmd_import(args) -> int:
     os.close(fd)
     try:
         write_bundle(result.files, tmp)
+        for name, content in result.beside.items():  # e.g. the receiver's INS solution: BUNDLE.reference.csv
+            out.with_name(f"{out.stem}.{name}").write_bytes(content)
         os.replace(tmp, out)
     finally:
         if os.path.exists(tmp):
@@ -350,8 +352,13 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--duration-s", type=float, default=None, help="override the scenario's length")
     d.set_defaults(func=_cmd_demo)
 
+    from ldvsurvey.io.importers import REGISTRY, formats_help
+
     im = sub.add_parser(
-        "import", help="turn field recordings (novatel, ubx, kf-gins, nmea, csv, native) into a validated bundle .zip"
+        "import",
+        help=f"turn field recordings ({', '.join(REGISTRY)}) into a validated bundle .zip",
+        description="Formats (FORMAT in FORMAT:FILE), the roles they read and what:\n" + formats_help(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     im.add_argument("--imu", required=True, metavar="FORMAT:FILE")
     im.add_argument("--gnss", metavar="FORMAT:FILE")

@@ -131,5 +131,50 @@ def main():
     (cs / "partial.json").write_text(json.dumps(p, indent=2) + "\n")
 
 
+def _standing_companions(prefix: str, name: str, lat: float, lon: float, h: float, date: str, t0: float, dur: float):
+    """A simulated IMU (KF-GINS text, 5 Hz) and LDV standing still at a real log's place and time,
+    and their partial manifest, as docs/examples/real/<prefix>-imu.txt, -ldv.csv, -partial.json."""
+    out = OUT / "real"
+    out.mkdir(exist_ok=True)
+    road = Road(lat * RAD, lon * RAD, h, 1000.0, Ramps(30 * RAD))
+    sc = Scenario(
+        name=prefix,
+        road=road,
+        segments=[Static(dur)],
+        static_s=12.0,
+        imu_rate_hz=5.0,
+        ldv_rate_hz=5.0,
+        date=date,
+        t0_s=t0,
+    )
+    sim = simulate(sc, seed=3)
+    day = dt.date.fromisoformat(sc.date)
+    files = bundle_files(sim)
+    (out / f"{prefix}-imu.txt").write_bytes(kfgins_imu(sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps, day))
+    (out / f"{prefix}-ldv.csv").write_bytes(files["ldv.csv"])
+    partial = json.loads((OUT / "partial.json").read_text())
+    partial.update(name=name, date=sc.date)
+    partial["initial"].update(lat_deg=lat, lon_deg=lon, h_m=h)
+    (out / f"{prefix}-partial.json").write_text(json.dumps(partial, indent=2) + "\n")
+
+
+def real_nmea_companions():
+    """The worked examples on real GNSS logs: gpsd's Telit HE910 NMEA log of 2019-03-12 (as in
+    tests/fixtures/real) and the first 90 epochs of rtklib-py's RTKPOST demo5 solution of 2020-12-24,
+    each with a simulated IMU and LDV standing still at its place and time."""
+    out = OUT / "real"
+    out.mkdir(exist_ok=True)
+    (out / "telit-he910.nmea").write_bytes(Path("tests/fixtures/real/nmea/gpsd/telit-he910.log").read_bytes())
+    _standing_companions("telit", "Telit HE910 log (real NMEA)", 50.8402, 4.3471, 156.0, "2019-03-12", 39110.0, 90.0)
+    lines = Path("tests/fixtures/real/rtklib/rtklib-py-demo5-b34f.pos").read_text().splitlines(keepends=True)
+    head = [ln for ln in lines if ln.startswith("%")]
+    (out / "rtklib-demo5.pos").write_text("".join(head + [ln for ln in lines if not ln.startswith("%")][:90]))
+    # 2020-12-24 21:28:42 GPST is 21:28:24 UTC
+    _standing_companions(
+        "rtklib", "RTKPOST demo5 solution (real)", 40.0970, -105.1472, 1578.8, "2020-12-24", 77300.0, 96.0
+    )
+
+
 if __name__ == "__main__":
     main()
+    real_nmea_companions()

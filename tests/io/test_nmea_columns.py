@@ -1,4 +1,4 @@
-"""The column-at-once NMEA parser against an independent reader (pynmea2), and its error messages.
+"""The column-at-once NMEA parser against an independent reader (pynmeagps), and its error messages.
 
 A defect anywhere in a long file must still be reported with its own line and field, whichever of
 the parser's two paths (all columns at once, or line by line) meets it.
@@ -7,8 +7,8 @@ the parser's two paths (all columns at once, or line by line) meets it.
 import datetime as dt
 
 import numpy as np
-import pynmea2
 import pytest
+from pynmeagps import NMEAReader
 
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.nmea import parse_nmea
@@ -45,23 +45,23 @@ def _survey(n: int = 400, seed: int = 3) -> list[str]:
     return lines
 
 
-def test_values_match_pynmea2_sentence_bysentence():
+def test_values_match_pynmeagps_sentence_by_sentence():
     lines = _survey()
     g = parse_nmea("\r\n".join(lines).encode(), t_ref_s=23 * 3600.0)
-    ggas = [(i + 1, pynmea2.parse(s)) for i, s in enumerate(lines) if s[3:6] == "GGA"]
+    ggas = [(i + 1, NMEAReader.parse(s.encode(), validate=1)) for i, s in enumerate(lines) if s[3:6] == "GGA"]
     assert len(g) == len(ggas)
     day = dt.datetime.combine(dt.date(2020, 1, 1), dt.time())
     for j, (lineno, m) in enumerate(ggas):
         assert g.line_of_row[j] == lineno
-        tod = (dt.datetime.combine(day.date(), m.timestamp.replace(tzinfo=None)) - day).total_seconds()
+        tod = (dt.datetime.combine(day.date(), m.time) - day).total_seconds()
         assert g.t_s[j] == pytest.approx(tod, abs=1e-6)
-        assert g.fix[j] == m.gps_qual
-        if m.gps_qual > 0:
-            assert g.lat_deg[j] == pytest.approx(m.latitude, abs=1e-12)
-            assert g.lon_deg[j] == pytest.approx(m.longitude, abs=1e-12)
-            assert g.h_m[j] == pytest.approx(m.altitude + float(m.geo_sep or 0.0), abs=1e-9)
-            assert g.hdop[j] == float(m.horizontal_dil)
-            assert g.n_sat[j] == float(m.num_sats)
+        assert g.fix[j] == m.quality
+        if m.quality > 0:
+            assert g.lat_deg[j] == pytest.approx(m.lat, abs=1e-9)
+            assert g.lon_deg[j] == pytest.approx(m.lon, abs=1e-9)
+            assert g.h_m[j] == pytest.approx(m.alt + float(m.sep or 0.0), abs=1e-9)
+            assert g.hdop[j] == float(m.HDOP)
+            assert g.n_sat[j] == float(m.numSV)
         else:
             assert np.isnan(g.lat_deg[j]) and np.isnan(g.h_m[j])
     assert g.skipped_sentences == {"RMC": 134, "GSA": 134}

@@ -1,9 +1,17 @@
-"""``gnss.nmea``: NMEA 0183 text; GGA sentences give time, position and fix quality."""
+"""NMEA 0183 text; GGA sentences give time, position and fix quality, the first RMC the date.
+
+The one NMEA reader of the product: the bundle's ``gnss.nmea`` (strict: a defective GGA sentence
+is an error naming its line and field) and the ``nmea`` importer of field recordings (``lenient``:
+a defective GGA sentence is skipped, counted and the first one named in a warning) both read
+through :func:`parse_nmea`.
+"""
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 import re
+from bisect import bisect_left
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,6 +33,11 @@ class GnssData:
         WGS-84 latitude, longitude (deg) and ellipsoidal height (m); NaN without a fix.
     fix : numpy.ndarray
         GGA fix quality (0 none, 1 single, 2 differential, 4 RTK fixed, 5 RTK float).
+    sep_m : numpy.ndarray
+        Geoid separation (m) the sentence states; NaN where its field is empty (then ``h_m`` is the
+        altitude field as it stands).
+    day : datetime.date or None
+        UTC day of the first row, from the first RMC sentence with a date (None without one).
     """
 
     t_s: np.ndarray
@@ -40,6 +53,10 @@ class GnssData:
     duplicate_epochs: int = 0
     skipped_sentences: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
+    sep_m: np.ndarray | None = None
+    day: dt.date | None = None
+    no_fix: int = 0  #: GGA sentences without a solution (quality 0 or empty) left out
+    defective: int = 0  #: (lenient) GGA sentences with a good checksum but a defective field, skipped
 
     def __len__(self) -> int:
         return len(self.t_s)
@@ -115,7 +132,7 @@ def _degrees(dm: str, hemi: str, line: int, name: str, hemispheres: str) -> floa
 
 
 def _gga(body: str, lineno: int) -> tuple:
-    """One GGA sentence body to (time of day s, lat deg, lon deg, h m, fix, n_sat, hdop)."""
+    """One GGA sentence body to (time of day s, lat deg, lon deg, h m, fix, n_sat, hdop, sep m)."""
     f = body.split(",")
     if not _TALKER_GGA.fullmatch(f[0]) or "*" in body:
         raise BundleError(f"GGA sentence could not be parsed: '{body[:40]}'", file=FILE, line=lineno)
@@ -137,8 +154,8 @@ def _gga(body: str, lineno: int) -> tuple:
         sep = _num(f[11], lineno, "geoid_separation")
         h = alt + (0.0 if math.isnan(sep) else sep)
     else:
-        lat = lon = h = math.nan
-    return tod, lat, lon, h, fix, _num(f[7], lineno, "num_sats"), _num(f[8], lineno, "hdop")
+        lat = lon = h = sep = math.nan
+    return tod, lat, lon, h, fix, _num(f[7], lineno, "num_sats"), _num(f[8], lineno, "hdop"), sep
 
 
 _COL_TIME = re.compile(r"(?:\d{6}(?:\.\d*)?\n)*\d{6}(?:\.\d*)?")
@@ -191,7 +208,7 @@ def _gga_columns(bodies: list[str]) -> tuple | None:
     """All GGA sentences at once, column by column; None when anything is unusual (then the
     line-by-line path runs and names the exact line and field)."""
     rows = [b.split(",") for b in bodies]
-    if any(len(r) != 15 for r in rows) or any("*" in b for b in bodies):
+    if not rows or any(len(r) != 15 for r in rows) or any("*" in b for b in bodies):
         return None
     cols = list(zip(*rows))
     if not all(_TALKER_GGA.fullmatch(v) for v in set(cols[0])):
@@ -207,7 +224,7 @@ def _gga_columns(bodies: list[str]) -> tuple | None:
     tod = (hh * 3600 + mm * 60 + ss) + np.trunc(frac * 1_000_000).astype(np.int64) * 1e-6
     fix = _tof(fix_col).astype(np.int64)
     n = len(rows)
-    lat, lon, h = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    lat, lon, h, sep_all = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
     pos = np.flatnonzero(fix > 0)
     try:
         if len(pos):
@@ -228,70 +245,140 @@ def _gga_columns(bodies: list[str]) -> tuple | None:
             lat[pos] = sign_lat * _dm_degrees(lat_s)
             lon[pos] = sign_lon * _dm_degrees(lon_s)
             h[pos] = _floats(alt_s, empty_ok=False) + np.where(np.isnan(sep), 0.0, sep)
+            sep_all[pos] = sep
         n_sat = _floats(cols[7], empty_ok=True)
         hdop = _floats(cols[8], empty_ok=True)
     except ValueError:
         return None
-    return tod, lat, lon, h, fix, n_sat, hdop
+    return tod, lat, lon, h, fix, n_sat, hdop, sep_all
 
 
-def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
-    """Parse NMEA text. Bad checksums are skipped and counted; non-GGA sentences skipped.
+_RMC_DATE = re.compile(r"\d{6}")
+#: GGA qualities that are no measured position: estimated (dead reckoning), manual input, simulator
+NOT_MEASURED = ("6", "7", "8")
 
-    The checksums of all sentences are computed at once (numpy); only GGA sentences are split
-    into fields. Every error names the file, the line and the field.
 
-    Parameters
-    ----------
-    data : bytes
-        File content (CRLF or LF).
-    t_ref_s : float, optional
-        A time near the log's start (s of day, e.g. the first IMU time) used to place
-        the first GGA on the right day; later epochs keep counting past midnight.
-
-    Raises
-    ------
-    BundleError
-        Empty file, no valid GGA, a GGA field that is not a number, a time going backwards.
-    """
-    if not data.strip():
-        raise BundleError("file is empty", file=FILE, line=1)
-    text = data.decode("ascii", "replace")
-    malformed = 0
+def _split_sentences(text: str) -> tuple[list[int], list[str], list[str], int, int]:
+    """(line, body, given checksum) of every ``$...*hh`` sentence, and the counts of lines that are
+    no sentence and of sentences found after other bytes on their line (e.g. a binary frame)."""
+    malformed = after_binary = 0
     cand_line, cand_body, cand_cks = [], [], []
-    for lineno, raw in enumerate(text.splitlines(), start=1):
+    for lineno, raw in enumerate(text.split("\n"), start=1):  # LF only: other control bytes are no line end
         line = raw.strip()
         if not line:
             continue
-        if line[0] != "$" or "*" not in line:
+        k = line.rfind("$")  # a sentence right after a binary frame on the frame's "line", or "$$GNGGA"
+        if k < 0 or "*" not in line[k:]:
             malformed += 1
             continue
+        if k:
+            if line[:k].strip("$"):
+                after_binary += 1
+            line = line[k:]
         body, _, cks = line[1:].rpartition("*")
         cand_line.append(lineno)
         cand_body.append(body)
         cand_cks.append(cks)
+    return cand_line, cand_body, cand_cks, malformed, after_binary
+
+
+def _rmc_date(body: str) -> tuple[float, dt.date] | None:
+    """(UTC time of day s, date) of a valid (status A) RMC sentence body, or None."""
+    f = body.split(",")
+    if len(f) < 10 or f[2] != "A" or not _TIME.fullmatch(f[1]) or not _RMC_DATE.fullmatch(f[9]):
+        return None  # void (V) sentences may carry a date from an unset clock
+    hh, mm, ss = int(f[1][0:2]), int(f[1][2:4]), int(f[1][4:6])
+    dd, mo, yy = int(f[9][0:2]), int(f[9][2:4]), int(f[9][4:6])
+    if hh > 23 or mm > 59 or ss > 59:
+        return None
+    try:
+        day = dt.date(2000 + yy if yy < 80 else 1900 + yy, mo, dd)
+    except ValueError:
+        return None
+    return hh * 3600.0 + mm * 60.0 + ss, day
+
+
+def parse_nmea(data: bytes, t_ref_s: float | None = None, *, file: str = FILE, lenient: bool = False) -> GnssData:
+    """Parse NMEA text. Bad checksums are skipped and counted; non-GGA sentences skipped.
+
+    The checksums of all sentences are computed at once (numpy); only GGA sentences are split
+    into fields. GGA sentences without a solution (quality 0 or empty, e.g. the pre-fix
+    ``$GPGGA,,,,,,0,,,,M,,M,,*66``) carry no epoch: left out (with ``lenient``, or when they have no
+    time) and counted. A sentence after other bytes on its line (a binary frame) is read. Every
+    error names the file, the line and the field.
+
+    Parameters
+    ----------
+    data : bytes
+        File content (CRLF or LF line ends).
+    t_ref_s : float, optional
+        A time near the log's start (s of day, e.g. the first IMU time) used to place
+        the first GGA on the right day; later epochs keep counting past midnight.
+    file : str
+        The file's name in messages (default ``gnss.nmea``).
+    lenient : bool
+        For field recordings: a GGA sentence with a good checksum but a defective field (no
+        altitude, an unreadable coordinate...) is skipped and counted, the first one named in a
+        warning, instead of being an error. Only fixes (quality > 0) are returned.
+
+    Raises
+    ------
+    BundleError
+        Empty file, no valid GGA, (strict) a GGA field that is not a number, a time going backwards.
+    """
+    if not data.strip():
+        raise BundleError("file is empty", file=file, line=1)
+    text = data.decode("ascii", "replace")
+    cand_line, cand_body, cand_cks, malformed, after_binary = _split_sentences(text)
     ok = _checksums(cand_body) == np.fromiter(
         (_given_checksum(c.strip()[:2]) for c in cand_cks), dtype=np.int64, count=len(cand_cks)
     )
     bad_checksum = int(len(ok) - np.count_nonzero(ok))
     skipped: dict[str, int] = {}
     gga_body, gga_line = [], []
+    rmc = None  # (line, time of day, date) of the first RMC with a date
+    no_fix = not_measured = 0
     for i in np.flatnonzero(ok).tolist():
         body = cand_body[i]
         head = body[: body.find(",")] if "," in body else body
         stype = head[-3:]
         if stype != "GGA" or body.startswith("P"):
+            if stype == "RMC" and rmc is None and not body.startswith("P"):
+                got = _rmc_date(body)
+                if got is not None:
+                    rmc = (cand_line[i], *got)
             skipped[stype] = skipped.get(stype, 0) + 1
+            continue
+        f = body.split(",", 7)
+        quality = f[6] if len(f) > 6 else ""
+        if (quality == "" and lenient) or (quality == "0" and (lenient or f[1] == "")):
+            no_fix += 1  # no solution: no epoch (pre-fix sentences often have no time either)
+            continue
+        if lenient and quality in NOT_MEASURED:
+            not_measured += 1
             continue
         gga_body.append(body)
         gga_line.append(cand_line[i])
     cols = _gga_columns(gga_body)
-    if cols is None:  # something unusual: line by line, so that an error names its line and field
-        cols = (
-            tuple(np.array(c) for c in zip(*(_gga(b, ln) for b, ln in zip(gga_body, gga_line)))) if gga_body else None
-        )
+    defective, first_defect = 0, None
+    if cols is None and gga_body:  # something unusual: line by line, so that an error names its line and field
+        parsed, lines_ok = [], []
+        for b, ln in zip(gga_body, gga_line):
+            try:
+                parsed.append(_gga(b, ln))
+            except BundleError as exc:
+                if not lenient:
+                    raise BundleError(exc.message, file=file, line=exc.line, field=exc.field) from None
+                defective += 1
+                if first_defect is None:
+                    first_defect = exc
+                continue
+            lines_ok.append(ln)
+        gga_line = lines_ok
+        cols = tuple(np.array(c) for c in zip(*parsed)) if parsed else None
     rows = []
-    duplicates = 0
+    duplicates = out_of_order = 0
+    first_backwards = None
     if cols is not None:
         tod = cols[0].tolist()
         k_day = None
@@ -308,25 +395,73 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
                 if t == prev_t:  # the same epoch again (e.g. GP and GN talkers): keep the first
                     duplicates += 1
                     continue
-                raise BundleError(
-                    f"GGA time goes backwards: {t:.2f} s after {prev_t:.2f} s", file=FILE, line=lineno, field="time"
+                backwards = BundleError(
+                    f"GGA time goes backwards: {t:.2f} s after {prev_t:.2f} s", file=file, line=lineno, field="time"
                 )
+                if not lenient:
+                    raise backwards
+                out_of_order += 1  # a stray epoch is dropped; a clock that jumps back is refused below
+                first_backwards = first_backwards or backwards
+                continue
             prev_t = t
             rows.append((j, t))
-    if not rows:
+    if out_of_order > max(1, len(rows) // 100):
         raise BundleError(
-            f"no valid GGA sentence ({bad_checksum} with bad checksum, {malformed} malformed lines)", file=FILE
+            f"{first_backwards.message} ({out_of_order} GGA epochs out of order: the receiver's clock jumped; "
+            "only a stray one in a hundred is left out)",
+            file=file,
+            line=first_backwards.line,
+            field="time",
         )
+    if not rows:
+        what = "with a fix" if lenient else "with a time"
+        counts = (
+            f"{no_fix} without a fix, {defective} defective, {bad_checksum} with a bad checksum, {malformed} lines "
+            "that are no NMEA sentence"
+        )
+        if first_defect is not None:
+            raise BundleError(
+                f"no valid GGA sentence {what} ({counts}); the first defective one: {first_defect.message}",
+                file=file,
+                line=first_defect.line,
+                field=first_defect.field,
+            )
+        raise BundleError(f"no valid GGA sentence {what} ({counts})", file=file)
     keep = np.array([j for j, _ in rows], dtype=np.int64)
     t_s = np.array([t for _, t in rows], dtype=np.float64)
-    _, lat, lon, h, fix, n_sat, hdop = (np.asarray(c)[keep] for c in cols)
+    _, lat, lon, h, fix, n_sat, hdop, sep = (np.asarray(c)[keep] for c in cols)
+    line_of_row = np.array(gga_line, dtype=np.int64)[keep]
+    day = None
+    if rmc is not None:  # the RMC's time on the rows' counting clock, from the row nearest to it in the file
+        k = min(bisect_left(line_of_row.tolist(), rmc[0]), len(line_of_row) - 1)
+        t_rmc = rmc[1] + 86400.0 * round((t_s[k] - rmc[1]) / 86400.0)
+        day = rmc[2] - dt.timedelta(days=int(t_rmc // 86400.0) - int(t_s[0] // 86400.0))
     warnings = []
     if bad_checksum:
-        warnings.append(f"{FILE}: {bad_checksum} sentence(s) with a bad checksum skipped")
+        warnings.append(f"{file}: {bad_checksum} sentence(s) with a bad checksum skipped")
     if malformed:
-        warnings.append(f"{FILE}: {malformed} line(s) that are not NMEA sentences skipped")
+        warnings.append(f"{file}: {malformed} line(s) that are not NMEA sentences skipped")
+    if after_binary:
+        warnings.append(f"{file}: {after_binary} sentence(s) read after other bytes on their line (binary frames)")
+    if lenient and no_fix:
+        warnings.append(f"{file}: {no_fix} GGA sentence(s) without a fix (quality 0 or empty) left out")
+    if not_measured:
+        warnings.append(
+            f"{file}: {not_measured} GGA sentence(s) of quality 6, 7 or 8 (dead reckoning, manual input, "
+            "simulator: no measured position) left out"
+        )
+    if defective:
+        warnings.append(
+            f"{file}: {defective} GGA sentence(s) with a good checksum but a defective field skipped; the first: "
+            f"line {first_defect.line}, field '{first_defect.field}': {first_defect.message}"
+        )
     if duplicates:
-        warnings.append(f"{FILE}: {duplicates} repeated GGA epoch(s) skipped")
+        warnings.append(f"{file}: {duplicates} repeated GGA epoch(s) skipped")
+    if out_of_order:
+        warnings.append(
+            f"{file}: {out_of_order} GGA epoch(s) out of order left out; the first: line {first_backwards.line}, "
+            f"{first_backwards.message}"
+        )
     return GnssData(
         t_s=t_s,
         lat_deg=lat.astype(np.float64),
@@ -335,12 +470,16 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None) -> GnssData:
         fix=fix.astype(np.int16),
         n_sat=n_sat.astype(np.float64),
         hdop=hdop.astype(np.float64),
-        line_of_row=np.array(gga_line, dtype=np.int64)[keep],
+        line_of_row=line_of_row,
         bad_checksum=bad_checksum,
         malformed_lines=malformed,
         duplicate_epochs=duplicates,
         skipped_sentences=skipped,
         warnings=warnings,
+        sep_m=sep.astype(np.float64),
+        day=day,
+        no_fix=no_fix,
+        defective=defective,
     )
 
 

@@ -1,7 +1,8 @@
-"""Importers: field recordings (NovAtel, u-blox, KF-GINS, NMEA, any CSV, native) to a bundle.
+"""Importers: field recordings (NovAtel, u-blox, KF-GINS, NMEA, RTKLIB, any CSV, native) to a bundle.
 
-Every importer module has ``NAME``, ``ROLES`` (which of ``imu``, ``gnss``, ``ldv`` it reads),
-``read(data, file, role, options) -> part`` and ``sniff(data, file_name) -> role or None``.
+Every importer module declares ``IMPORTER``, an :class:`~ldvsurvey.io.importers.contract.Importer`
+(format name, roles, typed options, ``read`` and ``sniff``). :data:`REGISTRY` lists the formats;
+the command line and the API take their lists from it.
 :func:`~ldvsurvey.io.importers.build.build_bundle` turns the parts into a validated bundle.
 """
 
@@ -10,6 +11,7 @@ from __future__ import annotations
 import importlib
 
 from ldvsurvey.errors import BundleError
+from ldvsurvey.io.importers.contract import Importer, Option, from_module
 
 #: format name -> module (imported on first use: some need optional libraries)
 REGISTRY = {
@@ -17,19 +19,33 @@ REGISTRY = {
     "ubx": "ubx",
     "kf-gins": "kfgins",
     "nmea": "nmea",
+    "rtklib": "rtklib",
     "csv": "csvmap",
     "native": "native",
 }
 #: the order in which formats are tried when none is named
-SNIFF_ORDER = ("native", "novatel", "ubx", "nmea", "kf-gins")
+SNIFF_ORDER = ("native", "novatel", "ubx", "rtklib", "nmea", "kf-gins")
 
 
-def get_importer(fmt: str, file: str | None = None):
-    """The importer module of a format name."""
+def get_importer(fmt: str, file: str | None = None) -> Importer:
+    """The importer of a format name."""
     key = str(fmt).strip().lower()
     if key not in REGISTRY:
         raise BundleError(f"unknown import format '{fmt}' (known: {', '.join(REGISTRY)})", file=file, field="format")
-    return importlib.import_module(f"ldvsurvey.io.importers.{REGISTRY[key]}")
+    imp = from_module(importlib.import_module(f"ldvsurvey.io.importers.{REGISTRY[key]}"))
+    if imp.name != key:
+        raise TypeError(f"the module of format '{key}' declares the name '{imp.name}'")
+    return imp
+
+
+def importers() -> list[Importer]:
+    """Every registered importer, in the registry's order."""
+    return [get_importer(k) for k in REGISTRY]
+
+
+def formats_help() -> str:
+    """One line per format: name, roles, what it reads (for ``ldv-survey import --help``)."""
+    return "\n".join(f"  {i.name:<8} {'/'.join(i.roles):<13} {i.summary}" for i in importers())
 
 
 def detect(data: bytes, name: str) -> tuple[str, str] | None:
@@ -43,4 +59,16 @@ def detect(data: bytes, name: str) -> tuple[str, str] | None:
 
 from ldvsurvey.io.importers.build import ImportResult, Source, build_bundle, parse_partial_manifest  # noqa: E402
 
-__all__ = ["REGISTRY", "ImportResult", "Source", "build_bundle", "detect", "get_importer", "parse_partial_manifest"]
+__all__ = [
+    "REGISTRY",
+    "ImportResult",
+    "Importer",
+    "Option",
+    "Source",
+    "build_bundle",
+    "detect",
+    "formats_help",
+    "get_importer",
+    "importers",
+    "parse_partial_manifest",
+]

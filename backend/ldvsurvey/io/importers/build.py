@@ -36,6 +36,24 @@ class ImportResult:
     files: dict[str, bytes]
     warnings: list[str]
     summary: dict = field(default_factory=dict)
+    #: files kept beside the bundle, not in it (the bundle format has no place for them): a receiver's
+    #: own INS solution as ``reference.csv`` (see :func:`reference_csv`)
+    beside: dict[str, bytes] = field(default_factory=dict)
+
+
+def reference_csv(ref, t: np.ndarray) -> bytes:
+    """A receiver's own INS solution (:class:`~.common.Reference`) on the bundle clock, as CSV."""
+    head = (
+        f"# reference trajectory: {ref.source} (the receiver's own solution, to compare against; not an input)\n"
+        "t,lat_deg,lon_deg,h_ell_m,v_east_mps,v_north_mps,v_up_mps,roll_deg,pitch_deg,azimuth_deg,status\n"
+    )
+    rows = (
+        f"{t[k]:.9f},{ref.lat_deg[k]:.11f},{ref.lon_deg[k]:.11f},{ref.h_ell_m[k]:.4f},"
+        f"{ref.v_enu_mps[k, 0]:.4f},{ref.v_enu_mps[k, 1]:.4f},{ref.v_enu_mps[k, 2]:.4f},"
+        f"{ref.rpy_deg[k, 0]:.9f},{ref.rpy_deg[k, 1]:.9f},{ref.rpy_deg[k, 2]:.9f},{ref.status[k]}"
+        for k in range(len(t))
+    )
+    return (head + "\n".join(rows) + "\n").encode()
 
 
 def parse_partial_manifest(data: bytes | str | dict | None, file: str = MANIFEST_FILE) -> dict:
@@ -299,4 +317,9 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         "imu_axes": code,
         "static_tilt_deg": round(tilt, 3),
     }
-    return ImportResult(files=files, warnings=warnings, summary=summary)
+    beside = {}
+    refs = [p.reference for p in parts.values() if getattr(p, "reference", None) is not None]
+    if refs:  # the bundle format has no place for a reference trajectory: it goes beside the bundle
+        beside["reference.csv"] = reference_csv(refs[0], to_bundle_time(refs[0].stamps, day, leap, near_week))
+        summary["reference"] = {"source": refs[0].source, "epochs": len(refs[0].lat_deg)}
+    return ImportResult(files=files, warnings=warnings, summary=summary, beside=beside)

@@ -46,6 +46,26 @@ class ImuPart:
     turntable_deg: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
     quantum: tuple[float, float] | None = None  #: (rad, m/s) of one count, when the format is integer
+    reference: Reference | None = None  #: the receiver's own INS solution, if the recording has one
+
+
+@dataclass
+class Reference:
+    """A receiver's own navigation solution (e.g. NovAtel INSPVA), kept beside the bundle to compare
+    against, never an input of the pipelines.
+
+    lat_deg, lon_deg, h_ell_m : (N,) WGS-84; v_enu_mps : (N, 3); rpy_deg : (N, 3) roll, pitch and
+    azimuth (clockwise from north) as the receiver states them; status : (N,) its solution status.
+    """
+
+    source: str
+    stamps: Stamps
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
+    h_ell_m: np.ndarray
+    v_enu_mps: np.ndarray
+    rpy_deg: np.ndarray
+    status: list[str]
 
 
 @dataclass
@@ -62,6 +82,7 @@ class GnssPart:
     hdop: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
     raw_nmea: bytes | None = None  #: native gnss.nmea, copied unchanged
+    reference: Reference | None = None  #: the receiver's own INS solution, if the recording has one
 
 
 @dataclass

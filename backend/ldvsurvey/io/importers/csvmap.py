@@ -24,6 +24,7 @@ import numpy as np
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.csvtable import MAX_COLUMNS
 from ldvsurvey.io.importers.common import GnssPart, ImuPart, LdvPart, Stamps, fix_from_sigma
+from ldvsurvey.io.importers.contract import Importer, Option
 
 NAME = "csv"
 ROLES = ("imu", "gnss", "ldv")
@@ -259,3 +260,13 @@ def read(data: bytes, file: str, role: str, opts: dict):
             notes=note,
         )
     return LdvPart(stamps, {k: v for k, v in out.items()}, notes=note)
+
+
+IMPORTER = Importer(
+    NAME,
+    ROLES,
+    read,
+    sniff,
+    options=(Option("csv", (dict,), "the column map (delimiter, header, time, columns)"),),
+    summary="any delimited text, with a column map in the partial manifest",
+)

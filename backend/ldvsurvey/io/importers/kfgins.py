@@ -12,6 +12,7 @@ import numpy as np
 
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.importers.common import GnssPart, ImuPart, Stamps, check_increasing, fix_from_sigma, read_number_table
+from ldvsurvey.io.importers.contract import Importer
 
 NAME = "kf-gins"
 ROLES = ("imu", "gnss")
@@ -86,3 +87,6 @@ def _unwrapped(sow: np.ndarray) -> np.ndarray:
     from ldvsurvey.io.importers.gpstime import unwrap_sow
 
     return unwrap_sow(sow)
+
+
+IMPORTER = Importer(NAME, ROLES, read, sniff, summary="KF-GINS / awesome-gins-datasets text files")

@@ -8,6 +8,7 @@ from ldvsurvey.errors import BundleError
 from ldvsurvey.io.csvtable import read_numeric_csv
 from ldvsurvey.io.drivelog import IMU_COLUMNS
 from ldvsurvey.io.importers.common import GnssPart, ImuPart, LdvPart, Stamps
+from ldvsurvey.io.importers.contract import Importer
 
 NAME = "native"
 ROLES = ("imu", "ldv", "gnss")
@@ -59,3 +60,6 @@ def read(data: bytes, file: str, role: str, opts: dict):
             raw_nmea=data,
         )
     raise BundleError(f"the native format has no '{role}' file", file=file)
+
+
+IMPORTER = Importer(NAME, ROLES, read, sniff, summary="imu.csv, ldv.csv or gnss.nmea already in the bundle's format")

@@ -1,24 +1,41 @@
-"""NovAtel OEM7 logs, ASCII or binary, decoded with NovAtel's EDIE library (``novatel-edie``).
+"""NovAtel OEM4/OEM6/OEM7 logs, ASCII or binary, decoded with NovAtel's EDIE library (``novatel-edie``).
 
-- ``RAWIMUSX`` / ``RAWIMUX``: raw IMU increments. Each message states the IMU type, whose scale
-  factors (OEM7 documentation, RAWIMUSX "Raw IMU scale factors") turn the counts into angle (rad)
-  and velocity (m/s) increments over the sample interval. The message carries z, −y, x: the y
-  fields are negated back. Axes are the IMU enclosure's (x right, y forward, z up when the IMU is
+Fields are read **by meaning** through EDIE's message definitions: each message has several
+definition versions in EDIE's database (keyed by the definition CRC the receiver writes in the
+header), and the same quantity is named differently in some of them (BESTPOS ``height`` and
+``orthometric_height``; RAWIMU ``accel_z`` and ``del_vel_body_z``). :data:`MEANINGS` lists the names
+of every quantity; a definition without one is an error naming the message and the quantity.
+
+- ``RAWIMUSX`` / ``RAWIMUX`` / ``RAWIMUS`` / ``RAWIMU``: raw IMU increments. The X variants state the
+  IMU type; for the others give it as ``import.imu.imu_type`` (a name or number of :data:`SCALES`).
+  The type's scale factors (OEM7 documentation, "Raw IMU scale factors") turn the counts into angle
+  (rad) and velocity (m/s) increments over the sample interval. The message carries z, −y, x: the
+  y fields are negated back. Axes are the IMU enclosure's (x right, y forward, z up when the IMU is
   mounted the SPAN way: ``RFU``); state another mounting with ``import.imu.axes``.
-- ``BESTPOS``: position fixes (height above mean sea level and the undulation, so ellipsoidal
-  height = height + undulation), solution type mapped to a GGA fix quality.
-- ``INSPVAX``: the receiver's own INS solution; counted and summarised only (a reference, not an
-  input of the pipelines).
+- ``CORRIMUDATA`` / ``CORRIMUDATAS`` / ``CORRIMUS`` / ``IMURATECORRIMUS``: decoded, but refused as the
+  IMU input: NovAtel removes gravity, the Earth's rotation and its own estimated sensor errors from
+  them (a static unit reads about 0 m/s², not 9.8), so a strapdown mechanisation cannot use them.
+- ``BESTGNSSPOS`` (GNSS only) is preferred over ``BESTPOS``; on a SPAN receiver BESTPOS blends the
+  receiver's INS, and aiding an INS with it is circular (a warning says so). Height above mean
+  sea level plus the undulation is the ellipsoidal height. Every solution type of EDIE's
+  ``SolType`` is mapped to a GGA quality or left out (:data:`FIX_OF_TYPE`, :data:`NOT_MEASURED`).
+- ``INSPVA`` / ``INSPVAS`` / ``INSPVAX``: the receiver's own INS solution, kept as a reference
+  trajectory (:class:`~ldvsurvey.io.importers.common.Reference`) to compare against, never an input.
+- The same message logged on several ports (identical content and time) is kept once and counted.
+- ASCII with LF-only line ends is read (EDIE's framer wants CR LF); NMEA sentences inside the
+  stream are counted as NMEA, not as undecodable frames.
 """
 
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
 from ldvsurvey.errors import BundleError
-from ldvsurvey.io.importers.common import GnssPart, ImuPart, Stamps
+from ldvsurvey.io.importers.common import GnssPart, ImuPart, Reference, Stamps
+from ldvsurvey.io.importers.contract import Importer, Option
 
 NAME = "novatel"
 ROLES = ("imu", "gnss")
@@ -52,51 +69,151 @@ SCALES = {
     62: ("EPSON_G320_200HZ", math.radians(0.008 / 2.0**16), 0.2 / 2.0**16 * G0 / 1000.0, True),
     68: ("HG4930_AN04", 2.0**-33, 2.0**-29, False),
 }
-#: BESTPOS position type names -> GGA fix quality (NONE and unknown: not used)
+#: position/solution type (EDIE's SolType) -> GGA fix quality
 FIX_OF_TYPE = {
     "SINGLE": 1,
+    "INS_PSRSP": 1,
     "PSRDIFF": 2,
     "WAAS": 2,
-    "PROPAGATED": 1,
+    "OMNISTAR": 2,
+    "CDGPS": 2,
+    "INS_SBAS": 2,
+    "INS_PSRDIFF": 2,
+    "INS_OMNISTAR": 2,
+    "FLOATCONV": 5,
+    "WIDELANE": 5,
     "L1_FLOAT": 5,
     "NARROW_FLOAT": 5,
     "IONOFREE_FLOAT": 5,
+    "L1L2_FLOAT": 5,
+    "INS_RTKFLOAT": 5,
+    "OMNISTAR_HP": 5,
+    "OMNISTAR_XP": 5,
+    "INS_OMNISTAR_HP": 5,
+    "INS_OMNISTAR_XP": 5,
+    "PPP_CONVERGING": 5,
+    "INS_PPP_CONVERGING": 5,
+    "PPP_BASIC_CONVERGING": 5,
+    "INS_PPP_BASIC_CONVERGING": 5,
+    "NARROWLANE": 4,
     "L1_INT": 4,
     "WIDE_INT": 4,
     "NARROW_INT": 4,
+    "L1L2_INT": 4,
+    "L1L2_INT_VERIFIED": 4,
     "RTK_DIRECT_INS": 4,
-    "INS_SBAS": 2,
-    "INS_PSRSP": 1,
-    "INS_PSRDIFF": 2,
-    "INS_RTKFLOAT": 5,
     "INS_RTKFIXED": 4,
-    "PPP_CONVERGING": 5,
     "PPP": 4,
-    "PPP_BASIC_CONVERGING": 5,
+    "INS_PPP": 4,
+    "PPP_PLUS": 4,
+    "INS_PPP_PLUS": 4,
     "PPP_BASIC": 4,
+    "INS_PPP_BASIC": 4,
 }
+#: solution types that are no measured position: left out and counted
+NOT_MEASURED = {
+    "NONE": "no solution",
+    "FIXEDPOS": "a position entered by the operator",
+    "FIXEDHEIGHT": "a height entered by the operator",
+    "FIXEDVEL": "a velocity entered by the operator",
+    "DOPPLER_VELOCITY": "a velocity only",
+    "PROPAGATED": "propagated without new observations",
+    "EXT_CONSTRAINED": "constrained by an external source",
+    "OPERATIONAL": "a status, not a solution",
+    "WARNING": "a status, not a solution",
+    "OUT_OF_BOUNDS": "a status, not a solution",
+    "MAX_DONT_USE": "not a solution type",
+}
+
+#: quantity -> its field names in EDIE's message definitions, all versions
+MEANINGS = {
+    "week": ("gps_week", "week"),
+    "seconds": ("gps_seconds", "seconds"),
+    "imu_type": ("imu_type",),
+    "z_accel": ("accel_z", "del_vel_body_z"),
+    "neg_y_accel": ("accel_y", "del_vel_body_y"),
+    "x_accel": ("accel_x", "del_vel_body_x"),
+    "z_gyro": ("gyro_z", "del_ang_body_z"),
+    "neg_y_gyro": ("gyro_y", "del_ang_body_y"),
+    "x_gyro": ("gyro_x", "del_ang_body_x"),
+    "solution_status": ("solution_status",),
+    "position_type": ("position_type",),
+    "latitude": ("latitude",),
+    "longitude": ("longitude",),
+    "height_msl": ("orthometric_height", "height"),  # BESTPOS, BESTGNSSPOS, INSPVAX: above mean sea level
+    "height_ell": ("height",),  # INSPVA, INSPVAS: ellipsoidal
+    "undulation": ("undulation",),
+    "num_soln_svs": ("num_soln_svs",),
+    "north_vel": ("north_vel",),
+    "east_vel": ("east_vel",),
+    "up_vel": ("up_vel",),
+    "roll": ("roll",),
+    "pitch": ("pitch",),
+    "azimuth": ("azimuth",),
+    "ins_status": ("ins_solution_status",),
+}
+RAW_IMU = ("RAWIMUSX", "RAWIMUX", "RAWIMUS", "RAWIMU")
+CORR_IMU = ("CORRIMUDATA", "CORRIMUDATAS", "CORRIMUS", "IMURATECORRIMUS")
+POSITIONS = ("BESTGNSSPOS", "BESTPOS")  # in the order of preference
+INS_PVA = ("INSPVA", "INSPVAS", "INSPVAX")
+#: the messages read, and the meanings each one needs (checked against every definition in EDIE's database)
+NEEDS = {
+    **{m: ("week", "seconds", "z_accel", "neg_y_accel", "x_accel", "z_gyro", "neg_y_gyro", "x_gyro") for m in RAW_IMU},
+    **{
+        m: ("solution_status", "position_type", "latitude", "longitude", "height_msl", "undulation", "num_soln_svs")
+        for m in POSITIONS
+    },
+    "INSPVA": ("week", "seconds", "latitude", "longitude", "height_ell", "north_vel", "east_vel", "up_vel", "roll")
+    + ("pitch", "azimuth", "ins_status"),
+    "INSPVAS": ("week", "seconds", "latitude", "longitude", "height_ell", "north_vel", "east_vel", "up_vel", "roll")
+    + ("pitch", "azimuth", "ins_status"),
+    "INSPVAX": ("ins_status", "latitude", "longitude", "height_msl", "undulation", "north_vel", "east_vel", "up_vel")
+    + ("roll", "pitch", "azimuth"),
+}
+_SYNC_BINARY = (b"\xaa\x44\x12", b"\xaa\x44\x13", b"\xaa\x44\xb5")
+_PROMPT = re.compile(rb"(?:\[?[A-Z]*COM\d*\]?|\]|<OK|\s)+")  # port prompts and replies, in pieces as EDIE cuts them
 
 
 def sniff(data: bytes, name: str) -> str | None:
     head = data[:8192]
-    if (
-        b"\xaa\x44\x12" in head
-        or b"\xaa\x44\x13" in head
-        or b"#RAWIMU" in head
-        or b"%RAWIMU" in head
-        or b"#BESTPOS" in head
+    if any(s in head for s in _SYNC_BINARY[:2]) or any(
+        t in head for t in (b"#RAWIMU", b"%RAWIMU", b"#BESTPOS", b"#BESTGNSSPOS", b"#INSPVA", b"%INSPVA")
     ):
         return "imu" if (b"RAWIMU" in head or b"\xaa\x44\x13" in head) else "gnss"
     return None
 
 
-def _messages(data: bytes, file: str, bad: list):
-    """Yield (message number, message) for every decoded message; undecodable frames go to ``bad``."""
+def field(d: dict, meaning: str, msg: str, n: int, crc: int | None, file: str):
+    """The value of a quantity in a decoded message, whatever its definition version calls it."""
+    for name in MEANINGS[meaning]:
+        if name in d:
+            return d[name]
+    crc_s = f" (definition CRC 0x{crc:04x})" if crc is not None else ""
+    raise BundleError(
+        f"{msg}{crc_s} has no field for '{meaning}' (looked for {', '.join(MEANINGS[meaning])}; "
+        f"it has: {', '.join(k for k in d if k != 'header')})",
+        file=file,
+        field=f"message {n} {meaning}",
+    )
+
+
+def _ascii_crlf(data: bytes) -> bytes:
+    """EDIE frames ASCII logs on CR LF: give LF-only text (no binary frame in it) CR LF line ends."""
+    if any(s in data for s in _SYNC_BINARY):
+        return data
+    data = data.replace(b"\r\n", b"\n").replace(b"\n", b"\r\n")
+    return data if data.endswith(b"\r\n") else data + b"\r\n"
+
+
+def _messages(data: bytes, file: str, bad: list, nmea: list):
+    """Yield (message number, name, decoded message) for every decoded message; undecodable frames go
+    to ``bad``, NMEA sentences in the stream to ``nmea``."""
     try:
         import novatel_edie as ne
         from novatel_edie import oem
     except ImportError:  # pragma: no cover - a dependency of the package
         raise BundleError("the novatel-edie package is not installed", file=file) from None
+    data = _ascii_crlf(data)
     parser = oem.Parser()
     pos, n = 0, 0
     while True:
@@ -105,10 +222,13 @@ def _messages(data: bytes, file: str, bad: list):
         for msg in parser:
             n += 1
             if isinstance(msg, ne.UnknownBytes):
-                if bytes(msg.data).strip():
+                raw = bytes(msg.data)
+                if raw.lstrip().startswith(b"$") and b"*" in raw:
+                    nmea.append(n)
+                elif raw.strip() and not _PROMPT.fullmatch(raw.strip()):  # "[ICOM1]", "<OK": port prompts
                     bad.append(n)
                 continue
-            yield n, msg
+            yield n, type(msg).__name__.split("_")[0], msg
         if pos >= len(data):
             break
     rest = parser.flush(True)
@@ -116,72 +236,159 @@ def _messages(data: bytes, file: str, bad: list):
         bad.append(n + 1)
 
 
+def _imu_type(value, file: str) -> int:
+    """An IMU type from ``import.imu.imu_type``: a number or a name of :data:`SCALES`."""
+    if isinstance(value, int) and not isinstance(value, bool) and value in SCALES:
+        return value
+    names = {v[0]: k for k, v in SCALES.items()}
+    if isinstance(value, str) and value.strip().upper() in names:
+        return names[value.strip().upper()]
+    raise BundleError(
+        f"unknown IMU type {value!r} (known: {', '.join(f'{k} {v[0]}' for k, v in SCALES.items())})",
+        file="manifest (partial)",
+        field="import.imu.imu_type",
+    )
+
+
 def read(data: bytes, file: str, role: str, opts: dict):
     if role not in ROLES:
         raise BundleError(f"the novatel format has no '{role}' data (it has: imu, gnss)", file=file)
     bad: list[int] = []
-    imu_rows, pos_rows, ins = [], [], 0
-    types = set()
-    for n, msg in _messages(data, file, bad):
-        name = type(msg).__name__.split("_")[0]
-        if name in ("RAWIMUSX", "RAWIMUX") and role == "imu":
-            d = msg.to_dict()
-            if d["imu_type"] not in SCALES:
+    nmea: list[int] = []
+    imu_rows, corr, ref_rows = [], 0, []
+    pos_rows: dict[str, list] = {m: [] for m in POSITIONS}
+    left_out: dict[str, int] = {}
+    ins_types = 0
+    types, type_names = set(), set()
+    seen: dict[tuple, int] = {}  # (name, time) -> hash of the body: a repeat on another port has the same
+    names_of: dict[type, list] = {}
+    repeats = 0
+    for n, name, msg in _messages(data, file, bad, nmea):
+        want = (role == "imu" and name in RAW_IMU + CORR_IMU) or (role == "gnss" and name in POSITIONS)
+        if not want and name not in INS_PVA:
+            continue
+        kind = type(msg)
+        if kind not in names_of:  # one definition version: its field names, once
+            names_of[kind] = msg.get_field_names()
+        values = msg.get_field_values()
+        d = dict(zip(names_of[kind], values))
+        hdr = msg.header
+        h = {"week": hdr.week, "milliseconds": hdr.milliseconds}
+        crc = hdr.message_definition_crc
+        key = (name, h["week"], h["milliseconds"], d.get("gps_seconds", d.get("seconds")))
+        try:
+            body = hash(tuple(values))
+        except TypeError:  # array fields
+            body = hash(repr(values))
+        if key in seen:
+            if seen[key] == body:  # the same message logged on another port
+                repeats += 1
+                continue
+            raise BundleError(
+                f"two different {name} messages for the same time (week {key[1]}, {key[2]} ms)",
+                file=file,
+                field=f"message {n}",
+            )
+        seen[key] = body
+
+        def f(meaning, d=d, name=name, n=n, crc=crc):
+            return field(d, meaning, name, n, crc, file)
+
+        if name in RAW_IMU:
+            if "imu_type" in d:
+                t = int(d["imu_type"])
+                if t not in SCALES:
+                    raise BundleError(
+                        f"IMU type {t} has no known scale factors (known: "
+                        f"{', '.join(f'{k} {v[0]}' for k, v in SCALES.items())})",
+                        file=file,
+                        field=f"message {n} imu_type",
+                    )
+            elif opts.get("imu_type") is not None:
+                t = _imu_type(opts["imu_type"], file)
+            else:
                 raise BundleError(
-                    f"IMU type {d['imu_type']} has no known scale factors (known: "
+                    f"{name} does not state the IMU type: give it as import.imu.imu_type (known: "
                     f"{', '.join(f'{k} {v[0]}' for k, v in SCALES.items())})",
                     file=file,
                     field=f"message {n} imu_type",
                 )
-            types.add(d["imu_type"])
+            types.add(t)
+            type_names.add(name)
             imu_rows.append(
                 (
-                    d["gps_week"],
-                    d["gps_seconds"],
-                    d["gyro_x"],
-                    -d["gyro_y"],
-                    d["gyro_z"],
-                    d["accel_x"],
-                    -d["accel_y"],
-                    d["accel_z"],
+                    f("week"),
+                    f("seconds"),
+                    f("x_gyro"),
+                    -f("neg_y_gyro"),
+                    f("z_gyro"),
+                    f("x_accel"),
+                    -f("neg_y_accel"),
+                    f("z_accel"),
                     n,
                 )
             )
-        elif name == "BESTPOS" and role == "gnss":
-            d = msg.to_dict()
-            status, ptype = d["solution_status"].name, d["position_type"].name
-            fix = FIX_OF_TYPE.get(ptype, 0)
-            if status != "SOL_COMPUTED" or fix == 0:
+        elif name in CORR_IMU:
+            corr += 1
+        elif name in POSITIONS:
+            status, ptype = f("solution_status").name, f("position_type").name
+            if status != "SOL_COMPUTED" or ptype not in FIX_OF_TYPE:
+                why = NOT_MEASURED.get(ptype, "an unknown solution type") if status == "SOL_COMPUTED" else status
+                k = f"{name} {ptype if status == 'SOL_COMPUTED' else status} ({why})"
+                left_out[k] = left_out.get(k, 0) + 1
                 continue
-            h = d["header"]
-            pos_rows.append(
+            ins_types += ptype.startswith("INS") or ptype == "RTK_DIRECT_INS"
+            und = float(f("undulation"))
+            pos_rows[name].append(
                 (
                     h["week"],
                     h["milliseconds"] / 1000.0,
-                    d["latitude"],
-                    d["longitude"],
-                    d["height"] + d["undulation"],
-                    d["undulation"],
-                    fix,
-                    d["num_soln_svs"],
+                    f("latitude"),
+                    f("longitude"),
+                    float(f("height_msl")) + und,
+                    und,
+                    FIX_OF_TYPE[ptype],
+                    f("num_soln_svs"),
                     n,
                 )
             )
-        elif name == "INSPVAX":
-            ins += 1
+        elif name in INS_PVA:
+            if name == "INSPVAX":
+                week, sow = h["week"], h["milliseconds"] / 1000.0
+                h_ell = float(f("height_msl")) + float(f("undulation"))
+            else:
+                week, sow, h_ell = f("week"), f("seconds"), float(f("height_ell"))
+            ref_rows.append(
+                (week, sow, f("latitude"), f("longitude"), h_ell, f("east_vel"), f("north_vel"), f("up_vel"))
+                + (f("roll"), f("pitch"), f("azimuth"), n, f("ins_status").name)
+            )
     notes = []
     if bad:
         notes.append(
             f"{file}: {len(bad)} undecodable frame(s) (bad CRC or truncated) skipped, first at message {bad[0]}"
         )
-    if ins:
-        notes.append(f"{file}: {ins} INSPVAX message(s) (the receiver's INS solution) kept as reference only")
+    if nmea:
+        notes.append(f"{file}: {len(nmea)} NMEA sentence(s) in the stream (read them with the nmea format)")
+    if repeats:
+        notes.append(f"{file}: {repeats} message(s) repeated on another port (same content and time) kept once")
+    reference = _reference(ref_rows, file, notes)
     if role == "imu":
         if not imu_rows:
-            raise BundleError("no RAWIMUSX or RAWIMUX message", file=file)
+            if corr:
+                raise BundleError(
+                    f"only CORRIMUDATA/CORRIMUS ({corr} messages): NovAtel removes gravity, the Earth's rotation and "
+                    "its own sensor error estimates from them, so a strapdown mechanisation cannot use them; log "
+                    "RAWIMUSX (or RAWIMUS/RAWIMU) on the receiver",
+                    file=file,
+                    field="message CORRIMUDATA",
+                )
+            raise BundleError("no RAWIMUSX, RAWIMUX, RAWIMUS or RAWIMU message", file=file)
         if len(types) > 1:
             raise BundleError(f"messages of several IMU types {sorted(types)}", file=file, field="imu_type")
+        if corr:
+            notes.append(f"{file}: {corr} CORRIMUDATA/CORRIMUS message(s) ignored (gravity-compensated)")
         a = np.array(imu_rows, dtype=np.float64)
+        a = a[np.lexsort((a[:, 8], a[:, 1], a[:, 0]))] if len(type_names) > 1 else a
         tname, s_gyro, s_acc, per_rate = SCALES[types.pop()]
         if per_rate:
             rate = float(opts.get("rate_hz") or 0) or (1.0 / float(np.median(np.diff(a[:, 1]))) if len(a) > 1 else 0.0)
@@ -193,7 +400,10 @@ def read(data: bytes, file: str, role: str, opts: dict):
                 )
             rate = float(round(rate))  # the nominal data rate (the time tags' jitter must not scale the data)
             s_gyro, s_acc = s_gyro / rate, s_acc / rate
-        notes.append(f"{file}: IMU type {tname}: {s_gyro:.6g} rad and {s_acc:.6g} m/s per count")
+        notes.append(
+            f"{file}: {', '.join(sorted(type_names))} of IMU type {tname}: {s_gyro:.6g} rad and {s_acc:.6g} m/s "
+            "per count; time base GPS week and seconds of the IMU sample"
+        )
         return ImuPart(
             stamps=Stamps("gps", a[:, 1], a[:, 8].astype(np.int64), week=a[:, 0].astype(np.int64)),
             dtheta_rad=a[:, 2:5] * s_gyro,
@@ -201,10 +411,21 @@ def read(data: bytes, file: str, role: str, opts: dict):
             axes=opts.get("axes", "RFU"),
             notes=notes,
             quantum=(s_gyro, s_acc),
+            reference=reference,
         )
-    if not pos_rows:
-        raise BundleError("no BESTPOS message with a computed solution", file=file)
-    a = np.array(pos_rows, dtype=np.float64)
+    for k, v in left_out.items():
+        notes.append(f"{file}: {v} {k} left out")
+    use = next((m for m in POSITIONS if pos_rows[m]), None)
+    if use is None:
+        raise BundleError("no BESTGNSSPOS or BESTPOS message with a computed, measured solution", file=file)
+    if use == "BESTGNSSPOS" and pos_rows["BESTPOS"]:
+        notes.append(f"{file}: BESTGNSSPOS used; {len(pos_rows['BESTPOS'])} BESTPOS (INS-blended on SPAN) ignored")
+    if use == "BESTPOS" and (ins_types or ref_rows or corr or types):
+        notes.append(
+            f"{file}: BESTPOS of a SPAN receiver blends the receiver's own INS (INS solution types or INS logs "
+            "in the file): aiding an INS with it is circular; log BESTGNSSPOS"
+        )
+    a = np.array(pos_rows[use], dtype=np.float64)
     return GnssPart(
         stamps=Stamps("gps", a[:, 1], a[:, 8].astype(np.int64), week=a[:, 0].astype(np.int64)),
         lat_deg=a[:, 2],
@@ -214,4 +435,43 @@ def read(data: bytes, file: str, role: str, opts: dict):
         fix=a[:, 6].astype(np.int16),
         n_sat=a[:, 7],
         notes=notes,
+        reference=reference,
     )
+
+
+def _reference(rows: list, file: str, notes: list) -> Reference | None:
+    """INSPVA/INSPVAS/INSPVAX rows (one per epoch, the first message kept) as a reference trajectory."""
+    if not rows:
+        return None
+    rows = sorted(rows, key=lambda r: (r[0], r[1], r[11]))
+    keep = [r for k, r in enumerate(rows) if k == 0 or (r[0], r[1]) != (rows[k - 1][0], rows[k - 1][1])]
+    a = np.array([r[:12] for r in keep], dtype=np.float64)
+    notes.append(
+        f"{file}: {len(keep)} INSPVA/INSPVAX epoch(s) (the receiver's own INS solution) kept as a reference "
+        "trajectory, not an input"
+    )
+    return Reference(
+        source=f"{file} INSPVA/INSPVAX",
+        stamps=Stamps("gps", a[:, 1], a[:, 11].astype(np.int64), week=a[:, 0].astype(np.int64)),
+        lat_deg=a[:, 2],
+        lon_deg=a[:, 3],
+        h_ell_m=a[:, 4],
+        v_enu_mps=a[:, 5:8],
+        rpy_deg=a[:, 8:11],
+        status=[r[12] for r in keep],
+    )
+
+
+IMPORTER = Importer(
+    NAME,
+    ROLES,
+    read,
+    sniff,
+    options=(
+        Option("imu_type", (str, int), "IMU type (name or number) for RAWIMU/RAWIMUS, which do not state it", ("imu",)),
+        Option(
+            "rate_hz", (float,), "data rate of a rate-scaled IMU (Epson) when the time tags cannot tell, Hz", ("imu",)
+        ),
+    ),
+    summary="NovAtel OEM4/6/7 logs, ASCII or binary: RAWIMU family, BESTGNSSPOS/BESTPOS, INSPVA (reference)",
+)

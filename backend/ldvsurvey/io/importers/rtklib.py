@@ -1,0 +1,208 @@
+"""RTKLIB solution files (``.pos``, written by rtkpost/rnx2rtkp/rtknavi and the demo5 builds).
+
+The header states the time system (``GPST``, ``UTC`` or ``JST`` above the time column), the
+position form (``latitude(deg)``, ``latitude(d'")`` or ``x-ecef(m)``) and, in the line
+``% (lat/lon/height=WGS84/ellipsoidal,Q=1:fix,...``, the datum and the height. Times are either
+``yyyy/mm/dd hh:mm:ss.sss`` or ``week seconds`` (always GPST). Quality ``Q``: 1 fix → GGA 4,
+2 float → 5, 3 SBAS and 4 DGPS → 2, 5 single → 1, 6 PPP → 5; other values (0, 7 dead reckoning)
+are left out and counted.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+import re
+
+import numpy as np
+
+from ldvsurvey.errors import BundleError
+from ldvsurvey.io.importers.common import GnssPart, Stamps
+from ldvsurvey.io.importers.contract import Importer, Option
+from ldvsurvey.io.importers.gpstime import GPS_EPOCH, WEEK_S
+
+NAME = "rtklib"
+ROLES = ("gnss",)
+FIX_OF_Q = {1: 4, 2: 5, 3: 2, 4: 2, 5: 1, 6: 5}
+_DATE = re.compile(r"(\d{2,4})/(\d{1,2})/(\d{1,2})")
+_TIME = re.compile(r"(\d{1,2}):(\d{1,2}):(\d{1,2}(?:\.\d*)?)")
+WGS84_A = 6378137.0
+WGS84_F = 1.0 / 298.257223563
+
+
+def sniff(data: bytes, name: str) -> str | None:
+    head = data[:4096].decode("ascii", "replace")
+    return "gnss" if re.search(r"^%\s+(GPST|UTC|JST)\s+(latitude|x-ecef)", head, re.M) else None
+
+
+def _ecef_to_llh(x: float, y: float, z: float) -> tuple[float, float, float]:
+    """WGS-84 ECEF (m) to latitude, longitude (deg) and ellipsoidal height (m), iterated to 1e-12 rad."""
+    e2 = WGS84_F * (2.0 - WGS84_F)
+    p = math.hypot(x, y)
+    lat = math.atan2(z, p * (1.0 - e2))
+    for _ in range(20):
+        n = WGS84_A / math.sqrt(1.0 - e2 * math.sin(lat) ** 2)
+        h = p / math.cos(lat) - n if abs(lat) < math.radians(89.0) else z / math.sin(lat) - n * (1.0 - e2)
+        new = math.atan2(z, p * (1.0 - e2 * n / (n + h)))
+        if abs(new - lat) < 1e-12:
+            lat = new
+            break
+        lat = new
+    n = WGS84_A / math.sqrt(1.0 - e2 * math.sin(lat) ** 2)
+    h = p / math.cos(lat) - n if abs(lat) < math.radians(89.0) else z / math.sin(lat) - n * (1.0 - e2)
+    return math.degrees(lat), math.degrees(math.atan2(y, x)), h
+
+
+def _num(tok: str, file: str, line: int, name: str) -> float:
+    try:
+        v = float(tok)
+    except ValueError:
+        raise BundleError(f"'{tok}' is not a number", file=file, line=line, field=name) from None
+    if not math.isfinite(v):
+        raise BundleError(f"'{tok}' is not a finite number", file=file, line=line, field=name)
+    return v
+
+
+def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
+    if role != "gnss":
+        raise BundleError(f"the rtklib format has only GNSS fixes, not '{role}'", file=file)
+    text = data.decode("utf-8", "replace")
+    times = form = height = datum = None
+    rows, where, left_out = [], [], {}
+    for lineno, raw in enumerate(text.split("\n"), start=1):
+        s = raw.strip()
+        if not s:
+            continue
+        if s.startswith("%"):
+            m = re.search(r"lat/lon/height=(\w+)/(\w+)", s)
+            if m:
+                datum, height = m.group(1), m.group(2)
+            if "x/y/z-ecef=" in s:
+                datum, height = "WGS84", "ellipsoidal"
+            m = re.match(r"%\s+(GPST|UTC|JST)\s+(\S+)", s)
+            if m:
+                times = m.group(1)
+                form = "dms" if m.group(2).startswith("latitude(d'") else "ecef" if "ecef" in m.group(2) else m.group(2)
+                if form not in ("latitude(deg)", "dms", "ecef"):
+                    raise BundleError(
+                        f"position form '{m.group(2)}' is not read (rtkpost: output latitude/longitude/height or "
+                        "x/y/z-ecef)",
+                        file=file,
+                        line=lineno,
+                        field="header",
+                    )
+            continue
+        if times is None:
+            raise BundleError(
+                "no header line naming the time system and the columns (% GPST latitude(deg) ...): write the "
+                "solution with its header (rtkpost: Output Header ON)",
+                file=file,
+                line=lineno,
+                field="header",
+            )
+        tok = s.replace(",", " ").split()
+        if _DATE.fullmatch(tok[0]) if tok else False:
+            if len(tok) < 2 or not _TIME.fullmatch(tok[1]):
+                raise BundleError("date without a time hh:mm:ss", file=file, line=lineno, field="time")
+            y, mo, d = (int(v) for v in _DATE.fullmatch(tok[0]).groups())
+            y += 0 if y >= 100 else 2000 if y < 80 else 1900
+            hh, mm, ss = _TIME.fullmatch(tok[1]).groups()
+            try:
+                day = dt.date(y, mo, d)
+            except ValueError:
+                raise BundleError(f"'{tok[0]}' is not a date", file=file, line=lineno, field="time") from None
+            if int(hh) > 23 or int(mm) > 59 or float(ss) >= 61.0:
+                raise BundleError(f"'{tok[1]}' is not a time of day", file=file, line=lineno, field="time")
+            days = (day - GPS_EPOCH.date()).days
+            t = (days * 86400 + int(hh) * 3600 + int(mm) * 60, float(ss))  # whole s since the GPS epoch, and s
+            rest = tok[2:]
+            kind = times
+        else:
+            if len(tok) < 2:
+                raise BundleError("expected a time (date and time, or week and seconds)", file=file, line=lineno)
+            week = _num(tok[0], file, lineno, "week")
+            sow = _num(tok[1], file, lineno, "seconds of week")
+            if week != int(week) or not 0 <= week <= 9999 or not 0 <= sow < WEEK_S:
+                raise BundleError(f"'{tok[0]} {tok[1]}' is not a GPS week and seconds", file=file, line=lineno)
+            t = (int(week) * WEEK_S, sow)
+            rest = tok[2:]
+            kind = "GPST"
+        n_pos = 7 if form == "dms" else 3
+        if len(rest) < n_pos + 2:
+            raise BundleError(f"expected {n_pos} position fields, Q and ns", file=file, line=lineno, field="Q")
+        q = int(_num(rest[n_pos], file, lineno, "Q"))
+        if q not in FIX_OF_Q:
+            left_out[q] = left_out.get(q, 0) + 1
+            continue
+        if form == "dms":
+            v = [_num(x, file, lineno, "position") for x in rest[:7]]
+            lat = math.copysign(abs(v[0]) + v[1] / 60.0 + v[2] / 3600.0, -1.0 if rest[0].startswith("-") else 1.0)
+            lon = math.copysign(abs(v[3]) + v[4] / 60.0 + v[5] / 3600.0, -1.0 if rest[3].startswith("-") else 1.0)
+            h = v[6]
+        elif form == "ecef":
+            lat, lon, h = _ecef_to_llh(*(_num(x, file, lineno, f"{a}-ecef") for x, a in zip(rest[:3], "xyz")))
+        else:
+            lat = _num(rest[0], file, lineno, "latitude")
+            lon = _num(rest[1], file, lineno, "longitude")
+            h = _num(rest[2], file, lineno, "height")
+        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 360.0):
+            raise BundleError(f"{lat}, {lon} is not a position in degrees", file=file, line=lineno, field="latitude")
+        ns = _num(rest[n_pos + 1], file, lineno, "ns")
+        rows.append((kind, t[0], t[1], lat, lon if lon <= 180.0 else lon - 360.0, h, FIX_OF_Q[q], ns))
+        where.append(lineno)
+    if not rows:
+        raise BundleError(f"no solution with a usable quality Q (left out: {left_out or 'none'})", file=file)
+    if datum not in (None, "WGS84"):
+        raise BundleError(f"datum {datum}: only WGS84 solutions are read", file=file, field="header")
+    if height is None:  # the file does not say: the user may
+        height = opts.get("height")
+    if height != "ellipsoidal":
+        raise BundleError(
+            (
+                f"heights are {height} (above RTKLIB's geoid model): write ellipsoidal heights (rtkpost: Height = "
+                "Ellipsoidal)"
+            )
+            if height
+            else "the header does not say whether heights are ellipsoidal (% (lat/lon/height=WGS84/ellipsoidal...)): "
+            'write the header, or state it as "import": {"gnss": {"height": "ellipsoidal"}}',
+            file=file,
+            field="height",
+        )
+    kinds = {r[0] for r in rows}
+    if len(kinds) > 1:
+        raise BundleError("time columns of several kinds", file=file, field="time")
+    whole = np.array([r[1] for r in rows], dtype=np.int64)
+    frac = np.array([r[2] for r in rows], dtype=np.float64)
+    a = np.array([r[3:] for r in rows], dtype=np.float64)
+    lines = np.array(where, dtype=np.int64)
+    kind = kinds.pop()
+    if kind == "GPST":
+        week = whole // int(WEEK_S)
+        stamps = Stamps("gps", (whole - week * int(WEEK_S)).astype(np.float64) + frac, lines, week=week)
+    else:  # UTC or JST calendar time: UNIX seconds, whole seconds kept apart for precision
+        unix0 = int((dt.datetime(1980, 1, 6) - dt.datetime(1970, 1, 1)).total_seconds())
+        whole = whole + unix0 - (9 * 3600 if kind == "JST" else 0)
+        off = int(whole[0])
+        stamps = Stamps("unix", (whole - off).astype(np.float64) + frac, lines, offset_s=off)
+    notes = [f"{file}: RTKLIB solution, times in {kind}, ellipsoidal heights"]
+    if left_out:
+        notes.append(f"{file}: solutions of quality Q {sorted(left_out)} ({sum(left_out.values())}) left out")
+    return GnssPart(
+        stamps=stamps,
+        lat_deg=a[:, 0],
+        lon_deg=a[:, 1],
+        h_ell_m=a[:, 2],
+        fix=a[:, 3].astype(np.int16),
+        n_sat=a[:, 4],
+        notes=notes,
+    )
+
+
+IMPORTER = Importer(
+    NAME,
+    ROLES,
+    read,
+    sniff,
+    options=(Option("height", (str,), "'ellipsoidal' when a solution file has no header saying so", ("gnss",)),),
+    summary="RTKLIB .pos solutions (lat/lon/height or x/y/z-ecef; GPST, UTC or JST)",
+)

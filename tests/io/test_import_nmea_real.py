@@ -1,0 +1,188 @@
+"""The ``nmea`` importer and the bundle's NMEA reader (one reader, two modes) on real receivers' logs.
+
+The yardstick is gpsd's regression logs (``tests/fixtures/real/nmea/gpsd``, many receivers from 1999
+to 2024, with pre-fix sentences, binary frames, empty fields, out-of-order epochs), each sentence
+decoded independently by pynmeagps. Every file must import with the epochs pynmeagps finds, or be
+refused with a typed error naming file, line and field; never anything else.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pynmeagps import NMEAReader
+
+from ldvsurvey.errors import BundleError
+from ldvsurvey.io.importers import nmea
+from ldvsurvey.io.nmea import parse_nmea
+from tests.helpers.nmea import sentence
+
+GPSD = Path(__file__).resolve().parents[1] / "fixtures" / "real" / "nmea" / "gpsd"
+LOGS = sorted(GPSD.glob("*.log"))
+#: qualities that are a measured position (6 dead reckoning, 7 manual input, 8 simulator are not)
+MEASURED = (1, 2, 3, 4, 5)
+
+
+def _independent(data: bytes) -> dict[int, object]:
+    """Line number -> pynmeagps GGA message (good checksum, measured quality) of every line."""
+    out = {}
+    for lineno, raw in enumerate(data.split(b"\n"), start=1):
+        k = raw.rfind(b"$")
+        if k < 0 or b"GGA," not in raw[k:]:
+            continue
+        try:
+            m = NMEAReader.parse(raw[k:].strip(), validate=1)
+        except Exception:  # noqa: BLE001 - pynmeagps raises several types for what it cannot read
+            continue
+        if m is not None and m.msgID == "GGA" and isinstance(m.quality, int) and m.quality in MEASURED:
+            out[lineno] = m
+    return out
+
+
+def test_the_fixture_set_is_there():
+    assert len(LOGS) >= 100, "tests/fixtures/real/nmea/gpsd holds the gpsd logs (see its README)"
+
+
+def test_at_least_95_percent_of_real_logs_with_a_fixed_gga_import_and_the_rest_are_refused_by_name():
+    with_fix, imported, refused = 0, [], []
+    for path in LOGS:
+        data = path.read_bytes()
+        if not _independent(data):
+            continue
+        with_fix += 1
+        try:
+            nmea.read(data, path.name, "gnss", {})
+            imported.append(path.name)
+        except BundleError as exc:  # any other exception fails the test: exit 1
+            assert exc.file == path.name
+            assert exc.line is not None or "no valid GGA" in exc.message, str(exc)
+            refused.append(f"{exc}")
+    share = len(imported) / with_fix
+    print(f"\n{len(imported)}/{with_fix} real NMEA logs with a fixed GGA import ({100 * share:.1f} %); refused:")
+    print("\n".join(refused))
+    assert share >= 0.95
+
+
+@pytest.mark.parametrize("path", LOGS, ids=[p.name for p in LOGS])
+def test_every_imported_epoch_is_the_receivers_sentence_as_pynmeagps_reads_it(path):
+    data = path.read_bytes()
+    ref = _independent(data)
+    try:
+        g = nmea.read(data, path.name, "gnss", {})
+    except BundleError as exc:
+        assert exc.file == path.name
+        return
+    lines = g.stamps.where.tolist()
+    assert set(lines) <= set(ref), "an epoch from a line pynmeagps does not read as a measured fix"
+    for j, ln in enumerate(lines):
+        m = ref[ln]
+        assert g.lat_deg[j] == pytest.approx(m.lat, abs=1e-9)
+        assert g.lon_deg[j] == pytest.approx(m.lon, abs=1e-9)
+        sep = float(m.sep) if m.sep != "" else 0.0
+        assert g.h_ell_m[j] == pytest.approx(float(m.alt) + sep, abs=1e-9)
+        assert g.sep_m[j] == pytest.approx(sep, abs=1e-12)
+        assert g.fix[j] == m.quality
+        tod = m.time.hour * 3600 + m.time.minute * 60 + m.time.second + m.time.microsecond * 1e-6
+        assert (g.stamps.values[j] - tod) % 86400.0 == pytest.approx(0.0, abs=1e-6)
+    # what is not imported is accounted for: no altitude, a repeated or stray epoch
+    missing = [ln for ln in ref if ln not in set(lines)]
+    times = {round(float(v) % 86400.0, 3) for v in g.stamps.values}
+    for ln in missing:
+        m = ref[ln]
+        tod = round(m.time.hour * 3600 + m.time.minute * 60 + m.time.second + m.time.microsecond * 1e-6, 3)
+        assert m.alt == "" or tod in times or any("out of order" in n for n in g.notes), f"line {ln} lost"
+    assert np.all(np.diff(g.stamps.values) > 0)
+
+
+def test_pre_fix_sentences_are_left_out_not_fatal():
+    # telit-he910: 37 pre-fix sentences "$GPGGA,,,,,,0,,,,M,,M,,*66" before the first fix (exit 2 before)
+    g = nmea.read((GPSD / "telit-he910.log").read_bytes(), "telit-he910.log", "gnss", {})
+    assert len(g.lat_deg) > 20
+    assert any("without a fix" in n for n in g.notes)
+    rmc = next(
+        m
+        for m in (
+            NMEAReader.parse(ln.strip(), validate=1) for ln in (GPSD / "telit-he910.log").read_bytes().split(b"\n")
+        )
+        if m is not None and m.msgID == "RMC" and m.status == "A"
+    )
+    assert g.stamps.day == rmc.date == dt.date(2019, 3, 12)  # (the log's header gives its submission, 03-14)
+
+
+def test_double_dollar_sentences_are_read():
+    # st-teseo-liv4f writes "$$GNGGA,...": 330 sentences counted as bad checksums before
+    g = nmea.read((GPSD / "st-teseo-liv4f.log").read_bytes(), "st-teseo-liv4f.log", "gnss", {})
+    assert len(g.lat_deg) == len(_independent((GPSD / "st-teseo-liv4f.log").read_bytes())) == 12
+    assert 47.3 < g.lat_deg[0] < 47.4
+
+
+def test_empty_altitude_names_line_and_field():
+    # polarx2: fixes without altitude (2-D): no height, no epoch; the refusal names the first one
+    with pytest.raises(BundleError) as e:
+        nmea.read((GPSD / "polarx2.log").read_bytes(), "polarx2.log", "gnss", {})
+    assert (e.value.file, e.value.field) == ("polarx2.log", "altitude") and e.value.line is not None
+    assert "None" not in e.value.message
+
+
+def _fix(t: str, alt: str = "545.4") -> str:
+    return sentence(f"GPGGA,{t},4807.0380,N,01131.0000,E,1,08,0.9,{alt},M,46.9,M,,")
+
+
+def test_a_malformed_gga_with_a_good_checksum_is_skipped_and_named():
+    lines = [_fix("123519"), sentence("GPGGA,123520,48x7.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"), _fix("123521")]
+    g = nmea.read("\r\n".join(lines).encode(), "rx.nmea", "gnss", {})
+    assert g.stamps.where.tolist() == [1, 3]
+    note = next(n for n in g.notes if "defective" in n)
+    assert "line 2" in note and "latitude" in note
+
+
+def test_a_sentence_right_after_a_binary_frame_is_read():
+    ubx = b"\xb5b\x01\x07\x5c\x00" + bytes(range(92)).replace(b"\n", b"\x00") + b"\x12\x34"
+    data = _fix("123519").encode() + b"\r\n" + ubx + _fix("123520").encode() + b"\r\n"
+    g = nmea.read(data, "rx.nmea", "gnss", {})
+    assert g.stamps.where.tolist() == [1, 2]
+    assert any("binary" in n for n in g.notes)
+
+
+def test_simulator_and_dead_reckoning_fixes_are_not_measurements():
+    body = "GPGGA,125106,3854.5087,N,07726.4523,W,{q},10,2.0,268.8,M,-33.9,M,,"
+    data = "\r\n".join(sentence(body.format(q=q)) for q in (8, 6, 7)).encode()
+    with pytest.raises(BundleError):
+        nmea.read(data, "sim.nmea", "gnss", {})
+
+
+def test_one_stray_epoch_is_left_out_but_a_clock_jump_is_refused():
+    ts = [f"1235{s:02d}" for s in range(10, 50)]
+    stray = ts[:20] + ["123505"] + ts[20:]
+    g = nmea.read("\n".join(_fix(t) for t in stray).encode(), "rx.nmea", "gnss", {})
+    assert len(g.lat_deg) == 40 and any("out of order" in n for n in g.notes)
+    jump = ts[:20] + [f"1134{s:02d}" for s in range(10, 30)]
+    with pytest.raises(BundleError) as e:
+        nmea.read("\n".join(_fix(t) for t in jump).encode(), "rx.nmea", "gnss", {})
+    assert (e.value.line, e.value.field) == (21, "time")
+
+
+def test_a_file_whose_every_checksum_is_wrong_is_an_input_error():
+    # regression: IndexError (exit 1) in the bundle's reader
+    data = b"$GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,*00\r\n" * 3
+    with pytest.raises(BundleError) as e:
+        parse_nmea(data)
+    assert e.value.file == "gnss.nmea" and "3 with a bad checksum" in e.value.message
+    with pytest.raises(BundleError):
+        nmea.read(data, "rx.nmea", "gnss", {})
+
+
+def test_the_bundle_reader_leaves_pre_fix_sentences_out():
+    data = ("$GPGGA,,,,,,0,,,,M,,M,,*66\r\n" + _fix("123519") + "\r\n").encode()
+    g = parse_nmea(data)
+    assert len(g) == 1 and g.no_fix == 1
+
+
+def test_the_bundle_reader_is_the_importers_reader():
+    import inspect
+
+    src = inspect.getsource(nmea)
+    assert "parse_nmea" in src and "pynmea" not in src
