@@ -83,14 +83,15 @@ class Line(_Model):
 
 
 class Manifest(_Model):
-    """The whole manifest. ``date`` is the UTC day that ``t = 0`` belongs to."""
+    """The whole manifest. ``date`` is the UTC day that ``t = 0`` belongs to; ``ldv`` is absent
+    (None) exactly when the bundle has no ``ldv.csv``."""
 
     format: Literal["ldv-drive-log/1"]
     name: StrictStr = ""
     date: dt.date
     platform: Literal["vehicle", "vessel"]
     imu: ImuSpec
-    ldv: LdvSpec
+    ldv: LdvSpec | None = None  #: None: the bundle has no LDV (an INS/GNSS log, no ldv.csv)
     gnss: GnssSpec = GnssSpec()
     initial: Initial = Initial()
     lines: list[Line] = []

@@ -17,6 +17,7 @@ from ldvsurvey.pipelines.base import (
     PipelineResult,
     Reason,
     needs_gnss,
+    needs_ldv,
     output_rate,
     rate_within_imu,
 )
@@ -50,7 +51,9 @@ def applicable(logs: list[LogFacts], params: DampingParams) -> list[Reason]:
     for f in logs:
         if f.platform != "vessel":
             out.append(Reason("platform", f"damping is for vessels: log '{f.name}' is a {f.platform}"))
-        if f.ldv_kind != "water":
+        if not f.has_ldv:
+            out += needs_ldv([f], "damping needs a water-track LDV", "ldv.kind")
+        elif f.ldv_kind != "water":
             out.append(
                 Reason("ldv.kind", f"damping needs a water-track LDV: log '{f.name}' has ldv.kind '{f.ldv_kind}'")
             )
