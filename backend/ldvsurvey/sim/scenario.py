@@ -223,6 +223,21 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
 NOMINAL_BIAS_CORRELATION_S = 1800.0
 
 
+def gnss_height_noise() -> dict:
+    """The simulated receiver's height error by fix quality, as a datasheet states it (manifest
+    ``gnss.height_noise``): the white part and the rest of the σ as a Gauss-Markov wander."""
+    from ldvsurvey.sim.sensors import FIX_SIGMA, FIX_WHITE, GNSS_CORR_S
+
+    return {
+        str(q): {
+            "white_m": FIX_WHITE[q][1],
+            "correlated_m": float(np.sqrt(max(FIX_SIGMA[q][1] ** 2 - FIX_WHITE[q][1] ** 2, 0.0))),
+            "correlation_s": GNSS_CORR_S,
+        }
+        for q in sorted(FIX_SIGMA)
+    }
+
+
 def manifest(sim: SimResult) -> dict:
     sc = sim.scenario
     m = {
@@ -247,7 +262,7 @@ def manifest(sim: SimResult) -> dict:
             "lever_arm_m": list(sc.ldv.lever_arm_m),
             "noise_mps": sc.ldv.noise_mps,
         },
-        "gnss": {"lever_arm_m": list(sc.gnss_lever_m)},
+        "gnss": {"lever_arm_m": list(sc.gnss_lever_m), "height_noise": gnss_height_noise()},
         "initial": {
             "lat_deg": float(np.degrees(sim.imu.lat_rad[0])),
             "lon_deg": float(np.degrees(sim.imu.lon_rad[0])),
