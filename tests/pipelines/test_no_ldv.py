@@ -193,3 +193,67 @@ def test_dov_without_ldv(tmp_path):
     assert scale > 0.5
     for c in ("n", "e"):
         assert np.abs(tab[f"d{c}_rk4_m"] - tab[f"d{c}_theoretical_m"]).max() < 0.1 * scale, c
+
+
+def test_moving_start_without_ldv():
+    """A log without an LDV that begins on the move (cut 50 s after moving off, no static period,
+    no manifest start): aligned from the GNSS course and speed, then the GNSS-aided filter."""
+    from ldvsurvey.io.writers import imu_csv, nmea_text
+    from ldvsurvey.nav.attitude import euler_from_c_bn
+    from ldvsurvey.pipelines.inputs import nav_inputs
+    from ldvsurvey.sim.scenario import GEOID_SEPARATION_M
+
+    sim = simulate(catalog.drive(minutes=6.0, static_s=60.0, with_ldv=False), seed=8)
+    t_cut = sim.scenario.t0_s + 110.0
+    ki, kg = sim.imu.t_s > t_cut, sim.gnss_t_s > t_cut
+    m = json.loads(bundle_files(sim)["manifest.json"])
+    m["initial"] = {}
+    f = {
+        "manifest.json": json.dumps(m).encode(),
+        "imu.csv": imu_csv(sim.imu.t_s[ki], sim.dtheta_rad[ki], sim.dvel_mps[ki]),
+        "gnss.nmea": nmea_text(
+            sim.gnss_t_s[kg],
+            sim.gnss_lat_deg[kg],
+            sim.gnss_lon_deg[kg],
+            sim.gnss_h_m[kg],
+            sim.gnss_fix[kg],
+            sep_m=GEOID_SEPARATION_M,
+            talker="GN",
+        ),
+    }
+    j = int(np.flatnonzero(ki)[0])
+    inp = nav_inputs(parse_files(f))
+    p, r, h = euler_from_c_bn(inp.c_bn0)
+    pt, rt, ht = euler_from_c_bn(sim.imu.c_bn[j])
+    deg = np.pi / 180
+    assert abs(p - pt) < 0.1 * deg and abs(r - rt) < 0.1 * deg
+    assert abs((h - ht + np.pi) % (2 * np.pi) - np.pi) < 0.3 * deg
+    res = run_pipeline(get("navigate"), [parse_files(f)], {})
+    assert res.summary["aiding"] == "gnss"
+    assert any("coarse alignment on the move" in w for w in res.summary["warnings"])
+    tab = res.tables["trajectory"]
+    k = np.searchsorted(sim.imu.t_s, tab["t_s"])
+    late = tab["t_s"] > tab["t_s"][0] + 60.0
+    _, _, hh = euler_from_c_bn(sim.imu.c_bn[k])
+    assert np.abs((np.radians(tab["heading_deg"]) - hh + np.pi) % (2 * np.pi) - np.pi)[late].max() < 0.1 * deg
+    d = enu_offset_m(
+        sim.imu.lat_rad[k],
+        sim.imu.lon_rad[k],
+        sim.imu.h_m[k],
+        np.radians(tab["lat_deg"]),
+        np.radians(tab["lon_deg"]),
+        tab["h_m"],
+    )
+    assert np.abs(d).max() < 0.15
+
+
+def test_cli_refuses_what_needs_an_ldv(rtk_drive, tmp_path, capsys):
+    """``ldv-survey run`` says the same as the REST submit: exit 2 naming the missing LDV, nothing written."""
+    _, _, _, d = rtk_drive
+    for pipe in ("calibrate", "height"):
+        out = tmp_path / pipe
+        assert main(["run", pipe, str(d / "bundle"), "--out", str(out)]) == 2
+        assert "has no LDV" in capsys.readouterr().err
+        assert not out.exists() or not any(out.iterdir())
+    assert main(["run", "navigate", str(d / "bundle"), "--set", "aiding=ldv+gnss", "--out", str(tmp_path / "n")]) == 2
+    assert "aiding" in capsys.readouterr().err

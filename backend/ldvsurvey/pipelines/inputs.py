@@ -85,7 +85,8 @@ def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
 def _gnss_speed_at(log: DriveLog, t_imu: np.ndarray):
     """Where the vehicle's speed is known from GNSS and that speed, at the IMU samples (a log without
     an LDV finds its stops from it): the horizontal speed of the fixes over a 2-epoch baseline,
-    usable where the fixes on both sides are at most 2.5 GNSS intervals apart."""
+    usable where the fixes on both sides are at most 2.5 GNSS intervals apart (and up to one interval
+    before the first fix and after the last, the speed held)."""
     from ldvsurvey.io.logfacts import gnss_speed
 
     g = log.gnss
@@ -99,7 +100,11 @@ def _gnss_speed_at(log: DriveLog, t_imu: np.ndarray):
     sp = gnss_speed(tg, g.lat_deg[k], g.lon_deg[k], baseline=1)
     speed = np.interp(t_imu, tg, sp)
     j = np.clip(np.searchsorted(tg, t_imu), 1, len(tg) - 1)
-    ok = (t_imu >= tg[0]) & (t_imu <= tg[-1]) & (tg[j] - tg[j - 1] <= 2.5 * float(np.median(np.diff(tg))))
+    step = float(np.median(np.diff(tg)))
+    ok = tg[j] - tg[j - 1] <= 2.5 * step
+    # up to one GNSS interval beyond the first and last fixes the speed is held (a log's first IMU
+    # samples come before its first fix: the moving start takes the speed of the first second there)
+    ok &= (t_imu >= tg[0] - step) & (t_imu <= tg[-1] + step)
     return ok, speed
 
 
