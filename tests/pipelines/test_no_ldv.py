@@ -257,3 +257,28 @@ def test_cli_refuses_what_needs_an_ldv(rtk_drive, tmp_path, capsys):
         assert not out.exists() or not any(out.iterdir())
     assert main(["run", "navigate", str(d / "bundle"), "--set", "aiding=ldv+gnss", "--out", str(tmp_path / "n")]) == 2
     assert "aiding" in capsys.readouterr().err
+
+
+def test_a_day_the_ldv_failed_navigates_with_gnss():
+    """ldv.csv present but no sample above min_quality (the issue's 'survey day on which the LDV
+    failed'): navigate with GNSS aiding (asked, or auto) runs and says why; LDV aiding is refused
+    naming ldv.csv."""
+    from ldvsurvey.errors import ParameterError
+    from ldvsurvey.io.writers import ldv_csv
+
+    sim = simulate(catalog.drive(minutes=8.0, fix_schedule=[]), seed=4)
+    f = bundle_files(sim)
+    n = len(sim.ldv_t_s)
+    f["ldv.csv"] = ldv_csv(sim.ldv_t_s, v_fwd_mps=sim.ldv_v_fwd, v_up_mps=sim.ldv_v_up, quality=np.zeros(n))
+    log = parse_files(f)
+    for params in ({"aiding": "gnss"}, {}):
+        r = run_pipeline(get("navigate"), [log], params)
+        assert r.summary["aiding"] == "gnss"
+        assert any("no usable sample" in w for w in r.summary["warnings"]), params
+        tab = r.tables["trajectory"]
+        lat, lon, h = _truth_at(sim, tab["t_s"])
+        e = enu_offset_m(lat, lon, h, np.radians(tab["lat_deg"]), np.radians(tab["lon_deg"]), tab["h_m"])
+        assert np.sqrt(np.mean(e**2)) < 0.05
+    with pytest.raises(ParameterError) as ei:
+        run_pipeline(get("navigate"), [log], {"aiding": "ldv+gnss"})
+    assert ei.value.field == "ldv.csv"

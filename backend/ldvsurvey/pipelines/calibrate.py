@@ -49,6 +49,7 @@ def run(logs, params, progress) -> PipelineResult:
     log = logs[0]
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    inp.require_ldv()
     dov_info, warnings = apply_dov(inp, params, progress)
     window = params["calibration_window"]
     if window is not None and len(window) != 2:

@@ -106,6 +106,7 @@ def run(logs, params, progress) -> PipelineResult:
         )
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    inp.require_ldv()
     warnings = list(inp.warnings)
     tg, glat, glon, gh, gv = _reference(log, inp.t_s)
     if inp.eta_rad is not None:  # a rotating IMU: C_b^s from the encoder and the base tilt

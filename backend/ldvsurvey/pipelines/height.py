@@ -99,6 +99,7 @@ def run(logs, params, progress) -> PipelineResult:
     m = log.manifest
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    inp.require_ldv()
     dov_info, warnings = apply_dov(inp, params, progress)
     setup = ldv_setup(inp, params, progress)
     warnings += setup.warnings

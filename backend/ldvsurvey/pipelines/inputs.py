@@ -53,6 +53,20 @@ class NavInputs:
     v0_n: np.ndarray | None = None  # velocity (ENU, m/s) at the start when aligned on the move
     #: (xi_rad, eta_rad, dg_mps2) per IMU sample for the mechanization's gravity (None: normal gravity)
     gravity: tuple | None = None
+    #: why the log's LDV cannot aid (no usable sample), raised by what needs it; None: usable or absent
+    ldv_unusable: ParameterError | None = None
+
+    @property
+    def has_ldv(self) -> bool:
+        """The log has an LDV with usable samples (else only GNSS or nothing aids)."""
+        return self.log.ldv is not None and self.ldv_unusable is None
+
+    def require_ldv(self) -> None:
+        """Raise what keeps the LDV from aiding (a pipeline that needs it calls this first)."""
+        if self.ldv_unusable is not None:
+            raise self.ldv_unusable
+        if self.log.ldv is None:
+            raise ParameterError("the bundle has no LDV (no ldv.csv)", file="ldv.csv", field="ldv")
 
     def __post_init__(self):
         if self.cache is None:
@@ -118,10 +132,14 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     t = imu.t_s
     m = log.manifest
     eta = np.unwrap(np.radians(imu.turntable_deg)) if imu.turntable_deg is not None else None
+    unusable = None
     if log.ldv is not None:
-        ok, nu_f, nu_u = _interp_ldv(log, t)
-        speed_ok, speed, by = ok, nu_f, "the LDV"
-    else:  # no LDV: never usable as an aid; the stops and a moving start from the GNSS speed
+        try:
+            ok, nu_f, nu_u = _interp_ldv(log, t)
+            speed_ok, speed, by = ok, nu_f, "the LDV"
+        except ParameterError as exc:  # an LDV that failed all day: GNSS-only work still goes on
+            unusable = exc
+    if log.ldv is None or unusable is not None:  # no LDV: never an aid; stops and a moving start from GNSS
         ok, nu_f, nu_u = np.zeros(len(t), bool), np.zeros(len(t)), None
         speed_ok, speed = _gnss_speed_at(log, t)
         by = "the GNSS track"
@@ -172,6 +190,7 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         warnings=warnings,
         c_bn0=None if start is None else start[0],
         v0_n=None if start is None else start[1],
+        ldv_unusable=unusable,
     )
 
 

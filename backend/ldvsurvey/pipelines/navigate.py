@@ -63,16 +63,20 @@ def run_navigation(log, params, progress, specific_force: bool = True):
     """The navigation solution and what was used (shared with the gravity pipeline; ``specific_force``
     False: the solution carries no per-sample up specific force, which only gravity reads)."""
     inp = nav_inputs(log)
+    aiding = resolve_aiding(params.get("aiding", "auto"), inp.has_ldv)
+    if "ldv" in aiding:
+        inp.require_ldv()
+    if log.ldv is not None and not inp.has_ldv:
+        from ldvsurvey.pipelines.base import warn
+
+        warn(f"the LDV has no usable sample ({inp.ldv_unusable.message}): navigated with {aiding} aiding")
     # pipelines that share this function without the dov parameters keep normal gravity
     dov_info, dov_warn = ({"source": "none"}, []) if "dov" not in params else apply_dov(inp, params, progress)
     inp.cache["dov"] = (dov_info, dov_warn)
-    aiding = resolve_aiding(params.get("aiding", "auto"), log.ldv is not None)
     use_ldv = "ldv" in aiding
     use_gnss = "gnss" in aiding
     if use_gnss and log.gnss is None:
         raise ParameterError("aiding includes gnss but the bundle has no gnss.nmea", field="aiding")
-    if use_ldv and log.ldv is None:
-        raise ParameterError(f"aiding={aiding} includes the LDV but the bundle has no ldv.csv", field="aiding")
     smooth = params.get("smooth", True)
     # LDV and GNSS, smoothed: the automatic calibration and the navigation are one filter run
     setup = (

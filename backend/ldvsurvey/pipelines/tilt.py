@@ -52,7 +52,7 @@ def compensated_attitude(inp, est, params, progress, frac=0.4):
     returns (solution, C_s^n, C_b^n, raw C_b^n)."""
     cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
     progress("navigation with the tilt compensated", frac)
-    if inp.log.ldv is None:
+    if not inp.has_ldv:
         sol = navigate(inp, cbs=cbs, gnss=gnss_aid(inp.log))
     else:
         aid = ldv_aid(
@@ -136,7 +136,7 @@ def run(logs, params, progress) -> PipelineResult:
         "turntable_diversity": est.diversity,
         "rms_residual_rad": est.rms_residual_rad,
         "method": "least squares of the up direction over the turntable angle in still intervals",
-        "aiding": "ldv" if log.ldv is not None else ("gnss" if log.gnss is not None else "none (ZUPT only)"),
+        "aiding": "ldv" if inp.has_ldv else ("gnss" if log.gnss is not None else "none (ZUPT only)"),
     }
     for key, i in (("pitch", 0), ("roll", 1)):
         s[f"{key}_oscillation_before_rad"] = osc["before"][i] if osc else None

@@ -67,7 +67,7 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     later = [(a, b) for a, b in inp.still if a >= inp.static_end_s - 1e-6]
     if (est is None or not est.observable) and later:
         stops_all = find_stops(inp.t_s, inp.eta_rad)
-        has_ldv = inp.log.ldv is not None  # without an LDV: the GNSS fixes aid the whole-log navigation
+        has_ldv = inp.has_ldv  # without a (usable) LDV: the GNSS fixes aid the whole-log navigation
         sol = navigate(
             inp,
             cbs=c_bs_of(inp),
