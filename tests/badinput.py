@@ -111,6 +111,9 @@ def case(name):
     elif name == "missing_file":
         del f["ldv.csv"]
         exp = dict(file="ldv.csv", line=None, field=None)
+    elif name == "ldv_without_manifest_section":
+        _manifest(f, lambda m: m.pop("ldv"))  # ldv.csv kept: nothing says what it measures
+        exp = dict(file="manifest.json", line=None, field="ldv")
     elif name == "nmea_bad_altitude":
         lines = f["gnss.nmea"].decode().split("\r\n")
         body = lines[4][1:].split("*")[0].split(",")
@@ -154,6 +157,7 @@ CASES = [
     "manifest_unit_as_string",
     "manifest_bad_json",
     "missing_file",
+    "ldv_without_manifest_section",
     "nmea_bad_altitude",
     "nmea_time_backwards",
     "fd_without_optics",

@@ -61,9 +61,14 @@ def make_arrays(n_imu=2000, rate=100.0, t0=30000.0, n_gnss=None, seed=0, rotatin
     return arr
 
 
-def make_bundle(seed=0, n_imu=2000, manifest=None, gnss=True, fd=False, rotating=False, **kw) -> dict[str, bytes]:
-    """``{name: bytes}`` of a valid 2-D LDV bundle with random content."""
+def make_bundle(
+    seed=0, n_imu=2000, manifest=None, gnss=True, fd=False, rotating=False, ldv=True, **kw
+) -> dict[str, bytes]:
+    """``{name: bytes}`` of a valid 2-D LDV bundle with random content (``ldv=False``: an INS/GNSS
+    bundle, no ldv.csv and no manifest ldv section)."""
     m = copy.deepcopy(manifest or MANIFEST)
+    if not ldv:
+        m.pop("ldv", None)
     m["imu"]["rotating"] = rotating
     a = make_arrays(n_imu=n_imu, seed=seed, rotating=rotating, **kw)
     files = {
@@ -77,6 +82,8 @@ def make_bundle(seed=0, n_imu=2000, manifest=None, gnss=True, fd=False, rotating
             fd_hz=a["v_fwd"] * 1e5 if fd else None,
         ),
     }
+    if not ldv:
+        del files["ldv.csv"]
     if gnss:
         g = a["gnss"]
         files["gnss.nmea"] = nmea_text(g["t"], g["lat"], g["lon"], g["h"], g["fix"])

@@ -25,7 +25,8 @@ def _cmd_validate(args) -> int:
         report["gnss"].pop("fix_timeline", None)
     m = log.manifest
     print(
-        f"{args.bundle}: valid {m.format} bundle '{m.name}' ({m.platform}, LDV {m.ldv.kind}, "
+        f"{args.bundle}: valid {m.format} bundle '{m.name}' ({m.platform}, "
+        f"{'no LDV' if m.ldv is None else 'LDV ' + m.ldv.kind}, {'GNSS' if log.gnss is not None else 'no GNSS'}, "
         f"IMU {'rotating' if m.imu.rotating else 'fixed'}), {report['duration_s']:.1f} s"
     )
     if args.json:
@@ -152,7 +153,8 @@ def _cmd_import(args) -> int:
     print(
         f"{out}: {', '.join(f['role'] + '=' + f['format'] for f in s['files'])}; {s['date']}, "
         f"t {s['time_span_s'][0]:.3f}-{s['time_span_s'][1]:.3f} s; IMU {s['rates_hz']['imu']} Hz "
-        f"(axes {s['imu_axes']}, static tilt {s['static_tilt_deg']:.2f} deg), LDV {s['rates_hz']['ldv']} Hz"
+        f"(axes {s['imu_axes']}, static tilt {s['static_tilt_deg']:.2f} deg), "
+        + ("no LDV" if s["rates_hz"]["ldv"] is None else f"LDV {s['rates_hz']['ldv']} Hz")
     )
     for w in result.warnings:
         print(f"warning: {w}", file=sys.stderr)
@@ -362,7 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     im.add_argument("--imu", required=True, metavar="FORMAT:FILE")
     im.add_argument("--gnss", metavar="FORMAT:FILE")
-    im.add_argument("--ldv", metavar="FORMAT:FILE")
+    im.add_argument("--ldv", metavar="FORMAT:FILE", help="optional: an IMU with GNSS alone makes a bundle")
     im.add_argument(
         "--manifest",
         required=True,

@@ -72,8 +72,8 @@ function preview(p) {
       Date ${p.date}, ${hms(t0)} to ${hms(t1)}: ${num((t1 - t0) / 60, 1)} min (t ${num(t0, 3)}–${num(t1, 3)} s)
     </p>
     <p id="import-rates">
-      Rates: IMU ${num(r.imu, 1)} Hz · LDV ${num(r.ldv, 1)} Hz · GNSS ${gnss} · IMU axes ${p.imu_axes} (static tilt
-      ${num(p.static_tilt_deg, 2)}°)
+      Rates: IMU ${num(r.imu, 1)} Hz · LDV ${r.ldv == null ? "none" : num(r.ldv, 1) + " Hz"} · GNSS ${gnss} · IMU axes
+      ${p.imu_axes} (static tilt ${num(p.static_tilt_deg, 2)}°)
     </p>
     ${
       p.warnings.length

@@ -39,7 +39,14 @@ export async function logPage(ctx, app, id) {
             <th>notes</th>
           </tr>
           ${stream("IMU", q.imu, q.imu.rotating ? "rotating" : "fixed")}
-          ${stream("LDV", q.ldv, `${q.ldv.kind}, ${num(q.ldv.below_min_quality)} samples below min quality`)}
+          ${
+            q.ldv
+              ? stream("LDV", q.ldv, `${q.ldv.kind}, ${num(q.ldv.below_min_quality)} samples below min quality`)
+              : html`<tr id="noldv">
+                  <td>LDV</td>
+                  <td colspan="6">no LDV (an INS/GNSS log)</td>
+                </tr>`
+          }
           ${
             g
               ? stream(

@@ -111,11 +111,11 @@ function row(l, names) {
     <td>${l.survey_date}</td>
     <td>${fixed(l.duration_s / 60, 1)} min</td>
     <td>${l.platform}</td>
-    <td>${l.ldv_kind}${l.imu_rotating ? " · rotating IMU" : ""}</td>
+    <td>${l.ldv_kind === "none" ? "no LDV" : l.ldv_kind}${l.imu_rotating ? " · rotating IMU" : ""}</td>
     <td>
       <span class="badge ${b.imu_gaps ? "warn" : ""}">IMU gaps ${b.imu_gaps ?? "–"}</span>
       <span class="badge">RTK ${pct(b.gnss_rtk_fixed_share, 0)}</span>
-      <span class="badge ${lowq > 0.05 ? "warn" : ""}">LDV low-q ${pct(lowq)}</span>
+      ${l.ldv_kind === "none" ? "" : html`<span class="badge ${lowq > 0.05 ? "warn" : ""}">LDV low-q ${pct(lowq)}</span>`}
       ${b.warnings ? html`<span class="badge warn">${b.warnings} warnings</span>` : ""}
     </td>
     <td>

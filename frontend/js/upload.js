@@ -1,4 +1,4 @@
-// The drop zone: a bundle (one .zip, or manifest.json + imu.csv + ldv.csv [+ gnss.nmea]) goes to /api/logs.
+// The drop zone: a bundle (one .zip, or manifest.json + imu.csv [+ ldv.csv] [+ gnss.nmea]) goes to /api/logs.
 import { session } from "./api.js";
 import { html, render, $ } from "./html.js";
 
@@ -20,7 +20,7 @@ export function dropZone(el, { projectId, done }) {
   render(
     el,
     html`<div class="drop" id="drop">
-        Drop a bundle here (one <code>.zip</code>, or manifest.json + imu.csv + ldv.csv [+ gnss.nmea])<br />or
+        Drop a bundle here (one <code>.zip</code>, or manifest.json + imu.csv [+ ldv.csv] [+ gnss.nmea])<br />or
         <input type="file" id="pick" multiple />
       </div>
       <progress id="upprog" value="0" max="100" hidden></progress>

@@ -5,6 +5,7 @@ chosen logs (422 saying why), and queues nothing in either case."""
 import copy
 import os
 
+import numpy as np
 import pytest
 
 from tests.bundles import MANIFEST, make_bundle
@@ -216,6 +217,8 @@ def test_inapplicable_pipelines_are_refused_with_the_reason(api):
         (nognss, "navigate", {"aiding": "ldv+gnss"}, (), "aiding", "gnss.nmea"),
         (nognss, "gravity", {"gnss_aided": True}, (), "gnss_aided", "gnss.nmea"),
         (lined, "gravity", {}, (), "lines", "fewer than two survey lines"),
+        # one manifest line and a log whose speed shows no repeated pass: the worker would find one line
+        (lined, "gravity", {}, (fixed,), "lines", "fewer than two survey lines"),
         (fixed, "gravity", {"lines": "30001-30009"}, (), "lines", "fewer than two survey lines"),
         (fixed, "gravity", {"lines": "30001-30005,30006-40000"}, (), "lines", "not inside the log"),
         (fixed, "height", {}, (nognss,), "log_ids", "one log"),
@@ -233,7 +236,6 @@ def test_inapplicable_pipelines_are_refused_with_the_reason(api):
         (fixed, "height", {"output_rate_hz": 100}, ()),
         (nognss, "height", {}, ()),
         (lined, "gravity", {"lines": "30001-30004,30005-30009"}, ()),
-        (lined, "gravity", {}, (fixed,)),
         (fixed, "calibrate", {"calibration_window": [30002, 30009]}, ()),
     ]
     for log_id, pipe, params, others in accepted:
@@ -258,6 +260,82 @@ def test_pipelines_list_serves_schema_and_applicability(api):
     deg = plain["dov"]["schema"]["properties"]["degree"]
     assert (deg["minimum"], deg["maximum"], deg["default"]) == (2, 2190, 2190)
     at = {p["name"]: p for p in api.get(f"/api/pipelines?log_id={fixed}").json()}
-    assert {n for n, p in at.items() if not p["applicable"]} == {"tilt", "damping"}
+    # gravity: no manifest lines and no repeated passes in the stored log (10 s of random speeds)
+    assert {n for n, p in at.items() if not p["applicable"]} == {"tilt", "damping", "gravity"}
+    assert any("repeated passes" in r for r in at["gravity"]["reasons"])
     assert any("rotating IMU" in r for r in at["tilt"]["reasons"])
     assert api.get("/api/pipelines?log_id=999").status_code == 404
+
+
+def _passes_bundle(n_passes: int, seed: int = 0) -> dict[str, bytes]:
+    """A 10-Hz bundle (no manifest lines) whose LDV speed shows ``n_passes`` passes of 1.5 km
+    (100 s at 15 m/s) between 20-s stops; random IMU increments (the door reads no IMU physics)."""
+    from ldvsurvey.io.writers import imu_csv, ldv_csv, manifest_json, nmea_text
+
+    rate = 10.0
+    speed = np.concatenate([np.zeros(200)] + [np.r_[np.full(1000, 15.0), np.zeros(200)] for _ in range(n_passes)])
+    n = len(speed)
+    rng = np.random.default_rng(seed)
+    t = 30000.0 + np.arange(1, n + 1) / rate
+    m = copy.deepcopy(MANIFEST)
+    m["imu"]["rate_hz"] = rate
+    m["ldv"]["rate_hz"] = rate
+    tg = t[:: int(rate)]
+    return {
+        "manifest.json": manifest_json(m),
+        "imu.csv": imu_csv(t, rng.normal(0, 1e-5, (n, 3)), rng.normal(0, 1e-3, (n, 3)) + [0, 0, 0.98], None),
+        "ldv.csv": ldv_csv(t, v_fwd_mps=speed, v_up_mps=np.zeros(n), quality=np.full(n, 200.0)),
+        "gnss.nmea": nmea_text(
+            tg, np.full(len(tg), 28.4861), np.full(len(tg), 113.0623), np.full(len(tg), 120.0), np.full(len(tg), 4)
+        ),
+    }
+
+
+def test_gravity_without_repeated_lines_is_refused_at_submit(api):
+    """Issue 28: a log without manifest lines and without repeated passes was accepted (201) and
+    failed in the worker with 'fewer than two survey lines'. The passes are found when the log is
+    stored; the submit refuses with the reason, and accepts a log whose speed shows two passes."""
+    one = _post(api, _passes_bundle(1))
+    r = submit(api, one, "gravity")
+    assert r.status_code == 422, r.text
+    err = r.json()["error"]
+    assert err["field"] == "lines" and "fewer than two survey lines (0)" in err["message"], err
+    assert "repeated passes" in err["message"]
+    assert api.queued == []
+    at = {p["name"]: p for p in api.get(f"/api/pipelines?log_id={one}").json()}
+    assert at["gravity"]["applicable"] is False  # the log page does not offer it
+    two = _post(api, _passes_bundle(3, seed=1))
+    assert submit(api, two, "gravity").status_code == 201
+    assert at["navigate"]["applicable"] is True
+
+
+def _post(c, files) -> int:
+    r = c.post("/api/logs", files=[("files", (n, d, "x")) for n, d in files.items()])
+    assert r.status_code == 201, r.text
+    return r.json()["id"]
+
+
+def test_log_without_ldv_gets_only_the_pipelines_that_apply(api):
+    """An INS/GNSS log: calibrate, height and damping refused at submit naming the missing LDV;
+    navigate (GNSS aiding by default), dov and gravity with given lines accepted."""
+    noldv = _post(api, make_bundle(seed=31, n_imu=1000, ldv=False))
+    body = api.get(f"/api/logs/{noldv}").json()
+    assert body["ldv_kind"] == "none" and body["quality"]["ldv"] is None
+    for pipe in ("calibrate", "height", "damping"):
+        r = submit(api, noldv, pipe)
+        assert r.status_code == 422, (pipe, r.text)
+        assert "has no LDV" in r.json()["error"]["message"], (pipe, r.text)
+    r = submit(api, noldv, "navigate", {"aiding": "ldv"})
+    assert r.status_code == 422 and r.json()["error"]["field"] == "aiding"
+    r = submit(api, noldv, "gravity", {"gnss_aided": True, "lines": "30001-30004,30005-30009"})
+    assert r.status_code == 422 and r.json()["error"]["field"] == "gnss_aided"
+    assert api.queued == []
+    for pipe, params in (("navigate", {}), ("dov", {}), ("gravity", {"lines": "30001-30004,30005-30009"})):
+        r = submit(api, noldv, pipe, params)
+        assert r.status_code == 201, (pipe, r.text)
+    at = {p["name"]: p for p in api.get(f"/api/pipelines?log_id={noldv}").json()}
+    assert {n for n, p in at.items() if not p["applicable"]} == {"calibrate", "height", "damping", "tilt", "gravity"}
+    # without GNSS either, navigate (auto: GNSS aiding) says what is missing
+    bare = _post(api, make_bundle(seed=32, n_imu=1000, ldv=False, gnss=False))
+    r = submit(api, bare, "navigate")
+    assert r.status_code == 422 and "gnss.nmea" in r.json()["error"]["message"], r.text

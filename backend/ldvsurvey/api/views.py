@@ -74,6 +74,9 @@ class View:
     units: str  #: units of the y axis
     files: tuple[str, ...]  #: the job's result files it reads
     build: Callable[[ViewInput], dict]
+    #: whether a job with this summary has something to show in it (None: always); a job's page
+    #: lists only those (no empty panels, e.g. no SINS/LDV comparison on a log without an LDV)
+    shows: Callable[[dict], bool] | None = None
 
     def info(self) -> dict:
         return {
@@ -89,21 +92,25 @@ class View:
 VIEWS: dict[str, View] = {}
 
 
-def view(name: str, pipeline: str, title: str, units: str, files: tuple[str, ...]):
-    """Register the decorated ``f(v: ViewInput) -> figure dict`` as the view ``name`` of ``pipeline``."""
+def view(name: str, pipeline: str, title: str, units: str, files: tuple[str, ...], shows=None):
+    """Register the decorated ``f(v: ViewInput) -> figure dict`` as the view ``name`` of ``pipeline``
+    (``shows(summary) -> bool``: whether a job has anything for it; default always)."""
 
     def register(build: Callable[[ViewInput], dict]) -> Callable[[ViewInput], dict]:
         if name in VIEWS:
             raise ValueError(f"view '{name}' registered twice")
-        VIEWS[name] = View(name, pipeline, title, units, tuple(files), build)
+        VIEWS[name] = View(name, pipeline, title, units, tuple(files), build, shows)
         return build
 
     return register
 
 
-def views_of(pipeline: str) -> list[View]:
-    """The views of a pipeline's jobs, in the order they are shown."""
-    return [v for v in VIEWS.values() if v.pipeline == pipeline]
+def views_of(pipeline: str, summary: dict | None = None) -> list[View]:
+    """The views of a pipeline's jobs, in the order they are shown (with ``summary``: those that
+    have something to show for that job)."""
+    return [
+        v for v in VIEWS.values() if v.pipeline == pipeline and (summary is None or v.shows is None or v.shows(summary))
+    ]
 
 
 def _csv(session, job: Job, name: str) -> dict[str, np.ndarray]:
@@ -376,6 +383,7 @@ def _gravity_residuals(v: ViewInput) -> dict:
     "SINS/LDV against SINS/GNSS (and LDV+GNSS navigation) along each line",
     "mGal",
     ("gravity.csv",),
+    shows=lambda s: "gnss_comparison" in s or "gnss_aided" in s,  # a log without an LDV has neither
 )
 def _gravity_compare_gnss(v: ViewInput) -> dict:
     g, s = v.csv("gravity.csv"), v.summary

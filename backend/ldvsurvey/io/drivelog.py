@@ -25,8 +25,9 @@ from ldvsurvey.io.imutime import regularize_imu
 from ldvsurvey.io.manifest import Manifest, parse_manifest
 from ldvsurvey.io.nmea import GnssData, parse_nmea
 
-REQUIRED_FILES = ("manifest.json", "imu.csv", "ldv.csv")
-OPTIONAL_FILES = ("gnss.nmea",)
+REQUIRED_FILES = ("manifest.json", "imu.csv")
+#: ldv.csv is there exactly when the manifest has an ``ldv`` section (an INS/GNSS log has neither)
+OPTIONAL_FILES = ("ldv.csv", "gnss.nmea")
 KNOWN_FILES = REQUIRED_FILES + OPTIONAL_FILES
 #: files parsed from memory (a DriveLog holds them as bytes); the CSV files may stay on disk
 SMALL_FILES = ("manifest.json", "gnss.nmea")
@@ -81,7 +82,7 @@ class DriveLog:
 
     manifest: Manifest
     imu: ImuData
-    ldv: LdvData
+    ldv: LdvData | None  #: None: a log without an LDV (no ldv.csv, no manifest ``ldv`` section)
     gnss: GnssData | None
     files: dict[str, bytes | Path]
     warnings: list[str] = field(default_factory=list)
@@ -360,21 +361,35 @@ def _parse_files(files: dict[str, bytes | Path]) -> DriveLog:
         if name in files:
             files[name] = _small(files[name])
     manifest = parse_manifest(files["manifest.json"])
+    if manifest.ldv is None and "ldv.csv" in files:
+        raise BundleError(
+            "the bundle has ldv.csv but the manifest has no ldv section (kind, rate_hz) describing it",
+            file="manifest.json",
+            field="ldv",
+        )
+    if manifest.ldv is not None and "ldv.csv" not in files:
+        raise BundleError(
+            "the manifest has an ldv section but the bundle has no ldv.csv (a log without an LDV has neither; "
+            f"got: {', '.join(sorted(files))})",
+            file="ldv.csv",
+        )
     imu, w = parse_imu(files["imu.csv"], manifest)
     warnings += w
     # gnss.nmea (mostly Python) is parsed in a second thread while pyarrow parses ldv.csv (releasing the
     # GIL); ldv.csv's result is taken first, so a bundle with defects in both still names ldv.csv's.
     # (imu.csv is parsed alone: two large Arrow tables at once would raise the peak memory.)
+    ldv = None
     with ThreadPoolExecutor(max_workers=1) as pool:
         gnss_job = None
         if "gnss.nmea" in files:
             gnss_job = pool.submit(parse_nmea, files["gnss.nmea"], t_ref_s=float(imu.t_s[0]))
-        ldv, w = parse_ldv(files["ldv.csv"], manifest)
-        warnings += w
+        if "ldv.csv" in files:
+            ldv, w = parse_ldv(files["ldv.csv"], manifest)
+            warnings += w
         gnss = gnss_job.result() if gnss_job is not None else None
     if gnss is not None:
         warnings += gnss.warnings
-    if ldv.t_s[-1] < imu.t_s[0] or ldv.t_s[0] > imu.t_s[-1]:
+    if ldv is not None and (ldv.t_s[-1] < imu.t_s[0] or ldv.t_s[0] > imu.t_s[-1]):
         raise BundleError(
             f"LDV times [{ldv.t_s[0]:.2f}, {ldv.t_s[-1]:.2f}] s do not overlap the IMU's "
             f"[{imu.t_s[0]:.2f}, {imu.t_s[-1]:.2f}] s (same clock expected)",

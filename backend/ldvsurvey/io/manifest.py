@@ -65,8 +65,19 @@ class LdvSpec(_Model):
     lever_arm_m: Vec3 = [0.0, 0.0, 0.0]  #: LDV head in body RFU, m
 
 
+class GnssHeightNoise(_Model):
+    """The receiver's height error for one fix quality: epoch-to-epoch white part and a slowly
+    wandering part (first-order Gauss-Markov); the gravity pipeline's noise floor of the SINS/GNSS chain."""
+
+    white_m: PosNum  #: white σ per epoch, m
+    correlated_m: Annotated[float, Field(strict=True, ge=0)] = 0.0  #: stationary σ of the wandering part, m
+    correlation_s: PosNum = 300.0  #: its correlation time, s
+
+
 class GnssSpec(_Model):
     lever_arm_m: Vec3 = [0.0, 0.0, 0.0]  #: antenna in body RFU, m
+    #: height error by fix quality ("4" RTK fixed, "5" float, "2" differential, "1" single point)
+    height_noise: dict[Literal["1", "2", "4", "5"], GnssHeightNoise] = {}
 
 
 class Initial(_Model):
@@ -83,14 +94,15 @@ class Line(_Model):
 
 
 class Manifest(_Model):
-    """The whole manifest. ``date`` is the UTC day that ``t = 0`` belongs to."""
+    """The whole manifest. ``date`` is the UTC day that ``t = 0`` belongs to; ``ldv`` is absent
+    (None) exactly when the bundle has no ``ldv.csv``."""
 
     format: Literal["ldv-drive-log/1"]
     name: StrictStr = ""
     date: dt.date
     platform: Literal["vehicle", "vessel"]
     imu: ImuSpec
-    ldv: LdvSpec
+    ldv: LdvSpec | None = None  #: None: the bundle has no LDV (an INS/GNSS log, no ldv.csv)
     gnss: GnssSpec = GnssSpec()
     initial: Initial = Initial()
     lines: list[Line] = []

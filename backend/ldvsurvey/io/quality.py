@@ -40,17 +40,19 @@ def quality_report(log: DriveLog) -> dict:
     imu["duplicated_rows"] = log.imu.duplicated_rows
     imu["bridged_rows"] = log.imu.bridged_rows  # rows inserted over short gaps (counted apart from "gaps")
     imu["rotating"] = bool(log.imu.turntable_deg is not None)
-    ldv = _stream(log.ldv.t_s, m.ldv.rate_hz)
-    ldv["duplicated_rows"] = log.ldv.duplicated_rows
-    ldv["kind"] = m.ldv.kind
-    ldv["source"] = log.ldv.source
-    if log.ldv.quality is not None and m.ldv.min_quality is not None:
-        below = int(np.sum(log.ldv.quality < m.ldv.min_quality))
-        ldv["below_min_quality"] = below
-        ldv["below_min_quality_share"] = below / len(log.ldv.t_s)
-    else:
-        ldv["below_min_quality"] = None
-        ldv["below_min_quality_share"] = None
+    ldv = None  # a log without an LDV: no ldv section (the log page says "no LDV")
+    if log.ldv is not None:
+        ldv = _stream(log.ldv.t_s, m.ldv.rate_hz)
+        ldv["duplicated_rows"] = log.ldv.duplicated_rows
+        ldv["kind"] = m.ldv.kind
+        ldv["source"] = log.ldv.source
+        if log.ldv.quality is not None and m.ldv.min_quality is not None:
+            below = int(np.sum(log.ldv.quality < m.ldv.min_quality))
+            ldv["below_min_quality"] = below
+            ldv["below_min_quality_share"] = below / len(log.ldv.t_s)
+        else:
+            ldv["below_min_quality"] = None
+            ldv["below_min_quality_share"] = None
     report = {
         "duration_s": float(log.imu.t_s[-1] - log.imu.t_s[0]),
         "imu": imu,

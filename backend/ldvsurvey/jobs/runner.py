@@ -26,8 +26,16 @@ TASK_NAME = "ldvsurvey.run_job"
 
 
 def log_facts(row) -> LogFacts:
-    """What the applicability checks know of a stored log (a ``Log`` row; no samples read)."""
-    return LogFacts.of_manifest(row.manifest, row.t_start_s, row.t_end_s, row.has_gnss)
+    """What the applicability checks know of a stored log (a ``Log`` row): its manifest and the facts
+    found when it was stored (no samples read; a row stored before the facts were kept gets them
+    from its stored arrays once, in its session)."""
+    from sqlalchemy.orm import object_session
+
+    from ldvsurvey.store.logs import facts_of
+
+    session = object_session(row)
+    facts = row.facts if session is None else facts_of(session, row)
+    return LogFacts.of_manifest(row.manifest, row.t_start_s, row.t_end_s, row.has_gnss, facts)
 
 
 def now() -> dt.datetime:

@@ -200,6 +200,8 @@ def noise_floor_mgal(
     ldv_rate_hz: float | None = None,
     height_noise_m: float | None = None,
     gnss_rate_hz: float | None = None,
+    height_correlated_m: float | None = None,
+    height_correlation_s: float | None = None,
 ) -> dict:
     """1-σ of white sensor noise after the zero-phase FIR: the floor of a repeated-line coincidence (mGal).
 
@@ -209,7 +211,10 @@ def noise_floor_mgal(
     - accelerometer, density N (µg/√Hz, per-sample σ = N·√f_s): σ² = N² ∫|H|⁴ df;
     - LDV vertical velocity, white σ_v per sample at rate f_L, differenced once:
       σ² = σ_v²/f_L ∫(2πf)²|H|⁴ df;
-    - GNSS height, white σ_h per epoch at rate f_G, differenced twice: σ² = σ_h²/f_G ∫(2πf)⁴|H|⁴ df.
+    - GNSS height, white σ_h per epoch at rate f_G, differenced twice: σ² = σ_h²/f_G ∫(2πf)⁴|H|⁴ df;
+    - GNSS height, a slowly wandering part (first-order Gauss-Markov, stationary σ_c, correlation
+      time τ; two-sided PSD S(f) = 2σ_c²τ / (1 + (2πfτ)²)) differenced twice:
+      σ² = ∫(2πf)⁴ S(f) |H|⁴ df (receivers' RTK heights wander by centimetres over minutes).
 
     Integrals run over all (two-sided) frequencies; |H|⁴ because the FIR runs forward and back.
     Returns a dict of the components given and their root-sum-square ``total_mgal``.
@@ -228,6 +233,10 @@ def noise_floor_mgal(
         out["ldv_mgal"] = float(ldv_noise_mps * np.sqrt(integral(2) / ldv_rate_hz) / MGAL)
     if height_noise_m and gnss_rate_hz:
         out["gnss_height_mgal"] = float(height_noise_m * np.sqrt(integral(4) / gnss_rate_hz) / MGAL)
+    if height_correlated_m and height_correlation_s:
+        tau = float(height_correlation_s)
+        psd = 2.0 * height_correlated_m**2 * tau / (1.0 + (w * tau) ** 2)
+        out["gnss_height_correlated_mgal"] = float(np.sqrt(2.0 * np.sum(w**4 * psd * h4) * df) / MGAL)
     out["total_mgal"] = float(np.sqrt(sum(v**2 for v in out.values())))
     return out
 

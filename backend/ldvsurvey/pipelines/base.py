@@ -140,11 +140,12 @@ def output_rate(default_hz: float, what: str):
 
 @dataclass(frozen=True)
 class LogFacts:
-    """What the applicability checks may know of a log without reading its samples."""
+    """What the applicability checks may know of a log without reading its samples (the facts
+    :func:`ldvsurvey.io.logfacts.log_facts` found when the log was read or stored)."""
 
     name: str
     platform: str  #: vehicle or vessel
-    ldv_kind: str  #: 1d, 2d or water
+    ldv_kind: str  #: 1d, 2d or water; "none" for a log without an LDV
     imu_rotating: bool
     imu_rate_hz: float
     t_start_s: float
@@ -152,15 +153,22 @@ class LogFacts:
     has_gnss: bool
     lines: tuple = ()  #: manifest survey lines as (name, t_start_s, t_end_s)
     static_s: float | None = None  #: manifest initial.static_s
+    has_ldv: bool = True  #: the log has an LDV (ldv.csv and the manifest's ldv section)
+    #: repeated survey passes found in the log's speed when it was stored (None: not known)
+    repeated_lines: int | None = None
 
     @classmethod
-    def of_manifest(cls, m: dict, t_start_s: float, t_end_s: float, has_gnss: bool) -> LogFacts:
-        """From a manifest as JSON (``manifest.json`` or the store's copy) and the IMU time span."""
-        imu, ldv = m.get("imu") or {}, m.get("ldv") or {}
+    def of_manifest(
+        cls, m: dict, t_start_s: float, t_end_s: float, has_gnss: bool, facts: dict | None = None
+    ) -> LogFacts:
+        """From a manifest as JSON (``manifest.json`` or the store's copy), the IMU time span and the
+        stored facts (``facts``, see :func:`ldvsurvey.io.logfacts.log_facts`; None: not known)."""
+        imu, ldv = m.get("imu") or {}, m.get("ldv")
+        facts = facts or {}
         return cls(
             name=str(m.get("name", "")),
             platform=str(m.get("platform", "")),
-            ldv_kind=str(ldv.get("kind", "")),
+            ldv_kind=str(ldv.get("kind", "")) if ldv else "none",
             imu_rotating=bool(imu.get("rotating", False)),
             imu_rate_hz=float(imu.get("rate_hz") or 0.0),
             t_start_s=float(t_start_s),
@@ -168,13 +176,21 @@ class LogFacts:
             has_gnss=bool(has_gnss),
             lines=tuple((ln.get("name"), float(ln["t_start"]), float(ln["t_end"])) for ln in m.get("lines") or []),
             static_s=(m.get("initial") or {}).get("static_s"),
+            has_ldv=bool(ldv),
+            repeated_lines=facts.get("repeated_lines"),
         )
 
     @classmethod
     def of_log(cls, log) -> LogFacts:
         """From a parsed :class:`~ldvsurvey.io.drivelog.DriveLog`."""
+        from ldvsurvey.io.logfacts import log_facts
+
         return cls.of_manifest(
-            log.manifest.model_dump(mode="json"), float(log.imu.t_s[0]), float(log.imu.t_s[-1]), log.gnss is not None
+            log.manifest.model_dump(mode="json"),
+            float(log.imu.t_s[0]),
+            float(log.imu.t_s[-1]),
+            log.gnss is not None,
+            log_facts(log),
         )
 
 
@@ -213,6 +229,15 @@ def window_inside(logs: list[LogFacts], window, field_name: str) -> list[Reason]
 
 def needs_gnss(logs: list[LogFacts], why: str, field_name: str = "BUNDLE") -> list[Reason]:
     return [Reason(field_name, f"{why}: log '{f.name}' has no gnss.nmea") for f in logs if not f.has_gnss]
+
+
+def needs_ldv(logs: list[LogFacts], why: str, field_name: str = "ldv") -> list[Reason]:
+    """A pipeline (or a choice of its parameters) that needs the LDV, on a log without one."""
+    return [
+        Reason(field_name, f"{why}: log '{f.name}' has no LDV (no ldv.csv, no manifest ldv section)")
+        for f in logs
+        if not f.has_ldv
+    ]
 
 
 def _no_reasons(logs, params) -> list[Reason]:

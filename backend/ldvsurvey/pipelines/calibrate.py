@@ -4,7 +4,16 @@ from __future__ import annotations
 
 from pydantic import Field, field_validator
 
-from ldvsurvey.pipelines.base import Floats, LogFacts, Pipeline, PipelineResult, Reason, needs_gnss, window_inside
+from ldvsurvey.pipelines.base import (
+    Floats,
+    LogFacts,
+    Pipeline,
+    PipelineResult,
+    Reason,
+    needs_gnss,
+    needs_ldv,
+    window_inside,
+)
 from ldvsurvey.pipelines.calibration import calibration_stage, time_window
 from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs
 from ldvsurvey.pipelines.plumb import DovParams, apply_dov
@@ -28,9 +37,11 @@ class CalibrateParams(DovParams):
 
 
 def applicable(logs: list[LogFacts], params: CalibrateParams) -> list[Reason]:
-    """Calibration compares the LDV with GNSS: the log needs GNSS, the window must be inside it."""
-    return needs_gnss(logs, "the calibration compares the LDV with GNSS") + window_inside(
-        logs, params.calibration_window, "calibration_window"
+    """Calibration compares the LDV with GNSS: the log needs both, the window must be inside it."""
+    return (
+        needs_ldv(logs, "the calibration estimates the LDV mounting and scale")
+        + needs_gnss(logs, "the calibration compares the LDV with GNSS")
+        + window_inside(logs, params.calibration_window, "calibration_window")
     )
 
 
@@ -38,6 +49,7 @@ def run(logs, params, progress) -> PipelineResult:
     log = logs[0]
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    inp.require_ldv()
     dov_info, warnings = apply_dov(inp, params, progress)
     window = params["calibration_window"]
     if window is not None and len(window) != 2:

@@ -17,6 +17,7 @@ from ldvsurvey.pipelines.base import (
     PipelineResult,
     Reason,
     needs_gnss,
+    needs_ldv,
     output_rate,
     rate_within_imu,
 )
@@ -50,7 +51,9 @@ def applicable(logs: list[LogFacts], params: DampingParams) -> list[Reason]:
     for f in logs:
         if f.platform != "vessel":
             out.append(Reason("platform", f"damping is for vessels: log '{f.name}' is a {f.platform}"))
-        if f.ldv_kind != "water":
+        if not f.has_ldv:
+            out += needs_ldv([f], "damping needs a water-track LDV", "ldv.kind")
+        elif f.ldv_kind != "water":
             out.append(
                 Reason("ldv.kind", f"damping needs a water-track LDV: log '{f.name}' has ldv.kind '{f.ldv_kind}'")
             )
@@ -103,6 +106,7 @@ def run(logs, params, progress) -> PipelineResult:
         )
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    inp.require_ldv()
     warnings = list(inp.warnings)
     tg, glat, glon, gh, gv = _reference(log, inp.t_s)
     if inp.eta_rad is not None:  # a rotating IMU: C_b^s from the encoder and the base tilt

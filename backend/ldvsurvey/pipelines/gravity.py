@@ -28,6 +28,7 @@ from ldvsurvey.pipelines.base import (
     Reason,
     Text,
     needs_gnss,
+    needs_ldv,
     output_rate,
     rate_within_imu,
     window_inside,
@@ -103,9 +104,17 @@ class GravityParams(CalibrationParams):
 
 
 def applicable(logs: list[LogFacts], params: GravityParams) -> list[Reason]:
-    """Two survey lines at least (given, from the manifests, or detectable in a log without manifest
-    lines), given lines inside every log, GNSS where the LDV+GNSS navigation is asked for."""
-    out = calibration_applicable(logs, params) + rate_within_imu(logs, params)
+    """Two survey lines at least (given, from the manifests, or the repeated passes found in a log
+    without manifest lines when it was stored), given lines inside every log, an LDV or else GNSS
+    (the SINS/GNSS chain is then the result), GNSS where the LDV+GNSS navigation is asked for."""
+    out = rate_within_imu(logs, params)
+    if any(f.has_ldv for f in logs):
+        out += calibration_applicable(logs, params)
+    for f in logs:
+        if not f.has_ldv:
+            out += needs_gnss([f], "without an LDV the gravity comes from the SINS/GNSS chain")
+            if params.gnss_aided:
+                out += needs_ldv([f], "gnss_aided adds an LDV+GNSS navigation", "gnss_aided")
     if params.gnss_aided:
         out += needs_gnss(logs, "gnss_aided needs GNSS", "gnss_aided")
     if params.lines:
@@ -113,16 +122,24 @@ def applicable(logs: list[LogFacts], params: GravityParams) -> list[Reason]:
         for _name, a, b in pairs:
             out += window_inside(logs, (a, b), "lines")
         n = len(pairs) * len(logs)
-    elif all(f.lines for f in logs):
-        n = sum(len(f.lines) for f in logs)
     else:
-        n = 2  # a log without manifest lines: repeated passes are detected in the navigation
-    if n < 2:
+        # a log without manifest lines: the repeated passes found when it was stored (the pipeline
+        # detects them again in its navigation); not known (None): left to the pipeline
+        found = [len(f.lines) if f.lines else f.repeated_lines for f in logs]
+        n = None if any(k is None for k in found) else sum(found)
+    if n is not None and n < 2:
+        detected = any(not f.lines for f in logs) and not params.lines
         out.append(
             Reason(
                 "lines",
-                f"fewer than two survey lines ({n}) in the chosen log(s): give manifest "
-                "lines, lines=t0-t1,t0-t1 or a second log",
+                f"fewer than two survey lines ({n}) in the chosen log(s)"
+                + (
+                    " (no manifest lines, and no repeated passes of similar length, 1 km or longer, "
+                    "found in the log's speed when it was stored)"
+                    if detected
+                    else ""
+                )
+                + ": give manifest lines, lines=t0-t1,t0-t1 or a second log",
             )
         )
     return out
@@ -143,19 +160,13 @@ def parse_lines(text):
 
 
 def detect_lines(chain, min_length_m=1000.0):
-    """Straight passes between stops/turnarounds: moving stretches of similar length over the same ground."""
-    t, sp = chain["t_s"], np.nan_to_num(chain["speed"])
-    moving = sp > 2.0
-    edges = np.flatnonzero(np.diff(np.r_[0, moving.astype(int), 0]))
-    segs = []
-    for a, b in zip(edges[::2], edges[1::2]):
-        dist = np.sum(sp[a:b]) / chain["fs"]
-        if dist >= min_length_m:
-            segs.append((t[a], t[b - 1], dist))
-    if len(segs) < 2:
-        return []
-    med = np.median([s[2] for s in segs])
-    return [(f"L{k + 1}", a, b) for k, (a, b, d) in enumerate(s for s in segs if abs(s[2] - med) < 0.25 * med)]
+    """Straight passes between stops/turnarounds: moving stretches of similar length (the rule the
+    store applied to the log's speed, :func:`ldvsurvey.io.logfacts.repeated_passes`, here on the
+    navigation's speed)."""
+    from ldvsurvey.io.logfacts import repeated_passes
+
+    found = repeated_passes(chain["t_s"], chain["speed"], min_length_m)
+    return [(f"L{k + 1}", a, b) for k, (a, b, _d) in enumerate(found)]
 
 
 def parse_fixes(text):
@@ -215,7 +226,15 @@ def run(logs, params, progress) -> PipelineResult:
     fixes = parse_fixes(params["gnss_fixes"])
     chains, gchains, achains, lines, warnings = [], [], [], [], []
     nav_params = {**params, "aiding": "ldv", "smooth": True}
+    primary = "ldv" if logs[0].ldv is not None else "gnss"
+    if any((log.ldv is not None) != (primary == "ldv") for log in logs):
+        raise ParameterError("some logs have an LDV and some have none: give logs of one kind", field="log_ids")
     for i, log in enumerate(logs):
+        if primary == "gnss":  # no LDV: the SINS/GNSS chain is the result (same lines, floor, coincidence)
+            chains.append(gnss_primary_chain(log, params, fixes, fir_s, progress, i, len(logs)))
+            gchains.append(None)
+            lines += _lines_of(log, chains[-1], params, i, len(logs))
+            continue
         progress(f"bundle {i + 1}/{len(logs)}: SINS/LDV navigation", 0.05 + 0.6 * i / len(logs))
         inp, setup, sol = run_navigation(navigation_log(log), nav_params, progress)
         warnings += setup.warnings
@@ -251,14 +270,7 @@ def run(logs, params, progress) -> PipelineResult:
         # the chains hold what follows needs: the navigation's per-sample result goes before the statistics
         # (and before the next bundle's navigation)
         del inp, setup, sol
-        prefix = f"B{i + 1}-" if len(logs) > 1 else ""
-        if params["lines"]:
-            found = parse_lines(params["lines"])
-        elif log.manifest.lines:
-            found = [(ln.name, ln.t_start, ln.t_end) for ln in log.manifest.lines]
-        else:
-            found = detect_lines(chains[-1])
-        lines += [(prefix + nm, i, a, b) for nm, a, b in found]
+        lines += _lines_of(log, chains[-1], params, i, len(logs))
     if len(lines) < 2:
         raise ParameterError(
             "fewer than two survey lines: give manifest lines or --set lines=t0-t1,t0-t1", field="lines"
@@ -267,7 +279,9 @@ def run(logs, params, progress) -> PipelineResult:
     drift_reports = []
     for i, ch in enumerate(chains):
         rep = {"method": "none", "reason": "drift_correction=none"}
-        if params["drift_correction"] != "none":
+        if params["drift_correction"] != "none" and "dg_static" not in ch:
+            rep = {"method": "none", "reason": "the stop ties use the SINS/LDV chain's δg at stops: no LDV"}
+        elif params["drift_correction"] != "none":
             b, rep = drift_correction(
                 ch, ch["still"], logs[i].manifest.imu.accel_noise_ug_per_rthz, params["drift_correction"]
             )
@@ -289,9 +303,17 @@ def run(logs, params, progress) -> PipelineResult:
         drift_reports[0].get("method") == "repeated stops",
         params["line_leveling"],
     )
-    summary = block(res, fir_s, trim_s, "ldv", combine(floor_of(logs[0], chains[0], fir_s), drift))
-    warnings += ldv_gap_warnings(res)
-    summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
+    summary = block(res, fir_s, trim_s, primary, combine(floor_of(logs[0], chains[0], fir_s), drift))
+    if primary == "ldv":
+        warnings += ldv_gap_warnings(res)
+        summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
+    else:
+        summary["gnss_fixes"] = list(fixes)
+        summary["screened_fixes"] = int(sum(c["screened"] for c in chains))
+        summary["chain"] = (
+            "SINS/GNSS: the log has no LDV; δg from the GNSS-aided navigation's specific force less the "
+            "vertical acceleration of the GNSS heights"
+        )
     summary["imu_gaps"] = imu_gap_report(logs)
     summary["drift_correction"] = drift_reports[0] if len(drift_reports) == 1 else drift_reports
     gres = ares = None
@@ -341,6 +363,37 @@ def run(logs, params, progress) -> PipelineResult:
             "residual_mgal": co.residual.ravel(),
         }
     return PipelineResult(summary=summary, tables=tables, warnings=warnings)
+
+
+def _lines_of(log, chain, params, i: int, n_logs: int) -> list:
+    """The survey lines of bundle ``i`` as (name, bundle index, t0, t1): given, the manifest's, or
+    the repeated passes detected in ``chain``."""
+    prefix = f"B{i + 1}-" if n_logs > 1 else ""
+    if params["lines"]:
+        found = parse_lines(params["lines"])
+    elif log.manifest.lines:
+        found = [(ln.name, ln.t_start, ln.t_end) for ln in log.manifest.lines]
+    else:
+        found = detect_lines(chain)
+    return [(prefix + nm, i, a, b) for nm, a, b in found]
+
+
+def gnss_primary_chain(log, params, fixes, fir_s, progress, i: int, n_logs: int) -> dict:
+    """The SINS/GNSS chain of a log without an LDV: the GNSS-aided navigation (forward filter and
+    RTS smoother, ZUPT at stops) and the chain of :func:`gnss_chain` on it; a ParameterError when
+    the log has too few fixes of the chosen qualities."""
+    progress(f"bundle {i + 1}/{n_logs}: SINS/GNSS navigation", 0.05 + 0.6 * i / n_logs)
+    inp, _, sol = run_navigation(navigation_log(log), {**params, "aiding": "gnss", "smooth": True}, progress)
+    progress(f"bundle {i + 1}/{n_logs}: SINS/GNSS chain", 0.05 + 0.6 * (i + 0.5) / n_logs)
+    try:
+        ch = gnss_chain(log, inp, sol, fir_s, fixes)
+    except ValueError as exc:
+        raise ParameterError(f"no SINS/GNSS chain for bundle {i + 1}: {exc}", field="gnss_fixes") from None
+    fl = floor_of(log, ch, fir_s)
+    if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
+        ch["edge_gain_max"] = edge_gain_max(fl)
+    ch["still"] = inp.still
+    return ch
 
 
 def ldv_gap_warnings(res) -> list[str]:

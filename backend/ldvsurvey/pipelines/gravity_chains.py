@@ -430,5 +430,6 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         "bridged": bridged,
         "screened": int((~good).sum()),
         "height_sigma_m": float(np.sqrt(np.mean(sig_v**2))),
+        "fixes": tuple(fixes),
         "kind": "gnss",
     }

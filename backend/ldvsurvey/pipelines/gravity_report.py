@@ -209,9 +209,50 @@ def floor_of(log, chain, fir_s):
         out.update(ldv_noise_mps=ldv_sig, ldv_noise_source=src, ldv_rate_hz=log.manifest.ldv.rate_hz)
         out.update(noise_floor_mgal(fir_s, acc, ldv_sig, log.manifest.ldv.rate_hz))
     else:
-        out.update(gnss_height_sigma_m=chain["height_sigma_m"], gnss_height_sigma_source="fix quality")
-        out.update(noise_floor_mgal(fir_s, acc, height_noise_m=chain["height_sigma_m"], gnss_rate_hz=chain["fs"]))
+        stated = _stated_height_noise(log, chain)
+        if stated is None:
+            out.update(gnss_height_sigma_m=chain["height_sigma_m"], gnss_height_sigma_source="fix quality")
+            out.update(noise_floor_mgal(fir_s, acc, height_noise_m=chain["height_sigma_m"], gnss_rate_hz=chain["fs"]))
+        else:
+            white, corr, tau = stated
+            out.update(
+                gnss_height_sigma_m=white,
+                gnss_height_correlated_m=corr,
+                gnss_height_correlation_s=tau,
+                gnss_height_sigma_source="manifest gnss.height_noise (white and Gauss-Markov parts, by fix quality)",
+            )
+            out.update(
+                noise_floor_mgal(
+                    fir_s,
+                    acc,
+                    height_noise_m=white,
+                    gnss_rate_hz=chain["fs"],
+                    height_correlated_m=corr,
+                    height_correlation_s=tau,
+                )
+            )
     return out
+
+
+def _stated_height_noise(log, chain):
+    """(white σ m, wandering σ m, correlation time s) of the GNSS heights the chain used, from the
+    manifest's ``gnss.height_noise`` (the variances averaged over the chain's fixes by count); None
+    when the manifest states none for a fix quality the chain used."""
+    stated = log.manifest.gnss.height_noise
+    g = log.gnss
+    if not stated or g is None:
+        return None
+    t = chain["t_s"]
+    k = np.isin(g.fix, chain.get("fixes", (4,))) & (g.t_s >= t[0]) & (g.t_s <= t[-1])
+    qs, counts = np.unique(g.fix[k], return_counts=True)
+    if not len(qs) or any(str(int(q)) not in stated for q in qs):
+        return None
+    w = counts / counts.sum()
+    parts = [stated[str(int(q))] for q in qs]
+    white = float(np.sqrt(np.sum(w * [p.white_m**2 for p in parts])))
+    corr = float(np.sqrt(np.sum(w * [p.correlated_m**2 for p in parts])))
+    tau = float(np.sum(w * [p.correlation_s for p in parts]))
+    return white, corr, tau
 
 
 def block(res, fir_s, trim_s, aiding, floor):

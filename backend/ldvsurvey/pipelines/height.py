@@ -12,7 +12,15 @@ import numpy as np
 from pydantic import Field
 
 from ldvsurvey.nav.filter import forward_accel_mps2, ldv_spikes
-from ldvsurvey.pipelines.base import LogFacts, Pipeline, PipelineResult, Reason, output_rate, rate_within_imu
+from ldvsurvey.pipelines.base import (
+    LogFacts,
+    Pipeline,
+    PipelineResult,
+    Reason,
+    needs_ldv,
+    output_rate,
+    rate_within_imu,
+)
 from ldvsurvey.pipelines.calibration import (
     CalibrationParams,
     calibration_applicable,
@@ -37,8 +45,13 @@ class HeightParams(CalibrationParams, DovParams):
 
 
 def applicable(logs: list[LogFacts], params: HeightParams) -> list[Reason]:
-    """A calibration window must lie inside the log; the output rate is at most the IMU rate."""
-    return calibration_applicable(logs, params) + rate_within_imu(logs, params)
+    """The height is the LDV's: a log without one is refused; a calibration window must lie inside
+    the log; the output rate is at most the IMU rate."""
+    return (
+        needs_ldv(logs, "the height integrates the LDV velocity")
+        + calibration_applicable(logs, params)
+        + rate_within_imu(logs, params)
+    )
 
 
 def integrate_height(
@@ -86,6 +99,7 @@ def run(logs, params, progress) -> PipelineResult:
     m = log.manifest
     progress("preparing", 0.02)
     inp = nav_inputs(log)
+    inp.require_ldv()
     dov_info, warnings = apply_dov(inp, params, progress)
     setup = ldv_setup(inp, params, progress)
     warnings += setup.warnings

@@ -53,6 +53,20 @@ class NavInputs:
     v0_n: np.ndarray | None = None  # velocity (ENU, m/s) at the start when aligned on the move
     #: (xi_rad, eta_rad, dg_mps2) per IMU sample for the mechanization's gravity (None: normal gravity)
     gravity: tuple | None = None
+    #: why the log's LDV cannot aid (no usable sample), raised by what needs it; None: usable or absent
+    ldv_unusable: ParameterError | None = None
+
+    @property
+    def has_ldv(self) -> bool:
+        """The log has an LDV with usable samples (else only GNSS or nothing aids)."""
+        return self.log.ldv is not None and self.ldv_unusable is None
+
+    def require_ldv(self) -> None:
+        """Raise what keeps the LDV from aiding (a pipeline that needs it calls this first)."""
+        if self.ldv_unusable is not None:
+            raise self.ldv_unusable
+        if self.log.ldv is None:
+            raise ParameterError("the bundle has no LDV (no ldv.csv)", file="ldv.csv", field="ldv")
 
     def __post_init__(self):
         if self.cache is None:
@@ -82,27 +96,66 @@ def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
     return ok, nu_f, nu_u
 
 
+def _gnss_speed_at(log: DriveLog, t_imu: np.ndarray):
+    """Where the vehicle's speed is known from GNSS and that speed, at the IMU samples (a log without
+    an LDV finds its stops from it): the horizontal speed of the fixes over a 2-epoch baseline,
+    usable where the fixes on both sides are at most 2.5 GNSS intervals apart (and up to one interval
+    before the first fix and after the last, the speed held)."""
+    from ldvsurvey.io.logfacts import gnss_speed
+
+    g = log.gnss
+    n = len(t_imu)
+    if g is None:
+        return np.zeros(n, bool), np.zeros(n)
+    k = (g.fix > 0) & np.isfinite(g.lat_deg) & np.isfinite(g.lon_deg)
+    if np.count_nonzero(k) < 3:
+        return np.zeros(n, bool), np.zeros(n)
+    tg = g.t_s[k]
+    sp = gnss_speed(tg, g.lat_deg[k], g.lon_deg[k], baseline=1)
+    speed = np.interp(t_imu, tg, sp)
+    j = np.clip(np.searchsorted(tg, t_imu), 1, len(tg) - 1)
+    step = float(np.median(np.diff(tg)))
+    ok = tg[j] - tg[j - 1] <= 2.5 * step
+    # up to one GNSS interval beyond the first and last fixes the speed is held (a log's first IMU
+    # samples come before its first fix: the moving start takes the speed of the first second there)
+    ok &= (t_imu >= tg[0] - step) & (t_imu <= tg[-1] + step)
+    return ok, speed
+
+
 def nav_inputs(log: DriveLog) -> NavInputs:
-    """Prepare the navigation inputs of a bundle (detects still periods, finds the start position)."""
+    """Prepare the navigation inputs of a bundle (detects still periods, finds the start position).
+
+    The stops are where the LDV (or, on a log without an LDV, the GNSS track) shows no speed and the
+    IMU neither accelerates nor turns."""
     imu = log.imu
     check_no_long_gaps(imu.long_gaps)  # never integrate across a gap
     t = imu.t_s
     m = log.manifest
     eta = np.unwrap(np.radians(imu.turntable_deg)) if imu.turntable_deg is not None else None
-    ok, nu_f, nu_u = _interp_ldv(log, t)
+    unusable = None
+    if log.ldv is not None:
+        try:
+            ok, nu_f, nu_u = _interp_ldv(log, t)
+            speed_ok, speed, by = ok, nu_f, "the LDV"
+        except ParameterError as exc:  # an LDV that failed all day: GNSS-only work still goes on
+            unusable = exc
+    if log.ldv is None or unusable is not None:  # no LDV: never an aid; stops and a moving start from GNSS
+        ok, nu_f, nu_u = np.zeros(len(t), bool), np.zeros(len(t)), None
+        speed_ok, speed = _gnss_speed_at(log, t)
+        by = "the GNSS track"
     f_b, w_z = _body_signals(t, imu.dtheta_rad, imu.dvel_mps, eta)
-    still = _still_intervals(t, nu_f, ok, f_b=f_b, w_z=w_z)
+    still = _still_intervals(t, speed, speed_ok, f_b=f_b, w_z=w_z)
     static_s = m.initial.static_s
     start = None
     warnings = []
     if static_s is None or static_s == 0:  # not given: detect; 0: the log starts on the move
-        static_end = detect_static_start(t, f_b, w_z, nu_f, ok) if static_s is None else float(t[0])
+        static_end = detect_static_start(t, f_b, w_z, speed, speed_ok) if static_s is None else float(t[0])
         if static_end - t[0] < 30.0:  # no static start: align on the move (or say what is missing)
-            start = moving_start(log, t, eta, nu_f, ok)
+            start = moving_start(log, t, eta, speed, speed_ok)
             static_end = float(t[0])
             warnings.append(
-                f"no static period at the start (the IMU or the LDV shows motion from "
-                f"t={t[0]:.2f} s): coarse alignment on the move from the GNSS course and the LDV "
+                f"no static period at the start (the IMU or {by} shows motion from "
+                f"t={t[0]:.2f} s): coarse alignment on the move from the GNSS course and {by}'s "
                 "speed, then the filter; expect the first minutes to be less accurate"
             )
     else:
@@ -137,6 +190,7 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         warnings=warnings,
         c_bn0=None if start is None else start[0],
         v0_n=None if start is None else start[1],
+        ldv_unusable=unusable,
     )
 
 

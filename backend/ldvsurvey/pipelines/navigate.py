@@ -16,6 +16,7 @@ from ldvsurvey.pipelines.base import (
     PipelineResult,
     Reason,
     needs_gnss,
+    needs_ldv,
     output_rate,
     rate_within_imu,
 )
@@ -28,26 +29,50 @@ from ldvsurvey.units import DEG_PER_RAD as DEG
 class NavigateParams(CalibrationParams, DovParams):
     """Parameters of ``navigate`` (deflection of the vertical off by default)."""
 
-    aiding: Literal["ldv", "gnss", "ldv+gnss"] = Field("ldv", description="ldv, gnss or ldv+gnss")
+    aiding: Literal["auto", "ldv", "gnss", "ldv+gnss"] = Field(
+        "auto", description="auto (ldv when the log has an LDV, else gnss), ldv, gnss or ldv+gnss"
+    )
     smooth: bool = Field(True, description="run the RTS smoother after the forward filter")
     output_rate_hz: float = output_rate(10.0, "trajectory.csv")
     dov: DovChoice = Field("none", description=DOV_HELP)
 
 
+def resolve_aiding(aiding: str, has_ldv: bool) -> str:
+    """The aiding a navigation runs with: ``auto`` is ``ldv`` on a log with an LDV, else ``gnss``."""
+    if aiding == "auto":
+        return "ldv" if has_ldv else "gnss"
+    return aiding
+
+
 def applicable(logs: list[LogFacts], params: NavigateParams) -> list[Reason]:
-    """GNSS aiding needs GNSS; a calibration window must lie inside the log."""
-    gnss = needs_gnss(logs, "aiding includes gnss", "aiding") if "gnss" in params.aiding else []
-    return gnss + calibration_applicable(logs, params) + rate_within_imu(logs, params)
+    """LDV aiding needs an LDV, GNSS aiding GNSS (``auto``: whichever the log has); a calibration
+    window must lie inside the log."""
+    out = []
+    for f in logs:
+        aiding = resolve_aiding(params.aiding, f.has_ldv)
+        if "ldv" in aiding:
+            out += needs_ldv([f], f"aiding={aiding} includes the LDV", "aiding")
+        if "gnss" in aiding:
+            why = "aiding includes gnss" if params.aiding != "auto" else "a log without an LDV navigates with GNSS"
+            out += needs_gnss([f], why, "aiding")
+    ldv_runs = any("ldv" in resolve_aiding(params.aiding, f.has_ldv) for f in logs)
+    return out + (calibration_applicable(logs, params) if ldv_runs else []) + rate_within_imu(logs, params)
 
 
 def run_navigation(log, params, progress, specific_force: bool = True):
     """The navigation solution and what was used (shared with the gravity pipeline; ``specific_force``
     False: the solution carries no per-sample up specific force, which only gravity reads)."""
     inp = nav_inputs(log)
+    aiding = resolve_aiding(params.get("aiding", "auto"), inp.has_ldv)
+    if "ldv" in aiding:
+        inp.require_ldv()
+    if log.ldv is not None and not inp.has_ldv:
+        from ldvsurvey.pipelines.base import warn
+
+        warn(f"the LDV has no usable sample ({inp.ldv_unusable.message}): navigated with {aiding} aiding")
     # pipelines that share this function without the dov parameters keep normal gravity
     dov_info, dov_warn = ({"source": "none"}, []) if "dov" not in params else apply_dov(inp, params, progress)
     inp.cache["dov"] = (dov_info, dov_warn)
-    aiding = params.get("aiding", "ldv")
     use_ldv = "ldv" in aiding
     use_gnss = "gnss" in aiding
     if use_gnss and log.gnss is None:
@@ -64,6 +89,7 @@ def run_navigation(log, params, progress, specific_force: bool = True):
 
         est, _ = tilt_stage(inp)
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
+    inp.cache["aiding"] = aiding
     if setup is not None and setup.solution is not None:
         return inp, setup, setup.solution
     progress(f"navigation ({aiding})", 0.5)
@@ -129,7 +155,7 @@ def run(logs, params, progress) -> PipelineResult:
         "h_sigma_m": sg[:, 8],
     }
     s = {
-        "aiding": params["aiding"],
+        "aiding": inp.cache["aiding"],
         "smoothed": bool(params["smooth"]),
         "max_horizontal_error_m": None if horiz is None else float(np.max(horiz)),
         "max_height_error_m": None if vert is None else float(vert[np.argmax(np.abs(vert))]),
@@ -144,7 +170,7 @@ def run(logs, params, progress) -> PipelineResult:
     if setup is not None:
         s["calibration"] = setup.info
         warnings += setup.warnings
-    if "gnss" in params["aiding"]:
+    if "gnss" in inp.cache["aiding"]:
         warnings.append("errors against GNSS are not independent when GNSS aids the solution")
     return PipelineResult(summary=s, tables={"trajectory": table}, warnings=warnings)
 

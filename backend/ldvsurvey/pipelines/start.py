@@ -224,11 +224,16 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     use = kw & ok
     if np.count_nonzero(use) < 0.5 * np.count_nonzero(kw) or np.count_nonzero(use) < 10:
         raise ParameterError(
-            what + "a usable LDV speed during the first second", file="ldv.csv", field="initial.static_s"
+            what + ("a usable LDV speed" if m.ldv is not None else "GNSS fixes") + " during the first second",
+            file="ldv.csv" if m.ldv is not None else "gnss.nmea",
+            field="initial.static_s",
         )
-    nom = m.ldv.nominal
-    cdb = c_db(nom.pitch_deg * RAD, nom.heading_deg * RAD)
-    slope, v0 = np.polyfit(t[use] - t[0], nu_f[use] / nom.scale, 1)
+    if m.ldv is not None:
+        nom = m.ldv.nominal
+        cdb, scale = c_db(nom.pitch_deg * RAD, nom.heading_deg * RAD), nom.scale
+    else:  # nu_f is the GNSS ground speed: along the body's forward axis
+        cdb, scale = np.eye(3), 1.0
+    slope, v0 = np.polyfit(t[use] - t[0], nu_f[use] / scale, 1)
     dur = float(t[kw][-1] - t[0]) + float(np.median(np.diff(t)))
     # the body's turn between the start and the middle of the course baseline (ψ̇ ≈ −ω_up)
     t_mid = 0.5 * (g.t_s[k[0]] + g.t_s[k[1]])

@@ -9,7 +9,7 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.tilt import oscillation_per_cycle
 from ldvsurvey.pipelines.base import LogFacts, Params, Pipeline, PipelineResult, Reason, output_rate, rate_within_imu
-from ldvsurvey.pipelines.inputs import c_bs_of, ldv_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.inputs import c_bs_of, gnss_aid, ldv_aid, nav_inputs, navigate
 from ldvsurvey.pipelines.tiltfit import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
@@ -48,16 +48,20 @@ def applicable(logs: list[LogFacts], params: TiltParams) -> list[Reason]:
 
 
 def compensated_attitude(inp, est, params, progress, frac=0.4):
-    """Navigation with LDV aiding and the tilt applied; returns (solution, C_s^n, C_b^n, raw C_b^n)."""
+    """Navigation with LDV aiding (a log without an LDV: GNSS aiding, if any) and the tilt applied;
+    returns (solution, C_s^n, C_b^n, raw C_b^n)."""
     cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
     progress("navigation with the tilt compensated", frac)
-    aid = ldv_aid(
-        inp,
-        scale=params.get("ldv_scale"),
-        pitch_rad=None if params.get("ldv_pitch_deg") is None else params["ldv_pitch_deg"] * RAD,
-        heading_rad=None if params.get("ldv_heading_deg") is None else params["ldv_heading_deg"] * RAD,
-    )
-    sol = navigate(inp, cbs=cbs, ldv=aid)
+    if not inp.has_ldv:
+        sol = navigate(inp, cbs=cbs, gnss=gnss_aid(inp.log))
+    else:
+        aid = ldv_aid(
+            inp,
+            scale=params.get("ldv_scale"),
+            pitch_rad=None if params.get("ldv_pitch_deg") is None else params["ldv_pitch_deg"] * RAD,
+            heading_rad=None if params.get("ldv_heading_deg") is None else params["ldv_heading_deg"] * RAD,
+        )
+        sol = navigate(inp, cbs=cbs, ldv=aid)
     c_bn = sol.c_bn()
     c_sn = c_bn @ np.swapaxes(cbs, -1, -2)
     raw = c_sn @ c_bs_of(inp, 0.0, 0.0)
@@ -132,7 +136,7 @@ def run(logs, params, progress) -> PipelineResult:
         "turntable_diversity": est.diversity,
         "rms_residual_rad": est.rms_residual_rad,
         "method": "least squares of the up direction over the turntable angle in still intervals",
-        "aiding": "ldv",
+        "aiding": "ldv" if inp.has_ldv else ("gnss" if log.gnss is not None else "none (ZUPT only)"),
     }
     for key, i in (("pitch", 0), ("roll", 1)):
         s[f"{key}_oscillation_before_rad"] = osc["before"][i] if osc else None

@@ -7,7 +7,7 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
 from ldvsurvey.pipelines.base import warn
-from ldvsurvey.pipelines.inputs import NavInputs, c_bs_of, ldv_aid, navigate, pipeline_cfg
+from ldvsurvey.pipelines.inputs import NavInputs, c_bs_of, gnss_aid, ldv_aid, navigate, pipeline_cfg
 
 
 def static_part(inp: NavInputs) -> NavInputs:
@@ -67,8 +67,15 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     later = [(a, b) for a, b in inp.still if a >= inp.static_end_s - 1e-6]
     if (est is None or not est.observable) and later:
         stops_all = find_stops(inp.t_s, inp.eta_rad)
+        has_ldv = inp.has_ldv  # without a (usable) LDV: the GNSS fixes aid the whole-log navigation
         sol = navigate(
-            inp, cbs=c_bs_of(inp), ldv=ldv_aid(inp), cfg=pipeline_cfg(), smooth=True, attitude_only=True
+            inp,
+            cbs=c_bs_of(inp),
+            ldv=ldv_aid(inp) if has_ldv else None,
+            gnss=None if has_ldv else gnss_aid(inp.log),
+            cfg=pipeline_cfg(),
+            smooth=True,
+            attitude_only=True,
         )  # the tilt needs the attitude and the bias σ only
         est2 = _tilt_from(inp, sol, inp.still, stops_all)
         if est2.observable or est is None:

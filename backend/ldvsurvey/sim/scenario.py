@@ -47,6 +47,9 @@ class Scenario:
     ldv_rate_hz: float = 100.0
     ldv_dropout_share: float = 0.002  #: samples flagged below min_quality (and corrupted)
     ldv_fd: bool = False  #: write fd_hz instead of v_fwd
+    #: False: the bundle has no LDV (an INS/GNSS log: no ldv.csv, no manifest ldv section; the LDV is
+    #: still simulated, so the same seed gives the same IMU and GNSS data with or without it)
+    with_ldv: bool = True
     gnss_lever_m: tuple = (0.0, 0.5, 1.6)
     fix_schedule: list = field(default_factory=list)  #: [(t_from_start_s, t_to_start_s, fix)], default 4
     gravity_field: GravityField | None = None
@@ -220,6 +223,21 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
 NOMINAL_BIAS_CORRELATION_S = 1800.0
 
 
+def gnss_height_noise() -> dict:
+    """The simulated receiver's height error by fix quality, as a datasheet states it (manifest
+    ``gnss.height_noise``): the white part and the rest of the σ as a Gauss-Markov wander."""
+    from ldvsurvey.sim.sensors import FIX_SIGMA, FIX_WHITE, GNSS_CORR_S
+
+    return {
+        str(q): {
+            "white_m": FIX_WHITE[q][1],
+            "correlated_m": float(np.sqrt(max(FIX_SIGMA[q][1] ** 2 - FIX_WHITE[q][1] ** 2, 0.0))),
+            "correlation_s": GNSS_CORR_S,
+        }
+        for q in sorted(FIX_SIGMA)
+    }
+
+
 def manifest(sim: SimResult) -> dict:
     sc = sim.scenario
     m = {
@@ -244,7 +262,7 @@ def manifest(sim: SimResult) -> dict:
             "lever_arm_m": list(sc.ldv.lever_arm_m),
             "noise_mps": sc.ldv.noise_mps,
         },
-        "gnss": {"lever_arm_m": list(sc.gnss_lever_m)},
+        "gnss": {"lever_arm_m": list(sc.gnss_lever_m), "height_noise": gnss_height_noise()},
         "initial": {
             "lat_deg": float(np.degrees(sim.imu.lat_rad[0])),
             "lon_deg": float(np.degrees(sim.imu.lon_rad[0])),
@@ -262,11 +280,14 @@ def manifest(sim: SimResult) -> dict:
         )
     if sc.lines:
         m["lines"] = [{"name": n, "t_start": a, "t_end": b} for n, a, b in sc.lines]
+    if not sc.with_ldv:
+        del m["ldv"]
     return m
 
 
 def bundle_files(sim: SimResult) -> dict[str, bytes]:
-    """The four ``ldv-drive-log/1`` files of a simulation."""
+    """The four ``ldv-drive-log/1`` files of a simulation (three without ``ldv.csv`` when the
+    scenario has no LDV, ``with_ldv`` False)."""
     from ldvsurvey.io.drivelog import fd_to_v_fwd
     from ldvsurvey.io.manifest import LdvOptics
     from ldvsurvey.io.writers import imu_csv, ldv_csv, manifest_json, nmea_text
@@ -292,7 +313,7 @@ def bundle_files(sim: SimResult) -> dict[str, bytes]:
         )
     else:
         ldv = ldv_csv(sim.ldv_t_s, v_fwd_mps=sim.ldv_v_fwd, v_up_mps=v_up, quality=sim.ldv_quality)
-    return {
+    files = {
         "manifest.json": manifest_json(manifest(sim)),
         "imu.csv": imu_csv(
             t_imu, dth, dv, turn, comment="ldv-drive-log/1 IMU increments over (t_prev, t], sensor frame s"
@@ -308,6 +329,9 @@ def bundle_files(sim: SimResult) -> dict[str, bytes]:
             talker="GN",
         ),
     }
+    if not sc.with_ldv:
+        del files["ldv.csv"]
+    return files
 
 
 def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:

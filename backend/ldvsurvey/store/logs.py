@@ -14,6 +14,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from ldvsurvey.io.drivelog import DriveLog, ImuData, LdvData
+from ldvsurvey.io.logfacts import facts_from_streams, log_facts
 from ldvsurvey.io.manifest import Manifest
 from ldvsurvey.io.nmea import GnssData
 from ldvsurvey.store import blobs
@@ -34,14 +35,15 @@ def _arrays(log: DriveLog) -> dict[str, dict[str, np.ndarray]]:
             "dvel_z_mps": imu.dvel_mps[:, 2],
             "turntable_deg": imu.turntable_deg,
         },
-        "ldv": {
+    }
+    if ldv is not None:  # a log without an LDV stores no ldv array
+        out["ldv"] = {
             "t_s": ldv.t_s,
             "v_fwd_mps": ldv.v_fwd_mps,
             "v_up_mps": ldv.v_up_mps,
             "quality": ldv.quality,
             "fd_hz": ldv.fd_hz,
-        },
-    }
+        }
     if log.gnss is not None:
         g = log.gnss
         out["gnss"] = {
@@ -82,7 +84,7 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
         project_id=project_id,
         name=m.name,
         platform=m.platform,
-        ldv_kind=m.ldv.kind,
+        ldv_kind="none" if m.ldv is None else m.ldv.kind,
         imu_rotating=m.imu.rotating,
         survey_date=m.date,
         t_start_s=float(log.imu.t_s[0]),
@@ -92,6 +94,7 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
         size_bytes=sum(log.size_of(n) for n in log.files),
         manifest=m.model_dump(mode="json"),
         quality=quality,
+        facts=log_facts(log),
     )
     session.add(row)
     try:
@@ -142,6 +145,32 @@ def list_logs(
     if date_to is not None:
         q = q.where(Log.survey_date <= date_to)
     return list(session.scalars(q))
+
+
+def facts_of(session: Session, row: Log) -> dict:
+    """The stored facts of a log (see :func:`ldvsurvey.io.logfacts.log_facts`). A row stored before
+    the facts were kept (``facts`` NULL) gets them now from its stored LDV and GNSS arrays, once."""
+    if row.facts is not None:
+        return row.facts
+    m = row.manifest or {}
+    ldv_m = m.get("ldv")
+    ldv = gnss = None
+    if ldv_m:
+        d = load_array(session, row.id, "ldv")
+        if d is not None:
+            ldv = (d["t_s"], d["v_fwd_mps"], d.get("quality"))
+    if row.has_gnss:
+        g = load_array(session, row.id, "gnss")
+        if g is not None:
+            gnss = (g["t_s"], g["lat_deg"], g["lon_deg"], g["fix"])
+    row.facts = facts_from_streams(
+        ldv_kind=ldv_m.get("kind") if ldv_m else None,
+        imu_rotating=bool((m.get("imu") or {}).get("rotating", False)),
+        ldv=ldv,
+        min_quality=ldv_m.get("min_quality") if ldv_m else None,
+        gnss=gnss,
+    )
+    return row.facts
 
 
 def get_log(session: Session, log_id: int) -> Log | None:
@@ -240,15 +269,17 @@ def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
     imu = ImuData(
         t_s=i["t_s"], dtheta_rad=i["dtheta_rad"], dvel_mps=i["dvel_mps"], turntable_deg=i.get("turntable_deg")
     )
-    d = arrays["ldv"]
-    ldv = LdvData(
-        t_s=d["t_s"],
-        v_fwd_mps=d["v_fwd_mps"],
-        v_up_mps=d.get("v_up_mps"),
-        quality=d.get("quality"),
-        fd_hz=d.get("fd_hz"),
-        source="fd_hz" if "fd_hz" in d else "v_fwd",
-    )
+    ldv = None
+    if "ldv" in arrays:
+        d = arrays["ldv"]
+        ldv = LdvData(
+            t_s=d["t_s"],
+            v_fwd_mps=d["v_fwd_mps"],
+            v_up_mps=d.get("v_up_mps"),
+            quality=d.get("quality"),
+            fd_hz=d.get("fd_hz"),
+            source="fd_hz" if "fd_hz" in d else "v_fwd",
+        )
     gnss = None
     if "gnss" in arrays:
         g = arrays["gnss"]

@@ -53,6 +53,9 @@ class Log(Base):
     size_bytes: Mapped[int] = mapped_column(BigInteger, nullable=False, default=0)
     manifest: Mapped[dict] = mapped_column(JSON, nullable=False)
     quality: Mapped[dict] = mapped_column(JSON, nullable=False)
+    #: what the applicability checks know of the log (:func:`ldvsurvey.io.logfacts.log_facts`), found
+    #: when it was stored; NULL for a row stored before (computed on first use, ``store.logs.facts_of``)
+    facts: Mapped[dict | None] = mapped_column(JSON, nullable=True)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), nullable=False, default=utcnow)
 
     files: Mapped[list[LogFile]] = relationship(

@@ -200,9 +200,12 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         parts[src.role] = imp.read(src.data, src.name, src.role, _options(m, src.role))
         by_role[src.role] = src
         warnings += parts[src.role].notes
-    for role in ("imu", "ldv"):
-        if role not in parts:
-            raise BundleError(f"an {role.upper()} recording is required (--{role} FORMAT:FILE)", field=role)
+    if "imu" not in parts:
+        raise BundleError("an IMU recording is required (--imu FORMAT:FILE)", field="imu")
+    if "ldv" not in parts and "gnss" not in parts:
+        raise BundleError(
+            "an IMU needs a GNSS or an LDV recording beside it (--gnss or --ldv FORMAT:FILE)", field="gnss"
+        )
     time_opts = (m.get("import") or {}).get("time") or {}
     day = _date_of(parts, m)
     if time_opts.get("gps_utc_s") is not None:
@@ -247,13 +250,19 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
     imu_rate = _round_rate(_rate_hz(t["imu"]))
     m["imu"].setdefault("rate_hz", imu_rate)
     m["imu"].setdefault("rotating", imu.turntable_deg is not None)
-    ldv: LdvPart = parts["ldv"]
-    m.setdefault("ldv", {})
-    ldv_rate = _round_rate(_rate_hz(t["ldv"]))
-    m["ldv"].setdefault("rate_hz", ldv_rate)
-    if "kind" not in m["ldv"]:
-        m["ldv"]["kind"] = "2d" if "v_up" in ldv.columns else "1d"
-        warnings.append(f"ldv.kind not in the partial manifest: '{m['ldv']['kind']}' assumed from the columns")
+    ldv: LdvPart | None = parts.get("ldv")
+    ldv_rate = None
+    if ldv is not None:
+        m.setdefault("ldv", {})
+        ldv_rate = _round_rate(_rate_hz(t["ldv"]))
+        m["ldv"].setdefault("rate_hz", ldv_rate)
+        if "kind" not in m["ldv"]:
+            m["ldv"]["kind"] = "2d" if "v_up" in ldv.columns else "1d"
+            warnings.append(f"ldv.kind not in the partial manifest: '{m['ldv']['kind']}' assumed from the columns")
+    elif m.pop("ldv", None) is not None:  # a template's LDV section describes no recording here
+        warnings.append(
+            "no LDV recording given: the partial manifest's ldv section was left out (a bundle without an LDV)"
+        )
 
     files = {}
     files["imu.csv"] = imu_csv(
@@ -263,15 +272,16 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         imu.turntable_deg,
         comment=f"imported from {by_role['imu'].name} ({by_role['imu'].format}, axes {code})",
     )
-    lc = ldv.columns
-    files["ldv.csv"] = ldv_csv(
-        t["ldv"],
-        v_fwd_mps=lc.get("v_fwd"),
-        v_up_mps=lc.get("v_up"),
-        quality=lc.get("quality"),
-        fd_hz=lc.get("fd_hz"),
-        comment=f"imported from {by_role['ldv'].name} ({by_role['ldv'].format})",
-    )
+    if ldv is not None:
+        lc = ldv.columns
+        files["ldv.csv"] = ldv_csv(
+            t["ldv"],
+            v_fwd_mps=lc.get("v_fwd"),
+            v_up_mps=lc.get("v_up"),
+            quality=lc.get("quality"),
+            fd_hz=lc.get("fd_hz"),
+            comment=f"imported from {by_role['ldv'].name} ({by_role['ldv'].format})",
+        )
     gnss_track, gnss_rate = [], None
     if "gnss" in parts:
         g: GnssPart = parts["gnss"]
