@@ -46,6 +46,9 @@ class ImuPart:
     turntable_deg: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
     quantum: tuple[float, float] | None = None  #: (rad, m/s) of one count, when the format is integer
+    report: dict = field(
+        default_factory=dict
+    )  #: how the importer established the time base etc., for the import report
 
 
 @dataclass
