@@ -103,6 +103,7 @@ def preview_import(
         "date": s["date"],
         "imu_axes": s["imu_axes"],
         "static_tilt_deg": s["static_tilt_deg"],
+        "checks": s.get("checks"),
         "warnings": result.warnings,
     }
 
