@@ -156,7 +156,11 @@ def create_import(
         **log_summary(row),
         "duplicate": not created,
         "quality": row.quality,
-        "import": {"files": result.summary["files"], "warnings": result.warnings},
+        "import": {
+            "files": result.summary["files"],
+            "checks": result.summary.get("checks"),
+            "warnings": result.warnings,
+        },
     }
 
 
