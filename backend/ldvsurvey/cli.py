@@ -134,6 +134,11 @@ def _cmd_import(args) -> int:
     if not mpath.is_file():
         raise BundleError("no such file", file=args.manifest, field="--manifest")
     partial = parse_partial_manifest(mpath.read_bytes(), file=mpath.name)
+    if args.axes:  # the IMU's sensor axes, for any format (overrides import.imu.axes)
+        imp = partial.setdefault("import", {})
+        if not isinstance(imp, dict) or not isinstance(imp.setdefault("imu", {}), dict):
+            raise BundleError("must be an object", file=mpath.name, field="import.imu")
+        imp["imu"]["axes"] = args.axes
     result = build_bundle(sources, partial)
     out = Path(args.out)
     if out.suffix.lower() != ".zip":
@@ -156,6 +161,27 @@ def _cmd_import(args) -> int:
         f"(axes {s['imu_axes']}, static tilt {s['static_tilt_deg']:.2f} deg), "
         + ("no LDV" if s["rates_hz"]["ldv"] is None else f"LDV {s['rates_hz']['ldv']} Hz")
     )
+    ck = s.get("checks") or {}
+    g, r, o = ck.get("static_gravity") or {}, ck.get("imu_rate") or {}, ck.get("overlap")
+    if "normal_mps2" in g:
+        print(
+            f"check: at rest |f| {g['measured_mps2']:.4f} m/s² vs normal gravity {g['normal_mps2']:.4f} m/s² "
+            f"({g['error_rel'] * 100:+.2f} %), |ω| {g['omega_dph']:.3f} °/h vs Earth rate {g['earth_rate_dph']:.3f} °/h"
+        )
+    if r:
+        print(
+            f"check: IMU rate {r['measured_hz']} Hz measured"
+            + (f", {r['declared_hz']} Hz declared" if r.get("declared_hz") else "")
+        )
+    if o:
+        print(f"check: GNSS covers {o['share'] * 100:.1f} % of the IMU span ({o['overlap_s']} s)")
+    tb = (ck.get("imu_source") or {}).get("time_base")
+    if tb:
+        print(
+            f"check: {tb['message']} time base from {tb['anchors']} {tb['source']} epochs: tag rate "
+            f"{tb['tag_rate_hz']:.1f} ticks/s ± {tb['tag_rate_3sigma_rel'] * 100:.2f} % (3σ), "
+            f"offset ± {tb['offset_uncertainty_ms']} ms"
+        )
     for w in result.warnings:
         print(f"warning: {w}", file=sys.stderr)
     return 0
@@ -372,6 +398,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="what no recording holds: LDV kind and mounting, lever arms, platform, import options",
     )
     im.add_argument("--out", required=True, metavar="BUNDLE.zip")
+    im.add_argument(
+        "--axes",
+        metavar="CODE",
+        help="where the IMU's sensor x, y, z point (e.g. FRD, FLU, RFU), for any format; overrides import.imu.axes",
+    )
     im.set_defaults(func=_cmd_import)
 
     w = sub.add_parser(

@@ -47,6 +47,27 @@ function hms(t) {
   return `${p(s / 3600)}:${p((s % 3600) / 60)}:${p(s % 60)} UTC${day ? ` (+${day} d)` : ""}`;
 }
 
+function checks(c) {
+  if (!c) return "";
+  const g = c.static_gravity || {},
+    o = c.overlap,
+    tb = (c.imu_source || {}).time_base;
+  const parts = [];
+  if (g.normal_mps2 !== undefined)
+    parts.push(
+      `at rest |f| ${num(g.measured_mps2, 4)} m/s² vs normal gravity ${num(g.normal_mps2, 4)} m/s² (${num(100 * g.error_rel, 2)} %), ` +
+        `|ω| ${num(g.omega_dph, 3)} °/h vs Earth rate ${num(g.earth_rate_dph, 3)} °/h`,
+    );
+  if (c.imu_rate) parts.push(`IMU rate ${num(c.imu_rate.measured_hz, 3)} Hz measured`);
+  if (o) parts.push(`GNSS covers ${num(100 * o.share, 1)} % of the IMU span`);
+  if (tb)
+    parts.push(
+      `${tb.message} time base from ${tb.anchors} ${tb.source} epochs: ${num(tb.tag_rate_hz, 1)} ticks/s ± ` +
+        `${num(100 * tb.tag_rate_3sigma_rel, 2)} % (3σ), offset ± ${num(tb.offset_uncertainty_ms, 1)} ms`,
+    );
+  return parts.length ? html`<p id="import-checks">Checks: ${parts.join(" · ")}</p>` : "";
+}
+
 function preview(p) {
   const [t0, t1] = p.time_span_s,
     r = p.rates_hz;
@@ -75,6 +96,7 @@ function preview(p) {
       Rates: IMU ${num(r.imu, 1)} Hz · LDV ${r.ldv == null ? "none" : num(r.ldv, 1) + " Hz"} · GNSS ${gnss} · IMU axes
       ${p.imu_axes} (static tilt ${num(p.static_tilt_deg, 2)}°)
     </p>
+    ${checks(p.checks)}
     ${
       p.warnings.length
         ? html`<ul class="warn" id="import-warnings">

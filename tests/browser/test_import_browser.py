@@ -46,6 +46,8 @@ def test_drop_foreign_files_preview_then_confirm(server, page, recordings):
     assert f"{(sim.imu.t_s[-1] - 30000.0) / 60:.1f} min" in span
     rates = page.inner_text("#import-rates")
     assert "IMU 100.0 Hz" in rates and "LDV 100.0 Hz" in rates and "GNSS 1.00 Hz" in rates and "FRD" in rates
+    checks = page.inner_text("#import-checks")  # the simulated drive stands still for 30 s at the start
+    assert "normal gravity" in checks and "Earth rate 15.041" in checks and "GNSS covers" in checks
     page.wait_for_selector("#import-track .main-svg")  # the Plotly GNSS track
     n_points = page.evaluate("document.getElementById('import-track').data[0].x.length")
     assert n_points == int((sim.gnss_fix > 0).sum())

@@ -19,7 +19,7 @@ from ldvsurvey.sim.motion import Static
 from ldvsurvey.sim.road import Ramps, Road
 from ldvsurvey.sim.scenario import Scenario, bundle_files, manifest, simulate
 from tests.helpers.nmea import sentence
-from tests.io.import_helpers import kfgins_gnss, kfgins_imu, sow_of_midnight
+from tests.io.import_helpers import kfgins_gnss, kfgins_imu
 
 OUT = Path("docs/examples")
 
@@ -58,18 +58,13 @@ def main():
     nv = OUT / "novatel"
     nv.mkdir(exist_ok=True)
     (nv / "span.log").write_bytes(ascii_log(sim, day, np.eye(3), HG1700_AG58))
-    from tests.io.import_helpers import rfu_to_frd
-    from tests.io.test_import_ubx import esf_raw_frames, nav_pvt_frames
+    from tests.io.test_import_ubx import receiver_stream
 
-    _, s0 = sow_of_midnight(day)
     ub = OUT / "ubx"
     ub.mkdir(exist_ok=True)
-    tag = np.round((sim.imu.t_s + s0) * 1000).astype(np.int64)
+    # ESF-RAW on a 25.6 kHz sensor clock (as the NEO-M8U), NAV-PVT 40 ms after its epoch, interleaved
+    (ub / "receiver.ubx").write_bytes(receiver_stream(sim, day, nav_latency_s=0.04))
     dt_s = 1.0 / sc.imu_rate_hz
-    (ub / "receiver.ubx").write_bytes(
-        esf_raw_frames(tag, rfu_to_frd(sim.dtheta_rad) / dt_s, rfu_to_frd(sim.dvel_mps) / dt_s)
-        + nav_pvt_frames(sim, day, np.round((sim.gnss_t_s + s0) * 1000).astype(np.int64))
-    )
     nm = OUT / "nmea"
     nm.mkdir(exist_ok=True)
     from ldvsurvey.io.nmea import format_gga

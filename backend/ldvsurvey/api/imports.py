@@ -103,6 +103,7 @@ def preview_import(
         "date": s["date"],
         "imu_axes": s["imu_axes"],
         "static_tilt_deg": s["static_tilt_deg"],
+        "checks": s.get("checks"),
         "warnings": result.warnings,
     }
 
@@ -155,7 +156,11 @@ def create_import(
         **log_summary(row),
         "duplicate": not created,
         "quality": row.quality,
-        "import": {"files": result.summary["files"], "warnings": result.warnings},
+        "import": {
+            "files": result.summary["files"],
+            "checks": result.summary.get("checks"),
+            "warnings": result.warnings,
+        },
     }
 
 

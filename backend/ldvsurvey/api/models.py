@@ -138,6 +138,7 @@ class ImportPreview(Out):
     date: Any
     imu_axes: Any
     static_tilt_deg: Any
+    checks: Any = None  #: the import's cross-checks (dates, overlap, IMU rate, gravity/Earth rate at rest, time base)
     warnings: list[str]
 
 

@@ -13,7 +13,16 @@ import numpy as np
 from ldvsurvey import FORMAT_VERSION, __version__
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.importers import gpstime
-from ldvsurvey.io.importers.axes import c_rfu_sensor, check_static_up
+from ldvsurvey.io.importers.axes import c_rfu_sensor, check_static_up, require_axes
+from ldvsurvey.io.importers.checks import (
+    OVERLAP_WARN,
+    RATE_WARN,
+    check_dates,
+    check_overlap,
+    judge_static,
+    measure_imu_rate,
+    static_figures,
+)
 from ldvsurvey.io.importers.common import GnssPart, ImuPart, LdvPart, Stamps, check_increasing
 
 MANIFEST_FILE = "manifest (partial)"
@@ -174,6 +183,19 @@ def _gga_lines(t, g: GnssPart, sep_default: float | None) -> tuple[bytes, str]:
     return ("\r\n".join(out) + "\r\n").encode(), how
 
 
+def _jsonable(x):
+    """Plain JSON types (numpy scalars to float/int) for the import report."""
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.floating):
+        return float(x)
+    return x
+
+
 def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
     """Read every source with its importer, put all on the bundle clock and axes, write and validate.
 
@@ -208,6 +230,8 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         )
     time_opts = (m.get("import") or {}).get("time") or {}
     day = _date_of(parts, m)
+    names = {role: src.name for role, src in by_role.items()}
+    checks = {"dates": check_dates(parts, names, day if m.get("date") is not None else None)}
     if time_opts.get("gps_utc_s") is not None:
         leap = time_opts["gps_utc_s"]
         if not isinstance(leap, int) or isinstance(leap, bool):
@@ -232,15 +256,39 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
             by_role[role].name,
             unit="line" if by_role[role].format not in ("ubx", "novatel") else "message",
         )
+    checks["time_tags"] = "strictly increasing in every recording"
+    checks["overlap"] = check_overlap(t, names)
+    if checks["overlap"] and checks["overlap"]["share"] < OVERLAP_WARN:
+        warnings.append(
+            f"the GNSS fixes cover {checks['overlap']['share'] * 100:.0f} % of the IMU's time span "
+            f"({checks['overlap']['overlap_s']:.1f} of {t['imu'][-1] - t['imu'][0]:.1f} s)"
+        )
 
     imu: ImuPart = parts["imu"]
-    code = _options(m, "imu").get("axes", imu.axes)
+    static_s = float(((m.get("initial") or {}).get("static_s")) or 10.0)
+    code = _options(m, "imu").get("axes") or imu.axes
+    if not code:  # a format without a fixed sensor frame (u-blox): say what the data show
+        require_axes(imu.dvel_mps, t["imu"], min(static_s, 60.0), by_role["imu"].name, by_role["imu"].format)
     c = c_rfu_sensor(code, file=MANIFEST_FILE, field="import.imu.axes")
     dth = imu.dtheta_rad @ c.T
     dv = imu.dvel_mps @ c.T
-    static_s = float(((m.get("initial") or {}).get("static_s")) or 10.0)
     max_tilt = float(_options(m, "imu").get("max_static_tilt_deg", 5.0))
     tilt = check_static_up(dv, t["imu"], code, min(static_s, 60.0), by_role["imu"].name, max_tilt)
+    if "gnss" in parts:
+        where = (float(parts["gnss"].lat_deg[0]), float(parts["gnss"].h_ell_m[0]))
+    else:
+        init = m.get("initial") or {}
+        where = (init.get("lat_deg"), init.get("h_m"))
+    checks["static_gravity"] = static_figures(dth, dv, t["imu"], min(static_s, 60.0), *where)
+    judge_static(checks["static_gravity"], (m.get("imu") or {}).get("gyro_bias_dph"), by_role["imu"].name, warnings)
+    checks["imu_rate"] = measure_imu_rate(t["imu"], (m.get("imu") or {}).get("rate_hz"))
+    if abs(checks["imu_rate"].get("error_rel", 0.0)) > RATE_WARN:
+        warnings.append(
+            f"{by_role['imu'].name}: the IMU samples come at {checks['imu_rate']['measured_hz']:.3f} Hz, the partial "
+            f"manifest declares {checks['imu_rate']['declared_hz']} Hz"
+        )
+    if imu.report:
+        checks["imu_source"] = imu.report
 
     m.setdefault("format", FORMAT_VERSION)
     m["date"] = day.isoformat()
@@ -326,6 +374,7 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         "date": day.isoformat(),
         "imu_axes": code,
         "static_tilt_deg": round(tilt, 3),
+        "checks": _jsonable(checks),
     }
     beside = {}
     refs = [p.reference for p in parts.values() if getattr(p, "reference", None) is not None]

@@ -47,6 +47,9 @@ class ImuPart:
     notes: list[str] = field(default_factory=list)
     quantum: tuple[float, float] | None = None  #: (rad, m/s) of one count, when the format is integer
     reference: Reference | None = None  #: the receiver's own INS solution, if the recording has one
+    report: dict = field(
+        default_factory=dict
+    )  #: how the importer established the time base etc., for the import report
 
 
 @dataclass
