@@ -227,6 +227,10 @@ class ResultFile(Out):
     size_bytes: int
 
 
+class Names(Out):
+    fix_quality: dict[str, str] = Field(description="GGA fix quality code → its name, e.g. '4' → '4 RTK fixed'")
+
+
 class Figure(Out):
     data: list[JSON] = Field(description="Plotly traces")
     layout: JSON = Field(description="Plotly layout")
