@@ -131,6 +131,9 @@ async function showResults(ctx, j) {
   render(
     $("#results"),
     html`<div class="card" id="downloads">
+        <a class="dl" id="report-download" download href="/api/jobs/${j.id}/report"
+          ><button>Survey report (HTML, prints to PDF)</button></a
+        >
         ${files.map(
           (f) =>
             html`<a class="dl" download href="/api/jobs/${j.id}/files/${encodeURIComponent(f.name)}"

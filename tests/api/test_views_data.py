@@ -14,142 +14,9 @@ import numpy as np
 import pytest
 
 from ldvsurvey.api import views as V
+from tests.api.helpers import SUMMARIES, path, tables
 
 N_POINTS = 400  #: points requested per trace (fewer than the rows: thinning is exercised)
-GAP_T = (1200, 1500)  #: rows removed from every time series: a 30-s gap at 10 Hz
-NAN_ROWS = (2000, 2100)  #: a stretch where the values are missing
-#: WGS-84 (the track's east/north metres turned into latitude/longitude on the test's own formulas)
-A_M, F = 6378137.0, 1 / 298.257223563
-LAT0_DEG, LON0_DEG = 48.0, 11.0
-
-
-def _t(n=3000, rate_hz=10.0):
-    keep = np.ones(n, bool)
-    keep[GAP_T[0] : GAP_T[1]] = False
-    return 30000.0 + np.arange(n)[keep] / rate_hz
-
-
-def _nan(a):
-    a = np.array(a, float)
-    a[NAN_ROWS[0] : NAN_ROWS[1]] = np.nan
-    return a
-
-
-def _lat_lon(e_m, n_m):
-    """Latitude, longitude (deg) of east/north offsets from (LAT0, LON0), meridian and prime-vertical
-    radii of WGS-84 at LAT0 (a small area: the offsets are a few km)."""
-    e2 = F * (2 - F)
-    s = np.sin(np.radians(LAT0_DEG))
-    rn = A_M / np.sqrt(1 - e2 * s * s)
-    rm = A_M * (1 - e2) / (1 - e2 * s * s) ** 1.5
-    return LAT0_DEG + np.degrees(n_m / rm), LON0_DEG + np.degrees(e_m / (rn * np.cos(np.radians(LAT0_DEG))))
-
-
-def _path():
-    """A figure-of-eight drive sampled at 10 Hz (at most 4.5 m per row), its time and east/north (m)."""
-    t = _t(4000)
-    s = (t - t[0]) * 10.0
-    ph = 2 * np.pi * s / s[-1]
-    return t, 2000.0 * np.sin(ph), 1000.0 * np.sin(2 * ph) + 0.2 * s
-
-
-def tables():
-    t = _t()
-    rng = np.random.default_rng(7)
-    w = np.sin((t - t[0]) / 40.0)
-    h_gnss = np.full(len(t), np.nan)
-    h_gnss[::10] = 100.0 + w[::10]
-    fix = np.where((np.arange(len(t)) // 500) % 2 == 0, 4, 2)
-    height = {
-        "t_s": t,
-        "h_m": _nan(100.0 + w + 0.01 * rng.standard_normal(len(t))),
-        "h_uncompensated_m": 100.0 + w + 0.3 * np.cos(t / 7.0),
-        "h_gnss_m": h_gnss,
-        "fix_quality": fix.astype(float),
-    }
-    attitude = {"t_s": t}
-    for k in ("pitch_raw_deg", "pitch_deg", "roll_raw_deg", "roll_deg"):
-        attitude[k] = _nan(rng.standard_normal(len(t)).cumsum() * 0.01)
-    tt, e, n = _path()
-    lat, lon = _lat_lon(e, n)
-    track = {"t_s": tt, "lat_deg": lat, "lon_deg": lon, "h_m": np.full(len(tt), 100.0)}
-    g_lat, g_lon = _lat_lon(e[::10] + 0.5, n[::10] - 0.5)
-    gnss = {"t_s": tt[::10], "lat_deg": g_lat, "lon_deg": g_lon, "fix": np.where(np.arange(len(g_lat)) < 150, 4, 2)}
-    # gravity: two 11-km lines, 10 m apart rows; L2 driven back (distance falls with time); the
-    # SINS/GNSS chain missing over 3-6 km; coincidence rows missing 5.0-5.5 km on L1
-    grav = {k: [] for k in ("t_s", "line", "distance_m", "dg_mgal", "dg_sins_gnss_mgal", "dg_gnss_aided_mgal")}
-    coin = {k: [] for k in ("line", "distance_m", "dg_mgal", "mean_mgal", "residual_mgal")}
-    d = np.arange(0.0, 11000.0 + 1e-9, 10.0)
-    t0 = 40000.0
-    for name, dd in (("L1", d), ("", np.full(60, np.nan)), ("L2", d[::-1])):
-        m = len(dd)
-        grav["t_s"].append(t0 + np.arange(m))
-        grav["line"] += [name] * m
-        grav["distance_m"].append(dd)
-        g = 10 * np.sin(dd / 900.0) + 0.2 * rng.standard_normal(m)
-        grav["dg_mgal"].append(g)
-        grav["dg_sins_gnss_mgal"].append(np.where((dd > 3000) & (dd < 6000), np.nan, g + 0.3))
-        grav["dg_gnss_aided_mgal"].append(g - 0.1)
-        t0 += m + 100.0
-    for name in ("L1", "L2"):
-        keep = ~((d > 5000) & (d < 5500)) if name == "L1" else np.ones(len(d), bool)
-        dd = d[keep]
-        mean = 10 * np.sin(dd / 900.0)
-        res = 0.2 * rng.standard_normal(len(dd))
-        coin["line"] += [name] * len(dd)
-        coin["distance_m"].append(dd)
-        coin["dg_mgal"].append(mean + res)
-        coin["mean_mgal"].append(mean)
-        coin["residual_mgal"].append(res)
-    grav = {k: (np.array(v, dtype=object) if k == "line" else np.concatenate(v)) for k, v in grav.items()}
-    coin = {k: (np.array(v, dtype=object) if k == "line" else np.concatenate(v)) for k, v in coin.items()}
-    dov = {"t_s": t, "xi_arcsec": _nan(3 * w), "eta_arcsec": -2 * w}
-    for mth in ("direct", "rk4", "theoretical"):
-        dov[f"dn_{mth}_m"] = _nan(0.1 * w * (t - t[0]) / 100)
-        dov[f"de_{mth}_m"] = 0.05 * w
-    damping = {"t_s": t}
-    for mth in ("undamped", "conventional", "delayed_state"):
-        damping[f"{mth}_north_error_m"] = _nan(np.sin((t - t[0]) / 500.0) * (3 if mth == "undamped" else 1))
-    return {
-        "height.csv": height,
-        "attitude.csv": attitude,
-        "trajectory.csv": track,
-        "calibration_track.csv": track,
-        "gravity.csv": grav,
-        "coincidence.csv": coin,
-        "dov.csv": dov,
-        "damping.csv": damping,
-    }, {"gnss": gnss}
-
-
-SUMMARIES = {
-    "height": {
-        "std_error_m": 0.41,
-        "max_error_m": -1.78,
-        "n_reference": 270,
-        "std_error_m_fix4": 0.05,
-        "max_error_m_fix4": -0.13,
-        "n_reference_fix4": 140,
-    },
-    "tilt": {"alpha_rad": 1e-4, "beta_rad": -2e-4},
-    "gravity": {
-        "total_mgal": 0.2,
-        "noise_floor": {"total_mgal": 0.15, "drift_mgal": 0.05, "combined_mgal": 0.16},
-        "fir_length_s": 120,
-        "resolution_m": 900,
-        "line_end_trim_s": 60,
-        "lines": [{"name": "L1"}, {"name": "L2"}],
-        "gnss_comparison": {
-            "total_mgal": 0.9,
-            "noise_floor": {"total_mgal": 0.5},
-            "ldv_minus_gnss": [{"name": "L1", "rms_mgal": 0.31}, {"name": "L2", "rms_mgal": 0.29}],
-        },
-    },
-    "dov": {"dov_source": "EGM2008 to degree 2190"},
-    "damping": {"position_improvement_pct": 41.5},
-    "navigate": {},
-    "calibrate": {},
-}
 
 
 def _rows_of_trace(v, name, tabs, arrays):
@@ -164,10 +31,10 @@ def _rows_of_trace(v, name, tabs, arrays):
         tr = tabs["trajectory.csv"]
         lat0, lon0 = np.radians(tr["lat_deg"][0]), np.radians(tr["lon_deg"][0])
         if name == "solution":
-            _, e, n = _path()
+            _, e, n = path()
             return e, n, tr["t_s"]
         gn = arrays["gnss"]
-        tt, e, n = _path()
+        tt, e, n = path()
         del lat0, lon0
         q = int(re.search(r"GNSS, (\d)", name).group(1))
         k = gn["fix"] == q
@@ -310,7 +177,7 @@ def test_the_trajectory_is_the_path_driven(data):
     jumps = np.hypot(np.diff(x), np.diff(y))
     # at most ~4.5 m per row and 3700 rows thinned to about 400 points: a drawn step spans the path of
     # a few dozen rows (check_trace bounds each by the path itself); sorted by east, steps ran to km
-    _, e, n = _path()
+    _, e, n = path()
     assert np.nanmax(jumps) < 0.05 * max(np.ptp(e), np.ptp(n))
     assert np.isnan(x).sum() == 1  # one break: the gap
     # equal axis scales without stretching the ranges past the data

@@ -23,6 +23,7 @@ from ldvsurvey.api.limits import BodySizeLimit
 from ldvsurvey.api.logs import router as logs_router
 from ldvsurvey.api.models import Health
 from ldvsurvey.api.people import router as people_router
+from ldvsurvey.api.reports import router as reports_router
 from ldvsurvey.api.security import SecurityHeaders
 from ldvsurvey.api.throttle import LoginThrottle
 from ldvsurvey.errors import InputError
@@ -111,6 +112,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     mount_docs(app)
     app.include_router(imports_router)
     app.include_router(grids_router)
+    app.include_router(reports_router)
 
     import plotly
 
