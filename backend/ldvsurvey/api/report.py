@@ -26,9 +26,9 @@ from ldvsurvey.pipelines.inputs import local_metres
 from ldvsurvey.units import RAD_PER_DEG
 
 #: points per trace in a report figure (enough for print; keeps the file small)
-REPORT_POINTS = 1500
+REPORT_POINTS = 800
 #: points per layer on a report map
-MAP_POINTS = 3000
+MAP_POINTS = 1000
 #: unit of a summary value by the suffix of its key (``total_mgal`` → mGal)
 SUFFIX_UNITS = {
     "mgal": "mGal",
