@@ -39,6 +39,11 @@ def _rows_of_trace(v, name, tabs, arrays):
         q = int(re.search(r"GNSS, (\d)", name).group(1))
         k = gn["fix"] == q
         return (e[::10] + 0.5)[k], (n[::10] - 0.5)[k], gn["t_s"][k]
+    if v == "gravity_map":
+        if name.startswith("GNSS"):
+            return _rows_of_trace("trajectory", name, tabs, arrays)
+        on = g["line"] != ""
+        return 0.6 * g["distance_m"][on], 0.8 * g["distance_m"][on], g["t_s"][on]
     if v == "height":
         col = {"LDV height (tilt compensated)": "h_m", "LDV height (uncompensated)": "h_uncompensated_m"}
         return h["t_s"], h[col.get(name, "h_gnss_m")], h["t_s"]
@@ -225,3 +230,36 @@ def test_views_are_pure_functions_of_their_tables():
         V.build_view(V.DictTables({}), "height", {}, "height", None, None, 100)
     with pytest.raises(V.UnknownView):
         V.build_view(V.DictTables({}), "height", {}, "attitude", None, None, 100)
+
+
+@pytest.mark.parametrize("name", ["trajectory", "gravity_map"])
+def test_maps_have_a_true_scale_bar_a_north_arrow_and_their_positions(name, data):
+    tabs, arrays = data
+    v = V.VIEWS[name]
+    fig = V.build_view(V.DictTables(tabs, arrays), v.pipeline, SUMMARIES[v.pipeline], name, None, None, N_POINTS)
+    lay = fig["layout"]
+    # equal scales on east/north metres, north up
+    assert lay["yaxis"]["scaleanchor"] == "x" and lay["yaxis"]["scaleratio"] == 1
+    xs = [p for t in fig["data"] for p in t["x"] if p is not None]
+    ys = [p for t in fig["data"] for p in t["y"] if p is not None]
+    span = max(np.ptp(xs), np.ptp(ys))
+    (bar,) = [sh for sh in lay["shapes"] if sh["type"] == "line"]
+    length = bar["x1"] - bar["x0"]
+    assert bar["y0"] == bar["y1"] and span / 10 <= length <= span / 2  # a fifth of the extent, rounded
+    assert length / 10 ** np.floor(np.log10(length)) in (1, 2, 5)
+    label = next(a["text"] for a in lay["annotations"] if a.get("name") == "scale bar")
+    assert label == (f"{length:g} m" if length < 1000 else f"{length / 1000:g} km")
+    arrow = next(a for a in lay["annotations"] if a.get("name") == "north arrow")
+    assert arrow["ax"] == 0 and arrow["ay"] > 0  # the tail straight below the head: pointing up (north)
+    assert any(a["text"] == "<b>N</b>" for a in lay["annotations"])
+    # every point also carries its latitude/longitude (for a basemap), equal to the data's
+    tr = tabs["trajectory.csv"] if name == "trajectory" else tabs["gravity.csv"]
+    for t in fig["data"]:
+        if t["name"].startswith("GNSS"):
+            src_lat, src_lon = arrays["gnss"]["lat_deg"], arrays["gnss"]["lon_deg"]
+        else:
+            src_lat, src_lon = tr["lat_deg"], tr["lon_deg"]
+        for la, lo in zip(t["meta"]["lat"], t["meta"]["lon"]):
+            if la is None:
+                continue
+            assert np.min(np.hypot(src_lat - la, src_lon - lo)) < 1e-8  # deg: under a millimetre

@@ -7,19 +7,16 @@ so every pipeline's views are drawn without running the pipelines; the report of
 run is checked on the session server (test_report_of_a_real_gravity_run).
 """
 
-import os
 import re
-import subprocess
-import sys
+import time
 
 import httpx
 import pytest
 
 from ldvsurvey.api import views as V
 from tests.api.helpers import SUMMARIES, provenance, store_job, tables
-from tests.browser.helpers import shot
+from tests.browser.helpers import shot, start_server
 from tests.bundles import make_bundle
-from tests.helpers.server import free_port, wait_healthy
 
 pytestmark = pytest.mark.browser
 SHA = "fedcba9876543210" * 4
@@ -40,20 +37,7 @@ def stored_server(tmp_path_factory):
     that has views, plus a second gravity job (for the compare page), all on one uploaded log."""
     data = tmp_path_factory.mktemp("reportsrv")
     url = f"sqlite:///{data / 'ldvsurvey.db'}"
-    env = {k: v for k, v in os.environ.items() if not k.startswith("LDVSURVEY_") or k == "LDVSURVEY_NUMBA_CACHE_DIR"}
-    env.update({"LDVSURVEY_DATA_DIR": str(data), "LDVSURVEY_DEMO_MODE": "1", "LDVSURVEY_DATABASE_URL": url})
-    port = free_port()
-    base = f"http://127.0.0.1:{port}"
-    with open(data / "server.log", "w") as log:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "ldvsurvey.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
-            env=env,
-            stdout=log,
-            stderr=subprocess.STDOUT,
-        )
-    if not wait_healthy(base, proc=proc):
-        proc.kill()
-        raise RuntimeError((data / "server.log").read_text())
+    proc, base = start_server(data, {"LDVSURVEY_DEMO_MODE": "1", "LDVSURVEY_DATABASE_URL": url})
     files = make_bundle(seed=74, n_imu=300)
     r = httpx.post(base + "/api/logs", files=[("files", (n, d, "x")) for n, d in files.items()], timeout=60)
     assert r.status_code in (200, 201), r.text
@@ -76,7 +60,8 @@ CHECK = """(el) => {
   const fl = el._fullLayout, svg = el.querySelector('.main-svg').getBoundingClientRect();
   const out = {traces: el.data.map(t => ({name: t.name, x: t.x, y: t.y})), axes: {}, title: null};
   const t = el.querySelector('.gtitle');
-  if (t) { const b = t.getBoundingClientRect(); out.title = [b.left - svg.left, b.right - svg.left, svg.width]; }
+  if (t) { const b = t.getBoundingClientRect();
+           out.title = [b.left - svg.left, b.right - svg.left, svg.width, b.bottom - svg.top, fl._size.t]; }
   for (const ax of ['xaxis', 'yaxis']) out.axes[ax] = {range: fl[ax].range, title: fl[ax].title.text};
   out.axisTitles = [...el.querySelectorAll('.xtitle, .ytitle')].map(n => n.textContent);
   return out;
@@ -102,8 +87,9 @@ def test_every_view_on_the_job_page_against_its_data(stored_server, page):
             assert [t["x"] for t in got["traces"]] == [t["x"] for t in fig["data"]], v.name
             assert [t["y"] for t in got["traces"]] == [t["y"] for t in fig["data"]], v.name
             # the title fits inside the plot, both axes have titles with units
-            left, right, width = got["title"]
+            left, right, width, bottom, plot_top = got["title"]
             assert left >= 0 and right <= width, (v.name, got["title"])
+            assert bottom <= plot_top + 1, (v.name, "the title runs into the plot", got["title"])
             assert len(got["axisTitles"]) >= 2 and all(re.search(r"\(.+\)$", s) for s in got["axisTitles"])
             # the axis ranges stay near the data's (autorange pads a little; nothing runs km beyond)
             for ax, key in (("xaxis", "x"), ("yaxis", "y")):
@@ -212,15 +198,18 @@ def test_report_of_a_real_gravity_run(server, browser, tmp_path):
     """A gravity job the pipeline really ran (three 3-km lines): its report, offline, to PDF."""
     from ldvsurvey.sim import catalog
     from ldvsurvey.sim.scenario import bundle_files, simulate
-    from tests.browser.test_dashboard import wait_job
     from tests.bundles import zip_bytes
 
     z = zip_bytes(bundle_files(simulate(catalog.gravity(n_lines=3, line_km=3.0), seed=9)))
     r = httpx.post(server + "/api/logs", files=[("files", ("gravity.zip", z, "application/zip"))], timeout=120)
     assert r.status_code in (200, 201), r.text
     log_id = r.json()["id"]
-    job = httpx.post(f"{server}/api/logs/{log_id}/jobs", json={"pipeline": "gravity", "parameters": {}}).json()["id"]
-    j = wait_job(server, job, timeout_s=400)
+    job = httpx.post(f"{server}/api/logs/{log_id}/jobs", json={"pipeline": "gravity"}, timeout=60).json()["id"]
+    for _ in range(400):
+        j = httpx.get(f"{server}/api/jobs/{job}", timeout=60).json()
+        if j["status"] not in ("queued", "running"):
+            break
+        time.sleep(1.0)
     assert j["status"] == "succeeded", j["error"]
     text = httpx.get(f"{server}/api/jobs/{job}/report", timeout=120).text
     hashes = [f["sha256"] for i in j["inputs"] for f in i["files"]]

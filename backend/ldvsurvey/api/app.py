@@ -146,5 +146,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_upload_bytes)
     app.add_middleware(GZipMiddleware, minimum_size=1024, compresslevel=5)
     if settings.security_headers:
-        app.add_middleware(SecurityHeaders)  # outermost: every answer carries them, refusals too
+        # outermost: every answer carries them, refusals too
+        app.add_middleware(SecurityHeaders, tile_origin=settings.basemap_origin())
     return app

@@ -16,7 +16,7 @@ from sqlalchemy.orm import Session
 from ldvsurvey.api import models as m
 from ldvsurvey.api.auth import CurrentUser, Principal, visible_job
 from ldvsurvey.api.deps import ID_MAX, SessionDep
-from ldvsurvey.api.views import fit_title
+from ldvsurvey.api.views import fit_title, title_layout, title_margin
 
 router = APIRouter(tags=["compare"])
 JOBS_Q = Query(
@@ -183,12 +183,12 @@ def compare_figure(ids: list[int], out: dict, lines: dict[int, dict]) -> dict:
     return {
         "data": traces,
         "layout": {
-            "title": {"text": title, "x": 0.5, "xanchor": "center", "font": {"size": 15}},
+            "title": title_layout(title),
             "xaxis": {"title": {"text": "along-track distance (m)"}, "anchor": "y2"},
             "xaxis2": {"matches": "x", "anchor": "y", "showticklabels": True},
             "yaxis": {"title": {"text": "δg (mGal)"}, "domain": [0.45, 1.0], "anchor": "x2"},
             "yaxis2": {"title": {"text": "difference (mGal)"}, "domain": [0.0, 0.33], "anchor": "x"},
-            "margin": {"t": 30 + 20 * (title.count("<br>") + 1), "r": 20, "b": 110},
+            "margin": {"t": title_margin(title), "r": 20, "b": 110},
             "legend": {"orientation": "h", "y": -0.25},
         },
     }

@@ -183,6 +183,11 @@ def names() -> m.Names:
     return {"fix_quality": {str(k): v for k, v in FIX_QUALITY_NAMES.items()}}
 
 
+@router.get("/api/basemap", summary="The basemap of the maps (LDVSURVEY_BASEMAP_TILE_URL), if one is set")
+def basemap(settings: SettingsDep) -> m.Basemap:
+    return {"tile_url": settings.basemap_tile_url, "attribution": settings.basemap_attribution}
+
+
 @router.get("/api/jobs", summary="Jobs, newest first")
 def list_jobs(
     session: SessionDep, who: CurrentUser, log_id: int | None = Query(None, ge=1, le=2**31 - 1)

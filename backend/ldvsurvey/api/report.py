@@ -88,7 +88,7 @@ h3 { font-size: 11pt; margin: 1em 0 .3em; }
 table { border-collapse: collapse; margin: .3em 0 .8em; font-size: 9.5pt; max-width: 100%; }
 table.kv { width: 100%; table-layout: fixed; } table.kv td:first-child, table.kv th:first-child { width: 55%; }
 th, td { border: 1px solid #bbb; padding: .15em .45em; text-align: left; vertical-align: top; overflow-wrap: anywhere; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
 thead { display: table-header-group; }
 tr, .figure, .map { break-inside: avoid; page-break-inside: avoid; }
 code, .hash { font: 8.5pt "DejaVu Sans Mono", monospace; word-break: break-all; }
@@ -469,6 +469,8 @@ def job_section(job: ReportJob, heading: str = "h2") -> str:
             fig = build_view(job.tables, job.pipeline, s, v.name, None, None, REPORT_POINTS)
         except MissingResult:
             continue
+        if (fig["layout"].get("meta") or {}).get("map"):
+            continue  # the report draws its own map (above) with scale bar and north arrow
         out.append(f'<div class="figure" id="figure-{job.id}-{esc(v.name)}">{figure_svg(fig)}</div>')
     out += ["<h3>All figures of the summary</h3>", _all_figures(s), _provenance(job), "</section>"]
     return "\n".join(out)

@@ -18,6 +18,7 @@ import pyarrow.csv as pacsv
 from tsdownsample import MinMaxLTTBDownsampler
 
 from ldvsurvey.io.nmea import FIX_QUALITY_NAMES
+from ldvsurvey.nav.earth import radii
 from ldvsurvey.pipelines.inputs import local_metres
 from ldvsurvey.units import DEG_PER_RAD, RAD_PER_DEG
 
@@ -217,6 +218,25 @@ def _trace(x, y, name, x0, x1, n, order=None, **kw):
     return {"type": "scatter", "mode": kw.pop("mode", "lines"), "name": name, "x": xs, "y": ys, **kw}
 
 
+def title_layout(title: str) -> dict:
+    """A title block hung from the top of the figure, centred (it grows down into the top margin)."""
+    return {
+        "text": title,
+        "x": 0.5,
+        "xanchor": "center",
+        "y": 1.0,
+        "yref": "container",
+        "yanchor": "top",
+        "pad": {"t": 8},
+        "font": {"size": 15},
+    }
+
+
+def title_margin(title: str) -> int:
+    """The top margin (px) that holds a title of this many lines above the plot area."""
+    return 24 + 21 * (title.count("<br>") + 1)
+
+
 def fit_title(text: str, width: int = TITLE_LINE_CHARS) -> str:
     """A title broken into lines of at most ``width`` characters (at '; ', ', ' or spaces, '<br>' between)."""
     lines = []
@@ -235,14 +255,13 @@ def fit_title(text: str, width: int = TITLE_LINE_CHARS) -> str:
 def _fig(traces, title, xt, yt, **layout):
     """A figure: the title broken to fit (the top margin grows with its lines), axis titles with units."""
     title = fit_title(title)
-    lines = title.count("<br>") + 1
     return {
         "data": traces,
         "layout": {
-            "title": {"text": title, "x": 0.5, "xanchor": "center", "font": {"size": 15}},
+            "title": title_layout(title),
             "xaxis": {"title": {"text": xt}},
             "yaxis": {"title": {"text": yt}},
-            "margin": {"t": 30 + 20 * lines, "r": 20, "b": 90},
+            "margin": {"t": title_margin(title), "r": 20, "b": 90},
             "legend": {"orientation": "h", "y": -0.22},
             **layout,
         },
@@ -351,39 +370,106 @@ def _attitude(v: ViewInput) -> dict:
 # --- navigate, calibrate: the track -----------------------------------------------------------------
 
 
+def nice_length(span_m: float) -> float:
+    """A round scale-bar length (1, 2 or 5 × 10^k m) near a fifth of ``span_m``."""
+    target = max(span_m / 5.0, 1e-3)
+    k = 10 ** np.floor(np.log10(target))
+    return float(min((c * k for c in (1, 2, 5, 10)), key=lambda c: abs(c - target)))
+
+
+def _map_fig(traces: list[dict], title: str, lat0: float, lon0: float, **layout) -> dict:
+    """A plain projected map: east/north metres of the local tangent plane at (lat0, lon0) (rad),
+    equal scales, a scale bar (bottom left, in data units so it stays true) and a north arrow.
+    ``layout.meta.map`` carries the origin, so a page may redraw the traces on a basemap."""
+    xs = np.array([p for t in traces for p in t["x"] if p is not None], float)
+    ys = np.array([p for t in traces for p in t["y"] if p is not None], float)
+    shapes, notes = [], []
+    if len(xs):
+        span = max(np.ptp(xs), np.ptp(ys), 1.0)
+        bar = nice_length(span)
+        x0, y0 = float(xs.min()), float(ys.min())
+        shapes.append({"type": "line", "xref": "x", "yref": "y", "x0": x0, "x1": x0 + bar, "y0": y0, "y1": y0,
+                       "line": {"width": 4, "color": "black"}})  # fmt: skip
+        notes.append({"xref": "x", "yref": "y", "x": x0 + bar / 2, "y": y0, "yshift": 12, "showarrow": False,
+                      "text": f"{bar:g} m" if bar < 1000 else f"{bar / 1000:g} km", "name": "scale bar"})  # fmt: skip
+    notes += [
+        {"xref": "paper", "yref": "paper", "x": 1.0, "y": 0.93, "ax": 0, "ay": 45, "showarrow": True,
+         "arrowhead": 2, "arrowwidth": 2, "text": "", "name": "north arrow"},
+        {"xref": "paper", "yref": "paper", "x": 1.0, "y": 0.93, "yanchor": "bottom", "showarrow": False,
+         "text": "<b>N</b>", "name": "north"},
+    ]  # fmt: skip
+    return _fig(
+        traces,
+        f"{title}<br>origin {lat0 * DEG_PER_RAD:.6f}°, {lon0 * DEG_PER_RAD:.6f}° (WGS-84); north up",
+        "east (m)",
+        "north (m)",
+        # the data's extent (5 % margin) on equal scales: the plot area shrinks to fit, the ranges do not grow
+        xaxis={"title": {"text": "east (m)"}, "constrain": "domain", **_padded(xs)},
+        yaxis={
+            "title": {"text": "north (m)"},
+            "scaleanchor": "x",
+            "scaleratio": 1,
+            "constrain": "domain",
+            **_padded(ys),
+        },
+        shapes=shapes,
+        annotations=notes,
+        meta={"map": {"lat0_deg": lat0 * DEG_PER_RAD, "lon0_deg": lon0 * DEG_PER_RAD}},
+        **layout,
+    )
+
+
+def _padded(v: np.ndarray) -> dict:
+    if not len(v):
+        return {}
+    pad = 0.05 * max(float(np.ptp(v)), 1.0)
+    return {"range": [float(v.min()) - pad, float(v.max()) + pad]}
+
+
+def _gnss_traces(v: ViewInput, lat0: float, lon0: float) -> list[dict]:
+    """The log's GNSS fixes in local metres, one trace (and legend entry) per fix quality."""
+    g = v.tables.log_array("gnss")
+    if g is None:
+        return []
+    ok = np.isfinite(g["lat_deg"]) & np.isfinite(g["lon_deg"])
+    ge, gn = local_metres(lat0, lon0, g["lat_deg"][ok] * RAD_PER_DEG, g["lon_deg"][ok] * RAD_PER_DEG)
+    fix = np.asarray(g["fix"])[ok].astype(int)
+    lat, lon = g["lat_deg"][ok], g["lon_deg"][ok]
+    out = []
+    for q in sorted(set(fix.tolist())):  # a discrete legend
+        kq = np.flatnonzero(fix == q)
+        k = kq[_down(ge[kq], gn[kq], None, None, v.n)]
+        out.append(
+            {
+                "type": "scatter",
+                "mode": "markers",
+                "name": f"GNSS, {fix_name(q)}",
+                "x": ge[k].tolist(),
+                "y": gn[k].tolist(),
+                "marker": {"size": 4},
+                "meta": {"lat": lat[k].tolist(), "lon": lon[k].tolist()},
+            }
+        )
+    return out
+
+
+def _with_latlon(tr: dict, lat0: float, lon0: float) -> dict:
+    """The trace's points also as latitude/longitude (``meta``), for a basemap: the inverse of
+    local_metres (a small area), breaks kept."""
+    rm, rn = radii(lat0)
+    lat = [None if n is None else (lat0 + n / rm) * DEG_PER_RAD for n in tr["y"]]
+    lon = [None if e is None else (lon0 + e / (rn * np.cos(lat0))) * DEG_PER_RAD for e in tr["x"]]
+    return {**tr, "meta": {"lat": lat, "lon": lon}}
+
+
 def _track(v: ViewInput, name: str) -> dict:
     """The solution's track in local east/north metres from its start, with the log's GNSS fixes
     (the log's stored ``gnss`` array), one legend entry per fix quality; thinned in time order."""
     d = v.csv(name)
     lat0, lon0 = d["lat_deg"][0] * RAD_PER_DEG, d["lon_deg"][0] * RAD_PER_DEG
     e, nn = local_metres(lat0, lon0, d["lat_deg"] * RAD_PER_DEG, d["lon_deg"] * RAD_PER_DEG)
-    tr = [v.trace(e, nn, "solution", order=d.get("t_s"), mode="lines")]
-    g = v.tables.log_array("gnss")
-    if g is not None:
-        ok = np.isfinite(g["lat_deg"]) & np.isfinite(g["lon_deg"])
-        ge, gn = local_metres(lat0, lon0, g["lat_deg"][ok] * RAD_PER_DEG, g["lon_deg"][ok] * RAD_PER_DEG)
-        fix = np.asarray(g["fix"])[ok].astype(int)
-        for q in sorted(set(fix.tolist())):  # one legend entry per fix quality (a discrete legend)
-            kq = np.flatnonzero(fix == q)
-            k = kq[_down(ge[kq], gn[kq], None, None, v.n)]
-            tr.append(
-                {
-                    "type": "scatter",
-                    "mode": "markers",
-                    "name": f"GNSS, {fix_name(q)}",
-                    "x": ge[k].tolist(),
-                    "y": gn[k].tolist(),
-                    "marker": {"size": 4},
-                }
-            )
-    return _fig(
-        tr,
-        "Trajectory (local east/north from the start)",
-        "east (m)",
-        "north (m)",
-        xaxis={"title": {"text": "east (m)"}, "constrain": "domain"},
-        yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1, "constrain": "domain"},
-    )
+    sol = _with_latlon(v.trace(e, nn, "solution", order=d.get("t_s"), mode="lines"), lat0, lon0)
+    return _map_fig([sol, *_gnss_traces(v, lat0, lon0)], "Trajectory (local east/north from the start)", lat0, lon0)
 
 
 @view(
@@ -514,6 +600,35 @@ def _gravity_compare_gnss(v: ViewInput) -> dict:
         + (", ".join(rms) if rms else "none")
     )
     return _fig(tr, title, "along-track distance (m)", "δg difference (mGal)")
+
+
+@view(
+    "gravity_map",
+    "gravity",
+    "Map: the gravity disturbance along the survey lines, with the GNSS fixes",
+    "m (north)",
+    ("gravity.csv",),
+)
+def _gravity_map(v: ViewInput) -> dict:
+    g = v.csv("gravity.csv")
+    on = np.flatnonzero((g["line"] != "") & np.isfinite(g["lat_deg"]) & np.isfinite(g["lon_deg"]))
+    if not len(on):
+        return _fig([], "No position on the survey lines to map", "east (m)", "north (m)")
+    lat0, lon0 = g["lat_deg"][on[0]] * RAD_PER_DEG, g["lon_deg"][on[0]] * RAD_PER_DEG
+    e, n = local_metres(lat0, lon0, g["lat_deg"][on] * RAD_PER_DEG, g["lon_deg"][on] * RAD_PER_DEG)
+    dg = g["dg_mgal"][on]
+    k = _down(np.arange(len(on), dtype=float), dg, None, None, v.n)  # in the data's order, extremes of δg kept
+    tr = {
+        "type": "scatter",
+        "mode": "markers",
+        "name": "δg on the survey lines",
+        "x": e[k].tolist(),
+        "y": n[k].tolist(),
+        "marker": {"size": 5, "color": dg[k].tolist(), "colorscale": "Viridis", "showscale": True,
+                   "colorbar": {"title": {"text": "δg (mGal)"}}},
+        "meta": {"lat": g["lat_deg"][on][k].tolist(), "lon": g["lon_deg"][on][k].tolist()},
+    }  # fmt: skip
+    return _map_fig([*_gnss_traces(v, lat0, lon0), tr], "Gravity disturbance along the survey lines", lat0, lon0)
 
 
 # --- dov --------------------------------------------------------------------------------------------
