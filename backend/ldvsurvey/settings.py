@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import re
 from functools import lru_cache
 from pathlib import Path
 
+from pydantic import field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
+
+#: a raster tile URL: http(s), a host, and the {z}, {x}, {y} placeholders; nothing that could break
+#: out of the Content-Security-Policy it is written into (no spaces, quotes, semicolons or commas)
+TILE_URL = re.compile(r"https?://[A-Za-z0-9.\-]+(:\d{1,5})?/[^\s'\";,]*")
 
 
 class Settings(BaseSettings):
@@ -39,8 +45,31 @@ class Settings(BaseSettings):
     trusted_proxies: str = ""  # comma-separated addresses/networks whose X-Forwarded-For is believed
     max_zip_members: int = 64  # a bundle has a handful of files
     security_headers: bool = True
+    # a raster basemap for the maps, e.g. https://tile.openstreetmap.org/{z}/{x}/{y}.png (None: plain
+    # maps in projected metres, nothing fetched from elsewhere); the Content-Security-Policy admits its origin
+    basemap_tile_url: str | None = None
+    basemap_attribution: str = ""  # shown on the map, e.g. "© OpenStreetMap contributors"
     # numba's compiled-code cache; read before numba is imported (see ldvsurvey.compilecache for the default)
     numba_cache_dir: Path | None = None
+
+    @field_validator("basemap_tile_url")
+    @classmethod
+    def _tile_url(cls, v: str | None) -> str | None:
+        if v in (None, ""):
+            return None
+        if not TILE_URL.fullmatch(v) or not all(p in v for p in ("{z}", "{x}", "{y}")):
+            raise ValueError(
+                "LDVSURVEY_BASEMAP_TILE_URL: give an http(s) tile URL with {z}, {x} and {y}, "
+                "e.g. https://tile.openstreetmap.org/{z}/{x}/{y}.png"
+            )
+        return v
+
+    def basemap_origin(self) -> str | None:
+        """The scheme://host[:port] of the basemap tiles (what the Content-Security-Policy admits)."""
+        if not self.basemap_tile_url:
+            return None
+        m = re.match(r"https?://[^/]+", self.basemap_tile_url)
+        return m.group(0) if m else None
 
     def resolved_database_url(self) -> str:
         """SQLAlchemy URL: ``LDVSURVEY_DATABASE_URL`` or ``sqlite:///<data_dir>/ldvsurvey.db``."""

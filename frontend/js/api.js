@@ -33,6 +33,13 @@ export async function api(path, opts = {}) {
   return ct.includes("json") ? r.json() : r.text();
 }
 
+// names shared with the server (GNSS fix qualities): one list, served by GET /api/names, fetched once
+let shared = null;
+export function names() {
+  if (!shared) shared = api("/api/names").catch((e) => ((shared = null), Promise.reject(e)));
+  return shared;
+}
+
 export function setSession(me) {
   session.me = me;
   session.csrf = me ? me.csrf : null;

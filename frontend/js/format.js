@@ -23,15 +23,3 @@ export function quantity(key, v) {
   if (/_rad$/.test(key)) return `${num(v)} rad (${num(v * ARCSEC_PER_RAD, 4)}″)`;
   return num(v);
 }
-
-export const FIX_NAMES = {
-  0: "0 no fix",
-  1: "1 GPS",
-  2: "2 DGPS",
-  3: "3 PPS",
-  4: "4 RTK fixed",
-  5: "5 RTK float",
-  6: "6 dead reckoning",
-  7: "7 manual",
-  8: "8 simulation",
-};

@@ -4,6 +4,7 @@ import { api } from "./api.js";
 import { html, render, $ } from "./html.js";
 import { num } from "./format.js";
 import { draw } from "./plots.js";
+import { basemap, isMap, mapOverlay, onBasemap } from "./maps.js";
 import { fields, summaryCard } from "./summary.js";
 
 const ACTIVE = ["queued", "running"];
@@ -131,6 +132,9 @@ async function showResults(ctx, j) {
   render(
     $("#results"),
     html`<div class="card" id="downloads">
+        <a class="dl" id="report-download" download href="/api/jobs/${j.id}/report"
+          ><button>Survey report (HTML, prints to PDF)</button></a
+        >
         ${files.map(
           (f) =>
             html`<a class="dl" download href="/api/jobs/${j.id}/files/${encodeURIComponent(f.name)}"
@@ -153,13 +157,25 @@ async function drawView(ctx, id, v, x0, x1) {
   const q = x0 !== undefined ? `?x0=${x0}&x1=${x1}` : "";
   const el = $(`#view-${v}`);
   try {
-    const fig = await api(`/api/jobs/${id}/views/${v}${q}`);
-    if (!ctx.alive || !(await draw(el, fig.data, fig.layout))) return;
+    let fig = await api(`/api/jobs/${id}/views/${v}${q}`);
+    if (isMap(fig)) {
+      const bm = await basemap();
+      if (bm.tile_url) {
+        mapToggle(ctx, id, v, el);
+        if (el.dataset.plain !== "1") fig = onBasemap(fig, bm, el.clientWidth || 900, 450);
+      }
+    }
+    if (!ctx.alive) return;
+    if (el.dataset.drawn && Boolean(fig.layout.map) !== (el.dataset.drawn === "map")) window.Plotly.purge(el);
+    if (!(await draw(el, fig.data, fig.layout))) return;
+    el.dataset.drawn = fig.layout.map ? "map" : "plain";
+    if (fig.layout.map) mapOverlay(el);
+    else if (el.parentNode.querySelector(".map-overlay")) render(el.parentNode.querySelector(".map-overlay"), "");
   } catch (e) {
     if (ctx.alive) render(el, html`<p class="error">The plot “${v}” could not be drawn: ${e.message}</p>`);
     return;
   }
-  if (!el.dataset.bound) {
+  if (!el.dataset.bound && !el.layout.map) {
     el.dataset.bound = "1";
     el.on("plotly_relayout", (ev) => {
       // zoom: fetch detail for the visible range
@@ -167,4 +183,17 @@ async function drawView(ctx, id, v, x0, x1) {
       else if (ev["xaxis.autorange"]) drawView(ctx, id, v);
     });
   }
+}
+
+// a map view on a basemap can be switched to the plain projected map in metres (and back)
+function mapToggle(ctx, id, v, el) {
+  if (el.parentNode.querySelector(".map-toggle")) return;
+  const lab = document.createElement("label");
+  lab.className = "map-toggle";
+  render(lab, html`<input type="checkbox" checked /> basemap (off: plain map in metres)`);
+  lab.querySelector("input").addEventListener("change", (e) => {
+    el.dataset.plain = e.target.checked ? "" : "1";
+    drawView(ctx, id, v);
+  });
+  el.parentNode.appendChild(lab);
 }

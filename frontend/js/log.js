@@ -1,7 +1,7 @@
 // One log: quality report, GNSS fix plot, start a pipeline, its jobs (polled while the page is shown).
-import { api } from "./api.js";
+import { api, names } from "./api.js";
 import { html, render, $, $$ } from "./html.js";
-import { fixed, num, FIX_NAMES } from "./format.js";
+import { fixed, num } from "./format.js";
 import { draw } from "./plots.js";
 
 const stream = (name, s, notes) =>
@@ -92,7 +92,7 @@ export async function logPage(ctx, app, id) {
         )}
       </p>`,
   );
-  if (g) fixPlot($("#fixplot"), g.fix_timeline);
+  if (g) names().then((n) => ctx.alive && fixPlot($("#fixplot"), g.fix_timeline, n.fix_quality));
   const sel = $("#pipe"),
     box = $("#params");
   const showParams = () => {
@@ -203,7 +203,7 @@ async function refreshJobs(ctx, id) {
 }
 
 // GNSS fix quality over time: one trace (and legend entry) per fix value
-function fixPlot(el, timeline) {
+function fixPlot(el, timeline, fixNames) {
   const values = [...new Set(timeline.map((r) => r.fix))].sort((a, b) => a - b);
   const traces = values.map((v) => {
     const x = [],
@@ -214,7 +214,7 @@ function fixPlot(el, timeline) {
         x.push(r.t_start_s, r.t_end_s, null);
         y.push(v, v, null);
       });
-    return { type: "scatter", mode: "lines", name: FIX_NAMES[v] || `fix ${v}`, x, y, line: { width: 8 } };
+    return { type: "scatter", mode: "lines", name: fixNames[v] || `fix ${v}`, x, y, line: { width: 8 } };
   });
   draw(el, traces, {
     title: { text: "GNSS fix quality" },

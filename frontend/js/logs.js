@@ -32,6 +32,7 @@ export async function logsPage(ctx, app) {
         >
         <label>Surveyed from <input type="date" id="f-from" value="${q.get("from") || ""}" /></label>
         <label>to <input type="date" id="f-to" value="${q.get("to") || ""}" /></label>
+        <span id="project-report"></span>
       </form>
       <table id="logs">
         <thead>
@@ -54,7 +55,7 @@ export async function logsPage(ctx, app) {
       </table>`,
   );
   const names = Object.fromEntries(projects.map((p) => [p.id, p.name]));
-  const refresh = () => refreshLogs(ctx, names);
+  const refresh = () => (projectReport(names), refreshLogs(ctx, names));
   dropZone($("#upload"), { projectId: () => $("#f-project").value || null, done: refresh });
   $("#filters").addEventListener("change", () => {
     const p = new URLSearchParams();
@@ -70,6 +71,19 @@ export async function logsPage(ctx, app) {
     refresh();
   });
   await refresh();
+}
+
+// the chosen project's survey report (one HTML file: its logs, a map, its finished jobs)
+function projectReport(names) {
+  const id = $("#f-project").value;
+  render(
+    $("#project-report"),
+    id
+      ? html`<a id="project-report-download" download href="/api/projects/${id}/report"
+          >Survey report of ${names[id] || `project ${id}`} (HTML)</a
+        >`
+      : "",
+  );
 }
 
 async function refreshLogs(ctx, names) {

@@ -112,7 +112,7 @@ def test_no_import_cycle_among_api_modules():
 
 
 def test_views_come_from_the_registry(client):
-    from ldvsurvey.api.views import VIEWS, ViewInput, view
+    from ldvsurvey.api.views import VIEWS, DictTables, ViewInput, view
     from ldvsurvey.pipelines.registry import PIPELINES
 
     listed = client.get("/api/views").json()
@@ -126,7 +126,7 @@ def test_views_come_from_the_registry(client):
     with pytest.raises(ValueError):
         view("height", "height", "again", "m", ("height.csv",))(lambda v: {})
     with pytest.raises(RuntimeError, match="without declaring"):
-        VIEWS["height"].build(ViewInput(None, None, {}, None, None, 100, ("attitude.csv",)))
+        VIEWS["height"].build(ViewInput(DictTables({}), {}, None, None, 100, ("attitude.csv",)))
 
 
 def test_the_frontend_has_no_table_of_views():

@@ -75,3 +75,23 @@ def test_compare_refuses_bad_requests(client, jobs):
     assert client.get(f"/api/compare?jobs={a}").json()["statistics"] == []  # one job: nothing to difference
     assert client.get(f"/api/compare?jobs={a},x").status_code == 422
     assert client.get(f"/api/compare?jobs={a},999999").status_code == 404
+
+
+def test_compare_panels_have_their_own_axes_and_one_job_asks_for_another(client, jobs):
+    """Issue 26: the x title sat over the lower panel's curves and that panel had no tick labels (the
+    one x axis was anchored to the upper panel); one job said 'no common points'."""
+    (a, b), _ = jobs
+    lay = client.get(f"/api/compare/view?jobs={a},{b}").json()["layout"]
+    low, up = lay["yaxis2"]["domain"], lay["yaxis"]["domain"]
+    assert low[1] < up[0]  # the differences below, the lines above
+    # the titled x axis sits under the lower panel (its tick labels there), the upper panel has its own
+    # tick labels on an axis matched to it
+    assert lay["xaxis"]["anchor"] == "y2" and lay["yaxis2"]["anchor"] == "x"
+    assert lay["xaxis"]["title"]["text"] == "along-track distance (m)"
+    assert lay["xaxis2"]["anchor"] == "y" and lay["xaxis2"]["matches"] == "x" and lay["xaxis2"]["showticklabels"]
+    assert lay["yaxis"]["anchor"] == "x2"
+    fig = client.get(f"/api/compare/view?jobs={a},{b}").json()
+    for t in fig["data"]:  # the lines on the upper panel, the differences on the lower one
+        assert (t.get("xaxis"), t.get("yaxis")) in (("x2", None), (None, "y2"))
+    one = client.get(f"/api/compare/view?jobs={a}").json()["layout"]["title"]["text"]
+    assert "no common points" not in one and "second" in one and f"job {a}" in one

@@ -12,3 +12,29 @@ def shot(page, name):
     """A full-page screenshot into test-artifacts/<name>.png."""
     ARTIFACTS.mkdir(exist_ok=True)
     page.screenshot(path=str(ARTIFACTS / f"{name}.png"), full_page=True)
+
+
+def start_server(data: Path, env_extra: dict):
+    """A server process on ``data`` with the given LDVSURVEY_* settings (and no others from the
+    environment but the compile cache); returns (process, base URL). Stop it with terminate()."""
+    import os
+    import subprocess
+    import sys
+
+    from tests.helpers.server import free_port, wait_healthy
+
+    env = {k: v for k, v in os.environ.items() if not k.startswith("LDVSURVEY_") or k == "LDVSURVEY_NUMBA_CACHE_DIR"}
+    env.update({"LDVSURVEY_DATA_DIR": str(data), **env_extra})
+    port = free_port()
+    base = f"http://127.0.0.1:{port}"
+    with open(data / "server.log", "w") as log:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "ldvsurvey.cli", "serve", "--host", "127.0.0.1", "--port", str(port)],
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
+    if not wait_healthy(base, proc=proc):
+        proc.kill()
+        raise RuntimeError((data / "server.log").read_text())
+    return proc, base

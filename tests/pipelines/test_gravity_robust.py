@@ -155,7 +155,7 @@ def test_sins_gnss_and_gnss_aided_beside(with_dropouts):
     assert {"dg_sins_gnss_mgal", "dg_gnss_aided_mgal"} <= set(g)
 
 
-def test_views_show_floor_and_chain_difference(with_dropouts, monkeypatch):
+def test_views_show_floor_and_chain_difference(with_dropouts):
     from ldvsurvey.api import views
 
     _, res = with_dropouts
@@ -163,13 +163,12 @@ def test_views_show_floor_and_chain_difference(with_dropouts, monkeypatch):
         f"{k}.csv": {c: (np.array(v, dtype=object) if c == "line" else np.asarray(v, float)) for c, v in t.items()}
         for k, t in res.tables.items()
     }
-    monkeypatch.setattr(views, "_csv", lambda session, job, name: tables[name])
     s = res.summary
-    fig = views._gravity_view(None, None, "gravity_residuals", s, None, None, 500)
+    fig = views.build_view(views.DictTables(tables), "gravity", s, "gravity_residuals", None, None, 500)
     title = fig["layout"]["title"]["text"]
     assert f"{s['total_mgal']:.3f}" in title and f"floor ±{s['noise_floor']['total_mgal']:.3f}" in title
     assert any("white-noise floor" in tr["name"] for tr in fig["data"])
-    fig = views._gravity_view(None, None, "gravity_compare_gnss", s, None, None, 500)
+    fig = views.build_view(views.DictTables(tables), "gravity", s, "gravity_compare_gnss", None, None, 500)
     names = [tr["name"] for tr in fig["data"]]
     assert sum("SINS/LDV − SINS/GNSS" in nm for nm in names) == len(s["lines"])
 

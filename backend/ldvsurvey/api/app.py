@@ -23,6 +23,7 @@ from ldvsurvey.api.limits import BodySizeLimit
 from ldvsurvey.api.logs import router as logs_router
 from ldvsurvey.api.models import Health
 from ldvsurvey.api.people import router as people_router
+from ldvsurvey.api.reports import router as reports_router
 from ldvsurvey.api.security import SecurityHeaders
 from ldvsurvey.api.storage import router as storage_router
 from ldvsurvey.api.throttle import LoginThrottle
@@ -118,6 +119,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(imports_router)
     app.include_router(grids_router)
     app.include_router(storage_router)
+    app.include_router(reports_router)
 
     import plotly
 
@@ -156,5 +158,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_upload_bytes)
     app.add_middleware(GZipMiddleware, minimum_size=1024, compresslevel=5)
     if settings.security_headers:
-        app.add_middleware(SecurityHeaders)  # outermost: every answer carries them, refusals too
+        # outermost: every answer carries them, refusals too
+        app.add_middleware(SecurityHeaders, tile_origin=settings.basemap_origin())
     return app

@@ -16,6 +16,7 @@ from sqlalchemy.orm import Session
 from ldvsurvey.api import models as m
 from ldvsurvey.api.auth import CurrentUser, Principal, visible_job
 from ldvsurvey.api.deps import ID_MAX, SessionDep
+from ldvsurvey.api.views import fit_title, title_layout, title_margin
 
 router = APIRouter(tags=["compare"])
 JOBS_Q = Query(
@@ -35,9 +36,13 @@ def _ids(jobs: str) -> list[int]:
 
 
 def _lines(session, job) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    from ldvsurvey.api.views import _csv
+    from ldvsurvey.api.tables import JobTables
+    from ldvsurvey.api.views import MissingResult
 
-    c = _csv(session, job, "coincidence.csv")
+    try:
+        c = JobTables(session, job).csv("coincidence.csv")
+    except MissingResult as e:
+        raise HTTPException(404, str(e)) from None
     out = {}
     for name in sorted(set(c["line"].tolist())):
         k = c["line"] == name
@@ -131,9 +136,15 @@ def compare_csv(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> Re
 def compare_view(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m.Figure:
     ids = _ids(jobs)
     out = compare_jobs(session, who, ids)
+    return compare_figure(ids, out, {i: _lines(session, visible_job(session, who, i)) for i in ids})
+
+
+def compare_figure(ids: list[int], out: dict, lines: dict[int, dict]) -> dict:
+    """Two panels on one along-track axis: every job's δg above (x axis ``x2``, tick labels shown) and
+    the differences to the reference below (x axis ``x``, its title under the lower panel)."""
     traces = []
     for i in ids:
-        for name, (d, g) in _lines(session, visible_job(session, who, i)).items():
+        for name, (d, g) in lines[i].items():
             traces.append(
                 {
                     "type": "scatter",
@@ -142,6 +153,7 @@ def compare_view(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m
                     "x": d.tolist(),
                     "y": g.tolist(),
                     "legendgroup": f"job {i}",
+                    "xaxis": "x2",
                 }
             )
     pts = out["points"]
@@ -163,14 +175,20 @@ def compare_view(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m
     sub = "; ".join(
         f"job {s['job']} − job {ids[0]}: mean {s['mean_mgal']:.2f}, std {s['std_mgal']:.2f} mGal" for s in allrows
     )
+    if len(ids) < 2:
+        sub = f"job {ids[0]} alone: tick a second gravity job to compare against it"
+    elif not sub:
+        sub = "the jobs have no line in common"
+    title = fit_title(f"Gravity lines compared<br>{sub}")
     return {
         "data": traces,
         "layout": {
-            "title": {"text": f"Gravity lines compared ({sub or 'no common points'})"},
-            "xaxis": {"title": {"text": "along-track distance (m)"}},
-            "yaxis": {"title": {"text": "δg (mGal)"}, "domain": [0.42, 1.0]},
-            "yaxis2": {"title": {"text": "difference (mGal)"}, "domain": [0.0, 0.32], "anchor": "x"},
-            "margin": {"t": 50, "r": 20, "b": 90},
-            "legend": {"orientation": "h", "y": -0.22},
+            "title": title_layout(title),
+            "xaxis": {"title": {"text": "along-track distance (m)"}, "anchor": "y2"},
+            "xaxis2": {"matches": "x", "anchor": "y", "showticklabels": True},
+            "yaxis": {"title": {"text": "δg (mGal)"}, "domain": [0.45, 1.0], "anchor": "x2"},
+            "yaxis2": {"title": {"text": "difference (mGal)"}, "domain": [0.0, 0.33], "anchor": "x"},
+            "margin": {"t": title_margin(title), "r": 20, "b": 110},
+            "legend": {"orientation": "h", "y": -0.25},
         },
     }

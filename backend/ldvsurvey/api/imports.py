@@ -16,8 +16,8 @@ from sqlalchemy.orm import Session
 from ldvsurvey.api import models as m
 from ldvsurvey.api.auth import CurrentUser, check_upload_rate
 from ldvsurvey.api.deps import SessionDep, SettingsDep
+from ldvsurvey.api.tables import job_file
 from ldvsurvey.api.uploads import part_names
-from ldvsurvey.api.views import job_file
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.importers import REGISTRY, Source, build_bundle, detect, parse_partial_manifest
 

@@ -12,8 +12,10 @@ from sqlalchemy.orm import Session
 from ldvsurvey.api import models as m
 from ldvsurvey.api.auth import CurrentUser, check_job_owner, check_job_quota, principal, visible_job, visible_log
 from ldvsurvey.api.deps import BodyId, JobId, LogId, RunnerDep, SessionDep, SettingsDep
-from ldvsurvey.api.views import VIEWS, build_view, job_file, views_of
+from ldvsurvey.api.tables import JobTables, job_file
+from ldvsurvey.api.views import VIEWS, MissingResult, UnknownView, build_view, views_of
 from ldvsurvey.errors import ParameterError
+from ldvsurvey.io.nmea import FIX_QUALITY_NAMES
 from ldvsurvey.jobs.runner import log_facts
 from ldvsurvey.store.models import Job, JobFile
 
@@ -181,6 +183,16 @@ def list_views(
     return [v.info() for v in VIEWS.values() if pipeline is None or v.pipeline == pipeline]
 
 
+@router.get("/api/names", summary="Names shared by the API and the dashboard: GNSS fix qualities")
+def names() -> m.Names:
+    return {"fix_quality": {str(k): v for k, v in FIX_QUALITY_NAMES.items()}}
+
+
+@router.get("/api/basemap", summary="The basemap of the maps (LDVSURVEY_BASEMAP_TILE_URL), if one is set")
+def basemap(settings: SettingsDep) -> m.Basemap:
+    return {"tile_url": settings.basemap_tile_url, "attribution": settings.basemap_attribution}
+
+
 @router.get("/api/jobs", summary="Jobs, newest first")
 def list_jobs(
     session: SessionDep, who: CurrentUser, log_id: int | None = Query(None, ge=1, le=2**31 - 1)
@@ -301,4 +313,7 @@ def get_view(
             "cancelled": "it was cancelled, so there are no results",
         }.get(j.status, "no results yet")
         raise HTTPException(409, f"job {job_id} is {j.status}: {what}")
-    return build_view(session, j, view, x0, x1, points)
+    try:
+        return build_view(JobTables(session, j), j.pipeline, j.summary or {}, view, x0, x1, points)
+    except (UnknownView, MissingResult) as e:
+        raise HTTPException(404, str(e)) from None

@@ -228,6 +228,15 @@ class ResultFile(Out):
     size_bytes: int
 
 
+class Names(Out):
+    fix_quality: dict[str, str] = Field(description="GGA fix quality code → its name, e.g. '4' → '4 RTK fixed'")
+
+
+class Basemap(Out):
+    tile_url: str | None = Field(description="raster tile URL with {z}, {x}, {y}; null: plain maps in metres")
+    attribution: str = Field(description="the tiles' attribution, shown on the map")
+
+
 class Figure(Out):
     data: list[JSON] = Field(description="Plotly traces")
     layout: JSON = Field(description="Plotly layout")

@@ -11,44 +11,81 @@ from __future__ import annotations
 import io
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import pyarrow.csv as pacsv
-from fastapi import HTTPException
-from sqlalchemy import select
 from tsdownsample import MinMaxLTTBDownsampler
 
-from ldvsurvey.store.models import Job, JobFile
+from ldvsurvey.io.nmea import FIX_QUALITY_NAMES
+from ldvsurvey.nav.earth import radii
+from ldvsurvey.pipelines.inputs import local_metres
+from ldvsurvey.units import DEG_PER_RAD, RAD_PER_DEG
 
-ARCSEC_PER_RAD = 180.0 * 3600.0 / np.pi
-#: NMEA GGA fix quality
-FIX_NAMES = {
-    0: "0 no fix",
-    1: "1 GPS",
-    2: "2 DGPS",
-    3: "3 PPS",
-    4: "4 RTK fixed",
-    5: "5 RTK float",
-    6: "6 dead reckoning",
-    7: "7 manual",
-    8: "8 simulation",
-}
+ARCSEC_PER_RAD = DEG_PER_RAD * 3600.0
+#: a step of the data's own order (time or distance) this many times its median step is a gap
+GAP_FACTOR = 5.0
+#: a title line longer than this many characters is broken (Plotly cuts titles wider than the plot)
+TITLE_LINE_CHARS = 80
 
 
-def job_file(session, job_id: int, name: str) -> bytes:
-    """The bytes of a job's result file; 404 naming it when the job has none of that name."""
-    f = session.scalar(select(JobFile).where(JobFile.job_id == job_id, JobFile.name == name))
-    if f is None:
-        raise HTTPException(404, f"job {job_id} has no file '{name}'")
-    return f.content
+def fix_name(q: int) -> str:
+    """'4 RTK fixed' for GGA fix quality 4 (``fix 9`` for a code without a name)."""
+    return FIX_QUALITY_NAMES.get(int(q), f"fix {int(q)}")
+
+
+class MissingResult(LookupError):
+    """A view asked for a result table the job does not have (the route answers 404)."""
+
+
+class UnknownView(LookupError):
+    """No view of that name for the job's pipeline (the route answers 404)."""
+
+
+class Tables(Protocol):
+    """Where a view's data comes from: the job's result tables and its first log's stored arrays."""
+
+    def csv(self, name: str) -> dict[str, np.ndarray]:
+        """The columns of result file ``name``; raises :class:`MissingResult` when there is none."""
+
+    def log_array(self, name: str) -> dict[str, np.ndarray] | None:
+        """A stored stream of the job's first log (``gnss``, ``imu``, ``ldv``), or None."""
+
+
+def read_csv_bytes(data: bytes) -> dict[str, np.ndarray]:
+    """The columns of a result CSV (numbers as float, text as object arrays of str)."""
+    table = pacsv.read_csv(io.BytesIO(data))
+    out = {}
+    for c in table.column_names:
+        col = table.column(c)
+        try:
+            out[c] = col.to_numpy(zero_copy_only=False).astype(float)
+        except (ValueError, TypeError):
+            out[c] = np.array([("" if v is None else str(v)) for v in col.to_pylist()], dtype=object)
+    return out
+
+
+@dataclass
+class DictTables:
+    """:class:`Tables` held in memory (a CLI run's tables, a test's): ``{"height.csv": {column: array}}``."""
+
+    tables: dict[str, dict[str, np.ndarray]]
+    arrays: dict[str, dict[str, np.ndarray]] | None = None
+
+    def csv(self, name: str) -> dict[str, np.ndarray]:
+        if name not in self.tables:
+            raise MissingResult(f"no result file '{name}'")
+        return self.tables[name]
+
+    def log_array(self, name: str) -> dict[str, np.ndarray] | None:
+        return (self.arrays or {}).get(name)
 
 
 @dataclass
 class ViewInput:
-    """What a view function gets: the job, its summary and the requested range and point count."""
+    """What a view function gets: its tables, the job's summary and the requested range and point count."""
 
-    session: object
-    job: Job
+    tables: Tables
     summary: dict
     x0: float | None
     x1: float | None
@@ -59,11 +96,14 @@ class ViewInput:
         """The columns of one of the job's result files (numbers as float, text as object arrays)."""
         if self.files and name not in self.files:
             raise RuntimeError(f"a view read '{name}' without declaring it (declared: {self.files})")
-        return _csv(self.session, self.job, name)
+        return self.tables.csv(name)
 
-    def trace(self, x, y, name, **kw) -> dict:
-        """A scatter trace of (x, y) within the requested range, downsampled to ``n`` points."""
-        return _trace(x, y, name, self.x0, self.x1, self.n, **kw)
+    def trace(self, x, y, name, order=None, **kw) -> dict:
+        """A scatter trace of (x, y) within the requested x range, thinned to ``n`` points in data order,
+        broken (``None``) where the data has a gap: a non-finite value, a point outside the range, or a
+        step of ``order`` (default: x when it increases, else the row number) over ``GAP_FACTOR`` × its
+        median step."""
+        return _trace(x, y, name, self.x0, self.x1, self.n, order=order, **kw)
 
 
 @dataclass(frozen=True)
@@ -113,20 +153,22 @@ def views_of(pipeline: str, summary: dict | None = None) -> list[View]:
     ]
 
 
-def _csv(session, job: Job, name: str) -> dict[str, np.ndarray]:
-    table = pacsv.read_csv(io.BytesIO(job_file(session, job.id, name)))
-    out = {}
-    for c in table.column_names:
-        col = table.column(c)
-        try:
-            out[c] = col.to_numpy(zero_copy_only=False).astype(float)
-        except (ValueError, TypeError):
-            out[c] = np.array([("" if v is None else str(v)) for v in col.to_pylist()], dtype=object)
-    return out
+def _lttb(x, y, n):
+    """Indices (ascending) of at most n points of a series whose x increases (MinMax-LTTB)."""
+    if len(x) <= n:
+        return np.arange(len(x))
+    sel = MinMaxLTTBDownsampler().downsample(np.ascontiguousarray(x), np.ascontiguousarray(y), n_out=n)
+    return np.sort(sel)
 
 
 def _down(x, y, x0, x1, n):
-    """Indices of at most n points of (x, y) within [x0, x1] (MinMax-LTTB)."""
+    """Indices, in the data's own order, of at most about n points of (x, y) within [x0, x1].
+
+    Never sorted by x: a path is not a function of x. A series whose x increases is thinned by
+    MinMax-LTTB on x; a path (x not monotonic) by MinMax-LTTB of x and of y against the row number,
+    half the points each, so that the extremes of both coordinates stay.
+    """
+    x, y = np.asarray(x, float), np.asarray(y, float)
     k = np.flatnonzero(
         np.isfinite(x)
         & np.isfinite(y)
@@ -135,32 +177,98 @@ def _down(x, y, x0, x1, n):
     )
     if len(k) <= n:
         return k
-    order = np.argsort(x[k], kind="stable")
-    k = k[order]
-    sel = MinMaxLTTBDownsampler().downsample(np.ascontiguousarray(x[k]), np.ascontiguousarray(y[k]), n_out=n)
-    return k[np.sort(sel)]
+    xk, yk = x[k], y[k]
+    if np.all(np.diff(xk) >= 0):
+        return k[_lttb(xk, yk, n)]
+    row = k.astype(float)
+    half = max(n // 2, 2)
+    return k[np.union1d(_lttb(row, xk, half), _lttb(row, yk, half))]
 
 
-def _trace(x, y, name, x0, x1, n, **kw):
-    k = _down(np.asarray(x, float), np.asarray(y, float), x0, x1, n)
+def _breaks(k, ok, order):
+    """For thinned indices ``k`` (ascending) of rows where ``ok``: True between k[i] and k[i+1] when a row
+    between them is not ok or a step of ``order`` between them is a gap (> GAP_FACTOR × median step)."""
+    if len(k) < 2:
+        return np.zeros(0, bool)
+    bad = np.concatenate([[0], np.cumsum(~ok)])  # not-ok rows before each row
+    brk = bad[k[1:]] - bad[k[:-1] + 1] > 0
+    if order is not None and len(order) > 2:
+        step = np.diff(order)
+        fin = step[np.isfinite(step) & (step > 0)]
+        if len(fin):
+            gap = ~(np.abs(step) <= GAP_FACTOR * np.median(fin))  # NaN steps are gaps too
+            ng = np.concatenate([[0], np.cumsum(gap)])  # gap steps before each row
+            brk |= ng[k[1:]] - ng[k[:-1]] > 0
+    return brk
+
+
+def _trace(x, y, name, x0, x1, n, order=None, **kw):
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    k = _down(x, y, x0, x1, n)
+    ok = (
+        np.isfinite(x)
+        & np.isfinite(y)
+        & ((x >= x0) if x0 is not None else True)
+        & ((x <= x1) if x1 is not None else True)
+    )
+    if order is None:
+        fx = x[np.isfinite(x)]
+        order = x if len(fx) > 1 and np.all(np.diff(fx) >= 0) else None
+    brk = _breaks(k, ok, None if order is None else np.asarray(order, float))
+    xs, ys = [], []
+    for i, j in enumerate(k):
+        if i and brk[i - 1]:
+            xs.append(None)
+            ys.append(None)
+        xs.append(float(x[j]))
+        ys.append(float(y[j]))
+    return {"type": "scatter", "mode": kw.pop("mode", "lines"), "name": name, "x": xs, "y": ys, **kw}
+
+
+def title_layout(title: str) -> dict:
+    """A title block hung from the top of the figure, centred (it grows down into the top margin)."""
     return {
-        "type": "scatter",
-        "mode": kw.pop("mode", "lines"),
-        "name": name,
-        "x": np.asarray(x)[k].tolist(),
-        "y": np.asarray(y)[k].tolist(),
-        **kw,
+        "text": title,
+        "x": 0.5,
+        "xanchor": "center",
+        "y": 1.0,
+        "yref": "container",
+        "yanchor": "top",
+        "pad": {"t": 8},
+        "font": {"size": 15},
     }
 
 
+def title_margin(title: str) -> int:
+    """The top margin (px) that holds a title of this many lines above the plot area."""
+    return 24 + 21 * (title.count("<br>") + 1)
+
+
+def fit_title(text: str, width: int = TITLE_LINE_CHARS) -> str:
+    """A title broken into lines of at most ``width`` characters (at '; ', ', ' or spaces, '<br>' between)."""
+    lines = []
+    for part in text.split("<br>"):
+        while len(part) > width:
+            cut = max(part.rfind("; ", 0, width), part.rfind(", ", 0, width))
+            cut = cut + 1 if cut > width // 3 else part.rfind(" ", 0, width)
+            if cut <= 0:
+                cut = width
+            lines.append(part[:cut].rstrip())
+            part = part[cut:].lstrip()
+        lines.append(part)
+    return "<br>".join(lines)
+
+
 def _fig(traces, title, xt, yt, **layout):
+    """A figure: the title broken to fit (the top margin grows with its lines), axis titles with units."""
+    title = fit_title(title)
     return {
         "data": traces,
         "layout": {
-            "title": {"text": title},
+            "title": title_layout(title),
             "xaxis": {"title": {"text": xt}},
             "yaxis": {"title": {"text": yt}},
-            "margin": {"t": 50, "r": 20, "b": 90},
+            "margin": {"t": title_margin(title), "r": 20, "b": 90},
             "legend": {"orientation": "h", "y": -0.22},
             **layout,
         },
@@ -205,21 +313,43 @@ def _height(v: ViewInput) -> dict:
     return _fig(tr, "Height of the IMU centre", "t (s of day)", "h (m, ellipsoidal)")
 
 
-@view("height_error", "height", "Height error against GNSS, tilt compensated and uncompensated", "m", ("height.csv",))
+def _m(x) -> str:
+    return "–" if x is None else f"{x:.3f} m"
+
+
+@view(
+    "height_error",
+    "height",
+    "Height error against GNSS by fix quality (RTK fixed and DGPS), tilt compensated and uncompensated",
+    "m",
+    ("height.csv",),
+)
 def _height_error(v: ViewInput) -> dict:
     h, s = v.csv("height.csv"), v.summary
     t = h["t_s"]
-    tr = [
-        v.trace(t, h["h_m"] - h["h_gnss_m"], "error, tilt compensated", mode="markers", marker={"size": 3}),
-        v.trace(t, h["h_uncompensated_m"] - h["h_gnss_m"], "error, uncompensated", mode="markers", marker={"size": 3}),
-    ]
-    return _fig(
-        tr,
-        f"Height error against GNSS: std {s.get('std_error_m', float('nan')):.3f} m, "
-        f"max {s.get('max_error_m', float('nan')):.3f} m",
-        "t (s of day)",
-        "LDV − GNSS (m)",
+    fix = h["fix_quality"] if "fix_quality" in h else np.zeros(len(t))
+    tr = []
+    for q in sorted(set(fix[np.isfinite(h["h_gnss_m"])].astype(int).tolist())):  # each reference fix apart
+        k = fix == q
+        err = np.where(k, h["h_m"] - h["h_gnss_m"], np.nan)
+        err_raw = np.where(k, h["h_uncompensated_m"] - h["h_gnss_m"], np.nan)
+        tr.append(v.trace(t, err, f"tilt compensated, against {fix_name(q)}", mode="markers", marker={"size": 3}))
+        tr.append(
+            v.trace(
+                t, err_raw, f"uncompensated, against {fix_name(q)}", mode="markers", marker={"size": 3, "symbol": "x"}
+            )
+        )
+    rtk = (
+        f"against RTK fixed (fix 4; n = {s.get('n_reference_fix4')}): std {_m(s.get('std_error_m_fix4'))}, "
+        f"max {_m(s.get('max_error_m_fix4'))}"
+        if s.get("n_reference_fix4")
+        else "no RTK-fixed reference"
     )
+    both = (
+        f"against RTK fixed + DGPS (fix 4, 2; n = {s.get('n_reference')}): std {_m(s.get('std_error_m'))}, "
+        f"max {_m(s.get('max_error_m'))}"
+    )
+    return _fig(tr, f"Height error, tilt compensated<br>{rtk}<br>{both}", "t (s of day)", "LDV − GNSS height (m)")
 
 
 # --- tilt -----------------------------------------------------------------------------------------
@@ -247,43 +377,106 @@ def _attitude(v: ViewInput) -> dict:
 # --- navigate, calibrate: the track -----------------------------------------------------------------
 
 
-def _track(v: ViewInput, name: str) -> dict:
-    """The solution's track in local east/north metres from its start, with the log's GNSS fixes
-    (read from the log's stored ``gnss`` array), one legend entry per fix quality."""
-    d = v.csv(name)
-    n = v.n
-    lat0, lon0 = np.radians(d["lat_deg"][0]), np.radians(d["lon_deg"][0])
-    e = (np.radians(d["lon_deg"]) - lon0) * 6378137.0 * np.cos(lat0)
-    nn = (np.radians(d["lat_deg"]) - lat0) * 6356752.0
-    tr = [_trace(e, nn, "solution", None, None, n, mode="lines")]
-    from ldvsurvey.store.logs import load_array
+def nice_length(span_m: float) -> float:
+    """A round scale-bar length (1, 2 or 5 × 10^k m) near a fifth of ``span_m``."""
+    target = max(span_m / 5.0, 1e-3)
+    k = 10 ** np.floor(np.log10(target))
+    return float(min((c * k for c in (1, 2, 5, 10)), key=lambda c: abs(c - target)))
 
-    g = load_array(v.session, v.job.log_ids[0], "gnss")
-    if g is not None:
-        ok = np.isfinite(g["lat_deg"])
-        ge = (np.radians(g["lon_deg"][ok]) - lon0) * 6378137.0 * np.cos(lat0)
-        gn = (np.radians(g["lat_deg"][ok]) - lat0) * 6356752.0
-        fix = g["fix"][ok].astype(int)
-        for q in sorted(set(fix.tolist())):  # one legend entry per fix quality (a discrete legend)
-            kq = np.flatnonzero(fix == q)
-            k = kq[_down(ge[kq], gn[kq], None, None, n)]
-            tr.append(
-                {
-                    "type": "scatter",
-                    "mode": "markers",
-                    "name": f"GNSS, {FIX_NAMES.get(q, f'fix {q}')}",
-                    "x": ge[k].tolist(),
-                    "y": gn[k].tolist(),
-                    "marker": {"size": 4},
-                }
-            )
+
+def _map_fig(traces: list[dict], title: str, lat0: float, lon0: float, **layout) -> dict:
+    """A plain projected map: east/north metres of the local tangent plane at (lat0, lon0) (rad),
+    equal scales, a scale bar (bottom left, in data units so it stays true) and a north arrow.
+    ``layout.meta.map`` carries the origin, so a page may redraw the traces on a basemap."""
+    xs = np.array([p for t in traces for p in t["x"] if p is not None], float)
+    ys = np.array([p for t in traces for p in t["y"] if p is not None], float)
+    shapes, notes = [], []
+    if len(xs):
+        span = max(np.ptp(xs), np.ptp(ys), 1.0)
+        bar = nice_length(span)
+        x0, y0 = float(xs.min()), float(ys.min())
+        shapes.append({"type": "line", "xref": "x", "yref": "y", "x0": x0, "x1": x0 + bar, "y0": y0, "y1": y0,
+                       "line": {"width": 4, "color": "black"}})  # fmt: skip
+        notes.append({"xref": "x", "yref": "y", "x": x0 + bar / 2, "y": y0, "yshift": 12, "showarrow": False,
+                      "text": f"{bar:g} m" if bar < 1000 else f"{bar / 1000:g} km", "name": "scale bar"})  # fmt: skip
+    notes += [
+        {"xref": "paper", "yref": "paper", "x": 1.0, "y": 0.93, "ax": 0, "ay": 45, "showarrow": True,
+         "arrowhead": 2, "arrowwidth": 2, "text": "", "name": "north arrow"},
+        {"xref": "paper", "yref": "paper", "x": 1.0, "y": 0.93, "yanchor": "bottom", "showarrow": False,
+         "text": "<b>N</b>", "name": "north"},
+    ]  # fmt: skip
     return _fig(
-        tr,
-        "Trajectory (local east/north from the start)",
+        traces,
+        f"{title}<br>origin {lat0 * DEG_PER_RAD:.6f}°, {lon0 * DEG_PER_RAD:.6f}° (WGS-84); north up",
         "east (m)",
         "north (m)",
-        yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1},
+        # the data's extent (5 % margin) on equal scales: the plot area shrinks to fit, the ranges do not grow
+        xaxis={"title": {"text": "east (m)"}, "constrain": "domain", **_padded(xs)},
+        yaxis={
+            "title": {"text": "north (m)"},
+            "scaleanchor": "x",
+            "scaleratio": 1,
+            "constrain": "domain",
+            **_padded(ys),
+        },
+        shapes=shapes,
+        annotations=notes,
+        meta={"map": {"lat0_deg": lat0 * DEG_PER_RAD, "lon0_deg": lon0 * DEG_PER_RAD}},
+        **layout,
     )
+
+
+def _padded(v: np.ndarray) -> dict:
+    if not len(v):
+        return {}
+    pad = 0.05 * max(float(np.ptp(v)), 1.0)
+    return {"range": [float(v.min()) - pad, float(v.max()) + pad]}
+
+
+def _gnss_traces(v: ViewInput, lat0: float, lon0: float) -> list[dict]:
+    """The log's GNSS fixes in local metres, one trace (and legend entry) per fix quality."""
+    g = v.tables.log_array("gnss")
+    if g is None:
+        return []
+    ok = np.isfinite(g["lat_deg"]) & np.isfinite(g["lon_deg"])
+    ge, gn = local_metres(lat0, lon0, g["lat_deg"][ok] * RAD_PER_DEG, g["lon_deg"][ok] * RAD_PER_DEG)
+    fix = np.asarray(g["fix"])[ok].astype(int)
+    lat, lon = g["lat_deg"][ok], g["lon_deg"][ok]
+    out = []
+    for q in sorted(set(fix.tolist())):  # a discrete legend
+        kq = np.flatnonzero(fix == q)
+        k = kq[_down(ge[kq], gn[kq], None, None, v.n)]
+        out.append(
+            {
+                "type": "scatter",
+                "mode": "markers",
+                "name": f"GNSS, {fix_name(q)}",
+                "x": ge[k].tolist(),
+                "y": gn[k].tolist(),
+                "marker": {"size": 4},
+                "meta": {"lat": lat[k].tolist(), "lon": lon[k].tolist()},
+            }
+        )
+    return out
+
+
+def _with_latlon(tr: dict, lat0: float, lon0: float) -> dict:
+    """The trace's points also as latitude/longitude (``meta``), for a basemap: the inverse of
+    local_metres (a small area), breaks kept."""
+    rm, rn = radii(lat0)
+    lat = [None if n is None else (lat0 + n / rm) * DEG_PER_RAD for n in tr["y"]]
+    lon = [None if e is None else (lon0 + e / (rn * np.cos(lat0))) * DEG_PER_RAD for e in tr["x"]]
+    return {**tr, "meta": {"lat": lat, "lon": lon}}
+
+
+def _track(v: ViewInput, name: str) -> dict:
+    """The solution's track in local east/north metres from its start, with the log's GNSS fixes
+    (the log's stored ``gnss`` array), one legend entry per fix quality; thinned in time order."""
+    d = v.csv(name)
+    lat0, lon0 = d["lat_deg"][0] * RAD_PER_DEG, d["lon_deg"][0] * RAD_PER_DEG
+    e, nn = local_metres(lat0, lon0, d["lat_deg"] * RAD_PER_DEG, d["lon_deg"] * RAD_PER_DEG)
+    sol = _with_latlon(v.trace(e, nn, "solution", order=d.get("t_s"), mode="lines"), lat0, lon0)
+    return _map_fig([sol, *_gnss_traces(v, lat0, lon0)], "Trajectory (local east/north from the start)", lat0, lon0)
 
 
 @view(
@@ -393,31 +586,57 @@ def _gravity_compare_gnss(v: ViewInput) -> dict:
     other = "dg_sins_gnss_mgal" if "dg_sins_gnss_mgal" in g else None
     for name in sorted(set(g["line"][on])):
         k = g["line"] == name
+        t = g["t_s"][k] if "t_s" in g else None  # the data's order; NaN where a chain has no value: a break
         if other is not None:  # the two chains' difference along each line
-            tr.append(v.trace(g["distance_m"][k], g["dg_mgal"][k] - g[other][k], f"{name}: SINS/LDV − SINS/GNSS"))
+            tr.append(
+                v.trace(g["distance_m"][k], g["dg_mgal"][k] - g[other][k], f"{name}: SINS/LDV − SINS/GNSS", order=t)
+            )
         if "dg_gnss_aided_mgal" in g:
             tr.append(
                 v.trace(
                     g["distance_m"][k],
                     g["dg_mgal"][k] - g["dg_gnss_aided_mgal"][k],
                     f"{name}: LDV − LDV+GNSS navigation",
+                    order=t,
                     line={"dash": "dot"},
                 )
             )
     rms = [f"{d['name']} {d['rms_mgal']:.2f}" for d in gc.get("ldv_minus_gnss", []) if d.get("rms_mgal") is not None]
-    title = f"SINS/LDV {_floor_text(s)} vs SINS/GNSS {_floor_text(gc)}; difference RMS per line (mGal): " + (
-        ", ".join(rms) if rms else "none"
+    title = (
+        f"SINS/LDV − SINS/GNSS along each line<br>repeatability SINS/LDV {_floor_text(s)}<br>"
+        f"repeatability SINS/GNSS {_floor_text(gc)}<br>difference RMS per line (mGal): "
+        + (", ".join(rms) if rms else "none")
     )
     return _fig(tr, title, "along-track distance (m)", "δg difference (mGal)")
 
 
-def _gravity_view(session, job: Job, name: str, s: dict, x0, x1, n) -> dict:
-    """A gravity view by name on a summary ``s`` (the registered function; kept for callers that
-    pass the summary themselves)."""
-    if not name.startswith("gravity_") or name not in VIEWS:
-        raise HTTPException(404, f"unknown view '{name}'")
-    v = VIEWS[name]
-    return v.build(ViewInput(session, job, s, x0, x1, n, v.files))
+@view(
+    "gravity_map",
+    "gravity",
+    "Map: the gravity disturbance along the survey lines, with the GNSS fixes",
+    "m (north)",
+    ("gravity.csv",),
+)
+def _gravity_map(v: ViewInput) -> dict:
+    g = v.csv("gravity.csv")
+    on = np.flatnonzero((g["line"] != "") & np.isfinite(g["lat_deg"]) & np.isfinite(g["lon_deg"]))
+    if not len(on):
+        return _fig([], "No position on the survey lines to map", "east (m)", "north (m)")
+    lat0, lon0 = g["lat_deg"][on[0]] * RAD_PER_DEG, g["lon_deg"][on[0]] * RAD_PER_DEG
+    e, n = local_metres(lat0, lon0, g["lat_deg"][on] * RAD_PER_DEG, g["lon_deg"][on] * RAD_PER_DEG)
+    dg = g["dg_mgal"][on]
+    k = _down(np.arange(len(on), dtype=float), dg, None, None, v.n)  # in the data's order, extremes of δg kept
+    tr = {
+        "type": "scatter",
+        "mode": "markers",
+        "name": "δg on the survey lines",
+        "x": e[k].tolist(),
+        "y": n[k].tolist(),
+        "marker": {"size": 5, "color": dg[k].tolist(), "colorscale": "Viridis", "showscale": True,
+                   "colorbar": {"title": {"text": "δg (mGal)"}}},
+        "meta": {"lat": g["lat_deg"][on][k].tolist(), "lon": g["lon_deg"][on][k].tolist()},
+    }  # fmt: skip
+    return _map_fig([*_gnss_traces(v, lat0, lon0), tr], "Gravity disturbance along the survey lines", lat0, lon0)
 
 
 # --- dov --------------------------------------------------------------------------------------------
@@ -431,7 +650,7 @@ def _dov_deflection(v: ViewInput) -> dict:
         [v.trace(t, d["xi_arcsec"], "ξ"), v.trace(t, d["eta_arcsec"], "η")],
         f"Deflection of the vertical along the track ({s.get('dov_source', '')})",
         "t (s of day)",
-        "arcsec",
+        "deflection (arcsec)",
     )
 
 
@@ -443,7 +662,7 @@ def _dov_error(v: ViewInput) -> dict:
     for m in ("direct", "rk4", "theoretical"):
         tr.append(v.trace(t, d[f"dn_{m}_m"], f"north, {m}"))
         tr.append(v.trace(t, d[f"de_{m}_m"], f"east, {m}", line={"dash": "dot"}))
-    return _fig(tr, "DOV-caused position error", "t (s of day)", "m")
+    return _fig(tr, "DOV-caused position error", "t (s of day)", "position error (m)")
 
 
 # --- damping ----------------------------------------------------------------------------------------
@@ -471,12 +690,12 @@ def _damping(v: ViewInput) -> dict:
     )
 
 
-def build_view(session, job: Job, name: str, x0, x1, n) -> dict:
-    """The figure of view ``name`` of a (succeeded) job; 404 when the job's pipeline has no such view."""
+def build_view(tables: Tables, pipeline: str, summary: dict, name: str, x0, x1, n) -> dict:
+    """The figure of view ``name`` of a job of ``pipeline`` on its tables; :class:`UnknownView` when that
+    pipeline has no such view, :class:`MissingResult` when a table is missing."""
     v = VIEWS.get(name)
-    if v is None or v.pipeline != job.pipeline:
-        raise HTTPException(
-            404,
-            f"no view '{name}' for a {job.pipeline} job (views: {[x.name for x in views_of(job.pipeline)] or None})",
+    if v is None or v.pipeline != pipeline:
+        raise UnknownView(
+            f"no view '{name}' for a {pipeline} job (views: {[x.name for x in views_of(pipeline)] or None})"
         )
-    return v.build(ViewInput(session, job, job.summary or {}, x0, x1, n, v.files))
+    return v.build(ViewInput(tables, summary or {}, x0, x1, n, v.files))

@@ -19,6 +19,19 @@ import numpy as np
 from ldvsurvey.errors import BundleError
 
 FILE = "gnss.nmea"
+#: GGA fix quality as people read it: the one list the API views and the dashboard use
+#: (served as ``GET /api/names``)
+FIX_QUALITY_NAMES = {
+    0: "0 no fix",
+    1: "1 GPS",
+    2: "2 DGPS",
+    3: "3 PPS",
+    4: "4 RTK fixed",
+    5: "5 RTK float",
+    6: "6 dead reckoning",
+    7: "7 manual",
+    8: "8 simulation",
+}
 
 
 @dataclass
