@@ -20,7 +20,12 @@ silently across a gap, so :func:`regularize_imu` is applied where the IMU is par
   * accumulated: the row's increments are split evenly over the k+1 intervals (the integrated
     increments are kept exactly);
   * lost: the k missing intervals get increments interpolated linearly between the rows before
-    and after the gap (rate and specific force interpolated over the gap);
+    and after the gap (rate and specific force interpolated over the gap). Each bridged row spans
+    one interval of the IMU's own sampling clock, never the tagged gap length over k + 1: the
+    tags are the logger's and jitter about the sampling instants (the increments are those of
+    the true intervals), so a rescaling would put the two edge tags' jitter into the gap's
+    velocity (g·δt, 3 mm/s for 0.3 ms: an impulse no later step telescopes away, several mGal
+    through a 200-s gravity filter and tens of mGal in a stop's mean; issue 29);
   * the turntable angle is interpolated linearly.
 
   A warning names the number of gaps, the missing rows and their times.
@@ -194,9 +199,9 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
                 new = np.mod(a + (b - a) * np.arange(1, k + 1) / (k + 1), 360.0)
             elif accumulated:  # the row after the gap keeps its share too (below)
                 new = np.full(k, cols[name][g + 1] / (k + 1))
-            else:
+            else:  # each lost row spans one interval of the IMU's own clock, whatever the tags say
                 w = np.arange(1, k + 1) / (k + 1)
-                new = ((1 - w) * cols[name][g] + w * cols[name][g + 1]) * (h / dt_nom)
+                new = (1 - w) * cols[name][g] + w * cols[name][g + 1]
             pieces[name].append(new)
         line_pieces += [lines[start : g + 1], np.full(k, lines[g + 1])]
         start = g + 1
