@@ -69,6 +69,20 @@ class LongGap:
         )
 
 
+@dataclass
+class BridgedGap:
+    """A short gap bridged on an even grid: ``row`` the index (in the regular columns) of its first
+    inserted row, ``rows`` how many were inserted; ``lost`` when their increments were interpolated
+    (unknown: the gravity chains carry their uncertainty), False when the next row had accumulated
+    the gap (split evenly, the sum kept exactly)."""
+
+    row: int
+    rows: int
+    t_before_s: float
+    t_after_s: float
+    lost: bool
+
+
 def check_no_long_gaps(long_gaps, file: str = "imu.csv") -> None:
     """Raise a :class:`BundleError` naming the first gap too long to bridge (before integrating)."""
     if long_gaps:
@@ -130,10 +144,11 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
 
     Returns
     -------
-    (cols, lines, warnings, n_bridged_rows, long_gaps) : the regular columns (inserted rows carry
-        the line of the row after their gap), the warnings, how many rows were inserted, and the
-        gaps too long to bridge (left as they are: :func:`check_no_long_gaps` refuses them before
-        any integration, while the bundle itself stays readable for its quality report).
+    (cols, lines, warnings, n_bridged_rows, long_gaps, bridged) : the regular columns (inserted
+        rows carry the line of the row after their gap), the warnings, how many rows were inserted,
+        the gaps too long to bridge (left as they are: :func:`check_no_long_gaps` refuses them before
+        any integration, while the bundle itself stays readable for its quality report), and the
+        bridged gaps (:class:`BridgedGap`, in time order).
     """
     from ldvsurvey.io.csvtable import check_time
 
@@ -144,7 +159,7 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
     t = cols["t"]
     check_time(t, lines, file)
     if len(t) < 3:
-        return cols, lines, warnings, 0, []
+        return cols, lines, warnings, 0, [], []
     dt_nom, msg = nominal_interval(t, rate_hz)
     if msg:
         warnings.append(msg)
@@ -156,7 +171,7 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         jitter = ((pair_next <= 2) & (gaps + 1 < len(dt))) | ((pair_prev <= 2) & (gaps > 0))
         gaps = gaps[~jitter]
     if len(gaps) == 0:
-        return cols, lines, warnings, 0, []
+        return cols, lines, warnings, 0, [], []
     k_missing = np.rint(dt[gaps] / dt_nom).astype(int) - 1
     k_missing = np.maximum(k_missing, 1)
     long_ = k_missing > MAX_BRIDGE_ROWS
@@ -171,7 +186,7 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         )
     gaps, k_missing = gaps[~long_], k_missing[~long_]
     if len(gaps) == 0:
-        return cols, lines, warnings, 0, long_gaps
+        return cols, lines, warnings, 0, long_gaps, []
     dv = np.column_stack([cols[c] for c in ("dvel_x", "dvel_y", "dvel_z")])
     dv_norm = np.linalg.norm(dv, axis=1)
     n = len(t)
@@ -214,8 +229,10 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
     # the rows after accumulated gaps keep their 1/(k+1) share
     new_lines = np.concatenate(line_pieces)
     offset = 0
+    bridged = []
     for (g, k), (_, _, acc) in zip(zip(gaps, k_missing), times):
         row = int(g) + 1 + offset + int(k)
+        bridged.append(BridgedGap(row - int(k), int(k), float(t[g]), float(t[g + 1]), not acc))
         if acc:
             for name in INCREMENT_COLUMNS:
                 if name in out:
@@ -233,4 +250,4 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         f"{file}: {len(times)} gap(s) in the IMU time tags bridged, {total} missing row(s) in all, "
         f"after {listed}{more}; {'; '.join(how)}"
     )
-    return out, new_lines, warnings, total, long_gaps
+    return out, new_lines, warnings, total, long_gaps, bridged

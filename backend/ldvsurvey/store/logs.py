@@ -14,6 +14,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from ldvsurvey.io.drivelog import DriveLog, ImuData, LdvData
+from ldvsurvey.io.imutime import BridgedGap
 from ldvsurvey.io.manifest import Manifest
 from ldvsurvey.io.nmea import GnssData
 from ldvsurvey.store import blobs
@@ -227,8 +228,18 @@ def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
         sha[f.name] = f.sha256
     manifest = Manifest.model_validate(row.manifest, strict=False)
     i = arrays["imu"]
+    q_imu = (row.quality or {}).get("imu") or {}
     imu = ImuData(
-        t_s=i["t_s"], dtheta_rad=i["dtheta_rad"], dvel_mps=i["dvel_mps"], turntable_deg=i.get("turntable_deg")
+        t_s=i["t_s"],
+        dtheta_rad=i["dtheta_rad"],
+        dvel_mps=i["dvel_mps"],
+        turntable_deg=i.get("turntable_deg"),
+        bridged_rows=int(q_imu.get("bridged_rows") or 0),
+        # the gaps the reader bridged (the gravity chains carry the lost increments' uncertainty)
+        bridges=[
+            BridgedGap(int(r), int(k), float(a), float(b), bool(lost))
+            for r, k, a, b, lost in q_imu.get("bridged_gaps", [])
+        ],
     )
     d = arrays["ldv"]
     ldv = LdvData(
