@@ -57,11 +57,15 @@ def _dropped_runs(sim):
     return [(float(sim.imu.t_s[a - 1]), int(b - a)) for a, b in zip(edges[::2], edges[1::2])]
 
 
-def _stops_within(report, k):
-    """Every stop's drift (after the first, whose level is the reference) within k of its 1-σ."""
+def _no_drift(report):
+    """The tie finds no drift: the last stop's (the drift over the survey; the first stop's level is
+    the reference) within 2 of its 1-σ, every stop within 3, and together consistent with none (χ²
+    against the tie's own covariance, p > 0.05). A max over many stops within 2 σ would fail a third
+    of drift-free surveys (test_stop_tie_sigma_is_the_scatter_of_drift_free_ties)."""
     stops = report["stops"][1:]
     assert stops and all(s["drift_sigma_mgal"] and s["drift_sigma_mgal"] > 0 for s in stops), report
-    return all(abs(s["drift_mgal"]) <= k * s["drift_sigma_mgal"] for s in stops)
+    z = [abs(s["drift_mgal"]) / s["drift_sigma_mgal"] for s in stops]
+    return z[-1] <= 2.0 and max(z) <= 3.0 and report["no_drift_p_value"] > 0.05
 
 
 def test_jitter_with_lost_rows_costs_what_the_rows_held(pair):
@@ -84,9 +88,9 @@ def test_jitter_with_lost_rows_costs_what_the_rows_held(pair):
         assert 0.0 <= ln["imu_bridge_cost_mgal"] < 0.1 * s["noise_floor"]["total_mgal"], ln
     nf = s["noise_floor"]
     assert nf["imu_bridge_mgal"] > 0 and nf["combined_mgal"] >= nf["total_mgal"]
-    # no drift where the accelerometer has none: every stop's tie within 2 σ of zero
+    # no drift where the accelerometer has none
     dc = s["drift_correction"]
-    assert dc["method"] == "repeated stops" and _stops_within(dc, 2.0), dc
+    assert dc["method"] == "repeated stops" and _no_drift(dc), dc
 
 
 def test_every_logger_defect_no_drift_found(every_defect):
@@ -96,7 +100,7 @@ def test_every_logger_defect_no_drift_found(every_defect):
     assert s["total_mgal"] == pytest.approx(s0["total_mgal"], rel=0.10), (s["total_mgal"], s0["total_mgal"])
     assert s["total_mgal"] <= 3 * s["noise_floor"]["combined_mgal"], s["noise_floor"]
     dc = s["drift_correction"]
-    assert dc["method"] == "repeated stops" and _stops_within(dc, 2.0), dc
+    assert dc["method"] == "repeated stops" and _no_drift(dc), dc
     # the stops' σ is measured on their data: the accelerometer's white noise (5 µg/√Hz) over each
     # stop's duration within a factor of 1.5 (the 1-s means of a 16-60 s stop scatter that much)
     for x in dc["stops"]:
@@ -129,3 +133,47 @@ def test_the_measured_bridge_sigma_covers_the_true_error(pair):
         z.append(up / sg)
     rms = float(np.sqrt(np.mean(np.square(z))))
     assert 0.5 < rms < 2.0, (rms, z)
+
+
+def test_stop_tie_sigma_is_the_scatter_of_drift_free_ties():
+    """The tie's 1-σ and χ² against a Monte Carlo of drift-free stops (independent truth: the stop
+    means drawn about their spots' Δg with known σ). Over 400 surveys of 13 stops at two spots the
+    normalised drifts have unit variance and the χ² its degrees of freedom; a linear drift of 3 mGal
+    over the survey (stops σ 0.1-0.4 mGal) is found (p < 1e-3)."""
+    from ldvsurvey.pipelines.gravity_drift import estimate_drift
+
+    rng = np.random.default_rng(29)
+    spots = [0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0]
+    dg = {0: 1e-4, 1: -3e-4}  # m/s²
+    z2, chi2 = [], []
+    for _ in range(400):
+        sig = rng.uniform(1e-6, 4e-6, len(spots))
+        stops = [
+            (600.0 * k, 0.5 + 1e-3 * s, 0.3, dg[s] + rng.normal(0, sg), 20.0, sg)
+            for k, (s, sg) in enumerate(zip(spots, sig))
+        ]
+        e = estimate_drift(stops)
+        z2.append(np.mean((e["drift"][1:] / e["drift_sigma"][1:]) ** 2))
+        chi2.append(e["chi2"])
+        dof = e["dof"]
+    assert dof == len(spots) - 2
+    assert np.mean(z2) == pytest.approx(1.0, abs=0.1)
+    assert np.mean(chi2) == pytest.approx(dof, abs=3 * np.sqrt(2 * dof / 400))
+    from ldvsurvey.pipelines.gravity_drift import drift_correction
+
+    c = 300.0 + 600.0 * np.arange(len(spots))  # the stops' centres, s
+    t = np.arange(0.0, 600.0 * len(spots), 1.0)
+    ramp = 3e-5 * t / t[-1]  # 3 mGal over the survey
+    still = [(ck - 15.0, ck + 15.0) for ck in c]
+    spot_of = np.array(spots)[np.clip(((t - 300.0) / 600.0).round().astype(int), 0, len(spots) - 1)]
+    noise = rng.normal(0.0, 1e-5, len(t))  # 1 mGal per 1-Hz sample: 0.2 mGal over a 26-s stop
+    chain = {
+        "t_s": t,
+        "dg_static": np.array([dg[s] for s in spot_of]) + ramp + noise,
+        "lat": 0.5 + 1e-3 * spot_of,
+        "lon": np.full(len(t), 0.3),
+    }
+    b, rep = drift_correction(chain, still, None, "auto")
+    assert b is not None and rep["method"] == "repeated stops" and rep["no_drift_p_value"] < 1e-3, rep
+    last = rep["stops"][-1]
+    assert last["drift_mgal"] == pytest.approx(3.0 * (c[-1] - c[0]) / t[-1], abs=3 * last["drift_sigma_mgal"]), last

@@ -13,6 +13,7 @@ unobservable without an absolute tie). Between stops the drift is interpolated l
 from __future__ import annotations
 
 import numpy as np
+from scipy.stats import chi2 as chi2_dist
 
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.pipelines.inputs import local_metres
@@ -95,8 +96,14 @@ def estimate_drift(stops):
     for i in range(len(y)):  # the columns of M: the estimate of unit stop means (the spots stay)
         e = [(*s[:3], float(j == i), s[4]) for j, s in enumerate(stops)]
         m[:, i] = _estimate_drift(e)["drift"]
-    est["drift_sigma"] = np.sqrt(np.einsum("ij,j,ij->i", m, sig**2, m))
+    cov = (m * sig**2) @ m.T
+    est["drift_sigma"] = np.sqrt(np.diag(cov))
     est["drift"] = m @ y
+    # is there drift at all? χ² of the drifts against their own covariance (rank: the stops less the spots)
+    dof = int(np.linalg.matrix_rank(cov, tol=1e-9 * float(np.max(np.diag(cov)) or 1.0)))
+    if dof > 0:
+        est["chi2"] = float(est["drift"] @ np.linalg.pinv(cov, rcond=1e-9, hermitian=True) @ est["drift"])
+        est["dof"] = dof
     return est
 
 
@@ -188,6 +195,10 @@ def drift_correction(chain, still, noise_ug_rthz=None, mode="auto"):
         "stop_sigma_mgal": sigma,
         "stop_sigma_source": "the stops' own data (scatter of 1-s means, plus lost IMU rows bridged there)",
         "max_drift_sigmas": _max_sigmas(est),
+        # the drifts' χ² against their covariance and its probability under "no drift" (small: drift)
+        "drift_chi2": est.get("chi2"),
+        "drift_dof": est.get("dof"),
+        "no_drift_p_value": float(chi2_dist.sf(est["chi2"], est["dof"])) if "chi2" in est else None,
         "stops": listed,
     }
     if mode == "auto" and sigma is not None and rng_mgal < SIGNIFICANT_SIGMA * np.sqrt(2.0) * sigma:

@@ -71,7 +71,10 @@ def imu_bridge_sigma_mgal(ch, fir_s, t_s):
     h = fir_taps(fir_s, fs)
     h2 = oaconvolve(h, h[::-1])
     c = len(h2) // 2
+    lo, hi = float(t_s.min()) - c / fs, float(t_s.max()) + c / fs
     for t_g, _dur, sig in bridges:
+        if not lo <= t_g <= hi:  # beyond the kernel's reach
+            continue
         d = np.rint((t_s - t_g) * fs).astype(np.int64)
         near = np.abs(d) <= c
         if near.any():
