@@ -169,3 +169,23 @@ def test_a_missing_blob_folder_is_named(tmp_path, all_in_blobs):
         p.unlink()
     with session_scope(url) as s, pytest.raises(FileNotFoundError, match="same blob folder"):
         load_drivelog(s, row.id)
+
+
+def test_bridged_imu_gaps_survive_the_store():
+    """The gaps the reader bridged (issue 29: the gravity chains carry the lost rows' uncertainty)
+    come back from the database as they were parsed: a job on a stored log sees them too."""
+    from ldvsurvey.io.writers import imu_csv
+    from tests.bundles import make_arrays
+
+    url = "sqlite://"
+    upgrade_head(url)
+    files = make_bundle(seed=34)
+    a = make_arrays(n_imu=2000, seed=34)
+    keep = np.setdiff1d(np.arange(len(a["t"])), np.r_[500:503, 1200:1201])
+    files["imu.csv"] = imu_csv(a["t"][keep], a["dtheta"][keep], a["dvel"][keep])
+    log = parse_files(files)
+    assert [(g.rows, g.lost) for g in log.imu.bridges] == [(3, True), (1, True)]
+    with session_scope(url) as s:
+        row, _ = store_log(s, log, quality_report(log))
+        back = load_drivelog(s, row.id)
+    assert back.imu.bridges == log.imu.bridges and back.imu.bridged_rows == log.imu.bridged_rows == 4

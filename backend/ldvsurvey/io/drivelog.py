@@ -54,6 +54,7 @@ class ImuData:
     duplicated_rows: int = 0
     bridged_rows: int = 0  #: rows inserted over short gaps in the time tags (see io.imutime)
     long_gaps: list = field(default_factory=list)  #: io.imutime.LongGap: too long to bridge
+    bridges: list = field(default_factory=list)  #: io.imutime.BridgedGap: the short gaps bridged
 
 
 @dataclass
@@ -267,7 +268,7 @@ def parse_imu(data: bytes | Path, manifest: Manifest) -> tuple[ImuData, list[str
     tab = read_numeric_csv(data, file, IMU_COLUMNS, optional=["turntable_deg"], groups=IMU_GROUPS)
     warnings = list(tab.warnings)
     cols, lines, dups = _drop_duplicate_rows(tab.columns, tab.line_of_row, file)
-    cols, lines, w, bridged, long_gaps = regularize_imu(cols, lines, manifest.imu.rate_hz, file)
+    cols, lines, w, bridged, long_gaps, bridges = regularize_imu(cols, lines, manifest.imu.rate_hz, file)
     warnings += w
     if manifest.imu.rotating and "turntable_deg" not in cols:
         raise BundleError(
@@ -287,6 +288,7 @@ def parse_imu(data: bytes | Path, manifest: Manifest) -> tuple[ImuData, list[str
         duplicated_rows=dups,
         bridged_rows=bridged,
         long_gaps=long_gaps,
+        bridges=bridges,
     )
     return imu, warnings
 

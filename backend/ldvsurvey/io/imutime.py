@@ -20,7 +20,12 @@ silently across a gap, so :func:`regularize_imu` is applied where the IMU is par
   * accumulated: the row's increments are split evenly over the k+1 intervals (the integrated
     increments are kept exactly);
   * lost: the k missing intervals get increments interpolated linearly between the rows before
-    and after the gap (rate and specific force interpolated over the gap);
+    and after the gap (rate and specific force interpolated over the gap). Each bridged row spans
+    one interval of the IMU's own sampling clock, never the tagged gap length over k + 1: the
+    tags are the logger's and jitter about the sampling instants (the increments are those of
+    the true intervals), so a rescaling would put the two edge tags' jitter into the gap's
+    velocity (g·δt, 3 mm/s for 0.3 ms: an impulse no later step telescopes away, several mGal
+    through a 200-s gravity filter and tens of mGal in a stop's mean; issue 29);
   * the turntable angle is interpolated linearly.
 
   A warning names the number of gaps, the missing rows and their times.
@@ -62,6 +67,20 @@ class LongGap:
             f"{self.t_after_s - self.t_before_s:.3f} s between t={self.t_before_s:.3f} s and "
             f"t={self.t_after_s:.3f} s (line {self.line}, about {self.missing_rows} missing rows)"
         )
+
+
+@dataclass
+class BridgedGap:
+    """A short gap bridged on an even grid: ``row`` the index (in the regular columns) of its first
+    inserted row, ``rows`` how many were inserted; ``lost`` when their increments were interpolated
+    (unknown: the gravity chains carry their uncertainty), False when the next row had accumulated
+    the gap (split evenly, the sum kept exactly)."""
+
+    row: int
+    rows: int
+    t_before_s: float
+    t_after_s: float
+    lost: bool
 
 
 def check_no_long_gaps(long_gaps, file: str = "imu.csv") -> None:
@@ -125,10 +144,11 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
 
     Returns
     -------
-    (cols, lines, warnings, n_bridged_rows, long_gaps) : the regular columns (inserted rows carry
-        the line of the row after their gap), the warnings, how many rows were inserted, and the
-        gaps too long to bridge (left as they are: :func:`check_no_long_gaps` refuses them before
-        any integration, while the bundle itself stays readable for its quality report).
+    (cols, lines, warnings, n_bridged_rows, long_gaps, bridged) : the regular columns (inserted
+        rows carry the line of the row after their gap), the warnings, how many rows were inserted,
+        the gaps too long to bridge (left as they are: :func:`check_no_long_gaps` refuses them before
+        any integration, while the bundle itself stays readable for its quality report), and the
+        bridged gaps (:class:`BridgedGap`, in time order).
     """
     from ldvsurvey.io.csvtable import check_time
 
@@ -139,7 +159,7 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
     t = cols["t"]
     check_time(t, lines, file)
     if len(t) < 3:
-        return cols, lines, warnings, 0, []
+        return cols, lines, warnings, 0, [], []
     dt_nom, msg = nominal_interval(t, rate_hz)
     if msg:
         warnings.append(msg)
@@ -151,7 +171,7 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         jitter = ((pair_next <= 2) & (gaps + 1 < len(dt))) | ((pair_prev <= 2) & (gaps > 0))
         gaps = gaps[~jitter]
     if len(gaps) == 0:
-        return cols, lines, warnings, 0, []
+        return cols, lines, warnings, 0, [], []
     k_missing = np.rint(dt[gaps] / dt_nom).astype(int) - 1
     k_missing = np.maximum(k_missing, 1)
     long_ = k_missing > MAX_BRIDGE_ROWS
@@ -166,7 +186,7 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         )
     gaps, k_missing = gaps[~long_], k_missing[~long_]
     if len(gaps) == 0:
-        return cols, lines, warnings, 0, long_gaps
+        return cols, lines, warnings, 0, long_gaps, []
     dv = np.column_stack([cols[c] for c in ("dvel_x", "dvel_y", "dvel_z")])
     dv_norm = np.linalg.norm(dv, axis=1)
     n = len(t)
@@ -194,9 +214,9 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
                 new = np.mod(a + (b - a) * np.arange(1, k + 1) / (k + 1), 360.0)
             elif accumulated:  # the row after the gap keeps its share too (below)
                 new = np.full(k, cols[name][g + 1] / (k + 1))
-            else:
+            else:  # each lost row spans one interval of the IMU's own clock, whatever the tags say
                 w = np.arange(1, k + 1) / (k + 1)
-                new = ((1 - w) * cols[name][g] + w * cols[name][g + 1]) * (h / dt_nom)
+                new = (1 - w) * cols[name][g] + w * cols[name][g + 1]
             pieces[name].append(new)
         line_pieces += [lines[start : g + 1], np.full(k, lines[g + 1])]
         start = g + 1
@@ -209,8 +229,10 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
     # the rows after accumulated gaps keep their 1/(k+1) share
     new_lines = np.concatenate(line_pieces)
     offset = 0
+    bridged = []
     for (g, k), (_, _, acc) in zip(zip(gaps, k_missing), times):
         row = int(g) + 1 + offset + int(k)
+        bridged.append(BridgedGap(row - int(k), int(k), float(t[g]), float(t[g + 1]), not acc))
         if acc:
             for name in INCREMENT_COLUMNS:
                 if name in out:
@@ -228,4 +250,4 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         f"{file}: {len(times)} gap(s) in the IMU time tags bridged, {total} missing row(s) in all, "
         f"after {listed}{more}; {'; '.join(how)}"
     )
-    return out, new_lines, warnings, total, long_gaps
+    return out, new_lines, warnings, total, long_gaps, bridged

@@ -39,6 +39,8 @@ def quality_report(log: DriveLog) -> dict:
     imu = _stream(log.imu.t_s, m.imu.rate_hz)
     imu["duplicated_rows"] = log.imu.duplicated_rows
     imu["bridged_rows"] = log.imu.bridged_rows  # rows inserted over short gaps (counted apart from "gaps")
+    # each bridged gap: [first inserted row, rows, t before, t after (s), 1 if lost (interpolated) else 0]
+    imu["bridged_gaps"] = [[g.row, g.rows, g.t_before_s, g.t_after_s, int(g.lost)] for g in log.imu.bridges]
     imu["rotating"] = bool(log.imu.turntable_deg is not None)
     ldv = None  # a log without an LDV: no ldv section (the log page says "no LDV")
     if log.ldv is not None:

@@ -37,7 +37,15 @@ from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_appli
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
-from ldvsurvey.pipelines.gravity_report import block, chain_difference, edge_gain_max, evaluate, floor_of, frame_tilt
+from ldvsurvey.pipelines.gravity_report import (
+    block,
+    chain_difference,
+    edge_gain_max,
+    evaluate,
+    floor_of,
+    frame_tilt,
+    with_imu_bridges,
+)
 from ldvsurvey.pipelines.inputs import gnss_aid, navigate
 from ldvsurvey.pipelines.navigate import run_navigation
 
@@ -185,11 +193,18 @@ def imu_gap_report(logs):
     by the navigation before any gravity is computed)."""
     rows = int(sum(getattr(log.imu, "bridged_rows", 0) for log in logs))
     notes = [w for log in logs for w in log.warnings if w.startswith("imu.csv") and "gap" in w]
+    lost = [g for log in logs for g in getattr(log.imu, "bridges", []) if g.lost]
     return {
         "bridged_rows": rows,
+        "lost_gaps": len(lost),
+        "lost_rows": int(sum(g.rows for g in lost)),
         "notes": notes,
-        "handling": "rows missing from imu.csv bridged on an even grid when the log was read "
-        "(increments split or interpolated over the gap); longer gaps refused",
+        "handling": "rows missing from imu.csv bridged on an even grid when the log was read: a row "
+        "that accumulated the gap is split evenly over it (its sum kept exactly); lost rows get "
+        "increments interpolated between their neighbours, one IMU sampling interval each whatever "
+        "the (jittering) time tags say. A lost row's increments are unknown: the prediction's error, "
+        "measured next to every gap, is carried into the floor (noise_floor.imu_bridge_mgal), every "
+        "line's imu_bridged_s and imu_bridge_cost_mgal, and the stop ties' σ; longer gaps refused",
     }
 
 
@@ -303,7 +318,9 @@ def run(logs, params, progress) -> PipelineResult:
         drift_reports[0].get("method") == "repeated stops",
         params["line_leveling"],
     )
-    summary = block(res, fir_s, trim_s, primary, combine(floor_of(logs[0], chains[0], fir_s), drift))
+    summary = block(
+        res, fir_s, trim_s, primary, with_imu_bridges(combine(floor_of(logs[0], chains[0], fir_s), drift), res)
+    )
     if primary == "ldv":
         warnings += ldv_gap_warnings(res)
         summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
@@ -329,7 +346,9 @@ def run(logs, params, progress) -> PipelineResult:
                 gres = evaluate(
                     gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False, leveling=params["line_leveling"]
                 )
-            summary["gnss_comparison"] = block(gres, fir_s, trim_s, "gnss", floor_of(logs[0], gchains[0], fir_s))
+            summary["gnss_comparison"] = block(
+                gres, fir_s, trim_s, "gnss", with_imu_bridges(floor_of(logs[0], gchains[0], fir_s), gres)
+            )
             summary["gnss_comparison"]["frame_tilt"] = frame_tilt_report(tilt)
             summary["gnss_comparison"]["gnss_fixes"] = list(fixes)
             summary["gnss_comparison"]["screened_fixes"] = int(sum(g["screened"] for g in gchains))

@@ -206,6 +206,53 @@ def per_nominal_interval(f_u_mps2, t_s):
     return np.r_[f_u_mps2[:1], f_u_mps2[1:] * dt / dt0], dt0
 
 
+#: IMU rows each side of a lost gap whose leave-out predictions measure its bridge's error
+BRIDGE_WINDOW_ROWS = 300
+
+
+def lost_increment_sigmas(inp, sol):
+    """What each run of lost IMU rows costs: [(t_s of its middle, its duration s, σ of its up velocity m/s)].
+
+    The increments of lost rows are unknown; the reader bridged them with the best prediction the
+    neighbours give (:mod:`ldvsurvey.io.imutime`: linear interpolation, which the navigation then
+    integrates). The chain's f_U over the gap is that prediction, so the gap leaves one velocity
+    error in f_U·Δt: an impulse in δg whose area the FIR spreads over its length. Its σ is
+    measured on the data next to the gap: the same prediction of k real rows from their
+    neighbours (every position within :data:`BRIDGE_WINDOW_ROWS` that touches no bridged row),
+    RMS of Σ (f_U − prediction)·Δt0 over the k rows (vibration, manoeuvres and the sensor's own
+    noise, which the lost rows held too). Gaps whose next row had accumulated them cost nothing
+    (their sum is kept exactly) and are not listed."""
+    bridges = getattr(getattr(getattr(inp, "log", None), "imu", None), "bridges", None) or []
+    lost = [g for g in bridges if g.lost]
+    if not lost:
+        return []
+    t = inp.t_s
+    n = len(t)
+    dt0 = nominal_interval_s(t)
+    inserted = np.zeros(n, bool)
+    for g in bridges:
+        inserted[g.row : g.row + g.rows] = True
+    out = []
+    for g in lost:
+        k = int(g.rows)
+        a, b = max(1, g.row - BRIDGE_WINDOW_ROWS), min(n, g.row + k + BRIDGE_WINDOW_ROWS)
+        # row i holds the increments of the interval (i − 1, i]: per nominal interval as in the chain
+        f = _vertical_force_block(sol, a, b) * np.diff(t[a - 1 : b]) / dt0
+        bad = inserted[a:b]
+        c = np.r_[0.0, np.cumsum(f)]
+        cb = np.r_[0, np.cumsum(bad)]
+        j = np.arange(1, len(f) - k)  # rows j..j+k−1 predicted from rows j−1 and j+k (window indices)
+        clean = (cb[j + k + 1] - cb[j - 1]) == 0
+        j = j[clean]
+        t_mid = 0.5 * (t[g.row - 1] + t[min(g.row + k, n - 1)])
+        if len(j) < 20:  # too little clean data next to the gap: no measured σ (say so with NaN)
+            out.append((float(t_mid), k * dt0, float("nan")))
+            continue
+        err = (c[j + k] - c[j] - 0.5 * k * (f[j - 1] + f[j + k])) * dt0
+        out.append((float(t_mid), k * dt0, float(np.sqrt(np.mean(err**2)))))
+    return out
+
+
 def ldv_chain(inp, sol, setup):
     """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times.
 
@@ -258,6 +305,7 @@ def ldv_chain(inp, sol, setup):
         "bridged": bridged,
         "screened": int(bad.sum()),
         "ldv_noise_mps": noise,
+        "imu_bridges": lost_increment_sigmas(inp, sol),
         "kind": "ldv",
     }
 
@@ -431,5 +479,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         "screened": int((~good).sum()),
         "height_sigma_m": float(np.sqrt(np.mean(sig_v**2))),
         "fixes": tuple(fixes),
+        # the lost IMU rows' velocity error enters S (and its second difference) as in the LDV chain
+        "imu_bridges": lost_increment_sigmas(inp, sol),
         "kind": "gnss",
     }

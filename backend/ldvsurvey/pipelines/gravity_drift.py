@@ -13,6 +13,7 @@ unobservable without an absolute tie). Between stops the drift is interpolated l
 from __future__ import annotations
 
 import numpy as np
+from scipy.stats import chi2 as chi2_dist
 
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.pipelines.inputs import local_metres
@@ -25,8 +26,36 @@ STOP_EDGE_S = 2.0
 SAME_SPOT_M = 30.0
 
 
+#: the σ of a stop's mean is measured on means over blocks of this length (s): robust to noise that
+#: is not white at the sample rate (engine vibration, a bridged IMU gap)
+STOP_BLOCK_S = 1.0
+
+
+def stop_sigma(t_s, x, duration_s, bridges=()):
+    """σ (m/s²) of the mean of ``x`` over a stop, measured on the data, plus its lost IMU rows.
+
+    The means over :data:`STOP_BLOCK_S` blocks scatter about the stop's mean; their standard deviation
+    over √(number of blocks) is the σ of the mean whatever the noise's colour below the block length.
+    Each lost IMU run bridged inside the stop (σ_g of its up velocity, m/s; see
+    :func:`gravity_chains.lost_increment_sigmas`) adds σ_g/T to the mean over T seconds."""
+    nb = int(np.floor(duration_s / STOP_BLOCK_S))
+    if nb < 4:
+        return float("nan")
+    j = np.minimum(((t_s - t_s[0]) / (duration_s / nb)).astype(int), nb - 1)
+    cnt = np.bincount(j, minlength=nb)
+    good = cnt > 0
+    means = np.bincount(j, weights=x, minlength=nb)[good] / cnt[good]
+    var = float(np.var(means, ddof=1) / good.sum())
+    for t_g, _dur, sig in bridges:
+        if t_s[0] <= t_g <= t_s[-1] and np.isfinite(sig):
+            var += (sig / duration_s) ** 2
+    return float(np.sqrt(var))
+
+
 def stop_means(chain, still):
-    """(t_s, lat, lon, mean f_U − γ in m/s², duration s) of every usable stop."""
+    """(t_s, lat, lon, mean f_U − γ in m/s², duration s, σ of the mean in m/s²) of every usable stop.
+
+    The σ is the data's (:func:`stop_sigma`)."""
     out = []
     t = chain["t_s"]
     for a, b in still:
@@ -36,20 +65,49 @@ def stop_means(chain, still):
         k = (t >= a) & (t <= b) & np.isfinite(chain["dg_static"])
         if k.sum() < 10:
             continue
+        x = chain["dg_static"][k]
         out.append(
             (
                 0.5 * (a + b),
                 float(np.mean(chain["lat"][k])),
                 float(np.mean(chain["lon"][k])),
-                float(np.mean(chain["dg_static"][k])),
+                float(np.mean(x)),
                 float(b - a),
+                stop_sigma(t[k], x, float(b - a), chain.get("imu_bridges") or ()),
             )
         )
     return out
 
 
 def estimate_drift(stops):
-    """Drift b_k (m/s²) at the stops and the spot index of each; None when no spot is visited twice."""
+    """Drift b_k (m/s²) at the stops and the spot index of each; None when no spot is visited twice.
+
+    The estimate is linear in the stop means y: b = M y. Where the stops carry their σ (the sixth
+    element, :func:`stop_means`), ``drift_sigma`` is the 1-σ of every b_k from M diag(σ²) Mᵀ (0 at the
+    first stop, whose level is kept by definition)."""
+    est = _estimate_drift(stops)
+    if est is None or len(stops[0]) < 6:
+        return est
+    sig = np.array([s[5] for s in stops], float)
+    if not np.all(np.isfinite(sig)):
+        return est
+    y = np.array([s[3] for s in stops], float)
+    m = np.empty((len(y), len(y)))
+    for i in range(len(y)):  # the columns of M: the estimate of unit stop means (the spots stay)
+        e = [(*s[:3], float(j == i), s[4]) for j, s in enumerate(stops)]
+        m[:, i] = _estimate_drift(e)["drift"]
+    cov = (m * sig**2) @ m.T
+    est["drift_sigma"] = np.sqrt(np.diag(cov))
+    est["drift"] = m @ y
+    # is there drift at all? χ² of the drifts against their own covariance (rank: the stops less the spots)
+    dof = int(np.linalg.matrix_rank(cov, tol=1e-9 * float(np.max(np.diag(cov)) or 1.0)))
+    if dof > 0:
+        est["chi2"] = float(est["drift"] @ np.linalg.pinv(cov, rcond=1e-9, hermitian=True) @ est["drift"])
+        est["dof"] = dof
+    return est
+
+
+def _estimate_drift(stops):
     if len(stops) < 2:
         return None
     lat0, lon0 = stops[0][1], stops[0][2]
@@ -110,31 +168,58 @@ def drift_correction(chain, still, noise_ug_rthz=None, mode="auto"):
     if est is None:
         return None, {"method": "none", "reason": "no spot where the vehicle stood still twice", "n_stops": len(stops)}
     b = np.interp(chain["t_s"], est["t_s"], est["drift"])
-    sigma = None
+    # the stops' σ from their own data (the manifest's density over each stop's duration where the
+    # data gives none): a stop with a bridged IMU gap or a noisy engine says so itself
+    sig = np.array([s[5] for s in stops], float)
     if noise_ug_rthz:
         dur = np.array([s[4] for s in stops])
-        sigma = float(np.sqrt(np.mean((noise_ug_rthz * 1e-6 * 9.80665) ** 2 / dur)) / MGAL)
+        sig = np.where(np.isfinite(sig), sig, noise_ug_rthz * 1e-6 * 9.80665 / np.sqrt(dur))
+    sigma = float(np.sqrt(np.nanmean(sig**2)) / MGAL) if np.isfinite(sig).any() else None
     rng_mgal = float(np.ptp(est["drift"]) / MGAL)
+    d_sig = est.get("drift_sigma")
+    listed = [
+        {
+            "t_s": float(t),
+            "spot": int(j),
+            "drift_mgal": float(d / MGAL),
+            "duration_s": float(dur),
+            "stop_sigma_mgal": float(sg / MGAL) if np.isfinite(sg) else None,
+            "drift_sigma_mgal": float(d_sig[i] / MGAL) if d_sig is not None else None,
+        }
+        for i, (t, j, d, sg, dur) in enumerate(zip(est["t_s"], est["spot"], est["drift"], sig, [s[4] for s in stops]))
+    ]
+    base = {
+        "n_stops": len(stops),
+        "n_spots": int(est["n_spots"]),
+        "drift_range_mgal": rng_mgal,
+        "stop_sigma_mgal": sigma,
+        "stop_sigma_source": "the stops' own data (scatter of 1-s means, plus lost IMU rows bridged there)",
+        "max_drift_sigmas": _max_sigmas(est),
+        # the drifts' χ² against their covariance and its probability under "no drift" (small: drift)
+        "drift_chi2": est.get("chi2"),
+        "drift_dof": est.get("dof"),
+        "no_drift_p_value": float(chi2_dist.sf(est["chi2"], est["dof"])) if "chi2" in est else None,
+        "stops": listed,
+    }
     if mode == "auto" and sigma is not None and rng_mgal < SIGNIFICANT_SIGMA * np.sqrt(2.0) * sigma:
         return None, {
             "method": "none",
-            "n_stops": len(stops),
-            "drift_range_mgal": rng_mgal,
-            "stop_sigma_mgal": sigma,
+            **base,
             "reason": f"drift at the stops ({rng_mgal:.2f} mGal) within {SIGNIFICANT_SIGMA:g} σ of their "
             "noise: not applied",
         }
     report = {
         "method": "repeated stops",
-        "n_stops": len(stops),
-        "n_spots": int(est["n_spots"]),
-        "drift_range_mgal": float(np.ptp(est["drift"]) / MGAL),
-        "stop_sigma_mgal": sigma,
-        "stops": [
-            {"t_s": float(t), "spot": int(j), "drift_mgal": float(d / MGAL)}
-            for t, j, d in zip(est["t_s"], est["spot"], est["drift"])
-        ],
+        **base,
         "note": "vertical accelerometer drift tied at repeated stops and interpolated linearly between "
         "them; drift faster than the stop spacing remains in the lines",
     }
     return b, report
+
+
+def _max_sigmas(est) -> float | None:
+    """The largest |b_k|/σ(b_k) over the stops after the first (None without σ)."""
+    d_sig = est.get("drift_sigma")
+    if d_sig is None or len(d_sig) < 2 or not np.all(d_sig[1:] > 0):
+        return None
+    return float(np.max(np.abs(est["drift"][1:]) / d_sig[1:]))

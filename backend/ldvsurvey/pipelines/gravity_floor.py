@@ -86,10 +86,11 @@ def drift_floor(
         if tie_applied and stops:
             cum = np.r_[0.0, np.cumsum(b)]
             y = []
-            for tc, la, lo, _, dur in stops:  # the stop mean of b, plus the white noise over the stop
+            for tc, la, lo, _, dur, sig in stops:  # the stop mean of b, plus the stop's own noise
                 a = np.searchsorted(tg, tc - dur / 2)
                 e = max(a + 1, np.searchsorted(tg, tc + dur / 2))
-                y.append((tc, la, lo, (cum[e] - cum[a]) / (e - a) + rng.normal(0.0, noise / np.sqrt(dur)), dur))
+                sig = sig if np.isfinite(sig) else noise / np.sqrt(dur)
+                y.append((tc, la, lo, (cum[e] - cum[a]) / (e - a) + rng.normal(0.0, sig), dur))
             est = estimate_drift(y)
             if est is not None:
                 r = b - np.interp(tg, est["t_s"], est["drift"])

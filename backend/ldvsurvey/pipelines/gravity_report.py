@@ -6,11 +6,13 @@ Every figure in mGal; every line's statistics beside what gaps and trimming remo
 from __future__ import annotations
 
 import numpy as np
+from scipy.signal import oaconvolve
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
 from ldvsurvey.nav.gravity import (
     MGAL,
+    fir_taps,
     half_wavelength_resolution_m,
     noise_floor_mgal,
     runs,
@@ -51,6 +53,56 @@ def break_edges(ch, fir_s):
         return np.zeros(len(ch["dg"]), bool)
     gain = second_difference_noise_gain(np.isfinite(ch["dg"]), fir_s, ch["fs"])
     return ~(gain <= gmax)
+
+
+def imu_bridge_sigma_mgal(ch, fir_s, t_s):
+    """σ (mGal) that the lost IMU rows' bridges leave in the chain's filtered δg at the times ``t_s``.
+
+    Each bridge leaves a velocity error of σ_g (m/s, :func:`gravity_chains.lost_increment_sigmas`) in
+    f_U·Δt: an impulse of that area in δg, which the zero-phase FIR (kernel h⋆h, unit sum, over the
+    chain's sampling interval Δt) turns into σ_g·(h⋆h)(t − t_g)/Δt. Independent bridges add in
+    variance. A bridge without a measured σ (too little clean data next to it) counts as NaN."""
+    t_s = np.asarray(t_s, float)
+    var = np.zeros(len(t_s))
+    bridges = ch.get("imu_bridges") or []
+    if not bridges or not len(t_s):
+        return np.sqrt(var) / MGAL
+    fs = ch["fs"]
+    h = fir_taps(fir_s, fs)
+    h2 = oaconvolve(h, h[::-1])
+    c = len(h2) // 2
+    lo, hi = float(t_s.min()) - c / fs, float(t_s.max()) + c / fs
+    for t_g, _dur, sig in bridges:
+        if not lo <= t_g <= hi:  # beyond the kernel's reach
+            continue
+        d = np.rint((t_s - t_g) * fs).astype(np.int64)
+        near = np.abs(d) <= c
+        if near.any():
+            var[near] += (sig * fs * h2[c + d[near]]) ** 2
+    return np.sqrt(var) / MGAL
+
+
+def with_imu_bridges(floor: dict, res) -> dict:
+    """The floor with the lost IMU rows' term: ``imu_bridge_mgal`` the RMS over the lines of their
+    cost (the coincidence's expected square is the lines' mean variance), added in quadrature to
+    ``combined_mgal`` (the white floor and the drift term, where present)."""
+    costs = [p[7].get("imu_bridge_cost_mgal") for p in res["per_line"] if len(p[3])]
+    costs = [c for c in costs if c is not None]
+    if not costs:
+        return floor
+    out = dict(floor)
+    known = [c for c in costs if np.isfinite(c)]
+    term = float(np.sqrt(np.mean(np.square(known)))) if known else None
+    out["imu_bridge_mgal"] = term
+    out["imu_bridge_source"] = (
+        "IMU rows lost and bridged by prediction: the prediction's error measured next to every gap "
+        "(leave-out of as many real rows), through the FIR"
+        + ("" if len(known) == len(costs) else f"; {len(costs) - len(known)} line(s) without a measured σ")
+    )
+    base = out.get("combined_mgal", out.get("total_mgal"))
+    if term is not None and base:
+        out["combined_mgal"] = float(np.hypot(base, term))
+    return out
 
 
 def unsupported(bridged, fir_s, fs, den_cache=None):
@@ -128,6 +180,10 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
             "duration_s": float(b - a),
             "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s)),
         }
+        if "imu_bridges" in ch:  # IMU rows lost on the line, bridged by prediction, and their cost
+            info["imu_bridged_s"] = float(sum(d for tg, d, _ in ch["imu_bridges"] if a <= tg <= b))
+            sig = imu_bridge_sigma_mgal(ch, fir_s, ch["t_s"][k]) if len(k) else np.zeros(0)
+            info["imu_bridge_cost_mgal"] = float(np.sqrt(np.mean(sig**2))) if len(sig) else None
         if len(k) < 10:
             if strict:
                 raise ParameterError(

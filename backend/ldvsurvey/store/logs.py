@@ -15,6 +15,7 @@ from sqlalchemy.orm import Session
 
 from ldvsurvey.io.drivelog import DriveLog, ImuData, LdvData
 from ldvsurvey.io.logfacts import facts_from_streams, log_facts
+from ldvsurvey.io.imutime import BridgedGap
 from ldvsurvey.io.manifest import Manifest
 from ldvsurvey.io.nmea import GnssData
 from ldvsurvey.store import blobs
@@ -266,8 +267,18 @@ def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
         sha[f.name] = f.sha256
     manifest = Manifest.model_validate(row.manifest, strict=False)
     i = arrays["imu"]
+    q_imu = (row.quality or {}).get("imu") or {}
     imu = ImuData(
-        t_s=i["t_s"], dtheta_rad=i["dtheta_rad"], dvel_mps=i["dvel_mps"], turntable_deg=i.get("turntable_deg")
+        t_s=i["t_s"],
+        dtheta_rad=i["dtheta_rad"],
+        dvel_mps=i["dvel_mps"],
+        turntable_deg=i.get("turntable_deg"),
+        bridged_rows=int(q_imu.get("bridged_rows") or 0),
+        # the gaps the reader bridged (the gravity chains carry the lost increments' uncertainty)
+        bridges=[
+            BridgedGap(int(r), int(k), float(a), float(b), bool(lost))
+            for r, k, a, b, lost in q_imu.get("bridged_gaps", [])
+        ],
     )
     ldv = None
     if "ldv" in arrays:
