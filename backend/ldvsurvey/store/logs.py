@@ -14,8 +14,8 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from ldvsurvey.io.drivelog import DriveLog, ImuData, LdvData
-from ldvsurvey.io.logfacts import facts_from_streams, log_facts
 from ldvsurvey.io.imutime import BridgedGap
+from ldvsurvey.io.logfacts import facts_from_streams, log_facts
 from ldvsurvey.io.manifest import Manifest
 from ldvsurvey.io.nmea import GnssData
 from ldvsurvey.store import blobs
