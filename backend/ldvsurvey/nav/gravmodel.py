@@ -56,7 +56,8 @@ def height_anomaly_m(lat_deg, lon_deg, h_m: float = 0.0, degree: int = 2190) -> 
     out = np.empty(len(lat))
     c = np.ascontiguousarray(model.c)
     s = np.ascontiguousarray(model.s)
-    for k, (phi, lam) in enumerate(zip(lat, lon)):
+    for phi in np.unique(lat):  # the Legendre sums depend on the latitude only
+        k = lat == phi
         sl, cl = np.sin(phi), np.cos(phi)
         rn = A_M / np.sqrt(1 - E2 * sl * sl)
         x = (rn + h_m) * cl
@@ -64,7 +65,8 @@ def height_anomaly_m(lat_deg, lon_deg, h_m: float = 0.0, degree: int = 2190) -> 
         r = np.hypot(x, z)
         theta = np.arctan2(x, z)
         at, bt, *_ = _row_sums(np.cos(theta), np.sin(theta), model.n_max, model.m_max, c, s, model.a / r)
-        t_pot = model.gm / r * (np.cos(m * lam) @ at + np.sin(m * lam) @ bt)
+        lam = lon[k][:, None] * m[None, :]
+        t_pot = model.gm / r * (np.cos(lam) @ at + np.sin(lam) @ bt)
         out[k] = t_pot / normal_gravity(phi, h_m) + ZERO_DEGREE_M
     return out
 

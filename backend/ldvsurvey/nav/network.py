@@ -333,7 +333,7 @@ def adjust(
         z = vt[rank:].T  # basis of the null space: x = Z ξ
     else:
         z = np.eye(npar)
-    rows, obs, var = [], [], []
+    rows, obs, var, inflation = [], [], [], []
 
     def row_of(lg, li, t):
         a = np.zeros(npar)
@@ -353,10 +353,12 @@ def adjust(
         rows.append(a - wm @ a)
         obs.append(y - wm @ y)
         var.append(1.0 / w)
+        inflation.append(np.full(len(y), cl.var_scale))
     for tie in ties:
         rows.append(row_of(tie.log, None, tie.t_s)[None, :])
         obs.append(np.array([tie.measured_mgal - tie.tie_mgal]))
         var.append(np.array([tie.sigma_mgal**2]))
+        inflation.append(np.ones(1))
     if not rows:
         raise ValueError("no common point between lines and no base tie: nothing to adjust")
     a = np.vstack(rows) @ z
@@ -370,7 +372,9 @@ def adjust(
         raise ValueError(_undetermined(lines, ties, clusters, n_logs, drift_logs))
     cov_z = np.linalg.inv(n_mat)
     xi = cov_z @ (aw.T @ (y * sw))
-    r = (y - a @ xi) * sw
+    # σ0 from the residuals against their marginal variances (the along-track inflation only spreads a
+    # line's information over its correlated samples; it is not a larger error of each)
+    r = (y - a @ xi) * sw * np.sqrt(np.concatenate(inflation))
     n_points = sum(1 for cl in clusters)
     dof = int(len(y) - n_points - a.shape[1])
     sigma0 = float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan")
