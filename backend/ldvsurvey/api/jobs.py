@@ -19,7 +19,7 @@ from ldvsurvey.store.models import Job, JobFile
 
 router = APIRouter(tags=["jobs"])
 #: parameters naming server-side files are not accepted from the network
-SERVER_PATH_PARAMS = {"dov_grid", "imu_nodov"}
+SERVER_PATH_PARAMS = {"dov_grid", "imu_nodov", "external_grid"}
 
 
 class JobRequest(BaseModel):

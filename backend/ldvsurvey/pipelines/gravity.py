@@ -379,10 +379,16 @@ def run(logs, params, progress) -> PipelineResult:
     if network:
         progress("network adjustment", 0.8)
         floors = [floor_of(log, ch, fir_s)["total_mgal"] for log, ch in zip(logs, chains)]
-        summary["network"], net_tables, net_files, net_warn = survey_network(
-            logs, chains, res, params, floors, progress
-        )
-        warnings += net_warn
+        try:
+            summary["network"], net_tables, net_files, net_warn = survey_network(
+                logs, chains, res, params, floors, progress
+            )
+            warnings += net_warn
+        except ParameterError as exc:
+            if params["base_ties"]:  # asked for: a tie that cannot apply is the user's to fix
+                raise
+            # several logs without ties that share no point: each stays as it was (relative)
+            warnings.append(f"no network adjustment: {exc.message}")
     progress("writing", 0.9)
     tables = {
         "gravity": gravity_table(
