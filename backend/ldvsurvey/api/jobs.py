@@ -80,7 +80,12 @@ def job_detail(session: Session, j: Job) -> dict:
             if (row := session.get(Log, lid)) is not None
             for w in (row.quality or {}).get("warnings", [])
         ]
-    return {**job_dict(j), "inputs": inputs, "warnings": warnings, "views": [v.info() for v in views_of(j.pipeline)]}
+    return {
+        **job_dict(j),
+        "inputs": inputs,
+        "warnings": warnings,
+        "views": [v.info() for v in views_of(j.pipeline, j.summary)],
+    }
 
 
 def public_schema(model) -> dict:

@@ -74,6 +74,8 @@ class View:
     units: str  #: units of the y axis
     files: tuple[str, ...]  #: the job's result files it reads
     build: Callable[[ViewInput], dict]
+    #: shown only for jobs whose summary passes this (e.g. a gravity job that adjusted a network)
+    when: Callable[[dict], bool] | None = None
 
     def info(self) -> dict:
         return {
@@ -89,21 +91,24 @@ class View:
 VIEWS: dict[str, View] = {}
 
 
-def view(name: str, pipeline: str, title: str, units: str, files: tuple[str, ...]):
-    """Register the decorated ``f(v: ViewInput) -> figure dict`` as the view ``name`` of ``pipeline``."""
+def view(name: str, pipeline: str, title: str, units: str, files: tuple[str, ...], when=None):
+    """Register the decorated ``f(v: ViewInput) -> figure dict`` as the view ``name`` of ``pipeline``
+    (``when(summary)``: shown only for the jobs whose summary passes it)."""
 
     def register(build: Callable[[ViewInput], dict]) -> Callable[[ViewInput], dict]:
         if name in VIEWS:
             raise ValueError(f"view '{name}' registered twice")
-        VIEWS[name] = View(name, pipeline, title, units, tuple(files), build)
+        VIEWS[name] = View(name, pipeline, title, units, tuple(files), build, when)
         return build
 
     return register
 
 
-def views_of(pipeline: str) -> list[View]:
-    """The views of a pipeline's jobs, in the order they are shown."""
-    return [v for v in VIEWS.values() if v.pipeline == pipeline]
+def views_of(pipeline: str, summary: dict | None = None) -> list[View]:
+    """The views of a pipeline's jobs, in the order they are shown (with ``summary``: those that apply to it)."""
+    return [
+        v for v in VIEWS.values() if v.pipeline == pipeline and (v.when is None or summary is None or v.when(summary))
+    ]
 
 
 def _csv(session, job: Job, name: str) -> dict[str, np.ndarray]:
@@ -403,6 +408,70 @@ def _gravity_compare_gnss(v: ViewInput) -> dict:
     return _fig(tr, title, "along-track distance (m)", "δg difference (mGal)")
 
 
+@view(
+    "gravity_network_map",
+    "gravity",
+    "Adjusted gravity disturbance of the survey network along all tracks, with the base ties",
+    "mGal",
+    ("gravity_adjusted.csv", "network_residuals.csv"),
+    when=lambda s: "network" in s,
+)
+def _gravity_network_map(v: ViewInput) -> dict:
+    g, net = v.csv("gravity_adjusted.csv"), v.summary.get("network") or {}
+    lat0, lon0 = np.radians(np.nanmean(g["lat_deg"])), np.radians(np.nanmean(g["lon_deg"]))
+    e = (np.radians(g["lon_deg"]) - lon0) * 6378137.0 * np.cos(lat0)
+    nn = (np.radians(g["lat_deg"]) - lat0) * 6356752.0
+    k = np.flatnonzero(np.isfinite(g["dg_mgal"]))
+    k = k[np.linspace(0, len(k) - 1, min(len(k), v.n)).astype(int)] if len(k) else k
+    tr = [
+        {
+            "type": "scatter",
+            "mode": "markers",
+            "name": "adjusted δg (mGal)",
+            "x": e[k].tolist(),
+            "y": nn[k].tolist(),
+            "text": [
+                f"{ln}: {x:.2f} ± {s:.2f} mGal" for ln, x, s in zip(g["line"][k], g["dg_mgal"][k], g["sigma_mgal"][k])
+            ],
+            "marker": {
+                "size": 4,
+                "color": g["dg_mgal"][k].tolist(),
+                "colorscale": "Viridis",
+                "showscale": True,
+                "colorbar": {"title": {"text": "δg (mGal)"}},
+            },
+        }
+    ]
+    r = v.csv("network_residuals.csv")
+    tie = r["kind"] == "tie"
+    if tie.any():
+        te = (np.radians(r["lon_deg"][tie]) - lon0) * 6378137.0 * np.cos(lat0)
+        tn = (np.radians(r["lat_deg"][tie]) - lat0) * 6356752.0
+        tr.append(
+            {
+                "type": "scatter",
+                "mode": "markers",
+                "name": "base ties (residual mGal)",
+                "x": te.tolist(),
+                "y": tn.tolist(),
+                "text": [f"{n}: {x:+.2f} mGal" for n, x in zip(r["line"][tie], r["residual_mgal"][tie])],
+                "marker": {"size": 12, "symbol": "triangle-up", "color": "red"},
+            }
+        )
+    res = [ln.get("resolution_m") for ln in net.get("lines", []) if ln.get("resolution_m")]
+    xo, rep, fl = net.get("crossover_rms_after_mgal"), net.get("repeat_rms_after_mgal"), net.get("noise_floor_mgal")
+    nan = float("nan")
+    title = (
+        f"Network ({net.get('datum', '')[:4]} datum ±{net.get('datum_sigma_mgal', nan):.2f} mGal): "
+        f"crossovers ±{nan if xo is None else xo:.2f}, repeats ±{nan if rep is None else rep:.2f} "
+        f"mGal (floor ±{nan if fl is None else fl:.2f}); resolution "
+        + (f"{min(res):.0f}–{max(res):.0f} m" if res else "–")
+    )
+    return _fig(
+        tr, title, "east (m)", "north (m)", yaxis={"title": {"text": "north (m)"}, "scaleanchor": "x", "scaleratio": 1}
+    )
+
+
 def _gravity_view(session, job: Job, name: str, s: dict, x0, x1, n) -> dict:
     """A gravity view by name on a summary ``s`` (the registered function; kept for callers that
     pass the summary themselves)."""
@@ -466,7 +535,7 @@ def _damping(v: ViewInput) -> dict:
 def build_view(session, job: Job, name: str, x0, x1, n) -> dict:
     """The figure of view ``name`` of a (succeeded) job; 404 when the job's pipeline has no such view."""
     v = VIEWS.get(name)
-    if v is None or v.pipeline != job.pipeline:
+    if v is None or v.pipeline != job.pipeline or (v.when is not None and not v.when(job.summary or {})):
         raise HTTPException(
             404,
             f"no view '{name}' for a {job.pipeline} job (views: {[x.name for x in views_of(job.pipeline)] or None})",

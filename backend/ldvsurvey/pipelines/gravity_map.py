@@ -17,7 +17,7 @@ import numpy as np
 from ldvsurvey.nav.earth import radii
 
 #: fewer blocks than this: no map (a spline through a handful of points maps nothing)
-MIN_BLOCKS = 20
+MIN_BLOCKS = 10
 #: damping values the cross-validation chooses from
 DAMPINGS = (1e-6, 1e-4, 1e-2)
 
