@@ -15,9 +15,10 @@ from ldvsurvey.pipelines.registry import get
 
 
 def test_ties_parse():
-    assert parse_ties("28.5,113.0,120,979100.5; 28.6,113.1,130.5,979090") == [
+    assert parse_ties("28.5,113.0,120,979100.5; 28.6,113.1,130.5,979090;40,250,10,980000") == [
         (28.5, 113.0, 120.0, 979100.5),
         (28.6, 113.1, 130.5, 979090.0),
+        (40.0, -110.0, 10.0, 980000.0),  # 250° E is 110° W, as the navigation's longitudes
     ]
 
 
@@ -77,3 +78,39 @@ def test_a_stop_near_a_tie_observes_it():
     # beyond the radius: not observed, reported as unused
     ties, unused = observed_ties([ch], [log], [(lat, lon, h, g)], 5.0, (ch["lat"][0], ch["lon"][0]))
     assert ties == [] and unused[0]["tie"] == "T1"
+
+
+def test_external_check_against_a_user_grid(tmp_path):
+    """A user's δg grid holding the very field the table carries: per-line differences vanish; EGM2008's
+    omission error is not claimed for a user grid; a grid not covering the survey is refused."""
+    from ldvsurvey.io.gdf import write_gdf
+    from ldvsurvey.pipelines.gravity_network import _external_check
+
+    glat, glon = np.arange(28.40, 28.60, 0.005), np.arange(112.95, 113.15, 0.005)
+
+    def field(la, lo):
+        return 10.0 * np.sin(np.radians(la - 28.4) * 300) + 5.0 * np.cos(np.radians(lo - 113.0) * 200)
+
+    path = tmp_path / "dg.gdf"
+    path.write_bytes(
+        write_gdf(glat, glon, field(*np.meshgrid(glat, glon, indexing="ij")), "gravity_disturbance", "mGal")
+    )
+    la = np.linspace(28.45, 28.55, 200)
+    lo = np.linspace(113.0, 113.1, 200)
+    table = {
+        "lat_deg": la,
+        "lon_deg": lo,
+        "dg_mgal": field(la, lo),
+        "line": np.array(["L1"] * 100 + ["L2"] * 100, dtype=object),
+    }
+    per_line = [{"name": "L1", "resolution_m": 2000.0}, {"name": "L2", "resolution_m": 2000.0}]
+    params = {"external_model": "grid", "external_grid": [str(path)], "external_grid_id": None}
+    out = _external_check(table, per_line, params, None, 200.0, [])
+    assert out["model"] == "dg.gdf" and "omission_note" not in out
+    for ln in out["lines"]:
+        assert abs(ln["mean_mgal"]) < 0.05 and ln["std_mgal"] < 0.05  # bilinear on a 0.005° grid
+    assert np.allclose(table["dg_external_mgal"], table["dg_mgal"], atol=0.1)
+    table["lat_deg"] = la + 1.0
+    with pytest.raises(ParameterError, match="does not cover") as exc:
+        _external_check(table, per_line, params, None, 200.0, [])
+    assert exc.value.field == "external_grid"

@@ -56,7 +56,7 @@ def parse_ties(text) -> list[tuple[float, float, float, float]]:
                 f"{G_RANGE_MGAL[0]:.0f} to {G_RANGE_MGAL[1]:.0f} mGal)",
                 field="base_ties",
             )
-        out.append((lat, lon, h, g))
+        out.append((lat, lon - 360.0 if lon > 180.0 else lon, h, g))  # east of 180° as negative, as the navigation
     if not out:
         raise ParameterError("no tie given", field="base_ties")
     return out
