@@ -162,7 +162,8 @@ def section(sims, biases, runs):
             "left out: the error across such gaps, between the roads)."
         )
     out += [
-        f"- Network run (3 logs, with the EGM2008 synthesis and the map): {elapsed:.0f} s wall on the shared "
+        f"- The whole gravity run on the three logs (navigation, chains, network, EGM2008 synthesis): {elapsed:.0f} s "
+        "wall on the shared "
         "2-core machine.",
         "<!-- gravnet:end -->",
     ]
