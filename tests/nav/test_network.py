@@ -91,6 +91,9 @@ def test_tied_network_is_absolute_and_at_the_floor(seed):
     for lg in range(3):
         k = adj.index[f"bias:{lg}"]
         assert abs(adj.x[k] - BIASES[lg]) < 3 * np.sqrt(adj.cov[k, k]) + 0.05, (lg, adj.x[k])
+    for lg in (0, 1):  # the drifts the start and end ties support
+        k = adj.index[f"drift:{lg}"]
+        assert abs(adj.x[k] - DRIFTS[lg]) < 3 * np.sqrt(adj.cov[k, k]), (lg, adj.x[k])
 
     def adjusted(cl):
         return np.array([v - adj.correction(lines[i].log, i, t)[0] for i, v, t in zip(cl.lines, cl.values, cl.t_s)])
@@ -182,3 +185,24 @@ def test_omission_from_tscherning_rapp():
     assert omission_mgal(2, 200.0) == pytest.approx(np.sqrt(total - 7.5), rel=1e-3)
     assert omission_mgal(2190, 20000.0) == 0.0  # data coarser than the model: nothing omitted
     assert 5.0 < omission_mgal(2190, 2000.0) < 15.0
+
+
+def test_a_disturbed_stretch_is_flagged_on_its_line_only():
+    """3 mGal over ~1 km of one line (a bad LDV stretch, a passing truck): the robust adjustment flags it on
+    that line only; plain least squares (robust_k=None, as first written) smears it into the line's log
+    (its line bias, and through the biases' zero sum the log's other line) and flags the good line too."""
+    from ldvsurvey.pipelines.gravity_network import _residuals
+
+    def flags(robust_k):
+        lines, ties = survey(7)
+        bad = lines[1]
+        s = np.hypot(bad.e_m, bad.n_m)
+        bad.dg_mgal = bad.dg_mgal + 3.0 * np.exp(-0.5 * (s / 300.0) ** 2)
+        _, clusters, adj = network(lines, ties, robust_k=robust_k)
+        _, flagged = _residuals(lines, clusters, ties, adj, 3.0, (0.5, 2.0), [(0, 0, 0, 0)] * 2)
+        return bad.name, [f["line"] for f in flagged]
+
+    bad, robust = flags(3.0)
+    assert robust.count(bad) > 20 and set(robust) == {bad}
+    bad, plain = flags(None)
+    assert set(plain) - {bad}  # the smearing the robust weights prevent

@@ -39,6 +39,10 @@ REPEAT_MIN_SHARE = 0.3
 CROSSING_MIN_ANGLE_DEG = 20.0
 #: a line's sample farther than this from a crossing point is not taken there (m)
 CROSSING_MAX_DISTANCE_M = 50.0
+#: reweighting passes of the robust (Huber) adjustment …
+ROBUST_ITERATIONS = 5
+#: … beyond this many marginal σ
+ROBUST_K = 3.0
 
 
 @dataclass
@@ -96,6 +100,7 @@ class Adjustment:
     line_bias: bool
     datum: str
     index: dict = field(default_factory=dict)  #: parameter name -> column
+    weights: list = field(default_factory=list)  #: per cluster, the robust weight factor of each sample (1: full)
 
     def correction(self, log: int, line: int | None, t_s) -> np.ndarray:
         """b_L + d_L (t − t_L) + c_l at times t (mGal)."""
@@ -278,12 +283,15 @@ def adjust(
     drift: str = "auto",
     line_bias: bool = True,
     min_drift_span_s: float = 600.0,
+    robust_k: float | None = ROBUST_K,
 ) -> Adjustment:
     """Weighted least squares of the network (see the module text).
 
     ``drift``: "linear" estimates d_L for every log; "auto" for the logs whose ties span at least
-    ``min_drift_span_s`` (start and end ties); "none" for none. Raises ValueError naming what is
-    not determined (a log without ties or a common point with another log)."""
+    ``min_drift_span_s`` (start and end ties); "none" for none. ``robust_k``: line samples whose residual
+    exceeds this many marginal σ are down-weighted (Huber, ROBUST_ITERATIONS passes; None: plain least
+    squares). Raises ValueError naming what is not determined (a log without ties or a common point
+    with another log)."""
     logs_seen = sorted({ln.log for ln in lines} | {t.log for t in ties})
     t_ref = np.zeros(n_logs)
     for lg in range(n_logs):
@@ -333,7 +341,6 @@ def adjust(
         z = vt[rank:].T  # basis of the null space: x = Z ξ
     else:
         z = np.eye(npar)
-    rows, obs, var, inflation = [], [], [], []
 
     def row_of(lg, li, t):
         a = np.zeros(npar)
@@ -344,44 +351,70 @@ def adjust(
             a[index[f"line:{li}"]] = 1.0
         return a
 
-    # clusters: centred by their weighted mean (the point's G eliminated)
+    # per cluster: design rows, values, weights (1/σ² with the along-track inflation), marginal σ
+    blocks = []
     for cl in clusters:
         w = np.array([1.0 / (lines[i].sigma_mgal ** 2 * cl.var_scale) for i in cl.lines])
         a = np.array([row_of(lines[i].log, i, t) for i, t in zip(cl.lines, cl.t_s)])
-        y = cl.values
-        wm = w / w.sum()
-        rows.append(a - wm @ a)
-        obs.append(y - wm @ y)
-        var.append(1.0 / w)
-        inflation.append(np.full(len(y), cl.var_scale))
+        sm = np.array([lines[i].sigma_mgal for i in cl.lines])
+        blocks.append((a, np.asarray(cl.values, float), w, sm))
     for tie in ties:
-        rows.append(row_of(tie.log, None, tie.t_s)[None, :])
-        obs.append(np.array([tie.measured_mgal - tie.tie_mgal]))
-        var.append(np.array([tie.sigma_mgal**2]))
-        inflation.append(np.ones(1))
-    if not rows:
+        blocks.append(
+            (
+                row_of(tie.log, None, tie.t_s)[None, :],
+                np.array([tie.measured_mgal - tie.tie_mgal]),
+                np.array([1.0 / tie.sigma_mgal**2]),
+                None,  # no point to eliminate: the tie's value is known
+            )
+        )
+    if not blocks:
         raise ValueError("no common point between lines and no base tie: nothing to adjust")
-    a = np.vstack(rows) @ z
-    y = np.concatenate(obs)
-    v = np.concatenate(var)
-    sw = 1.0 / np.sqrt(v)
-    aw = a * sw[:, None]
-    n_mat = aw.T @ aw
-    ev = np.linalg.eigvalsh(n_mat)
-    if ev[0] <= 1e-9 * max(ev[-1], 1e-300):
-        raise ValueError(_undetermined(lines, ties, clusters, n_logs, drift_logs))
-    cov_z = np.linalg.inv(n_mat)
-    xi = cov_z @ (aw.T @ (y * sw))
+    mult = [np.ones(len(b[1])) for b in blocks]
+    for _ in range(ROBUST_ITERATIONS + 1):
+        rows, obs, wts, std = [], [], [], []
+        for (a, y, w, sm), mu in zip(blocks, mult):
+            ww = w * mu
+            if sm is None:
+                rows.append(a)
+                obs.append(y)
+                std.append(1.0 / np.sqrt(w))
+            else:  # centred by the (down-weighted) point mean: the point's G eliminated
+                wm = ww / ww.sum()
+                rows.append(a - wm @ a)
+                obs.append(y - wm @ y)
+                std.append(sm * np.sqrt(np.maximum(1.0 - wm, 1e-9)))  # marginal σ of a residual about the mean
+            wts.append(ww)
+        a_all = np.vstack(rows) @ z
+        y_all = np.concatenate(obs)
+        sw = np.sqrt(np.concatenate(wts))
+        aw = a_all * sw[:, None]
+        n_mat = aw.T @ aw
+        ev = np.linalg.eigvalsh(n_mat)
+        if ev[0] <= 1e-9 * max(ev[-1], 1e-300):
+            raise ValueError(_undetermined(lines, ties, clusters, n_logs, drift_logs))
+        cov_z = np.linalg.inv(n_mat)
+        xi = cov_z @ (aw.T @ (y_all * sw))
+        # Huber down-weighting of residuals beyond robust_k marginal σ: one bad stretch is not smeared over
+        # the lines it is compared with (their point means, their log's other lines)
+        u = np.abs(y_all - a_all @ xi) / np.concatenate(std)
+        if robust_k is None:
+            break
+        new = np.where(u > robust_k, robust_k / np.maximum(u, 1e-12), 1.0)
+        parts = np.split(new, np.cumsum([len(b[1]) for b in blocks])[:-1])
+        mult = [p if b[3] is not None else np.ones(1) for p, b in zip(parts, blocks)]  # ties keep their weight
     # σ0 from the residuals against their marginal variances (the along-track inflation only spreads a
     # line's information over its correlated samples; it is not a larger error of each)
-    r = (y - a @ xi) * sw * np.sqrt(np.concatenate(inflation))
-    n_points = sum(1 for cl in clusters)
-    dof = int(len(y) - n_points - a.shape[1])
+    infl = np.concatenate([np.full(len(b[1]), cl.var_scale) for b, cl in zip(blocks, clusters)] + [np.ones(len(ties))])
+    r = (y_all - a_all @ xi) * sw * np.sqrt(infl)
+    n_points = len(clusters)
+    dof = int(len(y_all) - n_points - a_all.shape[1])
     sigma0 = float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan")
     scale = max(1.0, sigma0**2) if np.isfinite(sigma0) else 1.0
     x = z @ xi
     cov = z @ cov_z @ z.T * scale
-    return Adjustment(names, x, cov, sigma0, dof, t_ref, drift_logs, line_bias, datum, index)
+    adj = Adjustment(names, x, cov, sigma0, dof, t_ref, drift_logs, line_bias, datum, index)
+    adj.weights = mult[: len(clusters)]
+    return adj
 
 
 def _undetermined(lines, ties, clusters, n_logs, drift_logs) -> str:

@@ -228,6 +228,8 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
         "line_bias": adj.line_bias,
         "parameters": pars,
         "correlation_time_s": corr_s,
+        "n_downweighted": int(sum(np.count_nonzero(w < 1.0) for w in adj.weights)),
+        "robust": f"Huber down-weighting beyond {net.ROBUST_K:g} σ ({net.ROBUST_ITERATIONS} passes)",
         "n_outliers": len(flagged),
         "outliers": flagged[:MAX_LISTED],
         "lines": per_line,
@@ -260,9 +262,13 @@ def _residuals(lines, clusters, ties, adj, k_sigma, origin, ties_given):
     flagged = []
     for pi, cl in enumerate(clusters):
         v = np.array([x - adj.correction(lines[i].log, i, t)[0] for i, x, t in zip(cl.lines, cl.values, cl.t_s)])
+        # about the point's mean as the adjustment formed it (robust weights: a bad sample does not move it)
         w = np.array([1.0 / lines[i].sigma_mgal ** 2 for i in cl.lines])
-        r = v - np.sum(w * v) / np.sum(w)
-        sr = np.array([lines[i].sigma_mgal for i in cl.lines]) * np.sqrt(max(1.0 - 1.0 / len(v), 1e-9))
+        if pi < len(adj.weights):
+            w = w * adj.weights[pi]
+        wm = w / np.sum(w)
+        r = v - np.sum(wm * v)
+        sr = np.array([lines[i].sigma_mgal for i in cl.lines]) * np.sqrt(np.maximum(1.0 - wm, 1e-9))
         z = r / sr
         for i, ri, zi, t in zip(cl.lines, r, z, cl.t_s):
             out = bool(abs(zi) > k_sigma)
