@@ -10,7 +10,7 @@ import pytest
 
 from tests.bundles import MANIFEST, make_bundle
 
-SERVER_ONLY = {"dov_grid", "imu_nodov"}  # file paths on the server: refused by the API on their own
+SERVER_ONLY = {"dov_grid", "imu_nodov", "external_grid"}  # file paths on the server: refused by the API on their own
 
 
 @pytest.fixture(scope="module")
@@ -149,6 +149,9 @@ def test_out_of_range_value_is_422_naming_the_field(api, rotating_log, pipeline,
         ("gravity", {"lines": "100-50"}, "lines"),
         ("gravity", {"lines": "a-b"}, "lines"),
         ("gravity", {"gnss_fixes": "3"}, "gnss_fixes"),
+        ("gravity", {"base_ties": "28.5,113,120"}, "base_ties"),  # a tie without its g
+        ("gravity", {"base_ties": "28.5,113,120,13.5"}, "base_ties"),  # a relative value given as absolute g
+        ("gravity", {"external_grid": "/etc/passwd"}, "external_grid"),  # a server path
         ("calibrate", {"calibration_window": "30010"}, "calibration_window"),
         ("calibrate", {"calibration_window": [30009.0, 30001.0]}, "calibration_window"),
         ("dov", {"compensation_steps_arcmin": [1.0, -2.5]}, "compensation_steps_arcmin"),
@@ -175,6 +178,16 @@ def test_valid_values_at_the_limits_pass(api, rotating_log):
     assert r.status_code == 201, r.text
     assert r.json()["resolved_parameters"]["ldv_scale"] == 1.001
     assert len(api.queued) == 3
+
+
+def test_a_gravity_network_job_on_several_logs_is_queued(api):
+    """REST: one job on several logs of a project with base ties (the CLI's DAY1.zip DAY2.zip ...)."""
+    a, b = upload(api, seed=5), upload(api, seed=6)
+    ties = "28.49,113.05,120,979100.25;28.50,113.07,121.5,979095"
+    r = submit(api, a, "gravity", {"base_ties": ties, "lines": "30001-30004,30005-30009"}, log_ids=[b])
+    assert r.status_code == 201, r.text
+    assert r.json()["resolved_parameters"]["base_ties"] == ties
+    assert len(api.queued) == 1
 
 
 def _vessel_manifest(static_s=300):

@@ -21,7 +21,7 @@ from ldvsurvey.store.models import Job, JobFile
 
 router = APIRouter(tags=["jobs"])
 #: parameters naming server-side files are not accepted from the network
-SERVER_PATH_PARAMS = {"dov_grid", "imu_nodov"}
+SERVER_PATH_PARAMS = {"dov_grid", "imu_nodov", "external_grid"}
 
 
 class JobRequest(BaseModel):
@@ -269,9 +269,10 @@ def list_job_files(job_id: JobId, session: SessionDep, who: CurrentUser) -> list
     response_class=Response,
     responses={
         200: {
-            "description": "the file (CSV or JSON; GeoJSON or KML with ?format=)",
+            "description": "the file (CSV, JSON or netCDF; GeoJSON or KML of a table with ?format=)",
             "content": {
                 "text/csv": {},
+                "application/x-netcdf": {},
                 "application/json": {"schema": {"type": "object"}},
                 "application/geo+json": {},
                 "application/vnd.google-earth.kml+xml": {},
@@ -292,7 +293,9 @@ def get_job_file(
 
         return job_geo_file(session, j, name, format)
     data = job_file(session, job_id, name)
-    ctype = "application/json" if name.endswith(".json") else "text/csv"
+    ctype = (
+        "application/json" if name.endswith(".json") else "application/x-netcdf" if name.endswith(".nc") else "text/csv"
+    )
     return Response(content=data, media_type=ctype, headers={"Content-Disposition": f'attachment; filename="{name}"'})
 
 

@@ -639,6 +639,68 @@ def _gravity_map(v: ViewInput) -> dict:
     return _map_fig([*_gnss_traces(v, lat0, lon0), tr], "Gravity disturbance along the survey lines", lat0, lon0)
 
 
+@view(
+    "gravity_network_map",
+    "gravity",
+    "Map: the adjusted gravity disturbance of the survey network along all tracks, with the base ties",
+    "m (north)",
+    ("gravity_adjusted.csv", "network_residuals.csv"),
+    shows=lambda s: "network" in s,
+)
+def _gravity_network_map(v: ViewInput) -> dict:
+    g, net = v.csv("gravity_adjusted.csv"), v.summary.get("network") or {}
+    on = np.flatnonzero(np.isfinite(g["dg_mgal"]) & np.isfinite(g["lat_deg"]) & np.isfinite(g["lon_deg"]))
+    if not len(on):
+        return _fig([], "No adjusted value to map", "east (m)", "north (m)")
+    lat0, lon0 = g["lat_deg"][on[0]] * RAD_PER_DEG, g["lon_deg"][on[0]] * RAD_PER_DEG
+    e, nn = local_metres(lat0, lon0, g["lat_deg"][on] * RAD_PER_DEG, g["lon_deg"][on] * RAD_PER_DEG)
+    dg, sig, line = g["dg_mgal"][on], g["sigma_mgal"][on], g["line"][on]
+    k = _down(np.arange(len(on), dtype=float), dg, None, None, v.n)  # in the data's order, extremes of δg kept
+    tr = [
+        {
+            "type": "scatter",
+            "mode": "markers",
+            "name": "adjusted δg",
+            "x": e[k].tolist(),
+            "y": nn[k].tolist(),
+            "text": [f"{ln}: {x:.2f} ± {sg:.2f} mGal" for ln, x, sg in zip(line[k], dg[k], sig[k])],
+            "marker": {
+                "size": 4,
+                "color": dg[k].tolist(),
+                "colorscale": "Viridis",
+                "showscale": True,
+                "colorbar": {"title": {"text": "δg (mGal)"}},
+            },
+            "meta": {"lat": g["lat_deg"][on][k].tolist(), "lon": g["lon_deg"][on][k].tolist()},
+        }
+    ]
+    r = v.csv("network_residuals.csv")
+    tie = np.flatnonzero(r["kind"] == "tie")
+    if len(tie):
+        te, tn = local_metres(lat0, lon0, r["lat_deg"][tie] * RAD_PER_DEG, r["lon_deg"][tie] * RAD_PER_DEG)
+        tr.append(
+            {
+                "type": "scatter",
+                "mode": "markers",
+                "name": "base ties (residual in mGal)",
+                "x": te.tolist(),
+                "y": tn.tolist(),
+                "text": [f"{n}: {x:+.2f} mGal" for n, x in zip(r["line"][tie], r["residual_mgal"][tie])],
+                "marker": {"size": 12, "symbol": "triangle-up", "color": "red"},
+                "meta": {"lat": r["lat_deg"][tie].tolist(), "lon": r["lon_deg"][tie].tolist()},
+            }
+        )
+    res = [ln.get("resolution_m") for ln in net.get("lines", []) if ln.get("resolution_m")]
+    xo, rep, fl = net.get("crossover_rms_after_mgal"), net.get("repeat_rms_after_mgal"), net.get("noise_floor_mgal")
+    nan = float("nan")
+    title = (
+        f"Adjusted δg ({net.get('datum', '')[:4]} datum ±{net.get('datum_sigma_mgal', nan):.2f} mGal)<br>"
+        f"crossovers ±{nan if xo is None else xo:.2f}, repeats ±{nan if rep is None else rep:.2f} mGal "
+        f"(floor ±{nan if fl is None else fl:.2f}); resolution " + (f"{min(res):.0f}–{max(res):.0f} m" if res else "–")
+    )
+    return _map_fig(tr, title, lat0, lon0)
+
+
 # --- dov --------------------------------------------------------------------------------------------
 
 
@@ -694,7 +756,7 @@ def build_view(tables: Tables, pipeline: str, summary: dict, name: str, x0, x1, 
     """The figure of view ``name`` of a job of ``pipeline`` on its tables; :class:`UnknownView` when that
     pipeline has no such view, :class:`MissingResult` when a table is missing."""
     v = VIEWS.get(name)
-    if v is None or v.pipeline != pipeline:
+    if v is None or v.pipeline != pipeline or (v.shows is not None and not v.shows(summary or {})):
         raise UnknownView(
             f"no view '{name}' for a {pipeline} job (views: {[x.name for x in views_of(pipeline)] or None})"
         )

@@ -267,6 +267,8 @@ class PipelineResult:
     summary: dict
     tables: dict[str, dict[str, np.ndarray | list]] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    #: other result files by name (e.g. a gridded map as netCDF), written beside the tables
+    files: dict[str, bytes] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -498,10 +500,11 @@ def table_csv(columns: dict) -> bytes:
 
 
 def result_files(result: PipelineResult) -> dict[str, bytes]:
-    """``summary.json`` and every table as ``<name>.csv``."""
+    """``summary.json``, every table as ``<name>.csv`` and the other files (:attr:`PipelineResult.files`)."""
     files = {"summary.json": (json.dumps(result.summary, indent=2) + "\n").encode()}
     for name, cols in result.tables.items():
         files[f"{name}.csv"] = table_csv(cols)
+    files.update(result.files)
     return files
 
 

@@ -23,6 +23,7 @@ from ldvsurvey.nav.earth import ARCSEC
 from ldvsurvey.nav.gravity import MGAL
 from ldvsurvey.pipelines.base import (
     LogFacts,
+    Paths,
     Pipeline,
     PipelineResult,
     Reason,
@@ -37,6 +38,7 @@ from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_appli
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
+from ldvsurvey.pipelines.gravity_network import parse_ties, survey_network
 from ldvsurvey.pipelines.gravity_report import (
     block,
     chain_difference,
@@ -82,6 +84,46 @@ class GravityParams(CalibrationParams):
         "(bias), by its least-squares linear drift along the line (linear), or not (none); makes the internal "
         "coincidence optimistic",
     )
+    base_ties: Text | None = Field(
+        None,
+        max_length=10000,
+        description="base stations as LAT,LON,H_M,G_MGAL;... (degrees, ellipsoidal height in m, absolute g in "
+        "mGal): a log standing still within tie_radius_m of one is tied to it; ties at the start and end of a "
+        "log fix its level and linear drift",
+    )
+    tie_radius_m: float = Field(
+        30.0, gt=0.0, le=1000.0, description="a stop within this distance (m) of a base tie observes it (0 to 1000 m)"
+    )
+    network: Literal["auto", "none"] = Field(
+        "auto",
+        description="adjust all lines of all logs as one network (repeats, crossovers, ties): auto (with "
+        "base_ties or several logs) or none",
+    )
+    network_drift: Literal["auto", "linear", "none"] = Field(
+        "auto",
+        description="linear drift per log in the network: auto (logs with ties at least 10 min apart), "
+        "linear (every log) or none",
+    )
+    network_line_bias: bool = Field(True, description="a bias per line in the network (summing to zero per log)")
+    outlier_sigma: float = Field(
+        3.0, gt=0.0, le=100.0, description="network residuals beyond this many σ are flagged as outliers"
+    )
+    map_grid: bool = Field(
+        True, description="with the network: a gridded map of the adjusted δg inside the survey's hull (netCDF)"
+    )
+    external_model: Literal["egm2008", "grid", "none"] = Field(
+        "egm2008",
+        description="external check of the adjusted δg: the built-in EGM2008 (degree 2190), a grid "
+        "(external_grid or external_grid_id) or none",
+    )
+    external_grid: Paths | None = Field(
+        None,
+        description="ICGEM .gdf grid of δg (mGal), or ξ,η,δg grids, for external_model=grid (server files, "
+        "not accepted by the API)",
+    )
+    external_grid_id: Text | None = Field(
+        None, max_length=200, description="id of grids uploaded with POST /api/grids (external_model=grid)"
+    )
     line_end_trim_s: float | None = Field(
         None,
         ge=0.0,
@@ -97,6 +139,16 @@ class GravityParams(CalibrationParams):
         if v is not None:
             try:
                 parse_lines(v)
+            except ParameterError as exc:
+                raise ValueError(exc.message) from None
+        return v
+
+    @field_validator("base_ties")
+    @classmethod
+    def _ties(cls, v):
+        if v is not None:
+            try:
+                parse_ties(v)
             except ParameterError as exc:
                 raise ValueError(exc.message) from None
         return v
@@ -302,6 +354,7 @@ def run(logs, params, progress) -> PipelineResult:
             )
             if b is not None:
                 ch["dg"] = ch["dg"] - b
+                ch["drift_mps2"] = b  # the network's ties read the stops with the same drift removed
                 for other in (gchains[i], achains[i] if achains else None):
                     if other is not None:  # the same accelerometer: the same drift
                         other["dg"] = other["dg"] - np.interp(other["t_s"], ch["t_s"], b)
@@ -362,6 +415,21 @@ def run(logs, params, progress) -> PipelineResult:
         )
         summary["gnss_aided"] = block(ares, fir_s, trim_s, "ldv+gnss", floor_of(logs[0], achains[0], fir_s))
         summary["gnss_aided"]["ldv_minus_gnss_aided"] = chain_difference(res, chains, ares, achains)
+    network = params["network"] == "auto" and (params["base_ties"] or len(logs) > 1)
+    net_tables, net_files = {}, {}
+    if network:
+        progress("network adjustment", 0.8)
+        floors = [floor_of(log, ch, fir_s)["total_mgal"] for log, ch in zip(logs, chains)]
+        try:
+            summary["network"], net_tables, net_files, net_warn = survey_network(
+                logs, chains, res, params, floors, progress
+            )
+            warnings += net_warn
+        except ParameterError as exc:
+            if params["base_ties"]:  # asked for: a tie that cannot apply is the user's to fix
+                raise
+            # several logs without ties that share no point: each stays as it was (relative)
+            warnings.append(f"no network adjustment: {exc.message}")
     progress("writing", 0.9)
     tables = {
         "gravity": gravity_table(
@@ -381,7 +449,8 @@ def run(logs, params, progress) -> PipelineResult:
             "mean_mgal": np.tile(co.mean, n),
             "residual_mgal": co.residual.ravel(),
         }
-    return PipelineResult(summary=summary, tables=tables, warnings=warnings)
+    tables.update(net_tables)
+    return PipelineResult(summary=summary, tables=tables, warnings=warnings, files=net_files)
 
 
 def _lines_of(log, chain, params, i: int, n_logs: int) -> list:

@@ -1,0 +1,483 @@
+"""Network adjustment of a gravity survey: repeated lines, crossovers and base ties (pure functions).
+
+Every line sample (filtered δg, mGal) at a network point p is modelled as
+
+    v_i(p) = G(p) + b_L + d_L·(t_i(p) − t_L) + c_l + ε_i(p)
+
+with G(p) the unknown true value at the point, b_L and d_L the bias and linear drift of the line's
+log L (t_L: the log's first tie or its first line sample), c_l the line's own bias, ε white-noise
+floor of the filtered line (σ_l). A base tie k observed in log L at time t_k is
+
+    y_k − δg_k = b_L + d_L·(t_k − t_L) + ε_k
+
+(y_k: the log's stop mean of δg beside the tie, δg_k = g_k − γ(φ_k, h_k) from the tie's absolute g).
+The G(p) are eliminated point by point (the weighted mean of the samples at p), which leaves the
+weighted least squares of the centred observations on the centred design. Constraints: the line
+biases of a log sum to zero (the log's level is b_L); without ties the logs' biases sum to zero
+(the free datum: the survey keeps the mean level of its logs).
+
+Weights: a filtered line's noise is correlated along the track over the filter's correlation
+time τ_c = 1/∫|H|⁴df (the white-noise equivalent: a mean over T seconds of the filtered noise has
+the variance of T/τ_c independent samples), so samples at spacing Δs carry the information of
+Δs/(v·τ_c) independent ones: their variance is σ_l²·max(1, v·τ_c/Δs).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
+
+#: two lines repeat each other when the median distance of one's samples from the other is below this (m) …
+REPEAT_MAX_OFFSET_M = 50.0
+#: … over at least this share of the shorter line
+REPEAT_MIN_SHARE = 0.3
+#: crossings at a smaller angle are repeats, not crossovers (as gravity_report)
+CROSSING_MIN_ANGLE_DEG = 20.0
+#: a line's sample farther than this from a crossing point is not taken there (m)
+CROSSING_MAX_DISTANCE_M = 50.0
+#: reweighting passes of the robust (Huber) adjustment …
+ROBUST_ITERATIONS = 5
+#: … beyond this many marginal σ
+ROBUST_K = 3.0
+
+
+@dataclass
+class Line:
+    """One survey line's filtered values on its trimmed samples (local metres of the survey)."""
+
+    name: str
+    log: int
+    t_s: np.ndarray
+    e_m: np.ndarray
+    n_m: np.ndarray
+    dg_mgal: np.ndarray
+    sigma_mgal: float  #: white-noise floor of one filtered value
+    speed_mps: float  #: median speed on the line
+
+
+@dataclass
+class Tie:
+    """A base tie observed by one log: its stop mean beside the tie and the tie's δg."""
+
+    name: str
+    log: int
+    t_s: float
+    measured_mgal: float  #: the log's stop mean of δg (same processing as the lines' level)
+    tie_mgal: float  #: δg of the tie, g − γ(φ, h)
+    sigma_mgal: float  #: 1-σ of the stop mean (white accelerometer noise over the stop)
+    distance_m: float  #: horizontal distance of the stop from the tie
+
+
+@dataclass
+class Cluster:
+    """Samples of several lines at one network point."""
+
+    kind: str  #: "repeat" or "crossing"
+    group: int | tuple  #: repeat group, or the two groups crossing
+    e_m: float
+    n_m: float
+    lines: np.ndarray  #: line index of each sample
+    values: np.ndarray  #: mGal
+    t_s: np.ndarray
+    var_scale: float = 1.0  #: the samples' variance over σ_l² (along-track correlation)
+
+
+@dataclass
+class Adjustment:
+    """The adjusted network."""
+
+    names: list[str]  #: parameter names
+    x: np.ndarray  #: parameters (mGal, mGal/h for drifts)
+    cov: np.ndarray  #: their covariance (a priori weights, scaled by max(1, σ0²))
+    sigma0: float  #: a posteriori unit-weight σ
+    dof: int
+    t_ref: np.ndarray  #: per log, s
+    drift_logs: list[int]
+    line_bias: bool
+    datum: str
+    index: dict = field(default_factory=dict)  #: parameter name -> column
+    weights: list = field(default_factory=list)  #: per cluster, the robust weight factor of each sample (1: full)
+
+    def correction(self, log: int, line: int | None, t_s) -> np.ndarray:
+        """b_L + d_L (t − t_L) + c_l at times t (mGal)."""
+        return self._row(log, line, t_s) @ self.x
+
+    def correction_sigma(self, log: int, line: int | None, t_s) -> np.ndarray:
+        """1-σ of the correction at times t (mGal)."""
+        a = self._row(log, line, t_s)
+        return np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", a, self.cov, a), 0.0))
+
+    def _row(self, log, line, t_s):
+        t = np.atleast_1d(np.asarray(t_s, float))
+        a = np.zeros((len(t), len(self.x)))
+        a[:, self.index[f"bias:{log}"]] = 1.0
+        if f"drift:{log}" in self.index:
+            a[:, self.index[f"drift:{log}"]] = (t - self.t_ref[log]) / 3600.0
+        if line is not None and f"line:{line}" in self.index:
+            a[:, self.index[f"line:{line}"]] = 1.0
+        return a
+
+
+def correlation_time_s(length_s: float, n_f: int = 1 << 16) -> float:
+    """τ_c = 1/∫|H|⁴df (two-sided) of the zero-phase FIR of length L: white noise of density N has the
+    filtered variance N²/τ_c, and its mean over T ≫ L the variance N²/T."""
+    from ldvsurvey.nav.gravity import _response4
+
+    f, h4 = _response4(length_s, n_f)
+    return float(1.0 / (2.0 * np.sum(h4) * (f[1] - f[0])))
+
+
+def half_amplitude_hz(length_s: float, n_f: int = 1 << 16) -> float:
+    """Frequency (Hz) where the applied zero-phase FIR (forward and back: amplitude |H|²) passes half the
+    amplitude (−6 dB). The single pass's nominal cut-off 1/L passes a quarter after both passes."""
+    from ldvsurvey.nav.gravity import _response4
+
+    f, h4 = _response4(length_s, n_f)
+    amp = np.sqrt(h4 / h4[0])
+    k = int(np.argmax(amp < 0.5))
+    return float(np.interp(0.5, [amp[k], amp[k - 1]], [f[k], f[k - 1]]))
+
+
+def resolution_m(speed_mps: float, length_s: float) -> float:
+    """Half-wavelength resolution (m) at ``speed_mps``: v / (2 f½), f½ from :func:`half_amplitude_hz`."""
+    return float(speed_mps / (2.0 * half_amplitude_hz(length_s)))
+
+
+# ---------------------------------------------------------------------------------------------
+# the network's points
+
+
+def repeat_groups(lines: list[Line]) -> list[list[int]]:
+    """Lines that repeat each other (median distance below REPEAT_MAX_OFFSET_M), by union-find."""
+    parent = list(range(len(lines)))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    trees = [cKDTree(np.column_stack([ln.e_m, ln.n_m])) for ln in lines]
+
+    def share_near(i, j):  # share of line j's samples within the offset of line i's samples
+        d, _ = trees[i].query(np.column_stack([lines[j].e_m, lines[j].n_m]))
+        return float(np.mean(d < REPEAT_MAX_OFFSET_M)) if len(d) else 0.0
+
+    for i in range(len(lines)):
+        for j in range(i + 1, len(lines)):
+            if max(share_near(i, j), share_near(j, i)) >= REPEAT_MIN_SHARE:
+                parent[find(j)] = find(i)
+    groups: dict[int, list[int]] = {}
+    for i in range(len(lines)):
+        groups.setdefault(find(i), []).append(i)
+    return list(groups.values())
+
+
+def repeat_clusters(lines: list[Line], group: list[int], gi: int, spacing_m: float, corr_s: float) -> list[Cluster]:
+    """Common along-track points of a group of repeated lines (a line may miss some: NaN there)."""
+    if len(group) < 2:
+        return []
+    ref = max(group, key=lambda i: len(lines[i].e_m))
+    r = lines[ref]
+    step = max(1, len(r.e_m) // 4000)
+    re_, rn_ = r.e_m[::step], r.n_m[::step]
+    along, times, east, north = [], [], [], []
+    for i in group:
+        s, _lat = along_track(re_, rn_, lines[i].e_m, lines[i].n_m)
+        along.append((s, lines[i].dg_mgal))
+        times.append((s, lines[i].t_s))
+        east.append((s, lines[i].e_m))
+        north.append((s, lines[i].n_m))
+    try:
+        grid, vals = common_points(along, spacing_m, allow_holes=True)
+    except ValueError:
+        return []
+    tv = [np.interp(grid, *_sorted(s, t)) for s, t in times]
+    ev = np.interp(grid, *_sorted(*east[group.index(ref)]))
+    nv = np.interp(grid, *_sorted(*north[group.index(ref)]))
+    speed = np.median([lines[i].speed_mps for i in group])
+    scale = max(1.0, speed * corr_s / spacing_m)
+    out = []
+    idx = np.array(group)
+    for j in range(len(grid)):
+        ok = np.isfinite(vals[:, j])
+        if ok.sum() < 2:
+            continue
+        out.append(
+            Cluster(
+                "repeat",
+                gi,
+                float(ev[j]),
+                float(nv[j]),
+                idx[ok],
+                vals[ok, j],
+                np.array([tv[k][j] for k in np.flatnonzero(ok)]),
+                scale,
+            )
+        )
+    return out
+
+
+def _sorted(s, v):
+    o = np.argsort(s)
+    return s[o], v[o]
+
+
+def crossing_clusters(
+    lines: list[Line], groups: list[list[int]], min_angle_deg=CROSSING_MIN_ANGLE_DEG
+) -> list[Cluster]:
+    """One point per crossing of two groups' tracks: every line of both groups there (when it passes within
+    CROSSING_MAX_DISTANCE_M), its value interpolated at its sample nearest the crossing."""
+    out = []
+    for a in range(len(groups)):
+        for b in range(a + 1, len(groups)):
+            ra = max(groups[a], key=lambda i: len(lines[i].e_m))
+            rb = max(groups[b], key=lambda i: len(lines[i].e_m))
+            la, lb = lines[ra], lines[rb]
+            sa, sb = max(1, len(la.e_m) // 2000), max(1, len(lb.e_m) // 2000)
+            found, _ = crossovers(
+                [(la.e_m[::sa], la.n_m[::sa], la.dg_mgal[::sa]), (lb.e_m[::sb], lb.n_m[::sb], lb.dg_mgal[::sb])],
+                min_angle_deg,
+            )
+            for _i, _j, e, n, _d in found:
+                idx, vals, ts = [], [], []
+                for i in groups[a] + groups[b]:
+                    ln = lines[i]
+                    d = np.hypot(ln.e_m - e, ln.n_m - n)
+                    k = int(np.argmin(d))
+                    if d[k] > CROSSING_MAX_DISTANCE_M or not np.isfinite(ln.dg_mgal[k]):
+                        continue
+                    idx.append(i)
+                    vals.append(_at_point(ln, k, e, n))
+                    ts.append(ln.t_s[k])
+                in_a = [i in groups[a] for i in idx]
+                if any(in_a) and not all(in_a):
+                    out.append(Cluster("crossing", (a, b), e, n, np.array(idx), np.array(vals), np.array(ts), 1.0))
+    return out
+
+
+def _at_point(ln: Line, k: int, e: float, n: float) -> float:
+    """The line's value at the point of its track nearest (e, n), between samples k−1..k+1."""
+    lo, hi = max(0, k - 1), min(len(ln.e_m) - 1, k + 1)
+    if hi == lo:
+        return float(ln.dg_mgal[k])
+    de, dn = ln.e_m[hi] - ln.e_m[lo], ln.n_m[hi] - ln.n_m[lo]
+    seg = de * de + dn * dn
+    u = 0.0 if seg == 0 else float(np.clip(((e - ln.e_m[lo]) * de + (n - ln.n_m[lo]) * dn) / seg, 0.0, 1.0))
+    return float(ln.dg_mgal[lo] + u * (ln.dg_mgal[hi] - ln.dg_mgal[lo]))
+
+
+# ---------------------------------------------------------------------------------------------
+# the adjustment
+
+
+def adjust(
+    lines: list[Line],
+    clusters: list[Cluster],
+    ties: list[Tie],
+    n_logs: int,
+    drift: str = "auto",
+    line_bias: bool = True,
+    min_drift_span_s: float = 600.0,
+    robust_k: float | None = ROBUST_K,
+) -> Adjustment:
+    """Weighted least squares of the network (see the module text).
+
+    ``drift``: "linear" estimates d_L for every log; "auto" for the logs whose ties span at least
+    ``min_drift_span_s`` (start and end ties); "none" for none. ``robust_k``: line samples whose residual
+    exceeds this many marginal σ are down-weighted (Huber, ROBUST_ITERATIONS passes; None: plain least
+    squares). Raises ValueError naming what is not determined (a log without ties or a common point
+    with another log)."""
+    logs_seen = sorted({ln.log for ln in lines} | {t.log for t in ties})
+    t_ref = np.zeros(n_logs)
+    for lg in range(n_logs):
+        tt = [t.t_s for t in ties if t.log == lg] + [float(ln.t_s[0]) for ln in lines if ln.log == lg and len(ln.t_s)]
+        t_ref[lg] = min(tt) if tt else 0.0
+    if drift == "linear":
+        drift_logs = list(logs_seen)
+    elif drift == "auto":
+        drift_logs = []
+        for lg in logs_seen:
+            tt = [t.t_s for t in ties if t.log == lg]
+            if len(tt) >= 2 and max(tt) - min(tt) >= min_drift_span_s:
+                drift_logs.append(lg)
+    else:
+        drift_logs = []
+    names = [f"bias:{lg}" for lg in range(n_logs)] + [f"drift:{lg}" for lg in drift_logs]
+    if line_bias:
+        names += [f"line:{i}" for i in range(len(lines))]
+    index = {nm: k for k, nm in enumerate(names)}
+    npar = len(names)
+    # constraints C x = 0: line biases of a log sum to zero; without ties Σ b_L = 0 (free datum)
+    cons = []
+    if line_bias:
+        for lg in range(n_logs):
+            row = np.zeros(npar)
+            for i, ln in enumerate(lines):
+                if ln.log == lg:
+                    row[index[f"line:{i}"]] = 1.0
+            if row.any():
+                cons.append(row)
+    datum = "ties"
+    if not ties:
+        row = np.zeros(npar)
+        row[[index[f"bias:{lg}"] for lg in range(n_logs)]] = 1.0
+        cons.append(row)
+        datum = "free (the logs' biases sum to zero: the survey keeps the mean level of its logs)"
+    # logs without any line or tie: their bias is fixed at zero (not part of the network)
+    for lg in range(n_logs):
+        if lg not in logs_seen:
+            row = np.zeros(npar)
+            row[index[f"bias:{lg}"]] = 1.0
+            cons.append(row)
+    if cons:
+        c = np.array(cons)
+        _, sv, vt = np.linalg.svd(c)
+        rank = int(np.sum(sv > 1e-10 * sv[0]))
+        z = vt[rank:].T  # basis of the null space: x = Z ξ
+    else:
+        z = np.eye(npar)
+
+    def row_of(lg, li, t):
+        a = np.zeros(npar)
+        a[index[f"bias:{lg}"]] = 1.0
+        if f"drift:{lg}" in index:
+            a[index[f"drift:{lg}"]] = (t - t_ref[lg]) / 3600.0
+        if li is not None and line_bias:
+            a[index[f"line:{li}"]] = 1.0
+        return a
+
+    # per cluster: design rows, values, weights (1/σ² with the along-track inflation), marginal σ
+    blocks = []
+    for cl in clusters:
+        w = np.array([1.0 / (lines[i].sigma_mgal ** 2 * cl.var_scale) for i in cl.lines])
+        a = np.array([row_of(lines[i].log, i, t) for i, t in zip(cl.lines, cl.t_s)])
+        sm = np.array([lines[i].sigma_mgal for i in cl.lines])
+        blocks.append((a, np.asarray(cl.values, float), w, sm))
+    for tie in ties:
+        blocks.append(
+            (
+                row_of(tie.log, None, tie.t_s)[None, :],
+                np.array([tie.measured_mgal - tie.tie_mgal]),
+                np.array([1.0 / tie.sigma_mgal**2]),
+                None,  # no point to eliminate: the tie's value is known
+            )
+        )
+    if not blocks:
+        raise ValueError("no common point between lines and no base tie: nothing to adjust")
+    mult = [np.ones(len(b[1])) for b in blocks]
+    for _ in range(ROBUST_ITERATIONS + 1):
+        rows, obs, wts, std = [], [], [], []
+        for (a, y, w, sm), mu in zip(blocks, mult):
+            ww = w * mu
+            if sm is None:
+                rows.append(a)
+                obs.append(y)
+                std.append(1.0 / np.sqrt(w))
+            else:  # centred by the (down-weighted) point mean: the point's G eliminated
+                wm = ww / ww.sum()
+                rows.append(a - wm @ a)
+                obs.append(y - wm @ y)
+                std.append(sm * np.sqrt(np.maximum(1.0 - wm, 1e-9)))  # marginal σ of a residual about the mean
+            wts.append(ww)
+        a_all = np.vstack(rows) @ z
+        y_all = np.concatenate(obs)
+        sw = np.sqrt(np.concatenate(wts))
+        aw = a_all * sw[:, None]
+        n_mat = aw.T @ aw
+        ev = np.linalg.eigvalsh(n_mat)
+        if ev[0] <= 1e-9 * max(ev[-1], 1e-300):
+            raise ValueError(_undetermined(lines, ties, clusters, n_logs, drift_logs))
+        cov_z = np.linalg.inv(n_mat)
+        xi = cov_z @ (aw.T @ (y_all * sw))
+        # Huber down-weighting of residuals beyond robust_k marginal σ: one bad stretch is not smeared over
+        # the lines it is compared with (their point means, their log's other lines)
+        u = np.abs(y_all - a_all @ xi) / np.concatenate(std)
+        if robust_k is None:
+            break
+        new = np.where(u > robust_k, robust_k / np.maximum(u, 1e-12), 1.0)
+        parts = np.split(new, np.cumsum([len(b[1]) for b in blocks])[:-1])
+        mult = [p if b[3] is not None else np.ones(1) for p, b in zip(parts, blocks)]  # ties keep their weight
+    # σ0 from the residuals against their marginal variances (the along-track inflation only spreads a
+    # line's information over its correlated samples; it is not a larger error of each)
+    infl = np.concatenate([np.full(len(b[1]), cl.var_scale) for b, cl in zip(blocks, clusters)] + [np.ones(len(ties))])
+    r = (y_all - a_all @ xi) * sw * np.sqrt(infl)
+    n_points = len(clusters)
+    dof = int(len(y_all) - n_points - a_all.shape[1])
+    sigma0 = float(np.sqrt(np.sum(r**2) / dof)) if dof > 0 else float("nan")
+    scale = max(1.0, sigma0**2) if np.isfinite(sigma0) else 1.0
+    x = z @ xi
+    cov = z @ cov_z @ z.T * scale
+    adj = Adjustment(names, x, cov, sigma0, dof, t_ref, drift_logs, line_bias, datum, index)
+    adj.weights = mult[: len(clusters)]
+    return adj
+
+
+def _undetermined(lines, ties, clusters, n_logs, drift_logs) -> str:
+    linked = {lg: set() for lg in range(n_logs)}
+    for cl in clusters:
+        lg = {lines[i].log for i in cl.lines}
+        for a in lg:
+            linked[a] |= lg
+    tied = {t.log for t in ties}
+    alone = [lg for lg in range(n_logs) if lg not in tied and linked[lg] <= {lg}]
+    msg = "the network is not determined"
+    if alone and (tied or n_logs > 1):
+        msg += f": log(s) {', '.join(f'B{lg + 1}' for lg in alone)} share no point with another log and have no tie"
+    elif drift_logs:
+        msg += (
+            ": a linear drift is not separable from the line biases (give ties at the start and end, "
+            "or network_drift=none)"
+        )
+    return msg
+
+
+# ---------------------------------------------------------------------------------------------
+# statistics before and after
+
+
+def repeat_rms(clusters: list[Cluster], values) -> float | None:
+    """Internal coincidence of all repeat points: sqrt(Σ δ²/Σ(n_p − 1)) about each point's mean;
+    ``values(cluster)`` gives the cluster's values (raw or adjusted)."""
+    num = den = 0.0
+    for cl in clusters:
+        if cl.kind != "repeat":
+            continue
+        x = values(cl)
+        num += float(np.sum((x - x.mean()) ** 2))
+        den += len(x) - 1
+    return float(np.sqrt(num / den)) if den else None
+
+
+def crossover_rms(clusters: list[Cluster], groups: list[list[int]], values) -> tuple[float | None, np.ndarray]:
+    """Crossover ε = sqrt(Σ d²/(2N)) over the differences of every line of one group with every line
+    of the other at each crossing; also the differences themselves."""
+    d = []
+    for cl in clusters:
+        if cl.kind != "crossing":
+            continue
+        x = values(cl)
+        ga = np.array([i in groups[cl.group[0]] for i in cl.lines])
+        for va in x[ga]:
+            for vb in x[~ga]:
+                d.append(va - vb)
+    d = np.array(d)
+    return (float(np.sqrt(np.sum(d**2) / (2 * len(d)))) if len(d) else None), d
+
+
+def coincidence_of_group(lines: list[Line], group: list[int], spacing_m: float, offsets=None):
+    """:func:`internal_coincidence` of one repeat group (values minus ``offsets(i, t)`` when given)."""
+    ref = max(group, key=lambda i: len(lines[i].e_m))
+    r = lines[ref]
+    step = max(1, len(r.e_m) // 4000)
+    pairs = []
+    for i in group:
+        s, _ = along_track(r.e_m[::step], r.n_m[::step], lines[i].e_m, lines[i].n_m)
+        v = lines[i].dg_mgal if offsets is None else lines[i].dg_mgal - offsets(i, lines[i].t_s)
+        pairs.append((s, v))
+    grid, vals = common_points(pairs, spacing_m, allow_holes=True)
+    return internal_coincidence(vals, [lines[i].name for i in group], grid)

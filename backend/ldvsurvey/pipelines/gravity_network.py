@@ -1,0 +1,444 @@
+"""The survey network of the ``gravity`` pipeline: base ties, repeated lines and crossovers across logs.
+
+Takes what :func:`gravity_report.evaluate` left (every line's filtered δg on its trimmed samples) and
+the stops of every log, ties the stops near a base station (``base_ties``) to the station's absolute
+g, and adjusts all lines of all logs together (:mod:`ldvsurvey.nav.network`): a bias (and, where
+ties at the start and end support it, a linear drift) per log, a bias per line, weights from each
+line's noise floor. The adjusted values come out as absolute g, the gravity disturbance δg and the
+free-air anomaly Δg (through EGM2008's height anomaly, :mod:`ldvsurvey.nav.gravmodel`), each with
+its 1-σ; beside them the external check against EGM2008 (or a given grid) with the model's
+omission error, and each line's half-wavelength resolution from the filter's response.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ldvsurvey.errors import ParameterError
+from ldvsurvey.nav import network as net
+from ldvsurvey.nav.earth import MGAL, normal_gravity
+from ldvsurvey.nav.gravity import G0
+from ldvsurvey.nav.gravmodel import free_air_anomaly_mgal, height_anomaly_grid, omission_mgal
+from ldvsurvey.pipelines.gravity_drift import stop_means
+from ldvsurvey.pipelines.inputs import local_metres
+
+#: a tie's absolute g must be a plausible value on the Earth's surface (mGal)
+G_RANGE_MGAL = (976000.0, 984000.0)
+#: samples of a line the network takes per second (the filtered values are smooth at 1/L)
+NETWORK_RATE_HZ = 1.0
+#: at most this many flagged residuals are listed in the summary
+MAX_LISTED = 50
+
+
+def parse_ties(text) -> list[tuple[float, float, float, float]]:
+    """``LAT,LON,H_M,G_MGAL;...`` into [(lat_deg, lon_deg, h_m, g_mgal)] (ParameterError naming the item)."""
+    out = []
+    for k, item in enumerate(str(text).split(";")):
+        if not item.strip():
+            continue
+        parts = item.split(",")
+        try:
+            lat, lon, h, g = (float(x) for x in parts)
+        except ValueError:
+            raise ParameterError(
+                f"tie {k + 1} ({item.strip()!r}): expected LAT,LON,H_M,G_MGAL (degrees, metres, mGal)",
+                field="base_ties",
+            ) from None
+        if not all(np.isfinite([lat, lon, h, g])):
+            raise ParameterError(f"tie {k + 1}: values must be finite numbers", field="base_ties")
+        if not (-90 <= lat <= 90 and -180 <= lon <= 360):
+            raise ParameterError(f"tie {k + 1}: latitude {lat:g} or longitude {lon:g} out of range", field="base_ties")
+        if not -500 <= h <= 9000:
+            raise ParameterError(f"tie {k + 1}: ellipsoidal height {h:g} m out of range", field="base_ties")
+        if not G_RANGE_MGAL[0] <= g <= G_RANGE_MGAL[1]:
+            raise ParameterError(
+                f"tie {k + 1}: g = {g:g} mGal is not an absolute gravity value (expected "
+                f"{G_RANGE_MGAL[0]:.0f} to {G_RANGE_MGAL[1]:.0f} mGal)",
+                field="base_ties",
+            )
+        out.append((lat, lon - 360.0 if lon > 180.0 else lon, h, g))  # east of 180° as negative, as the navigation
+    if not out:
+        raise ParameterError("no tie given", field="base_ties")
+    return out
+
+
+def network_lines(chains, res, floors, origin) -> tuple[list[net.Line], list]:
+    """The lines with data as :class:`network.Line` (1 Hz), and the per_line entries they come from."""
+    lines, src = [], []
+    for p in res["per_line"]:
+        name, ci, k = p[0], p[1], p[2]
+        if not len(p[3]):
+            continue
+        ch = chains[ci]
+        step = max(1, int(round(ch["fs"] / NETWORK_RATE_HZ)))
+        kk = k[::step]
+        e, n = local_metres(origin[0], origin[1], ch["lat"][kk], ch["lon"][kk])
+        lines.append(
+            net.Line(
+                name,
+                ci,
+                np.asarray(ch["t_s"][kk], float),
+                np.asarray(e, float),
+                np.asarray(n, float),
+                res["filtered"][ci][kk] / MGAL,
+                float(floors[ci]),
+                float(np.nanmedian(ch["speed"][kk])),
+            )
+        )
+        src.append((p, kk))
+    return lines, src
+
+
+def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], list[dict]]:
+    """Every stop of every log within ``radius_m`` of a tie: its mean δg (drift removed as on the lines)."""
+    out, unused = [], []
+    seen = set()
+    for ci, ch in enumerate(chains):
+        noise = logs[ci].manifest.imu.accel_noise_ug_per_rthz
+        drift = ch.get("drift_mps2")
+        for tc, la, lo, mean, dur in stop_means(ch, ch["still"]):
+            for k, (lat, lon, h, g) in enumerate(ties):
+                e, n = local_metres(np.radians(lat), np.radians(lon), la, lo)
+                d = float(np.hypot(e, n))
+                if d > radius_m:
+                    continue
+                meas = mean - (float(np.interp(tc, ch["t_s"], drift)) if drift is not None else 0.0)
+                dg_tie = g - normal_gravity(np.radians(lat), h) / MGAL
+                sigma = (noise or 0.0) * 1e-6 * G0 / np.sqrt(dur) / MGAL
+                if not sigma > 0:
+                    raise ParameterError(
+                        f"bundle {ci + 1}: the manifest gives no imu.accel_noise_ug_per_rthz, so a tie's "
+                        "weight is unknown",
+                        field="base_ties",
+                    )
+                out.append(net.Tie(f"T{k + 1}", ci, float(tc), float(meas / MGAL), float(dg_tie), float(sigma), d))
+                seen.add(k)
+    for k, t in enumerate(ties):
+        if k not in seen:
+            unused.append({"tie": f"T{k + 1}", "lat_deg": t[0], "lon_deg": t[1]})
+    return out, unused
+
+
+def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[dict, dict, dict, list[str]]:
+    """The network block of the summary, its tables, other files (the gridded map) and warnings.
+
+    ``floors``: per log, the 1-σ white-noise floor (mGal) of one filtered line value."""
+    warnings = []
+    fir_s = params["fir_length_s"]
+    ties_given = parse_ties(params["base_ties"]) if params.get("base_ties") else []
+    first = next((p for p in res["per_line"] if len(p[3])), None)
+    if first is None:
+        raise ParameterError("no line holds data: nothing to adjust", field="lines")
+    ch0 = chains[first[1]]
+    origin = (float(ch0["lat"][first[2][0]]), float(ch0["lon"][first[2][0]]))
+    lines, src = network_lines(chains, res, floors, origin)
+    ties, unused = observed_ties(chains, logs, ties_given, params["tie_radius_m"], origin)
+    if ties_given and not ties:
+        raise ParameterError(
+            f"no log stands still within {params['tie_radius_m']:g} m of any tie: the ties cannot be "
+            "applied (check the coordinates, or widen tie_radius_m)",
+            field="base_ties",
+        )
+    for u in unused:
+        warnings.append(
+            f"base tie {u['tie']} ({u['lat_deg']:.6f}, {u['lon_deg']:.6f}): no stop within "
+            f"{params['tie_radius_m']:g} m, not used"
+        )
+    groups = net.repeat_groups(lines)
+    corr_s = net.correlation_time_s(fir_s)
+    clusters = []
+    for gi, grp in enumerate(groups):
+        clusters += net.repeat_clusters(lines, grp, gi, params["spacing_m"], corr_s)
+    clusters += net.crossing_clusters(lines, groups)
+    try:
+        adj = net.adjust(
+            lines, clusters, ties, len(logs), drift=params["network_drift"], line_bias=params["network_line_bias"]
+        )
+    except ValueError as exc:
+        raise ParameterError(str(exc), field="base_ties" if not ties else "network_drift") from None
+
+    def corr(i, t):
+        return adj.correction(lines[i].log, i, t)
+
+    def raw(cl):
+        return cl.values
+
+    def adjusted(cl):
+        return np.array([v - corr(i, t)[0] for i, v, t in zip(cl.lines, cl.values, cl.t_s)])
+
+    rep_before, rep_after = net.repeat_rms(clusters, raw), net.repeat_rms(clusters, adjusted)
+    x_before, d_before = net.crossover_rms(clusters, groups, raw)
+    x_after, d_after = net.crossover_rms(clusters, groups, adjusted)
+    floor_rms = float(np.sqrt(np.mean([ln.sigma_mgal**2 for ln in lines])))
+    residuals, flagged = _residuals(lines, clusters, ties, adj, params["outlier_sigma"], origin, ties_given)
+    # parameters with 1-σ
+    sig = np.sqrt(np.maximum(np.diag(adj.cov), 0.0))
+    pars = []
+    for nm, v, s in zip(adj.names, adj.x, sig):
+        kind, idx = nm.split(":")
+        idx = int(idx)
+        if kind == "bias":
+            pars.append({"parameter": "log bias", "log": f"B{idx + 1}", "value_mgal": v, "sigma_mgal": s})
+        elif kind == "drift":
+            pars.append({"parameter": "log drift", "log": f"B{idx + 1}", "value_mgal_per_h": v, "sigma_mgal_per_h": s})
+        else:
+            pars.append({"parameter": "line bias", "line": lines[idx].name, "value_mgal": v, "sigma_mgal": s})
+    # the datum: the mean correction over all line samples, its 1-σ
+    a_mean = np.mean(np.vstack([adj._row(ln.log, i, ln.t_s) for i, ln in enumerate(lines)]), axis=0)
+    datum_sigma = float(np.sqrt(max(a_mean @ adj.cov @ a_mean, 0.0)))
+    tie_rows = []
+    for t in ties:
+        pred = adj.correction(t.log, None, t.t_s)[0]
+        tie_rows.append(
+            {
+                "tie": t.name,
+                "log": f"B{t.log + 1}",
+                "t_s": t.t_s,
+                "distance_m": t.distance_m,
+                "tie_dg_mgal": t.tie_mgal,
+                "stop_dg_mgal": t.measured_mgal,
+                "residual_mgal": t.measured_mgal - t.tie_mgal - pred,
+                "sigma_mgal": t.sigma_mgal,
+            }
+        )
+    if progress:
+        progress("network: absolute values, external check", 0.85)
+    table, per_line = _adjusted_table(lines, src, chains, adj, fir_s)
+    external = _external_check(table, per_line, params, res, fir_s, warnings)
+    summary = {
+        "datum": adj.datum,
+        "datum_sigma_mgal": datum_sigma,
+        "ties": tie_rows,
+        "tie_radius_m": params["tie_radius_m"],
+        "n_logs": len(logs),
+        "n_lines": len(lines),
+        "repeat_groups": [[lines[i].name for i in g] for g in groups],
+        "n_repeat_points": sum(1 for c in clusters if c.kind == "repeat"),
+        "n_crossings": sum(1 for c in clusters if c.kind == "crossing"),
+        "repeat_rms_before_mgal": rep_before,
+        "repeat_rms_after_mgal": rep_after,
+        "crossover_rms_before_mgal": x_before,
+        "crossover_rms_after_mgal": x_after,
+        "noise_floor_mgal": floor_rms,
+        "repeat_floor_ratio": rep_after / floor_rms if rep_after is not None else None,
+        "crossover_floor_ratio": x_after / floor_rms if x_after is not None else None,
+        "sigma0": adj.sigma0,
+        "dof": adj.dof,
+        "drift_logs": [f"B{i + 1}" for i in adj.drift_logs],
+        "line_bias": adj.line_bias,
+        "parameters": pars,
+        "correlation_time_s": corr_s,
+        "n_downweighted": int(sum(np.count_nonzero(w < 1.0) for w in adj.weights)),
+        "robust": f"Huber down-weighting beyond {net.ROBUST_K:g} σ ({net.ROBUST_ITERATIONS} passes)",
+        "n_outliers": len(flagged),
+        "outliers": flagged[:MAX_LISTED],
+        "lines": per_line,
+        "external_check": external,
+        "note": "adjusted values = filtered δg − (log bias + log drift·(t − t_ref) + line bias); the floor is the "
+        "lines' white-noise floor (RMS over lines); repeat RMS is the internal coincidence about each point's "
+        "mean, crossover RMS sqrt(Σd²/2N); both after the adjustment take its degrees of freedom",
+    }
+    tables = {"gravity_adjusted": table, "network_residuals": residuals}
+    files = {}
+    if params["map_grid"]:
+        from ldvsurvey.pipelines.gravity_map import survey_grid
+
+        res_m = float(np.median([pl["resolution_m"] for pl in per_line]))
+        data, summary["map"] = survey_grid(table["lat_deg"], table["lon_deg"], table["dg_mgal"], res_m)
+        if data is not None:
+            files["gravity_grid.nc"] = data
+    return summary, tables, files, warnings
+
+
+def _residuals(lines, clusters, ties, adj, k_sigma, origin, ties_given):
+    """Per observation: the residual about its point's adjusted mean, standardized by its marginal σ."""
+    from ldvsurvey.nav.earth import radii
+
+    rm, rn = radii(origin[0])
+    cols = {
+        k: []
+        for k in ("kind", "point", "line", "t_s", "lat_deg", "lon_deg", "residual_mgal", "standardized", "outlier")
+    }
+    flagged = []
+    for pi, cl in enumerate(clusters):
+        v = np.array([x - adj.correction(lines[i].log, i, t)[0] for i, x, t in zip(cl.lines, cl.values, cl.t_s)])
+        # about the point's mean as the adjustment formed it (robust weights: a bad sample does not move it)
+        w = np.array([1.0 / lines[i].sigma_mgal ** 2 for i in cl.lines])
+        if pi < len(adj.weights):
+            w = w * adj.weights[pi]
+        wm = w / np.sum(w)
+        r = v - np.sum(wm * v)
+        sr = np.array([lines[i].sigma_mgal for i in cl.lines]) * np.sqrt(np.maximum(1.0 - wm, 1e-9))
+        z = r / sr
+        for i, ri, zi, t in zip(cl.lines, r, z, cl.t_s):
+            out = bool(abs(zi) > k_sigma)
+            cols["kind"].append(cl.kind)
+            cols["point"].append(pi)
+            cols["line"].append(lines[i].name)
+            cols["t_s"].append(t)
+            cols["lat_deg"].append(np.degrees(origin[0] + cl.n_m / rm))
+            cols["lon_deg"].append(np.degrees(origin[1] + cl.e_m / (rn * np.cos(origin[0]))))
+            cols["residual_mgal"].append(ri)
+            cols["standardized"].append(zi)
+            cols["outlier"].append(int(out))
+            if out:
+                flagged.append(
+                    {
+                        "kind": cl.kind,
+                        "line": lines[i].name,
+                        "t_s": float(t),
+                        "residual_mgal": float(ri),
+                        "standardized": float(zi),
+                    }
+                )
+    for t in ties:
+        r = t.measured_mgal - t.tie_mgal - adj.correction(t.log, None, t.t_s)[0]
+        z = r / t.sigma_mgal
+        out = bool(abs(z) > k_sigma)
+        cols["kind"].append("tie")
+        cols["point"].append(-1)
+        cols["line"].append(t.name)
+        cols["t_s"].append(t.t_s)
+        k = int(t.name[1:]) - 1
+        cols["lat_deg"].append(ties_given[k][0])
+        cols["lon_deg"].append(ties_given[k][1])
+        cols["residual_mgal"].append(r)
+        cols["standardized"].append(z)
+        cols["outlier"].append(int(out))
+        if out:
+            flagged.append({"kind": "tie", "line": t.name, "t_s": t.t_s, "residual_mgal": r, "standardized": z})
+    table = {k: (np.array(v, float) if k not in ("kind", "line") else v) for k, v in cols.items()}
+    table["point"] = np.array(cols["point"], dtype=np.int64)
+    table["outlier"] = np.array(cols["outlier"], dtype=np.int64)
+    return table, flagged
+
+
+def _adjusted_table(lines, src, chains, adj, fir_s):
+    """gravity_adjusted.csv (1 Hz on the lines' trimmed samples) and the per-line summary."""
+    cols = {
+        k: []
+        for k in (
+            "t_s",
+            "log",
+            "line",
+            "lat_deg",
+            "lon_deg",
+            "h_m",
+            "g_mgal",
+            "dg_mgal",
+            "free_air_mgal",
+            "sigma_mgal",
+            "height_anomaly_m",
+            "dg_unadjusted_mgal",
+            "correction_mgal",
+        )
+    }
+    per_line = []
+    lat_all = np.concatenate([np.asarray(chains[ln.log]["lat"][kk]) for ln, (_, kk) in zip(lines, src)])
+    lon_all = np.concatenate([np.asarray(chains[ln.log]["lon"][kk]) for ln, (_, kk) in zip(lines, src)])
+    h_mean = float(np.mean(np.concatenate([np.asarray(chains[ln.log]["h"][kk]) for ln, (_, kk) in zip(lines, src)])))
+    zeta_all = height_anomaly_grid(np.degrees(lat_all), np.degrees(lon_all), h_mean)
+    at = 0
+    for i, (ln, (_p, kk)) in enumerate(zip(lines, src)):
+        ch = chains[ln.log]
+        lat, lon, h = np.asarray(ch["lat"][kk]), np.asarray(ch["lon"][kk]), np.asarray(ch["h"][kk])
+        zeta = zeta_all[at : at + len(kk)]
+        at += len(kk)
+        c = adj.correction(ln.log, i, ln.t_s)
+        cs = adj.correction_sigma(ln.log, i, ln.t_s)
+        dg = ln.dg_mgal - c
+        sigma = np.sqrt(ln.sigma_mgal**2 + cs**2)
+        cols["t_s"] += list(ln.t_s)
+        cols["log"] += [ln.log + 1] * len(kk)
+        cols["line"] += [ln.name] * len(kk)
+        cols["lat_deg"] += list(np.degrees(lat))
+        cols["lon_deg"] += list(np.degrees(lon))
+        cols["h_m"] += list(h)
+        cols["g_mgal"] += list(dg + normal_gravity(lat, h) / MGAL)
+        cols["dg_mgal"] += list(dg)
+        cols["free_air_mgal"] += list(free_air_anomaly_mgal(dg, lat, h, zeta))
+        cols["sigma_mgal"] += list(sigma)
+        cols["height_anomaly_m"] += list(zeta)
+        cols["dg_unadjusted_mgal"] += list(ln.dg_mgal)
+        cols["correction_mgal"] += list(c)
+        per_line.append(
+            {
+                "name": ln.name,
+                "log": f"B{ln.log + 1}",
+                "speed_mps": ln.speed_mps,
+                "resolution_m": net.resolution_m(ln.speed_mps, fir_s),
+                "noise_floor_mgal": ln.sigma_mgal,
+                "mean_correction_mgal": float(np.mean(c)),
+                "sigma_mgal": float(np.sqrt(np.mean(sigma**2))),
+                "height_anomaly_m": float(np.mean(zeta)),
+            }
+        )
+    table = {k: (np.array(v, float) if k != "line" else v) for k, v in cols.items()}
+    table["log"] = np.array(cols["log"], dtype=np.int64)
+    return table, per_line
+
+
+def _external_check(table, per_line, params, res, fir_s, warnings):
+    """δg of the external model along the tracks, its difference from the adjusted δg per line."""
+    choice = params["external_model"]
+    if choice == "none":
+        return {"model": "none"}
+    lat, lon = table["lat_deg"], table["lon_deg"]
+    if choice == "grid":
+        grid = _user_grid(params)
+        problem = grid.missing_cover(lat, lon)
+        if problem:
+            raise ParameterError(f"the external grid does not cover the survey: {problem}", field="external_grid")
+        if grid.dg_mgal is None:
+            raise ParameterError(
+                "the external grid holds no Δg (give a third .gdf of δg in mGal)", field="external_grid"
+            )
+        name, degree = grid.source or "user grid", None
+    else:
+        from ldvsurvey.pipelines.plumb import EGM_DEGREE, _egm
+
+        grid = _egm(lat, lon, lambda *a: None)
+        name, degree = f"EGM2008 to degree {EGM_DEGREE} (1′ grid, bilinear)", EGM_DEGREE
+    model = grid.interpolate(lat, lon)[2] / MGAL
+    table["dg_external_mgal"] = model
+    out = {"model": name, "lines": []}
+    for pl in per_line:
+        k = np.array([x == pl["name"] for x in table["line"]])
+        d = table["dg_mgal"][k] - model[k]
+        d = d[np.isfinite(d)]
+        row = {"name": pl["name"], "mean_mgal": None, "std_mgal": None, "rms_mgal": None}
+        if len(d):
+            row.update(mean_mgal=float(np.mean(d)), std_mgal=float(np.std(d)), rms_mgal=float(np.sqrt(np.mean(d**2))))
+        if degree:
+            row["omission_mgal"] = omission_mgal(degree, pl["resolution_m"])
+        out["lines"].append(row)
+    if degree:
+        out["omission_note"] = (
+            "EGM2008 lacks the field beyond degree 2190 (half-wavelength ~9 km): the signal between that and "
+            "each line's resolution, from the Tscherning-Rapp degree variances (a global average), is the "
+            "expected RMS of the difference beside the survey's own noise"
+        )
+    return out
+
+
+def _user_grid(params):
+    from ldvsurvey.pipelines.plumb import _uploaded, load_grids
+
+    if params.get("external_grid_id"):
+        return _uploaded(params["external_grid_id"])
+    paths = params.get("external_grid")
+    if not paths:
+        raise ParameterError("external_model=grid needs external_grid (or external_grid_id)", field="external_grid")
+    if len(paths) == 1:
+        from pathlib import Path
+
+        from ldvsurvey.io.gdf import parse_gdf
+        from ldvsurvey.nav.dovgrid import DovGrid
+
+        path = Path(paths[0])
+        if not path.is_file():
+            raise ParameterError("no such file", file=str(path), field="external_grid")
+        _, la, lo, v = parse_gdf(path.read_bytes(), path.name)
+        z = np.zeros_like(v)
+        return DovGrid(la, lo, z, z, v, source=path.name)
+    return load_grids(paths)

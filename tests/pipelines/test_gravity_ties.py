@@ -1,0 +1,116 @@
+"""Base ties of the gravity network: the parameter, its refusals (exit 2, naming the tie), and the stops
+that observe a tie (drift removed as on the lines, weight from the accelerometer noise over the stop)."""
+
+import types
+
+import numpy as np
+import pytest
+
+from ldvsurvey.cli import main
+from ldvsurvey.errors import ParameterError
+from ldvsurvey.nav.earth import MGAL, normal_gravity
+from ldvsurvey.nav.gravity import G0
+from ldvsurvey.pipelines.gravity_network import observed_ties, parse_ties
+from ldvsurvey.pipelines.registry import get
+
+
+def test_ties_parse():
+    assert parse_ties("28.5,113.0,120,979100.5; 28.6,113.1,130.5,979090;40,250,10,980000") == [
+        (28.5, 113.0, 120.0, 979100.5),
+        (28.6, 113.1, 130.5, 979090.0),
+        (40.0, -110.0, 10.0, 980000.0),  # 250° E is 110° W, as the navigation's longitudes
+    ]
+
+
+@pytest.mark.parametrize(
+    "text, part",
+    [
+        ("28.5,113.0,120", "tie 1"),
+        ("28.5,113.0,120,979100;28.5,x,1,979100", "tie 2"),
+        ("95,113.0,120,979100", "latitude"),
+        ("28.5,113.0,120,13.2", "not an absolute gravity value"),
+        ("28.5,113.0,nan,979100", "finite"),
+    ],
+)
+def test_bad_ties_are_refused_naming_the_tie(text, part):
+    with pytest.raises(ParameterError, match=part) as exc:
+        get("gravity").validate({"base_ties": text})
+    assert exc.value.field == "base_ties"
+
+
+def test_cli_refuses_bad_ties_with_exit_2(tmp_path, capsys):
+    out = tmp_path / "o"
+    rc = main(["run", "gravity", str(tmp_path / "a.zip"), "--out", str(out), "--set", "base_ties=1,2,3"])
+    assert rc == 2
+    assert "base_ties" in capsys.readouterr().err
+    assert not out.exists()  # nothing partial left behind
+
+
+def _chain(t0, lat0, lon0, dg_mgal, drift_mgal_per_s=0.0):
+    """A chain standing still for 100 s at t0 (a tie's place), with a drift removed by the pipeline."""
+    t = np.arange(t0 - 50, t0 + 200, 0.01)
+    still = [(t0, t0 + 100.0)]
+    drift = drift_mgal_per_s * (t - t[0]) * MGAL
+    return {
+        "t_s": t,
+        "lat": np.full(len(t), lat0),
+        "lon": np.full(len(t), lon0),
+        "dg_static": np.full(len(t), dg_mgal * MGAL) + drift,
+        "drift_mps2": drift,
+        "still": still,
+    }
+
+
+def test_a_stop_near_a_tie_observes_it():
+    lat, lon, h, g = 28.5, 113.0, 120.0, 979150.0
+    dg_tie = g - normal_gravity(np.radians(lat), h) / MGAL
+    # the stop 10 m north of the tie, its stop mean 20 mGal above the tie's δg (the accelerometer bias)
+    dlat = 10.0 / 6.37e6
+    ch = _chain(1000.0, np.radians(lat) + dlat, np.radians(lon), dg_tie + 20.0, drift_mgal_per_s=0.01)
+    log = types.SimpleNamespace(manifest=types.SimpleNamespace(imu=types.SimpleNamespace(accel_noise_ug_per_rthz=5.0)))
+    ties, unused = observed_ties([ch], [log], [(lat, lon, h, g)], 30.0, (ch["lat"][0], ch["lon"][0]))
+    assert unused == [] and len(ties) == 1
+    t = ties[0]
+    assert t.tie_mgal == pytest.approx(dg_tie)
+    assert t.measured_mgal == pytest.approx(dg_tie + 20.0, abs=1e-3)  # the drift (1 mGal there) removed
+    assert t.distance_m == pytest.approx(10.0, rel=0.01)
+    assert t.sigma_mgal == pytest.approx(5.0e-6 * G0 / np.sqrt(96.0) / MGAL, rel=1e-6)  # 100 s less 2 s edges
+    # beyond the radius: not observed, reported as unused
+    ties, unused = observed_ties([ch], [log], [(lat, lon, h, g)], 5.0, (ch["lat"][0], ch["lon"][0]))
+    assert ties == [] and unused[0]["tie"] == "T1"
+
+
+def test_external_check_against_a_user_grid(tmp_path):
+    """A user's δg grid holding the very field the table carries: per-line differences vanish; EGM2008's
+    omission error is not claimed for a user grid; a grid not covering the survey is refused."""
+    from ldvsurvey.io.gdf import write_gdf
+    from ldvsurvey.pipelines.gravity_network import _external_check
+
+    glat, glon = np.arange(28.40, 28.60, 0.005), np.arange(112.95, 113.15, 0.005)
+
+    def field(la, lo):
+        return 10.0 * np.sin(np.radians(la - 28.4) * 300) + 5.0 * np.cos(np.radians(lo - 113.0) * 200)
+
+    path = tmp_path / "dg.gdf"
+    path.write_bytes(
+        write_gdf(glat, glon, field(*np.meshgrid(glat, glon, indexing="ij")), "gravity_disturbance", "mGal")
+    )
+    la = np.linspace(28.45, 28.55, 200)
+    lo = np.linspace(113.0, 113.1, 200)
+    table = {
+        "lat_deg": la,
+        "lon_deg": lo,
+        "dg_mgal": field(la, lo),
+        "line": np.array(["L1"] * 100 + ["L2"] * 100, dtype=object),
+    }
+    per_line = [{"name": "L1", "resolution_m": 2000.0}, {"name": "L2", "resolution_m": 2000.0}]
+    params = {"external_model": "grid", "external_grid": [str(path)], "external_grid_id": None}
+    out = _external_check(table, per_line, params, None, 200.0, [])
+    assert out["model"] == "dg.gdf" and "omission_note" not in out
+    for ln in out["lines"]:
+        assert abs(ln["mean_mgal"]) < 0.05 and ln["std_mgal"] < 0.05  # bilinear on a 0.005° grid
+    assert np.allclose(table["dg_external_mgal"], table["dg_mgal"], atol=0.1)
+    table["lat_deg"] = la + 1.0
+    with pytest.raises(ParameterError, match="does not cover") as exc:
+        _external_check(table, per_line, params, None, 200.0, [])
+    assert exc.value.field == "external_grid"
