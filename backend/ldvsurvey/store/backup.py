@@ -362,6 +362,17 @@ def _restore_sqlite(database_url: str, src: Path, m: dict, force: bool) -> None:
     for suffix in ("-wal", "-shm"):  # the replaced database's journal must not be replayed into it
         target.with_name(target.name + suffix).unlink(missing_ok=True)
     os.replace(tmp, target)
+    _prune(root, set(m["blobs"]))
+
+
+def _prune(root: Path, keep: set[str]) -> None:
+    """Remove the blob files of a replaced database (named by no row of the restored one)."""
+    if not root.is_dir():
+        return
+    for p in root.glob("*/*"):
+        key = p.relative_to(root).as_posix()
+        if p.is_file() and key not in keep and not p.name.startswith("."):
+            p.unlink()
 
 
 def _restore_postgres(database_url: str, src: Path, m: dict, force: bool) -> None:
