@@ -142,6 +142,11 @@ def test_restore_refuses_an_altered_backup_and_touches_nothing(settings, tmp_pat
     err = capsys.readouterr().err
     assert str(bad) in err and "SHA-256" in err
     assert not c_dir.exists() or not any(c_dir.rglob("*"))  # nothing restored
+    # a backup that fails (here: a stored file gone from a log that still exists) leaves nothing
+    (Path(settings.data_dir) / "blobs" / next(iter(m["blobs"]))).unlink()
+    assert cli_env(Path(settings.data_dir), "backup", str(tmp_path / "bk2")) == 2
+    assert "missing from the blob folder" in capsys.readouterr().err
+    assert list((tmp_path / "bk2").iterdir()) == []
     (tmp_path / "bad" / "backup.json").unlink()
     assert cli_env(c_dir, "restore", str(tmp_path / "bad")) == 2
     assert "not a complete ldv-survey backup" in capsys.readouterr().err

@@ -81,13 +81,18 @@ def backup(database_url: str, out: Path, say: Callable[[str], None] = print) -> 
     Returns the manifest written to ``out/backup.json``."""
     out = Path(out)
     _prepare_dir(out)
-    if make_url(database_url).get_backend_name() == "sqlite":
-        manifest = _backup_sqlite(database_url, out, say)
-    else:
-        manifest = _backup_postgres(database_url, out, say)
-    tmp = out / (MANIFEST + ".part")
-    tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True))
-    os.replace(tmp, out / MANIFEST)  # written last: a folder without it is no (complete) backup
+    try:
+        if make_url(database_url).get_backend_name() == "sqlite":
+            manifest = _backup_sqlite(database_url, out, say)
+        else:
+            manifest = _backup_postgres(database_url, out, say)
+        tmp = out / (MANIFEST + ".part")
+        tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True))
+        os.replace(tmp, out / MANIFEST)  # written last: a folder without it is no (complete) backup
+    except BaseException:  # nothing of a failed backup stays (the folder was empty)
+        shutil.rmtree(out, ignore_errors=True)
+        out.mkdir(parents=True, exist_ok=True)
+        raise
     return manifest
 
 
