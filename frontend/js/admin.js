@@ -1,4 +1,4 @@
-// Admins: users, projects and memberships.
+// Admins: users, projects and memberships; what the server stores and what it cleaned up.
 import { api } from "./api.js";
 import { html, render, $, $$ } from "./html.js";
 
@@ -51,6 +51,10 @@ export async function adminPage(ctx, app) {
           <button type="submit" id="user-create">Create user</button>
         </form>
       </div>
+      <div class="card">
+        <h3>Storage</h3>
+        <p id="storage"></p>
+      </div>
       <div id="admin-msg"></div>
     </div>`,
   );
@@ -102,9 +106,25 @@ export async function adminPage(ctx, app) {
   await refresh(ctx);
 }
 
+const mb = (bytes) => `${(bytes / 1e6).toFixed(1)} MB`;
+
 async function refresh(ctx) {
-  const [users, projects] = await Promise.all([api("/api/admin/users"), api("/api/admin/projects")]);
+  const [users, projects, storage] = await Promise.all([
+    api("/api/admin/users"),
+    api("/api/admin/projects"),
+    api("/api/admin/storage"),
+  ]);
   if (!ctx.alive) return;
+  const gone = storage.leftovers_removed;
+  const now = storage.leftovers_now;
+  render(
+    $("#storage"),
+    html`Stored logs: <b>${mb(storage.stored_bytes)}</b> of original files. Left by uploads that stopped mid-way (a
+      killed process) and removed since the server started:
+      <b id="leftovers-removed"
+        >${gone.staging_folders} staging folders and ${gone.part_blobs} partial files, ${mb(gone.bytes)}</b
+      >. In progress now: ${now.staging_folders} uploads, ${now.part_blobs} files being written.`,
+  );
   const ids = Object.fromEntries(users.map((u) => [u.username, u.id]));
   render(
     $("#projects tbody"),

@@ -39,6 +39,9 @@ def test_admin_makes_user_and_project_user_sees_only_that(auth_server, page):
     ui_login(page, auth_server, *ADMIN)
     page.click("#admin-link")
     page.wait_for_selector("#project-form")
+    page.wait_for_selector("#leftovers-removed")  # the storage figures of GET /api/admin/storage
+    assert "Stored logs:" in page.inner_text("#storage")
+    assert "0 staging folders and 0 partial files, 0.0 MB" in page.inner_text("#leftovers-removed")
     page.fill("#project-name", "Field 2026")
     page.click("#project-create")
     page.wait_for_selector("tr[data-project='Field 2026']")

@@ -107,9 +107,16 @@ def test_backup_while_serving_and_restore_byte_for_byte(settings, tmp_path, monk
         assert w["status"] == "failed" and "restore" in w["error"]
         assert c.post(f"/api/jobs/{waiting}/retry").status_code in (200, 202)
 
-    # an existing database is not replaced without --force
+    # an existing database is not replaced without --force; with it, the replaced one's files go
     assert cli_env(b_dir, "restore", str(tmp_path / "bk")) == 2
     assert "--force" in capsys.readouterr().err
+    stray = b_dir / "blobs" / "ff" / "ff00-imu.csv"
+    stray.parent.mkdir(parents=True, exist_ok=True)
+    stray.write_bytes(b"of the database being replaced")
+    assert cli_env(b_dir, "restore", str(tmp_path / "bk"), "--force") == 0
+    assert not stray.exists()
+    restored = sorted(p.relative_to(b_dir / "blobs").as_posix() for p in (b_dir / "blobs").rglob("*") if p.is_file())
+    assert restored == sorted(m["blobs"])
 
 
 def test_restore_refuses_an_altered_backup_and_touches_nothing(settings, tmp_path, monkeypatch, cli_env, capsys):
@@ -135,6 +142,11 @@ def test_restore_refuses_an_altered_backup_and_touches_nothing(settings, tmp_pat
     err = capsys.readouterr().err
     assert str(bad) in err and "SHA-256" in err
     assert not c_dir.exists() or not any(c_dir.rglob("*"))  # nothing restored
+    # a backup that fails (here: a stored file gone from a log that still exists) leaves nothing
+    (Path(settings.data_dir) / "blobs" / next(iter(m["blobs"]))).unlink()
+    assert cli_env(Path(settings.data_dir), "backup", str(tmp_path / "bk2")) == 2
+    assert "missing from the blob folder" in capsys.readouterr().err
+    assert list((tmp_path / "bk2").iterdir()) == []
     (tmp_path / "bad" / "backup.json").unlink()
     assert cli_env(c_dir, "restore", str(tmp_path / "bad")) == 2
     assert "not a complete ldv-survey backup" in capsys.readouterr().err

@@ -195,3 +195,61 @@ def test_a_lock_decides_and_only_lockless_leftovers_wait_for_their_age(sqlite_se
     second = clean_leftovers(sqlite_settings)
     assert (second.staging_folders, second.part_blobs, second.bytes) == (1, 1, 1500)
     assert _leftovers(data) == ([], [])
+
+
+#: a process that stores a log (its blobs written and renamed) and is killed before the commit
+KILLED_BEFORE_COMMIT = r"""
+import sys, time
+from pathlib import Path
+from ldvsurvey.io.drivelog import parse_files
+from ldvsurvey.io.quality import quality_report
+from ldvsurvey.store import blobs
+from ldvsurvey.store.db import session_scope
+from ldvsurvey.store.logs import store_log
+from tests.bundles import make_bundle
+
+blobs.INLINE_MAX_BYTES = 0
+url = f"sqlite:///{(Path(sys.argv[1]) / 'ldvsurvey.db').resolve()}"
+log = parse_files(make_bundle(seed=int(sys.argv[2])))
+with session_scope(url) as s:
+    store_log(s, log, quality_report(log))
+    print("READY", flush=True)
+    time.sleep(3600)
+"""
+
+
+def test_blobs_of_a_store_killed_before_its_commit_go_once_old(sqlite_settings, monkeypatch):
+    from ldvsurvey.io.drivelog import parse_files
+    from ldvsurvey.io.quality import quality_report
+    from ldvsurvey.store.db import session_scope, upgrade_head
+    from ldvsurvey.store.leftovers import UNREFERENCED_GRACE_S, clean_leftovers
+    from ldvsurvey.store.logs import load_drivelog, store_log
+    from tests.bundles import make_bundle
+
+    data = Path(sqlite_settings.data_dir)
+    url = sqlite_settings.resolved_database_url()
+    upgrade_head(url)
+    monkeypatch.setattr(blobs, "INLINE_MAX_BYTES", 0)
+    kept = parse_files(make_bundle(seed=91))
+    with session_scope(url) as s:
+        kept_id = store_log(s, kept, quality_report(kept))[0].id
+    stored = sorted(p for p in (data / "blobs").rglob("*") if p.is_file())
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    p = subprocess.Popen([sys.executable, "-c", KILLED_BEFORE_COMMIT, str(data), "92"], stdout=subprocess.PIPE, env=env)
+    try:
+        assert p.stdout.readline().strip() == b"READY"
+    finally:
+        os.kill(p.pid, signal.SIGKILL)
+        p.wait()
+        p.stdout.close()
+    orphans = sorted(set(q for q in (data / "blobs").rglob("*") if q.is_file()) - set(stored))
+    assert len(orphans) == 7  # four originals and three arrays, complete, named by no row
+    _age(orphans, UNREFERENCED_GRACE_S / 2)
+    assert clean_leftovers(sqlite_settings).unreferenced_blobs == 0  # maybe a commit still to come
+    _age(orphans + stored, UNREFERENCED_GRACE_S + 60)
+    size = sum(q.stat().st_size for q in orphans)
+    gone = clean_leftovers(sqlite_settings)
+    assert gone.unreferenced_blobs == 7 and gone.bytes == size
+    assert sorted(q for q in (data / "blobs").rglob("*") if q.is_file()) == stored  # the stored log's stay
+    with session_scope(url) as s:
+        assert load_drivelog(s, kept_id).sha256 == kept.sha256

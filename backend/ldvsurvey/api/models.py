@@ -262,6 +262,7 @@ class Comparison(Out):
 class LeftoverCounts(Out):
     staging_folders: int = Field(description="staging folders of uploads (<data dir>/tmp)")
     part_blobs: int = Field(description="blob files being written (.part)")
+    unreferenced_blobs: int = Field(0, description="complete blob files no row names (SQLite's folder)")
     bytes: int
 
 

@@ -81,13 +81,18 @@ def backup(database_url: str, out: Path, say: Callable[[str], None] = print) -> 
     Returns the manifest written to ``out/backup.json``."""
     out = Path(out)
     _prepare_dir(out)
-    if make_url(database_url).get_backend_name() == "sqlite":
-        manifest = _backup_sqlite(database_url, out, say)
-    else:
-        manifest = _backup_postgres(database_url, out, say)
-    tmp = out / (MANIFEST + ".part")
-    tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True))
-    os.replace(tmp, out / MANIFEST)  # written last: a folder without it is no (complete) backup
+    try:
+        if make_url(database_url).get_backend_name() == "sqlite":
+            manifest = _backup_sqlite(database_url, out, say)
+        else:
+            manifest = _backup_postgres(database_url, out, say)
+        tmp = out / (MANIFEST + ".part")
+        tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True))
+        os.replace(tmp, out / MANIFEST)  # written last: a folder without it is no (complete) backup
+    except BaseException:  # nothing of a failed backup stays (the folder was empty)
+        shutil.rmtree(out, ignore_errors=True)
+        out.mkdir(parents=True, exist_ok=True)
+        raise
     return manifest
 
 
@@ -362,6 +367,17 @@ def _restore_sqlite(database_url: str, src: Path, m: dict, force: bool) -> None:
     for suffix in ("-wal", "-shm"):  # the replaced database's journal must not be replayed into it
         target.with_name(target.name + suffix).unlink(missing_ok=True)
     os.replace(tmp, target)
+    _prune(root, set(m["blobs"]))
+
+
+def _prune(root: Path, keep: set[str]) -> None:
+    """Remove the blob files of a replaced database (named by no row of the restored one)."""
+    if not root.is_dir():
+        return
+    for p in root.glob("*/*"):
+        key = p.relative_to(root).as_posix()
+        if p.is_file() and key not in keep and not p.name.startswith("."):
+            p.unlink()
 
 
 def _restore_postgres(database_url: str, src: Path, m: dict, force: bool) -> None:

@@ -9,7 +9,9 @@ lock when the process dies, even by ``kill -9``. So a leftover is one whose lock
 age about whether its writer is still alive, and several API and worker processes sharing the data
 folder never remove each other's work. One that carries no lock yet (created a moment ago, before the
 lock was taken, or by an older version) is removed only once older than :data:`GRACE_S`, a ``.part``
-nobody holds once older than :data:`PART_GRACE_S`.
+nobody holds once older than :data:`PART_GRACE_S`. A third kind, with SQLite: complete blob files no
+row names, written by a process killed before its commit, removed once older than
+:data:`UNREFERENCED_GRACE_S` (:func:`remove_unreferenced`).
 
 The server cleans at start and every ``LDVSURVEY_CLEAN_EVERY_S`` (:func:`clean_leftovers`), logs what
 it removed, and ``GET /api/admin/storage`` and ``ldv-survey clean`` report it; leftovers are never
@@ -34,6 +36,9 @@ GRACE_S = 60.0
 #: a ``.part`` file nobody holds is left alone while younger than this (s): it is created a moment
 #: before its writer takes the lock
 PART_GRACE_S = 5.0
+#: a complete blob file that no row names is left alone while younger than this (s): its rows may
+#: be in a transaction not yet committed
+UNREFERENCED_GRACE_S = 3600.0
 STAGING_GLOB = "ldvs-bundle-*"
 
 log = logging.getLogger("ldvsurvey.leftovers")
@@ -78,13 +83,20 @@ class Leftovers:
 
     staging_folders: int = 0
     part_blobs: int = 0
+    #: complete blob files no row names (written, then the process died before its commit)
+    unreferenced_blobs: int = 0
     bytes: int = 0
     paths: list[str] = field(default_factory=list, repr=False)
 
     def message(self, verb: str = "removed") -> str:
+        extra = (
+            f", {self.unreferenced_blobs} blob{'s' * (self.unreferenced_blobs != 1)} no row names"
+            if self.unreferenced_blobs
+            else ""
+        )
         return (
             f"{verb} {self.staging_folders} staging folder{'s' * (self.staging_folders != 1)} and "
-            f"{self.part_blobs} .part blob{'s' * (self.part_blobs != 1)} "
+            f"{self.part_blobs} .part blob{'s' * (self.part_blobs != 1)}{extra} "
             f"({self.bytes / 1e6:.1f} MB)"
         )
 
@@ -174,8 +186,46 @@ class Report:
         with self._lock:
             self.total.staging_folders += gone.staging_folders
             self.total.part_blobs += gone.part_blobs
+            self.total.unreferenced_blobs += gone.unreferenced_blobs
             self.total.bytes += gone.bytes
             self.last_at = time.time()
+
+
+def remove_unreferenced(database_url: str, root: Path | None, gone: Leftovers) -> None:
+    """SQLite: remove the blob files beside the database that no row names, once older than
+    :data:`UNREFERENCED_GRACE_S` (a process killed after writing a log's files, before its commit).
+    Only there: that folder belongs to that database file alone (an older PostgreSQL installation's
+    folder may be shared, and is emptied by ``ldv-survey blobs migrate`` instead)."""
+    from sqlalchemy import select
+    from sqlalchemy.engine import make_url
+
+    from ldvsurvey.store.db import session_scope
+    from ldvsurvey.store.models import LogArray, LogFile
+
+    if root is None or not root.is_dir() or make_url(database_url).get_backend_name() != "sqlite":
+        return
+    now = time.time()
+    old = []
+    for p in root.glob("*/*"):  # listed before the rows are read: a blob committed meanwhile is kept
+        try:
+            st = p.lstat()
+        except FileNotFoundError:
+            continue
+        if p.is_file() and not p.name.endswith(".part") and now - st.st_mtime > UNREFERENCED_GRACE_S:
+            old.append((p, st.st_size))
+    if not old:
+        return
+    with session_scope(database_url) as s:
+        named = {k for t in (LogFile, LogArray) for k in s.scalars(select(t.blob).where(t.blob.is_not(None)))}
+    for p, size in old:
+        if p.relative_to(root).as_posix() not in named:
+            try:
+                p.unlink()
+            except OSError:
+                continue
+            gone.unreferenced_blobs += 1
+            gone.bytes += size
+            gone.paths.append(str(p))
 
 
 def clean_leftovers(settings, report: Report | None = None) -> Leftovers:
@@ -183,7 +233,8 @@ def clean_leftovers(settings, report: Report | None = None) -> Leftovers:
     line naming what went (nothing when there was nothing)."""
     tmp_dir, root = folders_of(settings)
     gone, _ = scan(tmp_dir, root, remove=True)
-    if gone.staging_folders or gone.part_blobs:
+    remove_unreferenced(settings.resolved_database_url(), root, gone)
+    if gone.staging_folders or gone.part_blobs or gone.unreferenced_blobs:
         log.warning("%s left by a stopped process (killed mid-upload): %s", gone.message(), ", ".join(gone.paths))
     if report is not None:
         report.add(gone)
