@@ -9,7 +9,7 @@ import sqlalchemy as sa
 from alembic import op
 
 revision = "0007_log_facts"
-down_revision = "0006_log_blobs"
+down_revision = "0007_blob_chunks"
 branch_labels = None
 depends_on = None
 

@@ -6,14 +6,9 @@ import numpy as np
 from ldvsurvey.api import views
 
 
-class FakeInput(views.ViewInput):
-    def __init__(self, tables, summary, n=1000):
-        super().__init__(None, None, summary, None, None, n, views.VIEWS["gravity_network_map"].files)
-        self.tables = tables
-
-    def csv(self, name):
-        assert name in self.files
-        return self.tables[name]
+def view_input(tables, summary, n=1000):
+    """The map view's input on in-memory tables (it may read only the files it declares)."""
+    return views.ViewInput(views.DictTables(tables), summary, None, None, n, views.VIEWS["gravity_network_map"].files)
 
 
 def test_the_map_view_applies_to_network_jobs_only():
@@ -50,7 +45,7 @@ def test_the_map_shows_adjusted_values_and_ties():
         }
     }
     fig = views.VIEWS["gravity_network_map"].build(
-        FakeInput({"gravity_adjusted.csv": g, "network_residuals.csv": r}, summary, n=20)
+        view_input({"gravity_adjusted.csv": g, "network_residuals.csv": r}, summary, n=20)
     )
     pts, ties = fig["data"]
     assert len(pts["x"]) == 20  # thinned to the requested count
