@@ -89,6 +89,7 @@ table { border-collapse: collapse; margin: .3em 0 .8em; font-size: 9.5pt; max-wi
 table.kv { width: 100%; table-layout: fixed; } table.kv td:first-child, table.kv th:first-child { width: 55%; }
 th, td { border: 1px solid #bbb; padding: .15em .45em; text-align: left; vertical-align: top; overflow-wrap: anywhere; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
+th { overflow-wrap: normal; } table.lines { font-size: 8pt; } table.lines td, table.lines th { padding: .1em .3em; }
 thead { display: table-header-group; }
 tr, .figure, .map { break-inside: avoid; page-break-inside: avoid; }
 code, .hash { font: 8.5pt "DejaVu Sans Mono", monospace; word-break: break-all; }
@@ -376,7 +377,7 @@ def _lines_table(s: dict) -> str:
     keys = [k for k in lines[0] if k != "name" and not isinstance(lines[0][k], (dict, list))]
     head = ["line"] + [f"{lab} ({u})" if u else lab for lab, u in (label_unit(k) for k in keys)]
     rows = [[esc(ln.get("name", ""))] + [esc(fmt(ln.get(k))) for k in keys] for ln in lines]
-    return "<h3>Per line</h3>" + _table(head, rows, num_cols=tuple(range(1, len(head))))
+    return "<h3>Per line</h3>" + _table(head, rows, num_cols=tuple(range(1, len(head))), cls="lines")
 
 
 def _all_figures(s: dict) -> str:
