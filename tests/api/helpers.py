@@ -94,6 +94,23 @@ def tables():
         coin["residual_mgal"].append(res)
     grav = {k: (np.array(v, dtype=object) if k == "line" else np.concatenate(v)) for k, v in grav.items()}
     coin = {k: (np.array(v, dtype=object) if k == "line" else np.concatenate(v)) for k, v in coin.items()}
+    # a network adjustment's values on the line rows (in the gravity table's order) and one base tie
+    on = grav["line"] != ""
+    adjusted = {
+        "line": grav["line"][on],
+        "lat_deg": grav["lat_deg"][on],
+        "lon_deg": grav["lon_deg"][on],
+        "dg_mgal": grav["dg_mgal"][on] + 3.0,
+        "sigma_mgal": np.full(int(on.sum()), 0.3),
+    }
+    tie_lat, tie_lon = lat_lon(np.array([0.6 * 5000.0]), np.array([0.8 * 5000.0]))
+    residuals = {
+        "kind": np.array(["tie"], dtype=object),
+        "line": np.array(["T1"], dtype=object),
+        "lat_deg": tie_lat,
+        "lon_deg": tie_lon,
+        "residual_mgal": np.array([-0.2]),
+    }
     dov = {"t_s": t, "xi_arcsec": _nan(3 * w), "eta_arcsec": -2 * w}
     for mth in ("direct", "rk4", "theoretical"):
         dov[f"dn_{mth}_m"] = _nan(0.1 * w * (t - t[0]) / 100)
@@ -107,6 +124,8 @@ def tables():
         "trajectory.csv": track,
         "calibration_track.csv": track,
         "gravity.csv": grav,
+        "gravity_adjusted.csv": adjusted,
+        "network_residuals.csv": residuals,
         "coincidence.csv": coin,
         "dov.csv": dov,
         "damping.csv": damping,
@@ -141,6 +160,27 @@ SUMMARIES = {
     "navigate": {},
     "calibrate": {},
 }
+
+
+#: what a gravity job that adjusted a survey network adds to its summary (the network map shows only then)
+NETWORK = {
+    "network": {
+        "datum": "ties",
+        "datum_sigma_mgal": 0.1,
+        "crossover_rms_after_mgal": 0.2,
+        "repeat_rms_after_mgal": 0.2,
+        "noise_floor_mgal": 0.39,
+        "lines": [{"resolution_m": 1966.0}],
+    }
+}
+
+
+def summary_of(view: str) -> dict:
+    """The summary of a job that has something to show in ``view``."""
+    from ldvsurvey.api.views import VIEWS
+
+    s = SUMMARIES[VIEWS[view].pipeline]
+    return {**s, **NETWORK} if view == "gravity_network_map" else s
 
 
 def csv_bytes(table: dict) -> bytes:

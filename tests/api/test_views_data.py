@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from ldvsurvey.api import views as V
-from tests.api.helpers import SUMMARIES, path, tables
+from tests.api.helpers import SUMMARIES, path, summary_of, tables
 
 N_POINTS = 400  #: points requested per trace (fewer than the rows: thinning is exercised)
 
@@ -42,6 +42,11 @@ def _rows_of_trace(v, name, tabs, arrays):
     if v == "gravity_map":
         if name.startswith("GNSS"):
             return _rows_of_trace("trajectory", name, tabs, arrays)
+        on = g["line"] != ""
+        return 0.6 * g["distance_m"][on], 0.8 * g["distance_m"][on], g["t_s"][on]
+    if v == "gravity_network_map":
+        if name.startswith("base ties"):
+            return np.array([0.6 * 5000.0]), np.array([0.8 * 5000.0]), np.array([0.0])
         on = g["line"] != ""
         return 0.6 * g["distance_m"][on], 0.8 * g["distance_m"][on], g["t_s"][on]
     if v == "height":
@@ -146,7 +151,7 @@ def data():
 def test_every_view_against_its_data(name, data):
     tabs, arrays = data
     v = V.VIEWS[name]
-    fig = V.build_view(V.DictTables(tabs, arrays), v.pipeline, SUMMARIES[v.pipeline], name, None, None, N_POINTS)
+    fig = V.build_view(V.DictTables(tabs, arrays), v.pipeline, summary_of(name), name, None, None, N_POINTS)
     assert fig["data"], "no trace"
     check_layout(fig)
     for tr in fig["data"]:
@@ -160,7 +165,7 @@ def test_a_zoomed_view_stays_in_its_range_and_order(name, data):
     tabs, arrays = data
     v = V.VIEWS[name]
     x0, x1 = (30050.0, 30200.0) if v.pipeline in ("height", "tilt") else (-500.0, 800.0)
-    fig = V.build_view(V.DictTables(tabs, arrays), v.pipeline, SUMMARIES[v.pipeline], name, x0, x1, N_POINTS)
+    fig = V.build_view(V.DictTables(tabs, arrays), v.pipeline, summary_of(name), name, x0, x1, N_POINTS)
     for tr in fig["data"]:
         src = _rows_of_trace(name, tr["name"], tabs, arrays)
         if src is None or tr.get("mode") == "markers":
@@ -232,11 +237,11 @@ def test_views_are_pure_functions_of_their_tables():
         V.build_view(V.DictTables({}), "height", {}, "attitude", None, None, 100)
 
 
-@pytest.mark.parametrize("name", ["trajectory", "gravity_map"])
+@pytest.mark.parametrize("name", ["trajectory", "gravity_map", "gravity_network_map"])
 def test_maps_have_a_true_scale_bar_a_north_arrow_and_their_positions(name, data):
     tabs, arrays = data
     v = V.VIEWS[name]
-    fig = V.build_view(V.DictTables(tabs, arrays), v.pipeline, SUMMARIES[v.pipeline], name, None, None, N_POINTS)
+    fig = V.build_view(V.DictTables(tabs, arrays), v.pipeline, summary_of(name), name, None, None, N_POINTS)
     lay = fig["layout"]
     # equal scales on east/north metres, north up
     assert lay["yaxis"]["scaleanchor"] == "x" and lay["yaxis"]["scaleratio"] == 1
@@ -257,6 +262,8 @@ def test_maps_have_a_true_scale_bar_a_north_arrow_and_their_positions(name, data
     for t in fig["data"]:
         if t["name"].startswith("GNSS"):
             src_lat, src_lon = arrays["gnss"]["lat_deg"], arrays["gnss"]["lon_deg"]
+        elif t["name"].startswith("base ties"):
+            src_lat, src_lon = tabs["network_residuals.csv"]["lat_deg"], tabs["network_residuals.csv"]["lon_deg"]
         else:
             src_lat, src_lon = tr["lat_deg"], tr["lon_deg"]
         for la, lo in zip(t["meta"]["lat"], t["meta"]["lon"]):

@@ -465,7 +465,7 @@ def job_section(job: ReportJob, heading: str = "h2") -> str:
     layers = map_layers(job)
     if layers:
         out.append(f'<div class="map" id="map-{job.id}">{map_svg(layers, "Map of job " + str(job.id))}</div>')
-    for v in views_of(job.pipeline):
+    for v in views_of(job.pipeline, s):
         try:
             fig = build_view(job.tables, job.pipeline, s, v.name, None, None, REPORT_POINTS)
         except MissingResult:
