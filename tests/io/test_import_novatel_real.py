@@ -280,3 +280,10 @@ def test_the_reference_trajectory_is_written_beside_the_bundle(tmp_path):
     utc = dt.datetime(1980, 1, 6) + dt.timedelta(weeks=2174, seconds=397710 - 18)
     assert float(row[0]) == (utc - dt.datetime(2023, 3, 20)).total_seconds()
     assert float(row[1]) == 51.15044562951 and row[-1] == "WAITING_AZIMUTH"
+
+
+def test_real_novatel_logs_are_recognised_from_their_content():
+    from ldvsurvey.io.importers import detect
+
+    for path in (SPAN, SPAN_BESTPOS, EDIE_LOGS):
+        assert detect(path.read_bytes(), path.name)[0] == "novatel", path.name
