@@ -287,3 +287,15 @@ def test_real_novatel_logs_are_recognised_from_their_content():
 
     for path in (SPAN, SPAN_BESTPOS, EDIE_LOGS):
         assert detect(path.read_bytes(), path.name)[0] == "novatel", path.name
+
+
+def test_the_same_samples_in_two_raw_imu_logs_are_kept_once():
+    lines = []
+    for k in range(4):
+        sow = 1000.0 + 0.01 * k
+        body = f"00,11,2038,{sow:.9f},00000000,{k},{-k},{2 * k},3,4,5"
+        lines.append(_ascii(f"RAWIMUXA,COM1,0,68.5,FINESTEERING,2038,{sow:.3f},1a008000,0000,14968;{body}"))
+        lines.append(_ascii(f"RAWIMUSXA,2038,{sow:.3f};{body}", "%"))
+    part = novatel.read(("\r\n".join(lines) + "\r\n").encode(), "rx.asc", "imu", {})
+    assert len(part.dvel_mps) == 4 and np.all(np.diff(part.stamps.values) > 0)
+    assert any("kept once" in n for n in part.notes)

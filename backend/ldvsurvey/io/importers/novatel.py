@@ -388,7 +388,23 @@ def read(data: bytes, file: str, role: str, opts: dict):
         if corr:
             notes.append(f"{file}: {corr} CORRIMUDATA/CORRIMUS message(s) ignored (gravity-compensated)")
         a = np.array(imu_rows, dtype=np.float64)
-        a = a[np.lexsort((a[:, 8], a[:, 1], a[:, 0]))] if len(type_names) > 1 else a
+        if len(type_names) > 1:  # e.g. RAWIMUSX and RAWIMUX of the same samples: one time line, each sample once
+            a = a[np.lexsort((a[:, 8], a[:, 1], a[:, 0]))]
+            same_t = (np.diff(a[:, 0]) == 0) & (np.diff(a[:, 1]) == 0)
+            differ = same_t & ~np.all(a[1:, 2:8] == a[:-1, 2:8], axis=1)
+            if differ.any():
+                k = int(np.flatnonzero(differ)[0]) + 1
+                raise BundleError(
+                    f"two different raw IMU samples for the same time ({', '.join(sorted(type_names))})",
+                    file=file,
+                    field=f"message {int(a[k, 8])}",
+                )
+            if same_t.any():
+                notes.append(
+                    f"{file}: {int(same_t.sum())} IMU sample(s) logged in both {' and '.join(sorted(type_names))} "
+                    "kept once"
+                )
+                a = a[np.concatenate(([True], ~same_t))]
         tname, s_gyro, s_acc, per_rate = SCALES[types.pop()]
         if per_rate:
             rate = float(opts.get("rate_hz") or 0) or (1.0 / float(np.median(np.diff(a[:, 1]))) if len(a) > 1 else 0.0)
