@@ -119,6 +119,8 @@ def test_raw_imu_of_every_definition_version_decodes(msg):
             np.testing.assert_array_equal(part.dvel_mps[0], np.array([x, -ny, z]) * sa)
             np.testing.assert_array_equal(part.dtheta_rad[0], np.array([gx, -gny, gz]) * sg)
             assert part.stamps.values[0] == 117867.792005
+            body_named = "del_vel_body_y" in {f["name"] for f in by_name[msg]["fields"][crc]}
+            assert any("del_vel_body" in n for n in part.notes) == body_named
 
 
 def test_rawimu_without_an_imu_type_names_the_field():

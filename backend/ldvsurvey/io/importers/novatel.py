@@ -260,6 +260,7 @@ def read(data: bytes, file: str, role: str, opts: dict):
     left_out: dict[str, int] = {}
     ins_types = 0
     types, type_names = set(), set()
+    body_named: list[str] = []  # a definition naming the fields del_vel_body_*: the y sign is not documented
     seen: dict[tuple, int] = {}  # (name, time) -> hash of the body: a repeat on another port has the same
     names_of: dict[type, list] = {}
     repeats = 0
@@ -315,6 +316,8 @@ def read(data: bytes, file: str, role: str, opts: dict):
                 )
             types.add(t)
             type_names.add(name)
+            if "del_vel_body_y" in d and not body_named:
+                body_named.append(f"{name} 0x{crc:04x}")
             imu_rows.append(
                 (
                     f("week"),
@@ -387,6 +390,12 @@ def read(data: bytes, file: str, role: str, opts: dict):
             raise BundleError(f"messages of several IMU types {sorted(types)}", file=file, field="imu_type")
         if corr:
             notes.append(f"{file}: {corr} CORRIMUDATA/CORRIMUS message(s) ignored (gravity-compensated)")
+        if body_named:
+            notes.append(
+                f"{file}: definition {body_named[0]} names the increments del_vel_body_*/del_ang_body_*; they are "
+                "read in RAWIMU's documented order and signs (z, -y, x): check the y axis (the static check "
+                "sees only the vertical)"
+            )
         a = np.array(imu_rows, dtype=np.float64)
         if len(type_names) > 1:  # e.g. RAWIMUSX and RAWIMUX of the same samples: one time line, each sample once
             a = a[np.lexsort((a[:, 8], a[:, 1], a[:, 0]))]
