@@ -146,14 +146,21 @@ def _cmd_import(args) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(suffix=".zip", dir=out.parent)  # nothing appears at --out unless all went well
     os.close(fd)
+    beside = {out.with_name(f"{out.stem}.{name}"): content for name, content in result.beside.items()}
+    tmps = {}
     try:
         write_bundle(result.files, tmp)
-        for name, content in result.beside.items():  # e.g. the receiver's INS solution: BUNDLE.reference.csv
-            out.with_name(f"{out.stem}.{name}").write_bytes(content)
+        for path, content in beside.items():  # e.g. the receiver's INS solution: BUNDLE.reference.csv
+            fd, tmps[path] = tempfile.mkstemp(suffix=path.suffix, dir=out.parent)
+            with os.fdopen(fd, "wb") as f:
+                f.write(content)
         os.replace(tmp, out)
+        for path, t in tmps.items():
+            os.replace(t, path)
     finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        for t in [tmp, *tmps.values()]:
+            if os.path.exists(t):
+                os.unlink(t)
     s = result.summary
     print(
         f"{out}: {', '.join(f['role'] + '=' + f['format'] for f in s['files'])}; {s['date']}, "
@@ -182,6 +189,9 @@ def _cmd_import(args) -> int:
             f"{tb['tag_rate_hz']:.1f} ticks/s ± {tb['tag_rate_3sigma_rel'] * 100:.2f} % (3σ), "
             f"offset ± {tb['offset_uncertainty_ms']} ms"
         )
+    if "reference" in s:
+        for path in beside:
+            print(f"{path}: reference trajectory, {s['reference']['epochs']} epochs of {s['reference']['source']}")
     for w in result.warnings:
         print(f"warning: {w}", file=sys.stderr)
     return 0

@@ -41,9 +41,17 @@ def _edie(data: bytes, name: str) -> list[dict]:
     return [m.to_dict() for m in p if type(m).__name__.split("_")[0] == name]
 
 
-def _ascii(body: str) -> str:
+def _ascii(body: str, sync: str = "#") -> str:
     """``#<body>*<crc>`` with NovAtel's CRC-32."""
-    return f"#{body}*{crc32(body.encode()):08x}"
+    return f"{sync}{body}*{crc32(body.encode()):08x}"
+
+
+def _forms(ascii_log: bytes) -> dict[str, bytes]:
+    """The ASCII log and EDIE's own binary encoding of it (same definition CRC in the header)."""
+    p = oem.Parser()
+    p.write(ascii_log)
+    msg = next(iter(p))
+    return {"ascii": ascii_log, "binary": bytes(msg.to_binary().message)}
 
 
 # --- every definition version in EDIE's database -------------------------------------------------
@@ -84,28 +92,35 @@ def test_positions_of_every_definition_version_decode(msg):
         head = f"{msg}A,COM1,0,60.5,FINESTEERING,2166,327153.000,02000000,{int(crc):04x},16248"
         data = (_ascii(f"{head};{BESTPOS_BODY}") + "\r\n").encode()
         assert _edie(data, msg), f"EDIE does not decode {msg} definition {crc}"
-        g = novatel.read(data, "rx.asc", "gnss", {})
-        assert g.lat_deg[0] == 51.15043699323 and g.lon_deg[0] == -114.03067932462
-        assert g.h_ell_m[0] == pytest.approx(1096.9772 - 17.0, abs=1e-9)  # height above MSL + undulation
-        assert g.sep_m[0] == -17.0 and g.fix[0] == 4 and g.n_sat[0] == 34
-        assert g.stamps.week[0] == 2166 and g.stamps.values[0] == 327153.0
+        for form, log in _forms(data).items():
+            g = novatel.read(log, f"rx.{form}", "gnss", {})
+            assert g.lat_deg[0] == 51.15043699323 and g.lon_deg[0] == -114.03067932462
+            assert g.h_ell_m[0] == pytest.approx(1096.9772 - 17.0, abs=1e-4)  # height above MSL + undulation
+            assert g.sep_m[0] == -17.0 and g.fix[0] == 4 and g.n_sat[0] == 34
+            assert g.stamps.week[0] == 2166 and g.stamps.values[0] == 327153.0
 
 
-@pytest.mark.parametrize("msg", ["RAWIMU", "RAWIMUX"])
+@pytest.mark.parametrize("msg", ["RAWIMU", "RAWIMUX", "RAWIMUS", "RAWIMUSX"])
 def test_raw_imu_of_every_definition_version_decodes(msg):
     by_name = {m["name"]: m for m in _database()["messages"]}
     z, ny, x, gz, gny, gx = -1234567, 2345678, -345678, 9876, -8765, 7654
-    ext = "00,11," if msg == "RAWIMUX" else ""
+    ext = "00,11," if msg.endswith("X") else ""
     for crc in by_name[msg]["fields"]:
-        head = f"{msg}A,COM1,0,68.5,FINESTEERING,2038,117867.800,1a008000,{int(crc):04x},14968"
+        if msg.startswith("RAWIMUS"):  # short header: no definition CRC (one version)
+            head, sync = f"{msg}A,2038,117867.800", "%"
+        else:
+            head, sync = f"{msg}A,COM1,0,68.5,FINESTEERING,2038,117867.800,1a008000,{int(crc):04x},14968", "#"
         body = f"{ext}2038,117867.792005000,f7f7fe00,{z},{ny},{x},{gz},{gny},{gx}"
-        data = (_ascii(f"{head};{body}") + "\r\n").encode()
+        data = (_ascii(f"{head};{body}", sync) + "\r\n").encode()
         assert _edie(data, msg), f"EDIE does not decode {msg} definition {crc}"
-        part = novatel.read(data, "rx.asc", "imu", {"imu_type": "HG1700_AG58"})
-        sg, sa = 2.0**-33, 0.3048 * 2.0**-27  # HG1700 AG58, OEM7 "Raw IMU scale factors"
-        np.testing.assert_array_equal(part.dvel_mps[0], np.array([x, -ny, z]) * sa)
-        np.testing.assert_array_equal(part.dtheta_rad[0], np.array([gx, -gny, gz]) * sg)
-        assert part.stamps.values[0] == 117867.792005
+        for form, log in _forms(data).items():
+            part = novatel.read(log, f"rx.{form}", "imu", {"imu_type": "HG1700_AG58"})
+            sg, sa = 2.0**-33, 0.3048 * 2.0**-27  # HG1700 AG58, OEM7 "Raw IMU scale factors"
+            np.testing.assert_array_equal(part.dvel_mps[0], np.array([x, -ny, z]) * sa)
+            np.testing.assert_array_equal(part.dtheta_rad[0], np.array([gx, -gny, gz]) * sg)
+            assert part.stamps.values[0] == 117867.792005
+            body_named = "del_vel_body_y" in {f["name"] for f in by_name[msg]["fields"][crc]}
+            assert any("del_vel_body" in n for n in part.notes) == body_named
 
 
 def test_rawimu_without_an_imu_type_names_the_field():
@@ -267,3 +282,22 @@ def test_the_reference_trajectory_is_written_beside_the_bundle(tmp_path):
     utc = dt.datetime(1980, 1, 6) + dt.timedelta(weeks=2174, seconds=397710 - 18)
     assert float(row[0]) == (utc - dt.datetime(2023, 3, 20)).total_seconds()
     assert float(row[1]) == 51.15044562951 and row[-1] == "WAITING_AZIMUTH"
+
+
+def test_real_novatel_logs_are_recognised_from_their_content():
+    from ldvsurvey.io.importers import detect
+
+    for path in (SPAN, SPAN_BESTPOS, EDIE_LOGS):
+        assert detect(path.read_bytes(), path.name)[0] == "novatel", path.name
+
+
+def test_the_same_samples_in_two_raw_imu_logs_are_kept_once():
+    lines = []
+    for k in range(4):
+        sow = 1000.0 + 0.01 * k
+        body = f"00,11,2038,{sow:.9f},00000000,{k},{-k},{2 * k},3,4,5"
+        lines.append(_ascii(f"RAWIMUXA,COM1,0,68.5,FINESTEERING,2038,{sow:.3f},1a008000,0000,14968;{body}"))
+        lines.append(_ascii(f"RAWIMUSXA,2038,{sow:.3f};{body}", "%"))
+    part = novatel.read(("\r\n".join(lines) + "\r\n").encode(), "rx.asc", "imu", {})
+    assert len(part.dvel_mps) == 4 and np.all(np.diff(part.stamps.values) > 0)
+    assert any("kept once" in n for n in part.notes)

@@ -9,6 +9,8 @@ with its line and field); sentences after a binary frame on the same line are re
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from ldvsurvey.errors import BundleError
@@ -20,9 +22,19 @@ NAME = "nmea"
 ROLES = ("gnss",)
 
 
+_SENTENCE = re.compile(rb"\$([A-Z]{2}(?:GGA|RMC),[^$*\r\n]*)\*([0-9A-Fa-f]{2})")
+
+
 def sniff(data: bytes, name: str) -> str | None:
-    head = data[:4096].decode("ascii", "replace")
-    return "gnss" if "GGA," in head and head.lstrip().startswith("$") else None
+    """``gnss`` when the first 64 kB hold a GGA or RMC sentence with a good checksum (anywhere: real
+    logs start with comments, a cut sentence or binary frames)."""
+    for m in _SENTENCE.finditer(data[:65536]):
+        acc = 0
+        for b in m.group(1):
+            acc ^= b
+        if acc == int(m.group(2), 16):
+            return "gnss"
+    return None
 
 
 def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:

@@ -260,6 +260,7 @@ def read(data: bytes, file: str, role: str, opts: dict):
     left_out: dict[str, int] = {}
     ins_types = 0
     types, type_names = set(), set()
+    body_named: list[str] = []  # a definition naming the fields del_vel_body_*: the y sign is not documented
     seen: dict[tuple, int] = {}  # (name, time) -> hash of the body: a repeat on another port has the same
     names_of: dict[type, list] = {}
     repeats = 0
@@ -315,6 +316,8 @@ def read(data: bytes, file: str, role: str, opts: dict):
                 )
             types.add(t)
             type_names.add(name)
+            if "del_vel_body_y" in d and not body_named:
+                body_named.append(f"{name} 0x{crc:04x}")
             imu_rows.append(
                 (
                     f("week"),
@@ -387,8 +390,30 @@ def read(data: bytes, file: str, role: str, opts: dict):
             raise BundleError(f"messages of several IMU types {sorted(types)}", file=file, field="imu_type")
         if corr:
             notes.append(f"{file}: {corr} CORRIMUDATA/CORRIMUS message(s) ignored (gravity-compensated)")
+        if body_named:
+            notes.append(
+                f"{file}: definition {body_named[0]} names the increments del_vel_body_*/del_ang_body_*; they are "
+                "read in RAWIMU's documented order and signs (z, -y, x): check the y axis (the static check "
+                "sees only the vertical)"
+            )
         a = np.array(imu_rows, dtype=np.float64)
-        a = a[np.lexsort((a[:, 8], a[:, 1], a[:, 0]))] if len(type_names) > 1 else a
+        if len(type_names) > 1:  # e.g. RAWIMUSX and RAWIMUX of the same samples: one time line, each sample once
+            a = a[np.lexsort((a[:, 8], a[:, 1], a[:, 0]))]
+            same_t = (np.diff(a[:, 0]) == 0) & (np.diff(a[:, 1]) == 0)
+            differ = same_t & ~np.all(a[1:, 2:8] == a[:-1, 2:8], axis=1)
+            if differ.any():
+                k = int(np.flatnonzero(differ)[0]) + 1
+                raise BundleError(
+                    f"two different raw IMU samples for the same time ({', '.join(sorted(type_names))})",
+                    file=file,
+                    field=f"message {int(a[k, 8])}",
+                )
+            if same_t.any():
+                notes.append(
+                    f"{file}: {int(same_t.sum())} IMU sample(s) logged in both {' and '.join(sorted(type_names))} "
+                    "kept once"
+                )
+                a = a[np.concatenate(([True], ~same_t))]
         tname, s_gyro, s_acc, per_rate = SCALES[types.pop()]
         if per_rate:
             rate = float(opts.get("rate_hz") or 0) or (1.0 / float(np.median(np.diff(a[:, 1]))) if len(a) > 1 else 0.0)
