@@ -116,6 +116,8 @@ function platformOption(p, q) {
   return html`<option ${q.get("platform") === p ? "selected" : ""}>${p}</option>`;
 }
 
+const lowqBadge = (lowq) => html`<span class="badge ${lowq > 0.05 ? "warn" : ""}">LDV low-q ${pct(lowq)}</span>`;
+
 function row(l, names) {
   const b = l.badges || {};
   const lowq = b.ldv_below_min_quality_share;
@@ -129,7 +131,7 @@ function row(l, names) {
     <td>
       <span class="badge ${b.imu_gaps ? "warn" : ""}">IMU gaps ${b.imu_gaps ?? "–"}</span>
       <span class="badge">RTK ${pct(b.gnss_rtk_fixed_share, 0)}</span>
-      ${l.ldv_kind === "none" ? "" : html`<span class="badge ${lowq > 0.05 ? "warn" : ""}">LDV low-q ${pct(lowq)}</span>`}
+      ${l.ldv_kind === "none" ? "" : lowqBadge(lowq)}
       ${b.warnings ? html`<span class="badge warn">${b.warnings} warnings</span>` : ""}
     </td>
     <td>

@@ -72,7 +72,8 @@ export function summaryCard(j) {
               )}
             </table>`
         : "";
-    extra = html`${block(s, s.aiding === "gnss" ? "SINS/GNSS internal coincidence (no LDV)" : "SINS/LDV internal coincidence")}${block(s.gnss_comparison, "SINS/GNSS")}`;
+    const main = s.aiding === "gnss" ? "SINS/GNSS internal coincidence (no LDV)" : "SINS/LDV internal coincidence";
+    extra = html`${block(s, main)}${block(s.gnss_comparison, "SINS/GNSS")}`;
   }
   return html`<div class="card" id="summary">
     <h3>Summary</h3>

@@ -189,3 +189,24 @@ def test_admin_import_without_project_lands_in_their_own_project(settings, recor
             headers=h,
         )
         assert missing.status_code == 404
+
+
+def test_import_without_ldv_through_the_api(client, recordings):
+    """KF-GINS IMU and GNSS only, the partial manifest still carrying a template's ldv section: a
+    bundle without ldv.csv is stored, the section left out with a warning; navigate applies, height not."""
+    _, files, partial = recordings
+    ins_gnss = {k: v for k, v in files.items() if k != "ldv.csv"}
+    r = client.post("/api/imports", files=_multipart(ins_gnss), data={"manifest": json.dumps(partial)})
+    assert r.status_code == 201, r.text
+    body = r.json()
+    assert body["ldv_kind"] == "none" and body["quality"]["ldv"] is None
+    assert any("ldv section was left out" in w for w in body["import"]["warnings"]), body["import"]
+    names = {f["name"] for f in client.get(f"/api/logs/{body['id']}").json()["files"]}
+    assert "ldv.csv" not in names and {"imu.csv", "gnss.nmea"} <= names
+    at = {p["name"]: p for p in client.get(f"/api/pipelines?log_id={body['id']}").json()}
+    assert at["navigate"]["applicable"] and at["dov"]["applicable"] and not at["height"]["applicable"]
+    # an IMU alone is refused, naming what is missing
+    r = client.post(
+        "/api/imports", files=_multipart({"imu.txt": files["imu.txt"]}), data={"manifest": json.dumps(partial)}
+    )
+    assert r.status_code == 422 and "GNSS or an LDV" in r.json()["error"]["message"], r.text

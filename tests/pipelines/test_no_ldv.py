@@ -137,18 +137,24 @@ def test_import_from_kfgins_without_ldv(rtk_drive, tmp_path):
 
 
 def test_tilt_of_a_rotating_imu_without_ldv(tmp_path):
-    """``tilt`` on a rotating IMU without an LDV: the base tilt from the turntable's still
+    """``ldv-survey run tilt`` on a rotating IMU without an LDV: the base tilt from the turntable's still
     rotations, the attitude (GNSS-aided) compensated; against the simulator's α, β and pitch."""
+    from ldvsurvey.io.csvtable import read_numeric_csv
+
     sc = catalog.height(minutes=12.0, length_m=3000.0, fix_schedule=[], with_ldv=False)
     sim = simulate(sc, seed=2)
-    log = parse_files(bundle_files(sim))
+    files = bundle_files(sim)
+    log = parse_files(files)
     assert log.ldv is None and log.imu.turntable_deg is not None
-    r = run_pipeline(get("tilt"), [log], {})
-    s = r.summary
+    write_bundle(files, tmp_path / "bundle")
+    assert main(["run", "tilt", str(tmp_path / "bundle"), "--out", str(tmp_path / "out")]) == 0  # the CLI
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert s["aiding"] == "gnss"
     assert abs(s["alpha_rad"] - sc.alpha_rad) < 2e-5 and abs(s["beta_rad"] - sc.beta_rad) < 2e-5
     assert s["pitch_oscillation_after_rad"] <= 0.2 * s["pitch_oscillation_before_rad"]
-    att = r.tables["attitude"]
+    att = read_numeric_csv(
+        tmp_path / "out" / "attitude.csv", "attitude.csv", ["t_s", "pitch_deg", "pitch_raw_deg"]
+    ).columns
     truth_p = np.degrees(np.interp(att["t_s"], sim.imu.t_s, np.arcsin(sim.imu.c_bn[:, 2, 1])))
     assert np.abs(att["pitch_deg"] - truth_p).max() < np.abs(att["pitch_raw_deg"] - truth_p).max() / 5
 

@@ -97,7 +97,7 @@ class LogSummary(Out):
     sha256: str = Field(description="SHA-256 of the bundle")
     project_id: int | None
     platform: str = Field(description="vehicle or vessel")
-    ldv_kind: str
+    ldv_kind: str = Field(description="1d, 2d, water, or none for a log without an LDV")
     imu_rotating: bool
     survey_date: str
     t_start_s: float = Field(description="first IMU epoch, s of day")
