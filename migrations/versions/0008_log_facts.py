@@ -1,6 +1,6 @@
 """logs keep the facts the pipelines' applicability checks need (sensors, repeated survey lines)
 
-Revision ID: 0007_log_facts
+Revision ID: 0008_log_facts
 Revises: 0006_log_blobs
 Create Date: 2026-11-26
 """
@@ -8,7 +8,7 @@ Create Date: 2026-11-26
 import sqlalchemy as sa
 from alembic import op
 
-revision = "0007_log_facts"
+revision = "0008_log_facts"
 down_revision = "0007_blob_chunks"
 branch_labels = None
 depends_on = None
