@@ -1,7 +1,7 @@
 """logs keep the facts the pipelines' applicability checks need (sensors, repeated survey lines)
 
 Revision ID: 0008_log_facts
-Revises: 0006_log_blobs
+Revises: 0007_blob_chunks
 Create Date: 2026-11-26
 """
 
