@@ -6,8 +6,9 @@ seed, every figure against the simulator's truth and beside its physical floor (
 ``tests/robustness/matrix.py`` for the truths and floors); then the issue-13 acceptance on the
 40-minute drive with every effect on, over several seeds; then the gravity and damping rows
 (``tests/robustness/matrix_gd.py``: a short repeated-line gravity drive and a short vessel run),
-which ``--only-gd`` rewrites alone (their own markers inside the section, ~1 min). The gravity
-section (written by benchmarks/bench_gravity.py) is left as it is.
+with every pair of the gravity effects, which ``--only-gd`` rewrites alone (their own markers
+inside the section, ~5 min). The gravity section (written by benchmarks/bench_gravity.py) is left
+as it is.
 
 Run: PYTHONPATH=backend .venv/bin/python scripts/accuracy_table.py [--minutes 6,10] [--seeds 1,2,3]
      [--no-acceptance] [--only-gd] [--out docs/accuracy.md]

@@ -177,3 +177,28 @@ def test_stop_tie_sigma_is_the_scatter_of_drift_free_ties():
     assert b is not None and rep["method"] == "repeated stops" and rep["no_drift_p_value"] < 1e-3, rep
     last = rep["stops"][-1]
     assert last["drift_mgal"] == pytest.approx(3.0 * (c[-1] - c[0]) / t[-1], abs=3 * last["drift_sigma_mgal"]), last
+
+
+def test_bridge_cost_is_the_filtered_impulse():
+    """The σ a bridge leaves in the filtered δg against the FIR itself: a velocity error A (m/s)
+    over one interval is an impulse A/Δt in δg; the pipeline's filter (zero_phase_lowpass, with its
+    normalisation) applied to it must give, at every time, |filtered| = the predicted σ for σ = A,
+    and two independent bridges add in variance."""
+    from ldvsurvey.nav.earth import MGAL
+    from ldvsurvey.nav.gravity import zero_phase_lowpass
+    from ldvsurvey.pipelines.gravity_report import imu_bridge_sigma_mgal
+
+    fs, fir, n = 10.0, 100.0, 20000
+    t = np.arange(n) / fs
+    a1, a2, i1, i2 = 3e-3, 2e-3, 8000, 8600
+    x = np.zeros(n)
+    x[i1] = a1 * fs
+    y1 = zero_phase_lowpass(x, fir, fs)
+    x[:] = 0.0
+    x[i2] = a2 * fs
+    y2 = zero_phase_lowpass(x, fir, fs)
+    ch = {"fs": fs, "imu_bridges": [(t[i1], 0.03, a1), (t[i2], 0.02, a2)]}
+    got = imu_bridge_sigma_mgal(ch, fir, t[5000:12000])
+    want = np.sqrt(y1[5000:12000] ** 2 + y2[5000:12000] ** 2) / MGAL
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-9)
+    assert got.max() > 1.0  # a 3 mm/s bridge error is ~1 mGal at its peak through a 100-s FIR

@@ -86,12 +86,12 @@ def with_imu_bridges(floor: dict, res) -> dict:
     """The floor with the lost IMU rows' term: ``imu_bridge_mgal`` the RMS over the lines of their
     cost (the coincidence's expected square is the lines' mean variance), added in quadrature to
     ``combined_mgal`` (the white floor and the drift term, where present)."""
-    costs = [p[7].get("imu_bridge_cost_mgal") for p in res["per_line"] if len(p[3])]
-    costs = [c for c in costs if c is not None]
-    if not costs:
+    used = [p[7] for p in res["per_line"] if len(p[3]) and "imu_bridge_cost_mgal" in p[7]]
+    if not used:
         return floor
+    costs = [p["imu_bridge_cost_mgal"] for p in used]
     out = dict(floor)
-    known = [c for c in costs if np.isfinite(c)]
+    known = [c for c in costs if c is not None]
     term = float(np.sqrt(np.mean(np.square(known)))) if known else None
     out["imu_bridge_mgal"] = term
     out["imu_bridge_source"] = (
@@ -183,7 +183,9 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
         if "imu_bridges" in ch:  # IMU rows lost on the line, bridged by prediction, and their cost
             info["imu_bridged_s"] = float(sum(d for tg, d, _ in ch["imu_bridges"] if a <= tg <= b))
             sig = imu_bridge_sigma_mgal(ch, fir_s, ch["t_s"][k]) if len(k) else np.zeros(0)
-            info["imu_bridge_cost_mgal"] = float(np.sqrt(np.mean(sig**2))) if len(sig) else None
+            cost = float(np.sqrt(np.mean(sig**2))) if len(sig) else None
+            # None where a bridge next to the line has no measured σ (too little clean data around it)
+            info["imu_bridge_cost_mgal"] = cost if cost is None or np.isfinite(cost) else None
         if len(k) < 10:
             if strict:
                 raise ParameterError(
