@@ -497,7 +497,8 @@ def _imu(log: _Log, opts: dict, notes: list) -> ImuPart:
         raise BundleError("fewer than two sensor samples", file=file, field=what)
     dt_s = np.diff(t)
     dt_s = np.concatenate(([np.median(dt_s)], dt_s))
-    rate_hz = 1.0 / float(np.median(np.diff(t)))
+    d = np.diff(t)
+    rate_hz = 1.0 / float(np.mean(d[d < 1.5 * np.median(d)]))  # mean interval: the tags step by whole ticks
     notes.append(
         f"{file}: {what} time base: tag rate {rep['tag_rate_hz']:.1f} ticks/s "
         f"(±{rep['tag_rate_3sigma_rel'] * 100:.2f} %, 3σ) and offset from {rep['anchors']} {rep['source']} epochs "
