@@ -182,7 +182,13 @@ class _Log:
         self.weeks: list[tuple[int, int]] = []  # (iTOW ms, week) stated by NAV-TIMEGPS, NAV-SOL, NAV-PVT date
         self.repeats = 0
         self.polls = 0
+        seen: set[bytes] = set()
         for n, raw, msg in _frames(data, file, self.errors):
+            key = bytes(raw)
+            if key in seen:  # the same frame again (logged twice, several ports): time tags never repeat
+                self.repeats += 1
+                continue
+            seen.add(key)
             try:
                 self._take(n, raw, msg)
             except BundleError:
@@ -446,6 +452,8 @@ def read(data: bytes, file: str, role: str, opts: dict):
         raise BundleError(f"the ubx format has no '{role}' data (it has: imu, gnss)", file=file)
     log = _Log(data, file)
     notes = []
+    if log.repeats:
+        notes.append(f"{file}: {log.repeats} UBX frame(s) identical to an earlier one dropped as repeats")
     if log.errors:
         notes.append(f"{file}: {len(log.errors)} UBX frame(s) with a bad checksum or length skipped ({log.errors[0]})")
     if role == "gnss":
