@@ -47,7 +47,7 @@ function hms(t) {
   return `${p(s / 3600)}:${p((s % 3600) / 60)}:${p(s % 60)} UTC${day ? ` (+${day} d)` : ""}`;
 }
 
-function checks(c) {
+export function checks(c) {
   if (!c) return "";
   const g = c.static_gravity || {},
     o = c.overlap,

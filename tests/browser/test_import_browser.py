@@ -61,6 +61,9 @@ def test_drop_foreign_files_preview_then_confirm(server, page, recordings):
     assert len(logs) == 1
     names = {f["name"] for f in httpx.get(f"{server}/api/logs/{logs[0]['id']}").json()["files"]}
     assert {"original-imu.txt", "original-gnss.txt", "imu.csv", "gnss.nmea"} <= names
+    page.goto(f"{server}/#/logs/{logs[0]['id']}")  # the log page keeps the import's checks
+    page.wait_for_selector("#import-checks", timeout=30000)
+    assert "normal gravity" in page.inner_text("#import-checks")
 
 
 def test_drop_unrecognised_file_shows_the_file(server, page):
