@@ -308,3 +308,17 @@ def test_repeated_frames_are_dropped(sim):
     assert any("30 UBX frame(s) identical" in n for n in b.notes)
     g = ubx.read(b"".join(doubled), "rx.ubx", "gnss", {})
     assert len(g.lat_deg) == len(ubx.read(data, "rx.ubx", "gnss", {}).lat_deg)
+
+
+def test_samples_far_from_the_gnss_epochs_are_refused(sim):
+    """NAV-PVT only in the first 5 s of a 2-min log: the clock rate, known to ~0.3 % from them, would misplace
+    the last samples by ~0.3 s; refused rather than extrapolated."""
+    data = receiver_stream(sim, dt.date.fromisoformat(sim.scenario.date))
+    frames = _split(data)
+    pvt = [i for i, fr in enumerate(frames) if fr[2:4] == b"\x01\x07"]
+    kept = [fr for i, fr in enumerate(frames) if fr[2:4] != b"\x01\x07" or i in pvt[:5]]
+    with pytest.raises(BundleError) as e:
+        get_importer("ubx").read(b"".join(kept), "rx.ubx", "imu", {})
+    assert "would be off by up to" in e.value.message and e.value.field == "ESF-RAW sTag"
+    part = get_importer("ubx").read(data, "rx.ubx", "imu", {})
+    assert part.report["time_base"]["time_3sigma_at_ends_s"] < 0.01

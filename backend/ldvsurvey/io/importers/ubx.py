@@ -57,6 +57,7 @@ EPOCH_SOURCES = ("NAV-PVT", "NAV-TIMEGPS", "NAV-SOL", "NAV-HPPOSLLH", "NAV-POSLL
 #: position messages, in order of preference
 POSITION_SOURCES = ("NAV-HPPOSLLH", "NAV-PVT", "NAV-SOL", "NAV-POSLLH", "HNR-PVT")
 MAX_RATE_UNCERTAINTY = 0.01  #: 3σ of the fitted tag rate, relative
+MAX_EXTRAPOLATION_S = 0.1  #: 3σ time error the rate's uncertainty may cause at the recording's ends
 JOIN_MAX_S = 0.020  #: ESF-MEAS accelerometer/gyro join tolerance (also at most a quarter sample interval)
 _IDS = {
     b"\x10\x03": "ESF-RAW",
@@ -419,6 +420,7 @@ def fit_clock(
         "tag_rate_hz": float(rate),
         "tag_rate_3sigma_rel": float(3.0 * u_rate),
         "offset_uncertainty_ms": round(float(max(half, 3 * np.sqrt(np.mean(resid**2)))) / rate * 1000, 2),
+        "anchor_mid_s": t0 + float(x.mean()),  # where the fitted line is known best
     }
     return float(rate), float(c), t0, report
 
@@ -441,6 +443,19 @@ def _clock(log: _Log, msgs: np.ndarray, tags: np.ndarray, what: str, opts: dict)
     rate, c, t0, rep = fit_clock(msgs, tags, epochs, log.file, what)
     t = t0 + (tags - c) / rate + float(opts.get("time_offset_s", 0.0))
     rep["week_known"] = week_known
+    # the rate's uncertainty grows into a time error away from the anchors: samples far outside the GNSS
+    # epochs that tie the clock are placed no better than this
+    reach = float(np.max(np.abs(t - rep.pop("anchor_mid_s"))))
+    err = rep["tag_rate_3sigma_rel"] * reach
+    rep["time_3sigma_at_ends_s"] = round(err, 4)
+    if err > MAX_EXTRAPOLATION_S:
+        raise BundleError(
+            f"the {what} samples reach {reach:.0f} s from the middle of the {rep['anchors']} {rep['source']} epochs "
+            f"that tie their clock to GPS time: with the tag rate known to ±{rep['tag_rate_3sigma_rel'] * 100:.2f} % "
+            f"(3σ) their times would be off by up to {err:.2f} s; log NAV-PVT over the whole recording",
+            file=log.file,
+            field=what,
+        )
     return t, rep
 
 
