@@ -7,11 +7,12 @@ import { onNonBundleFiles } from "./upload.js";
 
 const num = (x, d) => (x === null || x === undefined ? "–" : Number(x).toFixed(d));
 
-function formData(files, manifestText, projectId) {
+function formData(files, manifestText, projectId, axes) {
   const fd = new FormData();
   files.forEach((f) => fd.append("files", f, f.name));
   if (manifestText && manifestText.trim()) fd.append("manifest", manifestText);
   if (projectId) fd.append("project_id", projectId);
+  if (axes) fd.append("axes", axes);
   return fd;
 }
 
@@ -47,7 +48,7 @@ function hms(t) {
   return `${p(s / 3600)}:${p((s % 3600) / 60)}:${p(s % 60)} UTC${day ? ` (+${day} d)` : ""}`;
 }
 
-function checks(c) {
+export function checks(c) {
   if (!c) return "";
   const g = c.static_gravity || {},
     o = c.overlap,
@@ -131,7 +132,24 @@ export async function importFlow(files, { projectId, message, done }) {
   const recordings = files.filter((f) => f !== jsonFile);
   const manifestText = jsonFile ? await jsonFile.text() : "";
   message(html`Recognising the recordings…`);
-  const pv = await post("/api/imports/preview", formData(recordings, manifestText));
+  let axes = "";
+  let pv = await post("/api/imports/preview", formData(recordings, manifestText));
+  // a recording without a fixed sensor frame (u-blox): ask for the axes the refusal talks about, then retry
+  while (!pv.ok && ((pv.body || {}).error || {}).field === "axes") {
+    message(
+      html`${refused(pv.status, pv.body)}
+        <p id="axes-ask">
+          IMU sensor axes (where x, y, z point: F/B, R/L, U/D):
+          <input id="axes-input" size="4" placeholder="FLU" value="${axes}" />
+          <button id="axes-retry">Preview with these axes</button>
+        </p>`,
+    );
+    axes = await new Promise((resolve) =>
+      $("#axes-retry").addEventListener("click", () => resolve($("#axes-input").value.trim())),
+    );
+    message(html`Recognising the recordings…`);
+    pv = await post("/api/imports/preview", formData(recordings, manifestText, null, axes));
+  }
   if (!pv.ok) {
     message(refused(pv.status, pv.body));
     return;
@@ -141,7 +159,7 @@ export async function importFlow(files, { projectId, message, done }) {
   $("#import-cancel").addEventListener("click", () => message(""));
   $("#import-confirm").addEventListener("click", async () => {
     $("#import-confirm").disabled = true;
-    const res = await post("/api/imports", formData(recordings, manifestText, projectId));
+    const res = await post("/api/imports", formData(recordings, manifestText, projectId, axes));
     if (!res.ok) {
       message(refused(res.status, res.body));
       return;

@@ -3,6 +3,10 @@ import { api, names } from "./api.js";
 import { html, render, $, $$ } from "./html.js";
 import { fixed, num } from "./format.js";
 import { draw } from "./plots.js";
+import { checks } from "./import.js";
+
+// the import's cross-checks, kept in the manifest of an imported bundle
+const importChecks = (prov) => (prov && prov.checks ? checks(prov.checks) : "");
 
 const stream = (name, s, notes) =>
   html`<tr>
@@ -60,6 +64,7 @@ export async function logPage(ctx, app, id) {
           }
         </table>
         ${(q.warnings || []).map((w) => html`<p class="badge warn">${w}</p>`)}
+        ${importChecks(((log.manifest || {}).import || {}).provenance)}
         ${g ? html`<div id="fixplot" class="plot short"></div>` : ""}
       </div>
       <div class="card">

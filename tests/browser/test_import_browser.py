@@ -61,6 +61,9 @@ def test_drop_foreign_files_preview_then_confirm(server, page, recordings):
     assert len(logs) == 1
     names = {f["name"] for f in httpx.get(f"{server}/api/logs/{logs[0]['id']}").json()["files"]}
     assert {"original-imu.txt", "original-gnss.txt", "imu.csv", "gnss.nmea"} <= names
+    page.goto(f"{server}/#/logs/{logs[0]['id']}")  # the log page keeps the import's checks
+    page.wait_for_selector("#import-checks", timeout=30000)
+    assert "normal gravity" in page.inner_text("#import-checks")
 
 
 def test_drop_unrecognised_file_shows_the_file(server, page):
@@ -69,3 +72,25 @@ def test_drop_unrecognised_file_shows_the_file(server, page):
     drop_files(page, {"notes.bin": b"\x00\x01\x02 not a recording"})
     page.wait_for_selector("#upload-error", timeout=30000)
     assert "notes.bin" in page.inner_text("#upload-error")
+
+
+def test_ubx_without_axes_asks_for_them(server, page):
+    """A u-blox recording has no default sensor frame: the refusal names the axis carrying gravity and the
+    page asks for the axes, then previews with them."""
+    from pathlib import Path
+
+    ex = Path(__file__).resolve().parents[2] / "docs" / "examples"
+    page.goto(server + "/#/logs")
+    page.wait_for_selector("#drop")
+    files = {
+        "receiver.ubx": (ex / "ubx" / "receiver.ubx").read_bytes(),
+        "ldv.csv": (ex / "ldv.csv").read_bytes(),
+        "partial.json": (ex / "partial.json").read_bytes(),
+    }
+    drop_files(page, files)
+    page.wait_for_selector("#axes-input", timeout=60000)
+    assert "-z axis" in page.inner_text("#upload-error")
+    page.fill("#axes-input", "FRD")
+    page.click("#axes-retry")
+    page.wait_for_selector("#import-preview", timeout=60000)
+    assert "FRD" in page.inner_text("#import-rates") and "ESF-RAW time base" in page.inner_text("#import-checks")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime as dt
 import hashlib
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -210,3 +211,17 @@ def test_import_without_ldv_through_the_api(client, recordings):
         "/api/imports", files=_multipart({"imu.txt": files["imu.txt"]}), data={"manifest": json.dumps(partial)}
     )
     assert r.status_code == 422 and "GNSS or an LDV" in r.json()["error"]["message"], r.text
+
+
+def test_axes_form_field_for_a_ubx_recording(client):
+    """u-blox has no default sensor frame: without axes the preview is a 422 naming them and the axis that
+    carries gravity; the form field `axes` gives them for any format."""
+    ex = Path(__file__).resolve().parents[2] / "docs" / "examples"
+    files = {"receiver.ubx": (ex / "ubx" / "receiver.ubx").read_bytes(), "ldv.csv": (ex / "ldv.csv").read_bytes()}
+    data = {"manifest": (ex / "partial.json").read_text(), "formats": json.dumps({"receiver.ubx": "ubx:imu"})}
+    r = client.post("/api/imports/preview", files=_multipart(files), data=data)
+    err = r.json()["error"]
+    assert r.status_code == 422 and err["field"] == "axes" and "-z axis" in err["message"]
+    r = client.post("/api/imports/preview", files=_multipart(files), data={**data, "axes": "FRD"})
+    assert r.status_code == 200, r.text
+    assert r.json()["imu_axes"] == "FRD" and r.json()["checks"]["imu_source"]["time_base"]["message"] == "ESF-RAW"

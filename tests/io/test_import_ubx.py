@@ -264,3 +264,61 @@ def test_esf_meas_accel_and_gyro_messages_joined(sim):
     assert np.max(err) <= 0.5 * ACC_LSB * dt_s * 1.01 + f_max * 1.001e-3
     drift = np.abs(np.cumsum(part.dvel_mps[1:] - rfu_to_frd(sim.dvel_mps)[1:], axis=0)).max()
     assert drift <= f_max * 2e-3 + len(t) * 0.5 * ACC_LSB * dt_s
+
+
+def test_hpposllh_preferred_over_nav_pvt(sim):
+    """A receiver logging NAV-HPPOSLLH (1e-9 deg, 0.1 mm) beside NAV-PVT (1e-7 deg, mm): the high-precision
+    positions are imported, with NAV-PVT's fix type of the same epoch."""
+    day = dt.date.fromisoformat(sim.scenario.date)
+    _, s0 = sow_of_midnight(day)
+    itow = np.round((sim.gnss_t_s + s0) * 1000).astype(np.int64)
+    out = bytearray()
+    for k, fr in nav_pvt_frames(sim, day, itow, timed=True):
+        lat, lon, h = float(sim.gnss_lat_deg[k]), float(sim.gnss_lon_deg[k]), float(sim.gnss_h_m[k])
+        la, lo = round(lat * 1e7), round(lon * 1e7)
+        lahp, lohp = round((lat * 1e7 - la) * 100), round((lon * 1e7 - lo) * 100)
+        hmm = math.floor(h * 1000)
+        hhp = round((h * 1000 - hmm) * 10)
+        if hhp == 10:
+            hmm, hhp = hmm + 1, 0
+        payload = struct.pack(
+            "<BBBBIiiiibbbbII", 0, 0, 0, 0, int(itow[k]), lo, la, hmm, hmm, lohp, lahp, hhp, hhp, 20, 30
+        )
+        out += fr + UBXMessage(b"\x01", b"\x14", GET, payload=payload).serialize()
+    g = get_importer("ubx").read(bytes(out), "hp.ubx", "gnss", {})
+    ok = sim.gnss_fix > 0
+    np.testing.assert_allclose(g.lat_deg, sim.gnss_lat_deg[ok], atol=0.51e-9)
+    np.testing.assert_allclose(g.lon_deg, sim.gnss_lon_deg[ok], atol=0.51e-9)
+    np.testing.assert_allclose(g.h_ell_m, sim.gnss_h_m[ok], atol=0.051e-3)
+    np.testing.assert_array_equal(g.fix, sim.gnss_fix[ok])
+    assert any("NAV-PVT in the file left out" in n for n in g.notes)
+
+
+def test_repeated_frames_are_dropped(sim):
+    """The same ESF-RAW and NAV-PVT frames again later in the stream (a log fed from two ports): dropped as
+    repeats, counted, the rest imported as without them. Before, the repeated tags went 'backwards'."""
+    data = receiver_stream(sim, dt.date.fromisoformat(sim.scenario.date))
+    frames = _split(data)
+    doubled = frames[:300] + frames[100:130] + frames[300:]
+    ubx = get_importer("ubx")
+    a = ubx.read(data, "rx.ubx", "imu", {})
+    b = ubx.read(b"".join(doubled), "rx.ubx", "imu", {})
+    np.testing.assert_array_equal(a.stamps.values, b.stamps.values)
+    np.testing.assert_array_equal(a.dvel_mps, b.dvel_mps)
+    assert any("30 UBX frame(s) identical" in n for n in b.notes)
+    g = ubx.read(b"".join(doubled), "rx.ubx", "gnss", {})
+    assert len(g.lat_deg) == len(ubx.read(data, "rx.ubx", "gnss", {}).lat_deg)
+
+
+def test_samples_far_from_the_gnss_epochs_are_refused(sim):
+    """NAV-PVT only in the first 5 s of a 2-min log: the clock rate, known to ~0.3 % from them, would misplace
+    the last samples by ~0.3 s; refused rather than extrapolated."""
+    data = receiver_stream(sim, dt.date.fromisoformat(sim.scenario.date))
+    frames = _split(data)
+    pvt = [i for i, fr in enumerate(frames) if fr[2:4] == b"\x01\x07"]
+    kept = [fr for i, fr in enumerate(frames) if fr[2:4] != b"\x01\x07" or i in pvt[:5]]
+    with pytest.raises(BundleError) as e:
+        get_importer("ubx").read(b"".join(kept), "rx.ubx", "imu", {})
+    assert "would be off by up to" in e.value.message and e.value.field == "ESF-RAW sTag"
+    part = get_importer("ubx").read(data, "rx.ubx", "imu", {})
+    assert part.report["time_base"]["time_3sigma_at_ends_s"] < 0.01

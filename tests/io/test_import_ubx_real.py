@@ -326,3 +326,30 @@ def test_m8u_esf_raw_only_is_not_silently_wrong(m8u):
     # ~10 m/s² at rest (the sensor's own 10.03), not 25.6x that; single samples scatter with the sensor's
     # noise and the tags' one-tick (0.4 %) resolution
     assert np.median(f) == pytest.approx(10.03, rel=0.01) and f.max() < 12.0
+
+
+def test_m8l_driving_start_is_refused_with_the_reason_then_imports():
+    """The M8L log starts while driving: the static check must say so (not suggest the same axes again);
+    allowed a larger tilt it imports with the ESF-MEAS rate and the report's figures."""
+    if not M8L.is_file():
+        pytest.skip("real u-blox fixtures not present")
+    data = M8L.read_bytes()
+    msgs = decode(M8L)
+    pvt = [m for _, m in msgs if m is not None and m.identity == "NAV-PVT"]
+    t0 = tod_s(pvt[0])
+    sources = [
+        Source("imu", "ubx", "m8l.ubx", data),
+        Source("gnss", "ubx", "m8l.ubx", data),
+        Source("ldv", "native", "ldv.csv", ldv_csv(t0 - 2.0, t0 + 20.0)),
+    ]
+    manifest = {"ldv": {"kind": "1d"}, "initial": {"static_s": 2.0}, "import": {"imu": {"axes": "FLU"}}}
+    with pytest.raises(BundleError) as e:
+        build_bundle(sources, manifest)
+    assert e.value.field == "axes" and "not at rest" in e.value.message
+    manifest["import"]["imu"]["max_static_tilt_deg"] = 15.0
+    res = build_bundle(sources, manifest)
+    ck = res.summary["checks"]
+    assert ck["imu_source"]["time_base"]["message"] == "ESF-MEAS"
+    assert ck["imu_rate"]["measured_hz"] == pytest.approx(11.1, abs=0.1)
+    assert ck["overlap"]["share"] > 0.9
+    assert res.summary["date"] == "2024-01-30"

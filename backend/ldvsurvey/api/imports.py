@@ -47,6 +47,17 @@ def _hints(formats: str | None) -> dict[str, tuple[str, str | None]]:
     return out
 
 
+def _with_axes(partial: dict, axes: str | None) -> dict:
+    """The form field ``axes`` (the IMU's sensor axes, any format) over the manifest's import.imu.axes."""
+    if not axes:
+        return partial
+    imp = partial.setdefault("import", {})
+    if not isinstance(imp, dict) or not isinstance(imp.setdefault("imu", {}), dict):
+        raise BundleError("must be an object", file="manifest", field="import.imu")
+    imp["imu"]["axes"] = axes
+    return partial
+
+
 def _read_parts(files: list[UploadFile], manifest: str | None, formats: str | None):
     """(sources, partial manifest, originals) from the multipart fields."""
     if not files:
@@ -87,12 +98,14 @@ def preview_import(
     files: list[UploadFile] = File(...),
     manifest: str | None = Form(None),
     formats: str | None = Form(None),
+    axes: str | None = Form(None),
     *,
     who: CurrentUser,
     st: SettingsDep,
 ) -> m.ImportPreview:
     check_upload_rate(request, who, st)  # a preview converts everything: it counts as an upload
     sources, partial, _ = _read_parts(files, manifest, formats)
+    partial = _with_axes(partial, axes)
     result = build_bundle(sources, partial)
     s = result.summary
     return {
@@ -115,6 +128,7 @@ def create_import(
     files: list[UploadFile] = File(...),
     manifest: str | None = Form(None),
     formats: str | None = Form(None),
+    axes: str | None = Form(None),
     project_id: int | None = Form(None, ge=1, le=2**31 - 1),
     *,
     session: SessionDep,
@@ -131,6 +145,7 @@ def create_import(
     check_upload_rate(request, who, st)
     project_id = target_project(session, who, project_id)
     sources, partial, originals = _read_parts(files, manifest, formats)
+    partial = _with_axes(partial, axes)
     result = build_bundle(sources, partial)
     log = parse_files(result.files)
     quality = quality_report(log)

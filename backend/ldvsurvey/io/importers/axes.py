@@ -135,6 +135,16 @@ def check_static_up(
     if sign < 0:
         hint = f" (the sensor's {axis} axis points down where it was declared {_NAMES[(i, s)]})"
     fits = fitting_codes(code, j, sign)
+    if now == "up":  # the declared up axis is the right one: not at rest, or mounted tilted
+        raise BundleError(
+            f"in the first {static_s:.0f} s the specific force points {tilt:.1f}° away from body up "
+            f"(limit {max_tilt_deg:.1f}°) with axes '{code}', although gravity's reaction lies on the sensor's "
+            f"{'+' if sign > 0 else '-'}{axis} axis, which this convention puts up: the first seconds were not at "
+            "rest or the unit is mounted tilted; give initial.static_s for a stretch at rest or raise "
+            "import.imu.max_static_tilt_deg",
+            file=file,
+            field="axes",
+        )
     raise BundleError(
         f"in the first {static_s:.0f} s the specific force points {tilt:.1f}° away from body up "
         f"(limit {max_tilt_deg:.1f}°) with axes '{code}': gravity's reaction lies on the sensor's "

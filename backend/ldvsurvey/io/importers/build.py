@@ -358,6 +358,7 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
     }
     if how:
         prov["gnss_heights"] = how
+    prov["checks"] = _jsonable(checks)  # kept with the bundle: the log page shows them
     m.setdefault("import", {})
     if isinstance(m["import"], dict):
         m["import"]["provenance"] = prov

@@ -57,6 +57,7 @@ EPOCH_SOURCES = ("NAV-PVT", "NAV-TIMEGPS", "NAV-SOL", "NAV-HPPOSLLH", "NAV-POSLL
 #: position messages, in order of preference
 POSITION_SOURCES = ("NAV-HPPOSLLH", "NAV-PVT", "NAV-SOL", "NAV-POSLLH", "HNR-PVT")
 MAX_RATE_UNCERTAINTY = 0.01  #: 3σ of the fitted tag rate, relative
+MAX_EXTRAPOLATION_S = 0.1  #: 3σ time error the rate's uncertainty may cause at the recording's ends
 JOIN_MAX_S = 0.020  #: ESF-MEAS accelerometer/gyro join tolerance (also at most a quarter sample interval)
 _IDS = {
     b"\x10\x03": "ESF-RAW",
@@ -95,28 +96,66 @@ def _signed24(v: int) -> int:
     return v - (1 << 24) if v & 0x800000 else v
 
 
+class _Esf:
+    """Stand-in for a parsed ESF message: ESF payloads are read here from the bytes (much faster)."""
+
+    def __init__(self, identity: str):
+        self.identity = identity
+
+
+#: messages decoded with pyubx2; every other frame is only counted
+_PARSED = {b"\x01\x07", b"\x01\x14", b"\x01\x02", b"\x01\x06", b"\x01\x03", b"\x01\x20", b"\x28\x00"}
+_ESF = {b"\x10\x03": "ESF-RAW", b"\x10\x02": "ESF-MEAS"}
+
+
+def _checksum_ok(raw: bytes) -> bool:
+    """The UBX 8-bit Fletcher checksum over class, id, length and payload."""
+    b = np.frombuffer(raw, dtype=np.uint8)[2:-2].astype(np.int64)
+    ck_a = int(b.sum()) & 0xFF
+    ck_b = int((b * np.arange(len(b), 0, -1)).sum()) & 0xFF
+    return ck_a == raw[-2] and ck_b == raw[-1]
+
+
 def _frames(data: bytes, file: str, errors: list):
-    """(message number, raw frame, parsed message) of every UBX frame with a good checksum."""
+    """(message number, raw frame, message) of the UBX frames the importer reads, with a good checksum.
+
+    Frames are counted from 1 in stream order (every UBX frame, read or not, good or bad), as error
+    messages name them.
+    """
     try:
         from pyubx2 import UBX_PROTOCOL, UBXReader
     except ImportError:  # pragma: no cover
         raise BundleError("the pyubx2 package is not installed", file=file) from None
-    reader = UBXReader(io.BytesIO(data), protfilter=UBX_PROTOCOL, quitonerror=1, errorhandler=errors.append)
+    reader = UBXReader(io.BytesIO(data), protfilter=UBX_PROTOCOL, quitonerror=1, parsing=0, errorhandler=errors.append)
     n = 0
     while True:
         try:
-            raw, msg = reader.read()
-        except Exception as exc:  # the library's own parse errors on a frame whose checksum passed
+            raw, _ = reader.read()
+        except Exception as exc:  # the library's framing errors
             raise BundleError(
-                f"UBX frame after message {n} cannot be decoded ({type(exc).__name__}: {exc})",
+                f"UBX frame after message {n} cannot be framed ({type(exc).__name__}: {exc})",
                 file=file,
                 field=f"message {n + 1}",
             ) from None
         if raw is None:
             return
         n += 1
-        if msg is not None:
-            yield n, raw, msg
+        key = bytes(raw[2:4])
+        if key not in _ESF and key not in _PARSED:
+            continue
+        if len(raw) < 8 or not _checksum_ok(raw):
+            errors.append(f"message {n}: bad checksum")
+            continue
+        if key in _ESF:
+            yield n, raw, _Esf(_ESF[key])
+            continue
+        try:
+            msg = UBXReader.parse(raw)
+        except Exception as exc:  # the library's own parse errors on a frame whose checksum passed
+            raise BundleError(
+                f"UBX message cannot be decoded ({type(exc).__name__}: {exc})", file=file, field=f"message {n}"
+            ) from None
+        yield n, raw, msg
 
 
 def _week_of_date(msg) -> tuple[int, float] | None:
@@ -144,7 +183,13 @@ class _Log:
         self.weeks: list[tuple[int, int]] = []  # (iTOW ms, week) stated by NAV-TIMEGPS, NAV-SOL, NAV-PVT date
         self.repeats = 0
         self.polls = 0
+        seen: set[bytes] = set()
         for n, raw, msg in _frames(data, file, self.errors):
+            key = bytes(raw)
+            if key in seen:  # the same frame again (logged twice, several ports): time tags never repeat
+                self.repeats += 1
+                continue
+            seen.add(key)
             try:
                 self._take(n, raw, msg)
             except BundleError:
@@ -375,6 +420,7 @@ def fit_clock(
         "tag_rate_hz": float(rate),
         "tag_rate_3sigma_rel": float(3.0 * u_rate),
         "offset_uncertainty_ms": round(float(max(half, 3 * np.sqrt(np.mean(resid**2)))) / rate * 1000, 2),
+        "anchor_mid_s": t0 + float(x.mean()),  # where the fitted line is known best
     }
     return float(rate), float(c), t0, report
 
@@ -397,6 +443,19 @@ def _clock(log: _Log, msgs: np.ndarray, tags: np.ndarray, what: str, opts: dict)
     rate, c, t0, rep = fit_clock(msgs, tags, epochs, log.file, what)
     t = t0 + (tags - c) / rate + float(opts.get("time_offset_s", 0.0))
     rep["week_known"] = week_known
+    # the rate's uncertainty grows into a time error away from the anchors: samples far outside the GNSS
+    # epochs that tie the clock are placed no better than this
+    reach = float(np.max(np.abs(t - rep.pop("anchor_mid_s"))))
+    err = rep["tag_rate_3sigma_rel"] * reach
+    rep["time_3sigma_at_ends_s"] = round(err, 4)
+    if err > MAX_EXTRAPOLATION_S:
+        raise BundleError(
+            f"the {what} samples reach {reach:.0f} s from the middle of the {rep['anchors']} {rep['source']} epochs "
+            f"that tie their clock to GPS time: with the tag rate known to ±{rep['tag_rate_3sigma_rel'] * 100:.2f} % "
+            f"(3σ) their times would be off by up to {err:.2f} s; log NAV-PVT over the whole recording",
+            file=log.file,
+            field=what,
+        )
     return t, rep
 
 
@@ -408,6 +467,8 @@ def read(data: bytes, file: str, role: str, opts: dict):
         raise BundleError(f"the ubx format has no '{role}' data (it has: imu, gnss)", file=file)
     log = _Log(data, file)
     notes = []
+    if log.repeats:
+        notes.append(f"{file}: {log.repeats} UBX frame(s) identical to an earlier one dropped as repeats")
     if log.errors:
         notes.append(f"{file}: {len(log.errors)} UBX frame(s) with a bad checksum or length skipped ({log.errors[0]})")
     if role == "gnss":
@@ -459,7 +520,8 @@ def _imu(log: _Log, opts: dict, notes: list) -> ImuPart:
         raise BundleError("fewer than two sensor samples", file=file, field=what)
     dt_s = np.diff(t)
     dt_s = np.concatenate(([np.median(dt_s)], dt_s))
-    rate_hz = 1.0 / float(np.median(np.diff(t)))
+    d = np.diff(t)
+    rate_hz = 1.0 / float(np.mean(d[d < 1.5 * np.median(d)]))  # mean interval: the tags step by whole ticks
     notes.append(
         f"{file}: {what} time base: tag rate {rep['tag_rate_hz']:.1f} ticks/s "
         f"(±{rep['tag_rate_3sigma_rel'] * 100:.2f} %, 3σ) and offset from {rep['anchors']} {rep['source']} epochs "
