@@ -104,3 +104,51 @@ def test_serve_believes_the_header_from_a_configured_proxy(tmp_path):
         assert other.status_code == 200, other.text
     finally:
         _stop(proc)
+
+
+def _app(settings, trusted: str):
+    from ldvsurvey.api.app import create_app
+
+    return create_app(
+        settings.model_copy(
+            update={
+                "auth_enabled": True,
+                "login_failures_per_client": PER_CLIENT,
+                "login_failures_per_account": 100,
+                "trusted_proxies": trusted,
+                "run_consumer": False,
+            }
+        )
+    )
+
+
+def _as_rewritten(c, k: int, ip: str) -> int:
+    """A failed login as a server in front delivers it after replacing the peer from the header:
+    the peer is the header's hop (uvicorn gives it port 0)."""
+    return c.post(
+        "/api/login", json={"username": f"n{k}", "password": "x"}, headers={"X-Forwarded-For": ip}
+    ).status_code
+
+
+def test_a_peer_rewritten_by_the_server_is_not_believed_without_a_trusted_proxy(settings):
+    from fastapi.testclient import TestClient
+
+    app = _app(settings, "")
+    codes = []
+    for k in range(PER_CLIENT + 2):  # each attempt from a new forged address, as uvicorn would hand it over
+        ip = f"203.0.113.{k + 1}"
+        codes.append(_as_rewritten(TestClient(app, client=(ip, 0)), k, ip))
+    assert codes == [401] * PER_CLIENT + [429, 429], codes
+    c = TestClient(app, client=("198.51.100.5", 51000))  # a real peer without a header: its own count
+    assert c.post("/api/login", json={"username": "m", "password": "x"}).status_code == 401
+
+
+def test_a_peer_rewritten_by_the_rule_of_the_trusted_proxies_keeps_its_own_count(settings):
+    """The server in front applied the same rule (given the same proxies): each client its own count."""
+    from fastapi.testclient import TestClient
+
+    app = _app(settings, "127.0.0.1")
+    c = TestClient(app, client=("203.0.113.7", 0))  # (no lifespan: no job consumer needed)
+    codes = [_as_rewritten(c, k, "203.0.113.7, 127.0.0.1") for k in range(PER_CLIENT + 1)]
+    assert codes == [401] * PER_CLIENT + [429], codes
+    assert _as_rewritten(TestClient(app, client=("198.51.100.2", 0)), 99, "198.51.100.2") == 401  # not blocked

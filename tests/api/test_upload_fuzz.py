@@ -163,7 +163,7 @@ CONVERTED = {"formats", "manifest", "manifest (partial)", "imu.csv", "ldv.csv", 
 
 @st.composite
 def damaged_recording(draw, names):
-    """(file name, its damaged bytes or random bytes, a format hint or None)."""
+    """(file name, kind of damage, a seed for it, random bytes for the kind "random")."""
     name = draw(st.sampled_from(names))
     kind = draw(st.sampled_from(["truncate", "flip", "cut-line", "random"]))
     return name, kind, draw(st.integers(0, 2**31 - 1)), draw(st.binary(max_size=2048))

@@ -185,15 +185,15 @@ class Login(BaseModel):
 def login(body: Login, request: Request, response: Response, session: SessionDep, st: SettingsDep) -> m.LoginOut:
     throttle = request.app.state.login_throttle
     client = client_address(request, st)
-    refused = throttle.blocked(body.username, client)
+    refused, ticket = throttle.attempt(body.username, client)  # counted as a failure until proven right
     if refused:
         reason, wait_s = refused
         raise HTTPException(429, reason, headers={"Retry-After": str(wait_s)})
     user = ustore.verify(session, body.username, body.password)
+    session.commit()  # the request's connection goes back to the pool before the throttle takes one
     if user is None:
-        throttle.failed(body.username, client)
         raise HTTPException(401, "wrong user name or password")
-    throttle.succeeded(body.username, client)
+    throttle.succeeded(body.username, client, ticket)
     token, csrf = ustore.new_session(session, user, st.session_hours)
     session.commit()  # the cookie works on the very next request
     response.set_cookie(

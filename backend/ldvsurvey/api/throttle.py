@@ -91,7 +91,8 @@ def client_address(request: Request, settings) -> str:
 
 
 class LoginThrottle:
-    """``blocked(account, client)`` before checking a password, ``failed``/``succeeded`` after."""
+    """``attempt(account, client)`` before checking a password (counted as a failure), ``succeeded`` after
+    a right one."""
 
     def __init__(self, database_url: str, settings):
         self.url = database_url
@@ -126,42 +127,74 @@ class LoginThrottle:
         oldest_to_expire = times[len(times) - limit]
         return max(1, math.ceil(oldest_to_expire + self.window_s - time.time()))
 
-    def blocked(self, account: str, client: str) -> tuple[str, int] | None:
+    def blocked(self, account: str, client: str, own: int = 0) -> tuple[str, int] | None:
         """A reason to refuse the attempt without looking at the password and the seconds to wait
-        before the next attempt can count (``Retry-After``), or None."""
+        before the next attempt can count (``Retry-After``), or None. ``own``: entries of this
+        attempt already among the counted."""
         ka, kc = self.keys(account, client)
         times = self._times(ka)
-        if len(times) >= self.max_account:
+        if len(times) - own >= self.max_account:
             return (
                 f"too many failed logins for this account: wait up to {self.window_s / 60:.0f} min "
                 "or ask an admin to set a new password",
                 self._wait_s(times, self.max_account),
             )
         times = self._times(kc)
-        if len(times) >= self.max_client:
+        if len(times) - own >= self.max_client:
             return (
                 f"too many failed logins from your address: wait up to {self.window_s / 60:.0f} min",
                 self._wait_s(times, self.max_client),
             )
         return None
 
-    def failed(self, account: str, client: str) -> None:
-        keys = self.keys(account, client)
+    def attempt(self, account: str, client: str) -> tuple[tuple[str, int] | None, object]:
+        """Count a login attempt as a failure before its password is checked, so that concurrent
+        guesses count each other (checking first and counting after let 20 simultaneous guesses
+        through a limit of 5).
+
+        Returns ``(refusal, ticket)``: ``refusal`` is ``(reason, Retry-After seconds)`` when the
+        attempt is refused without looking at the password (it then does not count), else None;
+        ``ticket`` names the attempt's entries for :meth:`succeeded`. The entries are committed
+        before the count, so the k-th attempt to count sees at least k: at most the limit get through.
+        """
+        refused = self.blocked(account, client)
+        if refused:
+            return refused, None
+        ticket = self._record(self.keys(account, client))
+        refused = self.blocked(account, client, own=1)
+        if refused:
+            self._forget(ticket)
+        return refused, ticket
+
+    def _record(self, keys: tuple[str, str]) -> object:
         if self.redis is not None:
-            now = time.time()
-            with self.redis.pipeline() as p:
+            member, now = uuid.uuid4().hex, time.time()
+            with self.redis.pipeline() as p:  # MULTI/EXEC
                 for k in keys:
-                    p.zadd(self.prefix + k, {uuid.uuid4().hex: now})
+                    p.zadd(self.prefix + k, {member: now})
                     p.expire(self.prefix + k, int(self.window_s) + 1)
+                p.execute()
+            return [(self.prefix + k, member) for k in keys]
+        with session_scope(self.url) as s:
+            ids = ustore.record_login_failure(s, list(keys))
+            ustore.prune_login_failures(s, self.window_s)
+        return ids
+
+    def _forget(self, ticket) -> None:
+        if self.redis is not None:
+            with self.redis.pipeline() as p:
+                for k, member in ticket:
+                    p.zrem(k, member)
                 p.execute()
             return
         with session_scope(self.url) as s:
-            ustore.record_login_failure(s, list(keys))
-            ustore.prune_login_failures(s, self.window_s)
+            ustore.forget_login_failure_ids(s, ticket)
 
-    def succeeded(self, account: str, client: str) -> None:
-        """A right password clears the account's failures (not the client's)."""
+    def succeeded(self, account: str, client: str, ticket) -> None:
+        """A right password: the attempt was no failure, and the account's failures are cleared
+        (not the client's)."""
         ka, _ = self.keys(account, client)
+        self._forget(ticket)
         if self.redis is not None:
             self.redis.delete(self.prefix + ka)
             return

@@ -271,9 +271,16 @@ def token_user(s: Session, token: str) -> User | None:
     return u
 
 
-def record_login_failure(s: Session, keys: list[str]) -> None:
-    for k in keys:
-        s.add(LoginFailure(key=k[:300], at=_now()))
+def record_login_failure(s: Session, keys: list[str]) -> list[int]:
+    """One failure per key, now; their row ids."""
+    rows = [LoginFailure(key=k[:300], at=_now()) for k in keys]
+    s.add_all(rows)
+    s.flush()
+    return [r.id for r in rows]
+
+
+def forget_login_failure_ids(s: Session, ids: list[int]) -> None:
+    s.execute(delete(LoginFailure).where(LoginFailure.id.in_(ids)))
 
 
 def login_failures(s: Session, key: str, window_s: float) -> int:
