@@ -88,9 +88,17 @@ def test_gravity_far_off_is_refused_and_a_few_percent_warned():
     with pytest.raises(BundleError) as e:
         build_bundle(sources(imu=_scaled_imu(acc=1 / 9.80665)), partial())  # increments in g·s, not m/s
     assert e.value.file == "imu.txt" and "normal gravity" in e.value.message
-    res = build_bundle(sources(imu=_scaled_imu(acc=1.02)), partial())
+    with pytest.raises(BundleError) as e:  # 2 % off: refused by default, naming what to set to accept it
+        build_bundle(sources(imu=_scaled_imu(acc=1.02)), partial())
+    assert e.value.file == "imu.txt" and "import.imu.static_gravity_tolerance" in e.value.message
+    p = partial()
+    p.setdefault("import", {}).setdefault("imu", {})["static_gravity_tolerance"] = 0.025
+    res = build_bundle(sources(imu=_scaled_imu(acc=1.02)), p)
     assert res.summary["checks"]["static_gravity"]["error_rel"] == pytest.approx(0.02, abs=2e-4)
-    assert any("normal gravity" in w for w in res.warnings)
+    assert any("normal gravity" in w and "accepted" in w for w in res.warnings)
+    with pytest.raises(BundleError):  # never past 10 %, whatever is accepted
+        p["import"]["imu"]["static_gravity_tolerance"] = 0.5
+        build_bundle(sources(imu=_scaled_imu(acc=1.15)), p)
 
 
 def test_earth_rate_for_a_navigation_grade_unit():

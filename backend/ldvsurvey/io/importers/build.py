@@ -280,7 +280,13 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         init = m.get("initial") or {}
         where = (init.get("lat_deg"), init.get("h_m"))
     checks["static_gravity"] = static_figures(dth, dv, t["imu"], min(static_s, 60.0), *where)
-    judge_static(checks["static_gravity"], (m.get("imu") or {}).get("gyro_bias_dph"), by_role["imu"].name, warnings)
+    judge_static(
+        checks["static_gravity"],
+        (m.get("imu") or {}).get("gyro_bias_dph"),
+        by_role["imu"].name,
+        warnings,
+        _options(m, "imu").get("static_gravity_tolerance"),
+    )
     checks["imu_rate"] = measure_imu_rate(t["imu"], (m.get("imu") or {}).get("rate_hz"))
     if abs(checks["imu_rate"].get("error_rel", 0.0)) > RATE_WARN:
         warnings.append(

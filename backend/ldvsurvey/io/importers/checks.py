@@ -17,8 +17,8 @@ from ldvsurvey.io.importers import gpstime
 
 MANIFEST_FILE = "manifest (partial)"
 OMEGA_IE_DPH = math.degrees(7.292115e-5) * 3600.0  #: Earth rotation rate, deg/h
-GRAVITY_WARN = 0.01  #: |f| against normal gravity, relative: warn above
-GRAVITY_REFUSE = 0.10  #: and refuse above (a unit or time-base error, not a sensor's)
+GRAVITY_WARN = 0.01  #: |f| against normal gravity, relative: refused above unless the user accepts more
+GRAVITY_REFUSE = 0.10  #: refused above whatever the user accepts (a unit or time-base error, not a sensor's)
 RATE_WARN = 0.01  #: measured IMU rate against the declared one
 OVERLAP_WARN = 0.90  #: share of the IMU span covered by GNSS fixes
 NAV_GRADE_BIAS_DPH = 0.05  #: gyro bias (manifest imu.gyro_bias_dph) at or below which Earth rate is checked
@@ -138,23 +138,50 @@ def static_figures(
     return res
 
 
-def judge_static(fig: dict, gyro_bias_dph: float | None, file: str, warnings: list) -> None:
-    """Refuse a specific force far from gravity; warn past 1 %; Earth rate for navigation-grade gyros."""
+def judge_static(
+    fig: dict, gyro_bias_dph: float | None, file: str, warnings: list, gravity_tolerance: float | None = None
+) -> None:
+    """Judge the static start's |f| against normal gravity and |ω| against Earth rate.
+
+    Parameters
+    ----------
+    fig : dict
+        :func:`static_figures` of the start (``error_rel``: |f| / γ − 1, dimensionless).
+    gyro_bias_dph : float or None
+        The manifest's gyro bias, deg/h: Earth rate is judged for navigation-grade units (≤ 0.05 deg/h).
+    file : str
+        The IMU recording's name, for the messages.
+    warnings : list
+        Appended to.
+    gravity_tolerance : float or None
+        The relative |f| error the user accepts (``import.imu.static_gravity_tolerance``, e.g. 0.03 for an
+        uncalibrated MEMS accelerometer); None: 1 %. Beyond it the import is refused naming the option;
+        beyond 10 % always (a unit, scale or time-base error, not a sensor's). Accepted errors over 1 %
+        are warned.
+    """
     err = fig.get("error_rel")
+    tol = GRAVITY_WARN if gravity_tolerance is None else min(float(gravity_tolerance), GRAVITY_REFUSE)
     if err is not None:
+        said = (
+            f"at rest (the first {fig['window_s']:.1f} s) the specific force is {fig['measured_mps2']:.4f} m/s², "
+            f"{err * 100:+.2f} % off normal gravity there ({fig['normal_mps2']:.4f} m/s²)"
+        )
         if abs(err) > GRAVITY_REFUSE:
             raise BundleError(
-                f"at rest (the first {fig['window_s']:.1f} s) the specific force is {fig['measured_mps2']:.4f} m/s², "
-                f"{err * 100:+.1f} % off normal gravity there ({fig['normal_mps2']:.4f} m/s²): the accelerometer's "
-                "unit, scale or the time base is wrong",
+                f"{said}: the accelerometer's unit, scale or the time base is wrong", file=file, field="dvel"
+            )
+        if abs(err) > tol:
+            raise BundleError(
+                f"{said}, more than the {tol * 100:.1f} % accepted: an uncalibrated accelerometer's scale error, "
+                "or the first seconds were not at rest (see initial.static_s). If the sensor is known to read so, "
+                f"set import.imu.static_gravity_tolerance to at least {abs(err) + 0.001:.3f} to import it",
                 file=file,
                 field="dvel",
             )
         if abs(err) > GRAVITY_WARN:
             warnings.append(
-                f"{file}: at rest the specific force is {fig['measured_mps2']:.4f} m/s², {err * 100:+.2f} % off normal "
-                f"gravity ({fig['normal_mps2']:.4f} m/s²): more than {GRAVITY_WARN * 100:.0f} % (an uncalibrated "
-                "accelerometer, or the first seconds were not at rest)"
+                f"{file}: {said}: accepted (import.imu.static_gravity_tolerance {tol:g}); an uncalibrated "
+                "accelerometer's scale error, to be calibrated before navigation-grade work"
             )
     if gyro_bias_dph is not None and gyro_bias_dph <= NAV_GRADE_BIAS_DPH:
         d = fig["omega_dph"] - fig["earth_rate_dph"]

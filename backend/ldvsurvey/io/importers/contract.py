@@ -51,6 +51,12 @@ COMMON_OPTIONS = (
     Option("axes", (str,), "the sensor's axis convention, three letters of F/B, R/L, U/D (e.g. FRD)", ("imu",)),
     Option("max_static_tilt_deg", (float,), "largest tilt of gravity's reaction in the static start, deg", ("imu",)),
     Option(
+        "static_gravity_tolerance",
+        (float,),
+        "relative |f| error at rest against normal gravity accepted (default 0.01, at most 0.10)",
+        ("imu",),
+    ),
+    Option(
         "geoid_separation_m", (float,), "geoid separation for recordings with ellipsoidal heights only, m", ("gnss",)
     ),
 )
