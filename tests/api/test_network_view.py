@@ -4,6 +4,7 @@ adjusted a network, the adjusted values and the ties where the tables put them."
 import numpy as np
 
 from ldvsurvey.api import views
+from tests.api.helpers import NETWORK
 
 
 def view_input(tables, summary, n=1000):
@@ -34,16 +35,7 @@ def test_the_map_shows_adjusted_values_and_ties():
         "lon_deg": np.array([113.0, 113.0]),
         "residual_mgal": np.array([0.1, -0.2]),
     }
-    summary = {
-        "network": {
-            "datum": "ties",
-            "datum_sigma_mgal": 0.1,
-            "crossover_rms_after_mgal": 0.2,
-            "repeat_rms_after_mgal": 0.2,
-            "noise_floor_mgal": 0.39,
-            "lines": [{"resolution_m": 1966.0}],
-        }
-    }
+    summary = NETWORK  # ties datum ±0.10 mGal, resolution 1966 m
     fig = views.VIEWS["gravity_network_map"].build(
         view_input({"gravity_adjusted.csv": g, "network_residuals.csv": r}, summary, n=20)
     )

@@ -14,6 +14,7 @@ from ldvsurvey.sim.fields import ConstantField
 from ldvsurvey.sim.motion import Static
 from ldvsurvey.sim.road import Ramps, Road
 from ldvsurvey.sim.scenario import Scenario, bundle_files, simulate
+from tests.pipelines.helpers import truth_dg_error_mgal
 
 
 @pytest.fixture(scope="module")
@@ -41,15 +42,7 @@ def test_internal_coincidence_and_truth(gravity_sim, gravity_result):
     assert 500 < s["resolution_m"] < 2000  # half-wavelength beside the figure: v·L/2
     # against the true, equally filtered disturbance, after one constant offset
     g = gravity_result.tables["gravity"]
-    on = np.array([x != "" for x in g["line"]])
-    im = sim.imu
-    tm = 0.5 * (im.t_s[1:] + im.t_s[:-1])
-    true = sim.scenario.gravity_field.dg_mgal(
-        0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]), 0.5 * (im.lon_rad[1:] + im.lon_rad[:-1])
-    )
-    tf = zero_phase_lowpass(true * MGAL, 150.0, 100.0) / MGAL
-    e = g["dg_mgal"][on] - np.interp(g["t_s"][on], tm, tf)
-    e = e[np.isfinite(e)]
+    e = truth_dg_error_mgal(sim, g, "dg_mgal")
     assert len(e) > 3000  # 6 lines × 583 s after trimming, at 1 Hz
     assert np.std(e) <= 0.5
     # the offset is the (unobservable) vertical accelerometer bias, nothing else
@@ -67,15 +60,7 @@ def test_sins_gnss_comparison_present_and_close(gravity_sim, gravity_result):
     assert g["total_mgal"] > s["total_mgal"]
     assert sum(ln["unsupported_s"] for ln in g["lines"]) > 100.0
     t = gravity_result.tables["gravity"]
-    on = np.array([x != "" for x in t["line"]])
-    im = sim.imu
-    tm = 0.5 * (im.t_s[1:] + im.t_s[:-1])
-    true = sim.scenario.gravity_field.dg_mgal(
-        0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]), 0.5 * (im.lon_rad[1:] + im.lon_rad[:-1])
-    )
-    tf = zero_phase_lowpass(true * MGAL, 150.0, 100.0) / MGAL
-    e = t["dg_sins_gnss_mgal"][on] - np.interp(t["t_s"][on], tm, tf)
-    e = e[np.isfinite(e)]
+    e = truth_dg_error_mgal(sim, t, "dg_sins_gnss_mgal")
     assert len(e) > 1000
     assert np.sqrt(np.mean((e - np.mean(e)) ** 2)) <= 3.0
 

@@ -62,22 +62,49 @@ def _chain(t0, lat0, lon0, dg_mgal, drift_mgal_per_s=0.0):
 
 
 def test_a_stop_near_a_tie_observes_it():
+    """The tie's σ is the stop's own scatter (block means), here white accelerometer noise of 5 µg/√Hz:
+    N/√T over the 96 s used; the stop means come from the pipeline's own ``stop_means`` (six values)."""
     lat, lon, h, g = 28.5, 113.0, 120.0, 979150.0
     dg_tie = g - normal_gravity(np.radians(lat), h) / MGAL
     # the stop 10 m north of the tie, its stop mean 20 mGal above the tie's δg (the accelerometer bias)
     dlat = 10.0 / 6.37e6
-    ch = _chain(1000.0, np.radians(lat) + dlat, np.radians(lon), dg_tie + 20.0, drift_mgal_per_s=0.01)
+    ch = _chain(1000.0, np.radians(lat) + dlat, np.radians(lon), dg_tie + 20.0, drift_mgal_per_s=0.001)
+    noise_mps2_per_rthz = 5.0e-6 * G0
+    rng = np.random.default_rng(3)
+    ch["dg_static"] = ch["dg_static"] + noise_mps2_per_rthz * np.sqrt(100.0) * rng.standard_normal(len(ch["t_s"]))
     log = types.SimpleNamespace(manifest=types.SimpleNamespace(imu=types.SimpleNamespace(accel_noise_ug_per_rthz=5.0)))
     ties, unused = observed_ties([ch], [log], [(lat, lon, h, g)], 30.0, (ch["lat"][0], ch["lon"][0]))
     assert unused == [] and len(ties) == 1
     t = ties[0]
+    expected_sigma = noise_mps2_per_rthz / np.sqrt(96.0) / MGAL  # 100 s less 2 s at each edge
+    assert t.sigma_mgal == pytest.approx(expected_sigma, rel=0.3)  # from ~96 one-second block means
     assert t.tie_mgal == pytest.approx(dg_tie)
-    assert t.measured_mgal == pytest.approx(dg_tie + 20.0, abs=1e-3)  # the drift (1 mGal there) removed
+    assert t.measured_mgal == pytest.approx(dg_tie + 20.0, abs=4 * expected_sigma)  # the drift removed
     assert t.distance_m == pytest.approx(10.0, rel=0.01)
-    assert t.sigma_mgal == pytest.approx(5.0e-6 * G0 / np.sqrt(96.0) / MGAL, rel=1e-6)  # 100 s less 2 s edges
     # beyond the radius: not observed, reported as unused
     ties, unused = observed_ties([ch], [log], [(lat, lon, h, g)], 5.0, (ch["lat"][0], ch["lon"][0]))
     assert ties == [] and unused[0]["tie"] == "T1"
+
+
+def test_a_log_without_static_gravity_cannot_observe_a_tie():
+    """A log without an LDV has no static chain: base ties are refused naming the parameter, not a crash."""
+    ch = _chain(1000.0, np.radians(28.5), np.radians(113.0), 0.0)
+    del ch["dg_static"]
+    log = types.SimpleNamespace(manifest=types.SimpleNamespace(imu=types.SimpleNamespace(accel_noise_ug_per_rthz=5.0)))
+    with pytest.raises(ParameterError) as e:
+        observed_ties([ch], [log], [(28.5, 113.0, 120.0, 979150.0)], 30.0, (ch["lat"][0], ch["lon"][0]))
+    assert e.value.field == "base_ties" and "no LDV" in e.value.message
+
+
+@pytest.mark.parametrize("params", [{"base_ties": "28.5,113.0,120,979150"}, {}])
+def test_line_levelling_and_the_network_exclude_each_other(params):
+    """Levelling moves each log's bias into its lines and the ties would put it back: refused up front."""
+    pipe = get("gravity")
+    p = pipe.resolve({"line_leveling": "bias", **params})
+    logs = [object()] if params else [object(), object()]
+    with pytest.raises(ParameterError) as e:
+        pipe.func(logs, p, lambda *a, **k: None)
+    assert e.value.field == "line_leveling"
 
 
 def test_external_check_against_a_user_grid(tmp_path):

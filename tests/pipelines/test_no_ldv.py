@@ -15,12 +15,12 @@ from ldvsurvey.cli import main
 from ldvsurvey.io.drivelog import load_bundle, parse_files
 from ldvsurvey.io.writers import write_bundle
 from ldvsurvey.nav.earth import MGAL, enu_offset_m
-from ldvsurvey.nav.gravity import zero_phase_lowpass
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
 from tests.io.import_helpers import kfgins_gnss, kfgins_imu
+from tests.pipelines.helpers import truth_dg_error_mgal
 
 
 @pytest.fixture(scope="module")
@@ -83,15 +83,7 @@ def test_gravity_from_the_sins_gnss_chain_within_its_noise_floor(rtk_drive):
     print(f"gravity without LDV: coincidence {s['total_mgal']:.3f} mGal, printed floor {floor:.3f} mGal")
     assert floor > 0 and s["total_mgal"] <= 1.2 * floor
     g = r.tables["gravity"]
-    on = np.array([x != "" for x in g["line"]])
-    im = sim.imu
-    tm = 0.5 * (im.t_s[1:] + im.t_s[:-1])
-    true = sim.scenario.gravity_field.dg_mgal(
-        0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]), 0.5 * (im.lon_rad[1:] + im.lon_rad[:-1])
-    )
-    tf = zero_phase_lowpass(true * MGAL, 150.0, 100.0) / MGAL
-    e = g["dg_mgal"][on] - np.interp(g["t_s"][on], tm, tf)
-    e = e[np.isfinite(e)]
+    e = truth_dg_error_mgal(sim, g, "dg_mgal")
     assert len(e) > 300  # 3 lines × (267 − 150) s after trimming, at 1 Hz
     # one constant offset: the vertical accelerometer bias (unobservable), nothing else
     assert np.mean(e) == pytest.approx(sim.errors.accel_bias_mps2[2] / MGAL, abs=1.5)

@@ -291,6 +291,14 @@ def run(logs, params, progress) -> PipelineResult:
     if not trim_s >= 0:
         raise ParameterError("must be zero or positive", field="line_end_trim_s")
     fixes = parse_fixes(params["gnss_fixes"])
+    if params["network"] == "auto" and (params["base_ties"] or len(logs) > 1) and params["line_leveling"] != "none":
+        # levelling moves each log's turn-on bias into its lines, the ties (read at the unlevelled stops)
+        # would then put it back: wrong absolute values without a word
+        raise ParameterError(
+            "line levelling and the survey network exclude each other: the network estimates each log's and "
+            "line's bias itself (give line_leveling=none, or network=none)",
+            field="line_leveling",
+        )
     chains, gchains, achains, lines, warnings = [], [], [], [], []
     nav_params = {**params, "aiding": "ldv", "smooth": True}
     primary = "ldv" if logs[0].ldv is not None else "gnss"

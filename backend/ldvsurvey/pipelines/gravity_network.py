@@ -90,13 +90,23 @@ def network_lines(chains, res, floors, origin) -> tuple[list[net.Line], list]:
 
 
 def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], list[dict]]:
-    """Every stop of every log within ``radius_m`` of a tie: its mean δg (drift removed as on the lines)."""
+    """Every stop of every log within ``radius_m`` of a tie: its mean δg (drift removed as on the lines).
+
+    A stop's 1-σ is the data's own (the scatter of its 1-s means, :func:`gravity_drift.stop_sigma`,
+    lost IMU rows included); only where a stop is too short for that, the white accelerometer noise the
+    manifest states over its duration. A log without a static chain (no LDV) cannot observe a tie."""
     out, unused = [], []
     seen = set()
     for ci, ch in enumerate(chains):
+        if "dg_static" not in ch:
+            raise ParameterError(
+                f"bundle {ci + 1} has no LDV: its stops give no static gravity, so base ties cannot be observed "
+                "(leave base_ties out: the SINS/GNSS chain's values stay relative)",
+                field="base_ties",
+            )
         noise = logs[ci].manifest.imu.accel_noise_ug_per_rthz
         drift = ch.get("drift_mps2")
-        for tc, la, lo, mean, dur in stop_means(ch, ch["still"]):
+        for tc, la, lo, mean, dur, stop_sigma_mps2 in stop_means(ch, ch["still"]):
             for k, (lat, lon, h, g) in enumerate(ties):
                 e, n = local_metres(np.radians(lat), np.radians(lon), la, lo)
                 d = float(np.hypot(e, n))
@@ -104,11 +114,14 @@ def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], 
                     continue
                 meas = mean - (float(np.interp(tc, ch["t_s"], drift)) if drift is not None else 0.0)
                 dg_tie = g - normal_gravity(np.radians(lat), h) / MGAL
-                sigma = (noise or 0.0) * 1e-6 * G0 / np.sqrt(dur) / MGAL
+                if np.isfinite(stop_sigma_mps2) and stop_sigma_mps2 > 0:
+                    sigma = stop_sigma_mps2 / MGAL
+                else:
+                    sigma = (noise or 0.0) * 1e-6 * G0 / np.sqrt(dur) / MGAL
                 if not sigma > 0:
                     raise ParameterError(
-                        f"bundle {ci + 1}: the manifest gives no imu.accel_noise_ug_per_rthz, so a tie's "
-                        "weight is unknown",
+                        f"bundle {ci + 1}: a stop near tie T{k + 1} is too short to measure its own scatter and "
+                        "the manifest gives no imu.accel_noise_ug_per_rthz, so the tie's weight is unknown",
                         field="base_ties",
                     )
                 out.append(net.Tie(f"T{k + 1}", ci, float(tc), float(meas / MGAL), float(dg_tie), float(sigma), d))
