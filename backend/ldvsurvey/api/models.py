@@ -41,6 +41,21 @@ class ProjectOut(Out):
     id: int
     name: str
     members: list[str] = Field(description="user names")
+    n_logs: int = Field(0, description="logs stored in the project")
+
+
+class UserDeleted(Out):
+    deleted: str = Field(description="the user name")
+    tokens_deleted: int
+    memberships_deleted: int
+    effect: str = Field(description="what happened to their data")
+
+
+class ProjectDeleted(Out):
+    deleted: str = Field(description="the project name")
+    logs_deleted: int
+    jobs_deleted: int
+    effect: str = Field(description="what happened to its data")
 
 
 class Me(Out):
