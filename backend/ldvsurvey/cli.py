@@ -43,6 +43,7 @@ def _cmd_serve(args) -> int:
     from ldvsurvey.settings import get_settings
 
     settings = get_settings()
+    _show_compile_progress()
     if args.demo:  # visitors act as the clearly marked demo account
         settings = settings.model_copy(update={"demo_mode": True})
     app = create_app(settings)
@@ -55,6 +56,28 @@ def _cmd_serve(args) -> int:
     # (ldvsurvey.api.throttle.client_address): uvicorn must not believe it from 127.0.0.1 first
     uvicorn.run(app, host=args.host, port=args.port, log_level="info", proxy_headers=False)
     return 0
+
+
+def _show_compile_progress() -> None:
+    """Print the background compile's progress (ldvsurvey.warmup) on the server's terminal: on a
+    first start the server listens while the numerical core compiles, and says how far it is."""
+    import logging
+
+    from ldvsurvey.pipelines.warmup import is_warm
+
+    lg = logging.getLogger("ldvsurvey.warmup")
+    if lg.handlers:
+        return
+    h = logging.StreamHandler(sys.stdout)
+    h.setFormatter(logging.Formatter("%(asctime)s compiling the numerical core: %(message)s", "%H:%M:%S"))
+    lg.addHandler(h)
+    lg.setLevel(logging.INFO)
+    if not is_warm():
+        print(
+            "the numerical core compiles in the background (about 2 minutes on 2 cores, once per installation); "
+            "jobs started meanwhile wait for it and say so on their page",
+            flush=True,
+        )
 
 
 def _cmd_demo(args) -> int:
