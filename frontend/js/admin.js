@@ -6,9 +6,11 @@ import { confirmInline } from "./confirm.js";
 
 // what deleting does to the data (the server says the same: store/users.py *_DELETE_EFFECT)
 const USER_EFFECT =
-  "Their sessions, API tokens and memberships are deleted; the logs they uploaded and the jobs they started stay in their projects. To keep the account but stop its access, disable it instead.";
+  "Their sessions, API tokens and memberships are deleted; the logs they uploaded and the jobs they " +
+  "started stay in their projects. To keep the account but stop its access, disable it instead.";
 const projectEffect = (n) =>
-  `Its ${n} log${n === 1 ? "" : "s"} ${n === 1 ? "is" : "are"} deleted with the stored files and every job computed from them (results included). Its members keep their accounts.`;
+  `Its ${n} log${n === 1 ? "" : "s"} ${n === 1 ? "is" : "are"} deleted with the stored files and every job ` +
+  "computed from them (results included). Its members keep their accounts.";
 
 export async function adminPage(ctx, app) {
   render(
@@ -112,7 +114,9 @@ export async function adminPage(ctx, app) {
       act(
         "user",
         () => api(`/api/admin/users/${t.dataset.disable}`, { method: "PATCH", json: { disabled } }),
-        `User “${t.dataset.name}” ${disabled ? "disabled: they can not log in and their tokens stop working" : "enabled"}.`,
+        disabled
+          ? `User “${t.dataset.name}” disabled: they can not log in and their tokens stop working.`
+          : `User “${t.dataset.name}” enabled.`,
       );
     } else if (t.dataset.deluser) {
       confirmInline($("#user-confirm"), `Delete user “${t.dataset.name}”?`, USER_EFFECT, "Delete user", () =>
@@ -205,7 +209,11 @@ async function refresh(ctx) {
             <button data-disable="${u.id}" data-name="${u.username}" data-state="${u.disabled ? "disabled" : "active"}">
               ${u.disabled ? "enable" : "disable"}
             </button>
-            ${u.is_demo ? "" : html`<button class="danger" data-deluser="${u.id}" data-name="${u.username}">delete…</button>`}
+            ${
+              u.is_demo
+                ? ""
+                : html`<button class="danger" data-deluser="${u.id}" data-name="${u.username}">delete…</button>`
+            }
           </td>
         </tr>`,
     ),
