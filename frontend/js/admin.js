@@ -1,6 +1,6 @@
 // Admins: users, projects and memberships. Each form clears after a create and says so beside
 // itself; deleting a user or a project asks first, saying what happens to the logs.
-import { api } from "./api.js";
+import { api, session } from "./api.js";
 import { html, render, $, $$ } from "./html.js";
 import { confirmInline } from "./confirm.js";
 
@@ -158,6 +158,15 @@ export async function adminPage(ctx, app) {
   await refresh(ctx);
 }
 
+// disable/enable and delete (never offered on one's own row: the server refuses both)
+function userActions(u) {
+  const state = u.disabled ? "disabled" : "active";
+  return html`<button data-disable="${u.id}" data-name="${u.username}" data-state="${state}">
+      ${u.disabled ? "enable" : "disable"}
+    </button>
+    ${u.is_demo ? "" : html`<button class="danger" data-deluser="${u.id}" data-name="${u.username}">delete…</button>`}`;
+}
+
 async function refresh(ctx) {
   const [users, projects] = await Promise.all([api("/api/admin/users"), api("/api/admin/projects")]);
   if (!ctx.alive) return;
@@ -206,14 +215,7 @@ async function refresh(ctx) {
           <td>${u.projects.map((p) => p.name).join(", ") || "–"}</td>
           <td>${u.disabled ? "disabled" : "active"}</td>
           <td>
-            <button data-disable="${u.id}" data-name="${u.username}" data-state="${u.disabled ? "disabled" : "active"}">
-              ${u.disabled ? "enable" : "disable"}
-            </button>
-            ${
-              u.is_demo
-                ? ""
-                : html`<button class="danger" data-deluser="${u.id}" data-name="${u.username}">delete…</button>`
-            }
+            ${u.username === (session.me && session.me.user) ? html`<span class="hint">you</span>` : userActions(u)}
           </td>
         </tr>`,
     ),

@@ -55,6 +55,8 @@ def test_admin_forms_clear_confirm_beside_and_delete_after_asking(auth_server, p
     log_id = up.json()["id"]
     page.reload()
     page.wait_for_selector("tr[data-user='kate']")
+    # one's own row offers neither disable nor delete (the server refuses both)
+    assert page.locator(f"tr[data-user='{ADMIN[0]}'] button").count() == 0
     # deleting a user asks first and says their logs stay; cancel keeps them
     page.click("tr[data-user='kate'] button[data-deluser]")
     question = page.inner_text("#user-confirm")
