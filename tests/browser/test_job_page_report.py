@@ -195,3 +195,6 @@ def test_job_detail_serves_headlines_and_labels(job_server):
     assert abs(h["floor_ratio"]["value"] - 2.686 / 0.46) < 1e-12
     assert j["labels"]["ldv_pitch_deg"] == {"label": "LDV mounting pitch η_L", "unit": "°"}
     assert j["labels"]["common_length_m"] == {"label": "Common length", "unit": "m"}
+    assert j["labels"]["n_lines_compared"] == {"label": "Number of lines compared", "unit": ""}
+    assert j["labels"]["median_speed_mps"] == {"label": "Median speed", "unit": "m/s"}
+    assert j["labels"]["xi_sigma_rad"] == {"label": "ξ sigma", "unit": "rad"}

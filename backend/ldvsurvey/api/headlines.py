@@ -49,6 +49,21 @@ def headlines(pipeline: str, summary: dict | None) -> list[dict]:
     return out
 
 
+#: words written as people write them in a label
+ACRONYMS = {w: w.upper() for w in ("fir", "ldv", "gnss", "imu", "rms", "dov", "sins", "rtk", "egm", "utc", "sha256")}
+ACRONYMS |= {"chi2": "χ²", "xi": "ξ", "eta": "η", "dof": "degrees of freedom", "mgal": "mGal", "pct": "%"}
+
+
+def human(label: str) -> str:
+    """'n lines compared' → 'Number of lines compared'; 'fir length' → 'FIR length'."""
+    words = [ACRONYMS.get(w, w) for w in label.split(" ")]
+    if words and words[0] == "n" and len(words) > 1:
+        words = ["number", "of"] + words[1:]
+    out = " ".join(words)
+    # a symbol keeps its case (ξ is not Ξ)
+    return out[:1].upper() + out[1:] if out[:1].isascii() else out
+
+
 def labels(summary: dict | None, parameters: dict | None) -> dict[str, dict]:
     """{key: {label, unit}} for every key of the summary (nested ones included) and the parameters."""
     out: dict[str, dict] = {}
@@ -58,7 +73,7 @@ def labels(summary: dict | None, parameters: dict | None) -> dict[str, dict]:
             for k, v in x.items():
                 if k not in out:
                     lab, unit = label_unit(k)
-                    out[k] = {"label": lab[:1].upper() + lab[1:], "unit": unit}
+                    out[k] = {"label": human(lab), "unit": unit}
                 walk(v)
         elif isinstance(x, list):
             for v in x[:50]:
