@@ -43,7 +43,8 @@ def _cmd_serve(args) -> int:
     from ldvsurvey.settings import get_settings
 
     settings = get_settings()
-    _show_compile_progress()
+    if settings.run_consumer:  # jobs run in this process: so does the compile
+        _show_compile_progress()
     if args.demo:  # visitors act as the clearly marked demo account
         settings = settings.model_copy(update={"demo_mode": True})
     app = create_app(settings)
