@@ -70,3 +70,16 @@ def test_a_job_waits_for_the_compile_and_says_so(quiet, fake_warmup):
         with session_scope(app.state.database_url) as s:
             stages = [e["stage"] for e in s.get(Job, job_id).stage_log]
         assert W.WAITING_STAGE in stages
+
+
+def test_background_warmup_can_be_turned_off(monkeypatch):
+    monkeypatch.setattr(W, "_background", None)
+    monkeypatch.setattr(W, "is_warm", lambda: False)  # a cold cache: it would start compiling
+    started = []
+    monkeypatch.setattr(W, "warmup", lambda **kw: started.append(kw))
+    monkeypatch.setenv("LDVSURVEY_BACKGROUND_WARMUP", "0")
+    assert W.start_background_warmup() is None and W._background is None
+    monkeypatch.setenv("LDVSURVEY_BACKGROUND_WARMUP", "1")
+    th = W.start_background_warmup()
+    th.join(5)
+    assert th is not None and len(started) == 1

@@ -139,9 +139,17 @@ def start_background_warmup(log=None) -> threading.Thread | None:
     """Warm the cache in a daemon thread unless :func:`is_warm` (the worker and the API's in-process
     consumer call this at start). At most one such thread runs per process, however many apps start.
 
-    Returns the thread, or None when the cache is already warm.
+    ``LDVSURVEY_BACKGROUND_WARMUP=0`` turns it off (the test suite: its many short-lived servers would
+    each start compiling, and a warm-up that completes prunes the compiled code of other versions from
+    a cache folder that other checkouts may share).
+
+    Returns the thread, or None when the cache is already warm (or the warm-up is turned off).
     """
+    import os
+
     global _background
+    if os.environ.get("LDVSURVEY_BACKGROUND_WARMUP", "1").strip() == "0":
+        return None
     with _background_lock:
         if _background is not None and _background.is_alive():
             return _background
