@@ -2,22 +2,36 @@
 # Set up everything ldv-survey needs on a fresh Debian machine with Python >= 3.11:
 # a virtual environment in .venv with the package and its test tools, and (with
 # --browser) Debian's chromium and docker-compose for the tests. Idempotent and quick when done.
+# With --no-warmup the numerical core is not compiled here: `ldv-survey serve` compiles it in the
+# background while it listens (scripts/run.sh), and the first jobs wait for it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PY=${PYTHON:-python3}
 want_browser=0
-for a in "$@"; do [ "$a" = "--browser" ] && want_browser=1; done
+want_warmup=1
+for a in "$@"; do
+  [ "$a" = "--browser" ] && want_browser=1
+  [ "$a" = "--no-warmup" ] && want_warmup=0
+done
+t0=$SECONDS
+say() { echo "[setup $((SECONDS - t0)) s] $*"; }
 
 if [ ! -x .venv/bin/python ]; then
+  say "creating the virtual environment .venv"
   "$PY" -m venv .venv
 fi
 stamp=.venv/.ldvsurvey-installed
 sum=$(cat pyproject.toml | sha256sum | cut -c1-16)
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$sum" ]; then
-  .venv/bin/python -m pip install --quiet --upgrade pip
-  .venv/bin/python -m pip install --quiet -e ".[test]"
+  say "installing the Python packages into .venv (about a minute on a fresh clone)"
+  # one line per package as pip gets to it (not the progress bars), so a first start is never silent
+  pip_progress() { { grep --line-buffered -E '^(Collecting|Installing collected|Successfully installed)' || true; } |
+    cut -c1-160 | sed -u 's/^/  /'; }
+  .venv/bin/python -m pip install --progress-bar off --upgrade pip | pip_progress
+  .venv/bin/python -m pip install --progress-bar off -e ".[test]" | pip_progress
   echo "$sum" > "$stamp"
+  say "Python packages installed"
 fi
 
 # the test tools from Debian: Chromium for the browser tests, docker-compose to validate the compose file
@@ -29,9 +43,10 @@ fi
 
 # compile the numerical core once into numba's on-disk cache (in .venv unless LDVSURVEY_NUMBA_CACHE_DIR),
 # so the first job is as fast as the tenth; quick when this code was already warmed
-if .venv/bin/python -c "import sys; from ldvsurvey.pipelines.warmup import is_warm; sys.exit(0 if is_warm() else 1)"; then
+if [ "$want_warmup" = 0 ] ||
+  .venv/bin/python -c "import sys; from ldvsurvey.pipelines.warmup import is_warm; sys.exit(0 if is_warm() else 1)"; then
   :
 else
-  echo "compiling the numerical core (once per installation, about 2 minutes)..."
+  say "compiling the numerical core (once per installation, about 2 minutes)..."
   .venv/bin/ldv-survey warmup >/dev/null || echo "warning: ldv-survey warmup failed; the first job of each pipeline will compile" >&2
 fi

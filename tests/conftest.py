@@ -2,6 +2,10 @@ import os
 
 import pytest
 
+# no background compile in the servers the tests start (in-process apps and subprocesses): each would
+# compile on the shared cores, and a complete one prunes other versions' code from a shared cache
+os.environ.setdefault("LDVSURVEY_BACKGROUND_WARMUP", "0")
+
 
 @pytest.fixture
 def settings(tmp_path, monkeypatch):

@@ -43,6 +43,8 @@ def _cmd_serve(args) -> int:
     from ldvsurvey.settings import get_settings
 
     settings = get_settings()
+    if settings.run_consumer:  # jobs run in this process: so does the compile
+        _show_compile_progress()
     if args.demo:  # visitors act as the clearly marked demo account
         settings = settings.model_copy(update={"demo_mode": True})
     app = create_app(settings)
@@ -55,6 +57,28 @@ def _cmd_serve(args) -> int:
     # (ldvsurvey.api.throttle.client_address): uvicorn must not believe it from 127.0.0.1 first
     uvicorn.run(app, host=args.host, port=args.port, log_level="info", proxy_headers=False)
     return 0
+
+
+def _show_compile_progress() -> None:
+    """Print the background compile's progress (ldvsurvey.warmup) on the server's terminal: on a
+    first start the server listens while the numerical core compiles, and says how far it is."""
+    import logging
+
+    from ldvsurvey.pipelines.warmup import is_warm
+
+    lg = logging.getLogger("ldvsurvey.warmup")
+    if lg.handlers:
+        return
+    h = logging.StreamHandler(sys.stdout)
+    h.setFormatter(logging.Formatter("%(asctime)s compiling the numerical core: %(message)s", "%H:%M:%S"))
+    lg.addHandler(h)
+    lg.setLevel(logging.INFO)
+    if not is_warm():
+        print(
+            "the numerical core compiles in the background (about 2 minutes on 2 cores, once per installation); "
+            "jobs started meanwhile wait for it and say so on their page",
+            flush=True,
+        )
 
 
 def _cmd_demo(args) -> int:
@@ -332,6 +356,12 @@ def _cmd_user(args) -> int:
         elif args.action in ("disable", "enable"):
             ustore.set_disabled(s, ustore.find_user(s, args.username), args.action == "disable")
             print(f"user '{args.username}' {args.action}d")
+        elif args.action == "delete":
+            user = ustore.find_user(s, args.username)
+            if not args.yes:
+                raise InputError(f"deleting '{user.username}': {ustore.USER_DELETE_EFFECT}; add --yes", field="--yes")
+            out = ustore.delete_user(s, user)
+            print(f"user '{out['deleted']}' deleted: {out['effect']}")
         elif args.action == "password":
             user = ustore.find_user(s, args.username)
             ustore.set_password(s, user, _password(args))
@@ -349,6 +379,15 @@ def _cmd_project(args) -> int:
         elif args.action == "list":
             for p in ustore.list_projects(s):
                 print(f"{p['id']}\t{p['name']}\t{', '.join(p['members']) or '-'}")
+        elif args.action == "delete":
+            p = ustore.find_project(s, args.name)
+            n = next(x["n_logs"] for x in ustore.list_projects(s, [p.id]))
+            if not args.yes:
+                raise InputError(
+                    f"deleting '{p.name}' ({n} logs): {ustore.PROJECT_DELETE_EFFECT}; add --yes", field="--yes"
+                )
+            out = ustore.delete_project(s, p)
+            print(f"project '{out['deleted']}' deleted with {out['logs_deleted']} logs and {out['jobs_deleted']} jobs")
         elif args.action == "member":
             p, u = ustore.find_project(s, args.name), ustore.find_user(s, args.username)
             if args.remove:
@@ -475,6 +514,11 @@ def build_parser() -> argparse.ArgumentParser:
     for act in ("disable", "enable"):
         x = ua.add_parser(act, help=f"{act} a user (a disabled user can not log in; tokens stop working)")
         x.add_argument("username")
+    x = ua.add_parser(
+        "delete", help="delete a user: sessions, tokens, memberships go; their logs and jobs stay in their projects"
+    )
+    x.add_argument("username")
+    x.add_argument("--yes", action="store_true", help="do it (without: say what would happen, exit 2)")
     x = ua.add_parser("password", help="set a user's password (ends their sessions)")
     x.add_argument("username")
     x.add_argument("--password-env", metavar="VAR")
@@ -485,6 +529,9 @@ def build_parser() -> argparse.ArgumentParser:
     x = pa.add_parser("add", help="create a project")
     x.add_argument("name")
     pa.add_parser("list", help="projects and their members")
+    x = pa.add_parser("delete", help="delete a project with its logs, their files and every job computed from them")
+    x.add_argument("name", help="project name or id")
+    x.add_argument("--yes", action="store_true", help="do it (without: say what would happen, exit 2)")
     x = pa.add_parser("member", help="add (or --remove) a user to a project")
     x.add_argument("name", help="project name or id")
     x.add_argument("username")

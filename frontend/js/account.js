@@ -1,6 +1,11 @@
-// One's own account: password and API tokens.
+// One's own account: password and API tokens. A new token's secret is shown once, beside the form,
+// until hidden or the token revoked; revoking asks first; the forms clear after they succeed.
 import { api } from "./api.js";
 import { html, render, $, $$ } from "./html.js";
+import { confirmInline } from "./confirm.js";
+
+// the token whose secret is on the page, if any
+let shownToken = null;
 
 const day = (iso) => (iso ? iso.slice(0, 16).replace("T", " ") : "–");
 
@@ -31,7 +36,8 @@ export async function accountPage(ctx, app) {
           /></label>
           <button type="submit" id="token-create">Create token</button>
         </form>
-        <div id="token-msg"></div>
+        <div id="token-confirm"></div>
+        <div id="token-msg" role="status" aria-live="polite"></div>
       </div>
       <div class="card narrow">
         <h3>Change password</h3>
@@ -55,13 +61,20 @@ export async function accountPage(ctx, app) {
         method: "POST",
         json: { name: $("#token-name").value, expires_days: days === "" ? null : Number(days) },
       });
+      e.target.reset(); // back to the defaults for the next one
       await refreshTokens(ctx); // the list holds the new token by the time its secret is shown
+      shownToken = t.id;
       render(
         $("#token-msg"),
         html`<p class="ok">
           New token <b>${t.name}</b> (copy it now, it is not shown again): <code id="new-token">${t.token}</code>
+          <button id="hide-token">Hide it</button>
         </p>`,
       );
+      $("#hide-token").addEventListener("click", () => {
+        shownToken = null;
+        render($("#token-msg"), html`<p>The secret is hidden; it can not be shown again.</p>`);
+      });
     } catch (err) {
       render($("#token-msg"), html`<p class="error">${err.message}</p>`);
     }
@@ -74,6 +87,7 @@ export async function accountPage(ctx, app) {
         method: "POST",
         json: { old_password: fd.get("old"), new_password: fd.get("new") },
       });
+      e.target.reset();
       render($("#password-msg"), html`<p class="ok">Password changed: log in again.</p>`);
       setTimeout(() => {
         location.hash = "#/login";
@@ -107,7 +121,7 @@ async function refreshTokens(ctx) {
                 ${t.expired ? html`<span class="badge warn">expired</span>` : ""}
               </td>
               <td>${day(t.last_used_at)}</td>
-              <td><button data-revoke="${t.id}">revoke</button></td>
+              <td><button class="danger" data-revoke="${t.id}" data-name="${t.name}">revoke…</button></td>
             </tr>`,
         )
       : html`<tr>
@@ -115,9 +129,28 @@ async function refreshTokens(ctx) {
         </tr>`,
   );
   $$("[data-revoke]", tb).forEach((b) =>
-    b.addEventListener("click", async () => {
-      await api(`/api/tokens/${b.dataset.revoke}`, { method: "DELETE" });
-      await refreshTokens(ctx);
-    }),
+    b.addEventListener("click", () =>
+      confirmInline(
+        $("#token-confirm"),
+        `Revoke token “${b.dataset.name}”?`,
+        "Every program sending it is refused from now on; this can not be undone.",
+        "Revoke token",
+        async () => {
+          try {
+            await api(`/api/tokens/${b.dataset.revoke}`, { method: "DELETE" });
+          } catch (err) {
+            render($("#token-msg"), html`<p class="error">${err.message}</p>`);
+            return;
+          }
+          const wasShown = shownToken === Number(b.dataset.revoke);
+          if (wasShown) shownToken = null; // a revoked token's secret does not stay on the page
+          render(
+            $("#token-msg"),
+            html`<p class="ok">Token “${b.dataset.name}” revoked${wasShown ? "; its secret is hidden" : ""}.</p>`,
+          );
+          await refreshTokens(ctx);
+        },
+      ),
+    ),
   );
 }

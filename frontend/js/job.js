@@ -1,11 +1,13 @@
-// One job: state (kept current while it runs), parameters, inputs with SHA-256, warnings, stage log,
-// and when it succeeded its downloads, summary and plots.
+// One job as a report: state (kept current while it runs); when it succeeded the result first
+// (headline figures with unit, floor, ratio and pass/fail against the user's specification, the
+// per-line table), then downloads and charts, the full summary behind a disclosure; then
+// parameters (labelled, with units), inputs with SHA-256, warnings and the stage log.
 import { api } from "./api.js";
 import { html, render, $ } from "./html.js";
 import { num } from "./format.js";
 import { draw } from "./plots.js";
 import { basemap, isMap, mapOverlay, onBasemap } from "./maps.js";
-import { fields, summaryCard } from "./summary.js";
+import { bindSpecs, fields, summaryCard } from "./summary.js";
 
 const ACTIVE = ["queued", "running"];
 
@@ -66,7 +68,7 @@ function showInfo(j) {
     $("#jobinfo"),
     html` <div class="card" id="job-parameters">
         <h3>Parameters</h3>
-        ${Object.keys(params).length ? fields(params) : html`<p>defaults</p>`}
+        ${Object.keys(params).length ? fields(params, new Set(), j.labels || {}) : html`<p>defaults</p>`}
       </div>
       <div class="card" id="job-inputs">
         <h3>Inputs</h3>
@@ -131,7 +133,8 @@ async function showResults(ctx, j) {
   const views = j.views || []; // the server's view registry (api/views.py): name, title, units, files
   render(
     $("#results"),
-    html`<div class="card" id="downloads">
+    html`${summaryCard(j)}
+      <div class="card" id="downloads">
         <a class="dl" id="report-download" download href="/api/jobs/${j.id}/report"
           ><button>Survey report (HTML, prints to PDF)</button></a
         >
@@ -142,7 +145,6 @@ async function showResults(ctx, j) {
             > `,
         )}
       </div>
-      ${summaryCard(j)}
       ${views.map(
         (v) =>
           html`<div class="card">
@@ -150,6 +152,7 @@ async function showResults(ctx, j) {
           </div>`,
       )}`,
   );
+  bindSpecs($("#results"), j);
   await Promise.all(views.map((v) => drawView(ctx, j.id, v.name)));
 }
 

@@ -105,7 +105,13 @@ export async function logPage(ctx, app, id) {
     if (!p) return render(box, html`<p>No pipeline applies to this log.</p>`);
     render(
       box,
-      html`${Object.entries(p.schema.properties).map(([name, s]) => paramInput(name, s))}
+      html`${Object.entries(p.schema.properties).map(([name, s]) =>
+        paramInput(
+          name,
+          s,
+          p.parameters.find((q) => q.name === name),
+        ),
+      )}
       ${
         p.multi_input ? html`<label>other log ids <input type="text" id="extra" placeholder="e.g. 3,4" /> </label>` : ""
       }`,
@@ -138,11 +144,19 @@ export async function logPage(ctx, app, id) {
 
 // One form field from a parameter's JSON schema (pydantic): a choice list for enums and booleans, a
 // number input with the model's bounds for numbers, text for lists ("1,2,3") and strings. Left empty,
-// the parameter is not sent and the server's default applies.
-function paramInput(name, schema) {
+// the parameter is not sent and the server's default applies. Labelled with the parameter's label and
+// unit (GET /api/pipelines: pipelines/labels.py), its model's description beside it, its key (what
+// `ldv-survey run --set` and the API take) in the tooltip.
+function paramInput(name, schema, info) {
   const s = (schema.anyOf || [schema]).find((a) => a.type !== "null") || schema;
   const dflt = schema.default;
-  const label = (field) => html`<label title="${schema.description || ""}">${name} ${field}</label>`;
+  const title = info && info.label ? info.label : name.replace(/_/g, " ");
+  const unit = info && info.unit ? ` (${info.unit})` : "";
+  const label = (field) =>
+    html`<label class="param" title="${name}: ${schema.description || ""}"
+      ><span class="param-label">${title}${unit}</span> ${field}
+      <small class="hint">${schema.description || ""}</small></label
+    >`;
   if (s.enum || s.type === "boolean") {
     const opts = s.enum || [true, false];
     return label(

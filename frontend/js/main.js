@@ -2,7 +2,6 @@
 import { api, session, setSession } from "./api.js";
 import { html, render, $ } from "./html.js";
 import { newPage } from "./page.js";
-import { warmUp } from "./plots.js";
 import { logsPage } from "./logs.js";
 import { logPage } from "./log.js";
 import { jobPage } from "./job.js";
@@ -84,4 +83,5 @@ async function boot() {
 }
 
 window.addEventListener("hashchange", route);
-boot().then(route).then(warmUp);
+// Plotly (1.5 MB) is fetched by the pages that draw a chart only (plots.js), never for lists and forms
+boot().then(route);

@@ -1,4 +1,4 @@
-// Plotly is large: it is fetched only when a page has a plot (and warmed up after first paint).
+// Plotly is large (1.5 MB): it is fetched only when a page draws a plot, never for lists and forms.
 let loading = null;
 
 export function plotly() {
@@ -24,9 +24,4 @@ export async function draw(el, data, layout) {
   if (!el.isConnected) return null; // the page changed meanwhile
   await P.react(el, data, layout, { responsive: true, displaylogo: false });
   return el;
-}
-
-export function warmUp() {
-  const idle = window.requestIdleCallback || ((f) => setTimeout(f, 300));
-  idle(() => plotly().catch(() => {}));
 }

@@ -16,14 +16,16 @@ def shot(page, name):
 
 def start_server(data: Path, env_extra: dict):
     """A server process on ``data`` with the given LDVSURVEY_* settings (and no others from the
-    environment but the compile cache); returns (process, base URL). Stop it with terminate()."""
+    environment but the compile cache and the background warm-up switch); returns (process, base URL).
+    Stop it with terminate()."""
     import os
     import subprocess
     import sys
 
     from tests.helpers.server import free_port, wait_healthy
 
-    env = {k: v for k, v in os.environ.items() if not k.startswith("LDVSURVEY_") or k == "LDVSURVEY_NUMBA_CACHE_DIR"}
+    keep = ("LDVSURVEY_NUMBA_CACHE_DIR", "LDVSURVEY_BACKGROUND_WARMUP")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("LDVSURVEY_") or k in keep}
     env.update({"LDVSURVEY_DATA_DIR": str(data), **env_extra})
     port = free_port()
     base = f"http://127.0.0.1:{port}"

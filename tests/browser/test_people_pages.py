@@ -93,7 +93,8 @@ def test_token_created_listed_and_revoked(auth_server, page):
     assert httpx.get(auth_server + "/api/logs", headers=bearer).status_code == 200
     shot(page, "tokens")
     row.locator("button[data-revoke]").click()
-    page.wait_for_selector("#tokens tr[data-token]", state="detached")
+    page.click("#token-confirm [data-confirm='yes']")
+    page.wait_for_selector("#tokens tr[data-token]:has-text('field laptop')", state="detached")
     assert httpx.get(auth_server + "/api/logs", headers=bearer).status_code == 401
 
 

@@ -35,6 +35,11 @@ def test_form_offers_only_applicable_pipelines_and_names_a_bad_field(server, pag
         "egm2008",
         "grid",
     ]
+    # labelled with the parameter's label and unit (pipelines/labels.py), never its key
+    shown = page.inner_text("#params")
+    assert "LDV mounting pitch η_L (°)" in shown and "Initial height of the IMU centre (m)" in shown
+    assert "ldv_pitch_deg" not in shown and "initial_h_m" not in shown
+    assert "LDV scale factor K" in scale.locator("xpath=..").inner_text()
     before = len(httpx.get(f"{server}/api/jobs?log_id={log_id}").json())
     scale.fill("-3")
     page.click("#start")

@@ -50,6 +50,10 @@ def principal(request: Request, session: SessionDep, st: SettingsDep) -> Princip
     if authz.lower().startswith("bearer "):
         user = ustore.token_user(session, authz[7:].strip())
         if user is None:
+            old = ustore.expired_token(session, authz[7:].strip())
+            if old is not None:
+                when = ustore._aware(old.expires_at).strftime("%Y-%m-%d %H:%M UTC")
+                raise HTTPException(401, f"API token '{old.name}' expired on {when}: create a new one (Account page)")
             raise HTTPException(401, "invalid API token")
     elif request.cookies.get(COOKIE):
         found = ustore.session_user(session, request.cookies[COOKIE])

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from ldvsurvey.api import models as m
 from ldvsurvey.api.auth import CurrentUser, check_job_owner, check_job_quota, principal, visible_job, visible_log
 from ldvsurvey.api.deps import BodyId, JobId, LogId, RunnerDep, SessionDep, SettingsDep
+from ldvsurvey.api.headlines import headlines, labels
 from ldvsurvey.api.tables import JobTables, job_file
 from ldvsurvey.api.views import VIEWS, MissingResult, UnknownView, build_view, views_of
 from ldvsurvey.errors import ParameterError
@@ -87,6 +88,8 @@ def job_detail(session: Session, j: Job) -> dict:
         "inputs": inputs,
         "warnings": warnings,
         "views": [v.info() for v in views_of(j.pipeline, s if j.summary else None)],
+        "headlines": headlines(j.pipeline, j.summary),
+        "labels": labels(j.summary, j.parameters),
     }
 
 
@@ -110,6 +113,7 @@ def list_pipelines(
         None, ge=1, le=2**31 - 1, description="also say whether each pipeline applies to this log"
     ),
 ) -> list[m.PipelineInfo]:
+    from ldvsurvey.pipelines.labels import param_label
     from ldvsurvey.pipelines.registry import PIPELINES
 
     facts = None
@@ -127,6 +131,8 @@ def list_pipelines(
                     "kind": q.kind,
                     "default": q.default,
                     "help": q.help,
+                    "label": param_label(q.name)[0],
+                    "unit": param_label(q.name)[1],
                     "choices": list(q.choices) if q.choices else None,
                 }
                 for q in p.params

@@ -41,6 +41,21 @@ class ProjectOut(Out):
     id: int
     name: str
     members: list[str] = Field(description="user names")
+    n_logs: int = Field(0, description="logs stored in the project")
+
+
+class UserDeleted(Out):
+    deleted: str = Field(description="the user name")
+    tokens_deleted: int
+    memberships_deleted: int
+    effect: str = Field(description="what happened to their data")
+
+
+class ProjectDeleted(Out):
+    deleted: str = Field(description="the project name")
+    logs_deleted: int
+    jobs_deleted: int
+    effect: str = Field(description="what happened to its data")
 
 
 class Me(Out):
@@ -166,6 +181,8 @@ class PipelineParam(Out):
     kind: str = Field(description="float, int, bool, str, floats or paths")
     default: Any
     help: str
+    label: str = Field(description="what a form shows, e.g. 'LDV mounting pitch η_L'")
+    unit: str = Field(description="the value's unit, e.g. '°'; empty for dimensionless, choices and text")
     choices: list[Any] | None
 
 
@@ -217,10 +234,26 @@ class JobInput(Out):
     files: list[FileInfo]
 
 
+class Headline(Out):
+    key: str = Field(description="the figure's path in summary.json, e.g. 'noise_floor.total_mgal'")
+    label: str
+    value: Any
+    unit: str
+    text: str = Field(description="the value as people read it, with its unit")
+    specifiable: bool = Field(description="a user's specification may bound it: |value| ≤ specification passes")
+
+
+class Label(Out):
+    label: str
+    unit: str
+
+
 class JobDetail(Job):
     inputs: list[JobInput]
     warnings: list[str]
     views: list[ViewInfo] = Field(description="the figures of this job's pipeline (GET …/views/{name})")
+    headlines: list[Headline] = Field(description="the figures the job page and the survey report lead with")
+    labels: dict[str, Label] = Field(description="a human label and unit for every key of the summary and parameters")
 
 
 class ResultFile(Out):

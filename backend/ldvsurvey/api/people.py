@@ -132,6 +132,21 @@ def admin_change_user(user_id: PathId, body: UserChange, who: AdminUser, session
     return next(x for x in ustore.list_users(session) if x["id"] == u.id)
 
 
+@router.delete(
+    "/api/admin/users/{user_id}",
+    summary="Delete a user (admin): sessions, tokens, memberships go; their logs and jobs stay in their projects",
+)
+def admin_delete_user(user_id: PathId, who: AdminUser, session: SessionDep) -> m.UserDeleted:
+    u = session.get(User, user_id)
+    if u is None:
+        raise HTTPException(404, f"user {user_id} not found")
+    if u.id == who.user.id:
+        raise HTTPException(409, "you can not delete yourself")
+    out = ustore.delete_user(session, u)
+    session.commit()
+    return out
+
+
 class NewProject(BaseModel):
     name: str = Field(..., min_length=1, max_length=200)
 
@@ -145,7 +160,22 @@ def admin_projects(_: AdminUser, session: SessionDep) -> list[m.ProjectOut]:
 def admin_add_project(body: NewProject, _: AdminUser, session: SessionDep) -> m.ProjectOut:
     p = ustore.create_project(session, body.name)
     session.commit()
-    return {"id": p.id, "name": p.name, "members": []}
+    return {"id": p.id, "name": p.name, "members": [], "n_logs": 0}
+
+
+@router.delete(
+    "/api/admin/projects/{project_id}",
+    summary="Delete a project (admin) with its logs, their stored files and every job computed from them",
+)
+def admin_delete_project(project_id: PathId, _: AdminUser, session: SessionDep) -> m.ProjectDeleted:
+    from ldvsurvey.store.models import Project
+
+    p = session.get(Project, project_id)
+    if p is None:
+        raise HTTPException(404, f"project {project_id} not found")
+    out = ustore.delete_project(session, p)
+    session.commit()
+    return out
 
 
 @router.put("/api/admin/projects/{project_id}/members/{user_id}", summary="Add a member (admin)")

@@ -146,8 +146,12 @@ class JobRunner:
 
         try:
             from ldvsurvey.pipelines.registry import get
+            from ldvsurvey.pipelines.warmup import WAITING_STAGE, wait_for_warmup
             from ldvsurvey.store.logs import load_drivelog
 
+            # the first jobs after a fresh install wait for the compile the server started in the
+            # background (it listens meanwhile), saying so in their stage
+            wait_for_warmup(lambda: report(WAITING_STAGE, 0.0), cancelled)
             pipe = get(pipeline_name)
             check_applicable(url, pipe, log_ids, params)  # the logs may have changed since the submit
             with session_scope(url) as s:

@@ -139,17 +139,65 @@ def start_background_warmup(log=None) -> threading.Thread | None:
     """Warm the cache in a daemon thread unless :func:`is_warm` (the worker and the API's in-process
     consumer call this at start). At most one such thread runs per process, however many apps start.
 
-    Returns the thread, or None when the cache is already warm.
+    ``LDVSURVEY_BACKGROUND_WARMUP=0`` turns it off (the test suite: its many short-lived servers would
+    each start compiling, and a warm-up that completes prunes the compiled code of other versions from
+    a cache folder that other checkouts may share).
+
+    Returns the thread, or None when the cache is already warm (or the warm-up is turned off).
     """
+    import os
+
     global _background
+    if os.environ.get("LDVSURVEY_BACKGROUND_WARMUP", "1").strip() == "0":
+        return None
     with _background_lock:
         if _background is not None and _background.is_alive():
             return _background
         if is_warm():
             return None
-        _background = threading.Thread(target=warmup, kwargs={"log": log}, name="ldvsurvey-warmup", daemon=True)
+
+        def run():
+            t0 = time.perf_counter()
+            warmup(log=log)
+            if log:
+                log(f"done in {time.perf_counter() - t0:.0f} s; jobs run now")
+
+        _background = threading.Thread(target=run, name="ldvsurvey-warmup", daemon=True)
         _background.start()
         return _background
+
+
+#: the stage a job shows while it waits for the background warm-up (the job page shows stages)
+WAITING_STAGE = (
+    "waiting for the numerical core to compile (first start after installing or upgrading, about "
+    "2 minutes on 2 cores); the job starts by itself when it is done"
+)
+
+
+def wait_for_warmup(on_wait=None, cancelled=None, poll_s: float = 0.5) -> float:
+    """Block a job until this process's background warm-up (:func:`start_background_warmup`) ends,
+    so that the first jobs do not compile the same code beside it (each on the same cores, slower
+    for both); ``on_wait()`` is called once when there is something to wait for, and ``cancelled()``
+    is polled (a true answer raises :class:`~ldvsurvey.pipelines.base.Cancelled`).
+
+    Returns
+    -------
+    float
+        Seconds waited (0 when no warm-up runs).
+    """
+    th = _background
+    if th is None or not th.is_alive() or th is threading.current_thread():
+        return 0.0
+    from ldvsurvey.pipelines.base import Cancelled
+
+    t0 = time.monotonic()
+    if on_wait is not None:
+        on_wait()
+    while th.is_alive():
+        th.join(poll_s)
+        if cancelled is not None and th.is_alive() and cancelled():
+            raise Cancelled()
+    return time.monotonic() - t0
 
 
 #: libraries the pipelines import only inside the functions that use them (so that a CLI run pays only

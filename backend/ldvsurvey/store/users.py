@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime as dt
 import hashlib
 import secrets
+import unicodedata
 
 from argon2 import PasswordHasher
 from argon2.exceptions import InvalidHashError, VerificationError
@@ -40,6 +41,21 @@ def _aware(t: dt.datetime | None) -> dt.datetime | None:
     return None if t is None else (t if t.tzinfo else t.replace(tzinfo=dt.UTC))
 
 
+#: bidirectional controls: they make a name read differently from what it is (CVE-2021-42574 style)
+BIDI_CONTROLS = frozenset("\u061c\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
+
+
+def check_name(name: str, field: str, what: str) -> None:
+    """Refuse bidirectional and other control characters in a user, project or token name."""
+    for i, c in enumerate(name):
+        if c in BIDI_CONTROLS or unicodedata.category(c) == "Cc":
+            raise AccountError(
+                f"a {what} may not hold control characters: U+{ord(c):04X} "
+                f"({unicodedata.name(c, 'control')}) at character {i + 1}",
+                field=field,
+            )
+
+
 def check_password(password: str) -> None:
     if len(password) < MIN_PASSWORD:
         raise AccountError(f"a password needs at least {MIN_PASSWORD} characters", field="password")
@@ -57,6 +73,7 @@ def create_user(
 ) -> User:
     """A user and (unless ``own_project`` is false) a project, by default one of their own, they are a member of."""
     username = username.strip()
+    check_name(username, "username", "user name")
     if not username or len(username) > 100 or any(c.isspace() for c in username):
         raise AccountError("a user name is 1 to 100 characters without spaces", field="username")
     if s.scalar(select(User.id).where(User.username == username)) is not None:
@@ -87,6 +104,7 @@ def find_project(s: Session, name_or_id: str | int) -> Project:
 
 def create_project(s: Session, name: str) -> Project:
     name = name.strip()
+    check_name(name, "name", "project name")
     if not name or len(name) > 200:
         raise AccountError("a project name is 1 to 200 characters", field="name")
     if s.scalar(select(Project.id).where(Project.name == name)) is not None:
@@ -155,7 +173,62 @@ def list_projects(s: Session, ids: list[int] | None = None) -> list[dict]:
     q = select(Project).order_by(Project.name)
     if ids is not None:
         q = q.where(Project.id.in_(ids))
-    return [{"id": p.id, "name": p.name, "members": sorted(members.get(p.id, []))} for p in s.scalars(q)]
+    from ldvsurvey.store.models import Log
+
+    n_logs = dict(s.execute(select(Log.project_id, func.count(Log.id)).group_by(Log.project_id)).all())
+    return [
+        {"id": p.id, "name": p.name, "members": sorted(members.get(p.id, [])), "n_logs": n_logs.get(p.id, 0)}
+        for p in s.scalars(q)
+    ]
+
+
+#: what deleting a user does to the data (said by the API, the CLI and the admin page)
+USER_DELETE_EFFECT = (
+    "their sessions, API tokens and memberships are deleted; the logs they uploaded and the jobs they "
+    "started stay in their projects (a project of their own stays too: delete it separately)"
+)
+
+
+def delete_user(s: Session, user: User) -> dict:
+    """Delete a user (:data:`USER_DELETE_EFFECT`); what was deleted."""
+    n_tokens = len(s.scalars(select(ApiToken.id).where(ApiToken.user_id == user.id)).all())
+    n_member = len(s.scalars(select(Membership.project_id).where(Membership.user_id == user.id)).all())
+    s.execute(delete(SessionRow).where(SessionRow.user_id == user.id))
+    s.execute(delete(ApiToken).where(ApiToken.user_id == user.id))
+    s.execute(delete(Membership).where(Membership.user_id == user.id))
+    name = user.username
+    s.delete(user)
+    s.flush()
+    return {"deleted": name, "tokens_deleted": n_tokens, "memberships_deleted": n_member, "effect": USER_DELETE_EFFECT}
+
+
+#: what deleting a project does to the data
+PROJECT_DELETE_EFFECT = (
+    "its logs are deleted with their stored files and every job computed from them (results "
+    "included); its members lose access to it, their accounts stay"
+)
+
+
+def delete_project(s: Session, project: Project) -> dict:
+    """Delete a project with its logs (:data:`PROJECT_DELETE_EFFECT`); what was deleted."""
+    from ldvsurvey.store.logs import delete_log
+    from ldvsurvey.store.models import Job, Log
+
+    log_ids = list(s.scalars(select(Log.id).where(Log.project_id == project.id)))
+    ids = set(log_ids)
+    n_jobs = sum(1 for j in s.scalars(select(Job)) if ids & set(j.log_ids or []))
+    for lid in log_ids:
+        delete_log(s, lid)
+    s.execute(delete(Membership).where(Membership.project_id == project.id))
+    name = project.name
+    s.delete(project)
+    s.flush()
+    return {
+        "deleted": name,
+        "logs_deleted": len(log_ids),
+        "jobs_deleted": n_jobs,
+        "effect": PROJECT_DELETE_EFFECT,
+    }
 
 
 def get_or_create_project(s: Session, name: str) -> Project:
@@ -224,6 +297,7 @@ def end_session(s: Session, token: str) -> None:
 def new_api_token(s: Session, user: User, name: str, expires_days: float | None = None) -> str:
     """A bearer token (returned once; only its hash is kept), expiring after ``expires_days`` (None: never)."""
     name = (name or "").strip()
+    check_name(name, "name", "token name")
     if not name or len(name) > 100:
         raise AccountError("a token name is 1 to 100 characters", field="name")
     if expires_days is not None and not 0 < expires_days <= 3660:
@@ -269,6 +343,14 @@ def token_user(s: Session, token: str) -> User | None:
     if row.last_used_at is None or _now() - _aware(row.last_used_at) > dt.timedelta(minutes=5):
         row.last_used_at = _now()  # coarse, so that reads do not write on every request
     return u
+
+
+def expired_token(s: Session, token: str) -> ApiToken | None:
+    """The token's row when it exists but has expired (so that the refusal can say so); else None."""
+    row = s.scalar(select(ApiToken).where(ApiToken.token_hash == _h(token)))
+    if row is not None and row.expires_at is not None and _aware(row.expires_at) <= _now():
+        return row
+    return None
 
 
 def record_login_failure(s: Session, keys: list[str]) -> list[int]:
