@@ -57,7 +57,8 @@ export function checks(c) {
   if (g.normal_mps2 !== undefined)
     parts.push(
       `at rest |f| ${num(g.measured_mps2, 4)} m/s² vs normal gravity ${num(g.normal_mps2, 4)} m/s² ` +
-        `(${num(100 * g.error_rel, 2)} %), |ω| ${num(g.omega_dph, 3)} °/h vs Earth rate ${num(g.earth_rate_dph, 3)} °/h`,
+        `(${num(100 * g.error_rel, 2)} %), ` +
+        `|ω| ${num(g.omega_dph, 3)} °/h vs Earth rate ${num(g.earth_rate_dph, 3)} °/h`,
     );
   if (c.imu_rate) parts.push(`IMU rate ${num(c.imu_rate.measured_hz, 3)} Hz measured`);
   if (o) parts.push(`GNSS covers ${num(100 * o.share, 1)} % of the IMU span`);
