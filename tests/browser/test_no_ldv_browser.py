@@ -62,13 +62,14 @@ def test_log_without_ldv_in_the_dashboard(server, page, noldv_zip):
     page.wait_for_selector("#view-trajectory .main-svg", timeout=30_000)
     g = httpx.get(f"{server}/api/jobs/{jobs['gravity']}").json()
     assert g["summary"]["aiding"] == "gnss"
-    assert [v["name"] for v in g["views"]] == ["gravity_lines", "gravity_residuals"]  # no empty comparison panel
+    # no empty comparison panel; the map of the lines' δg applies
+    assert [v["name"] for v in g["views"]] == ["gravity_lines", "gravity_residuals", "gravity_map"]
     page.goto(f"{server}/#/jobs/{jobs['gravity']}")
     page.wait_for_selector("#view-gravity_residuals .main-svg", timeout=30_000)
     names = page.evaluate("() => document.getElementById('view-gravity_lines').data.map(t => t.name)")
     assert {"L1", "L2", "L3", "mean line"} <= set(names)
     assert page.locator("#view-gravity_compare_gnss").count() == 0
-    assert "SINS/GNSS internal coincidence" in page.inner_text("#summary")
+    assert "SINS/GNSS internal coincidence" in page.inner_text("#lines")
     shot(page, "view-gravity-no-ldv")
     page.goto(log_url)
     page.wait_for_selector("#pipe")
