@@ -16,13 +16,13 @@ printed beside its forward + RTS smoother solution. Wall time is end to end for 
 each reading its input files and writing its output (``ldv-survey run navigate`` with the numba
 cache warm, KF-GINS's own binary); the preparation of KF-GINS's inputs is not counted.
 
-KF-GINS is not part of the product: build it from its public source (no code of it is kept here)
-and give its binary with ``--kfgins`` or ``KFGINS_BIN``::
+KF-GINS is not part of the product (no code of it is kept here): get its public source once and
+give the checkout (its binary is built here with cmake when missing; nothing is downloaded) or
+the binary itself, with ``--kfgins`` or ``KFGINS_BIN``::
 
-    git clone https://github.com/i2Nav-WHU/KF-GINS && cd KF-GINS
-    mkdir build && cd build && cmake .. -DCMAKE_BUILD_TYPE=Release && make -j2   # -> ../bin/KF-GINS
+    git clone https://github.com/i2Nav-WHU/KF-GINS /path/to/KF-GINS
 
-Run: ``KFGINS_BIN=/path/to/KF-GINS/bin/KF-GINS PYTHONPATH=backend .venv/bin/python benchmarks/bench_kfgins.py``
+Run: ``KFGINS_BIN=/path/to/KF-GINS PYTHONPATH=backend .venv/bin/python benchmarks/bench_kfgins.py``
 (``--minutes``, ``--grade``, ``--seed``, ``--keep DIR`` to keep the inputs and outputs). Prints
 figures; asserts nothing.
 """
@@ -53,10 +53,46 @@ GRADES = {
     #: the frame and time check: an error-free IMU, no effects, no outages (RTK noise only)
     "ideal": dict(gyro_bias_dph=1e-3, accel_bias_ug=1.0, gyro_arw_dprh=1e-5, accel_vrw_ug_rthz=0.1),
 }
-BUILD_HELP = """KF-GINS binary not found. Build it from its public source and point to it:
-    git clone https://github.com/i2Nav-WHU/KF-GINS && cd KF-GINS
-    mkdir build && cd build && cmake .. -DCMAKE_BUILD_TYPE=Release && make -j2
-    export KFGINS_BIN=$PWD/../bin/KF-GINS     (or pass --kfgins PATH)"""
+BUILD_HELP = """KF-GINS not found. Get its public source once and give the checkout (built here with
+cmake when its binary is missing) or the binary:
+    git clone https://github.com/i2Nav-WHU/KF-GINS /path/to/KF-GINS
+    export KFGINS_BIN=/path/to/KF-GINS            (or pass --kfgins PATH; a checkout or its bin/KF-GINS)
+Building by hand: cd /path/to/KF-GINS && mkdir -p build && cd build
+    cmake .. -DCMAKE_BUILD_TYPE=Release && make -j2    (-> /path/to/KF-GINS/bin/KF-GINS)"""
+
+
+def _give_up(message: str):
+    """Say what is missing and exit 2 (nothing to compare without KF-GINS)."""
+    print(message, file=sys.stderr)
+    sys.exit(2)
+
+
+def find_kfgins(path: str | None) -> Path:
+    """KF-GINS's binary from ``--kfgins``/``KFGINS_BIN``: the binary itself, or a checkout of its
+    source whose ``bin/KF-GINS`` is built here with cmake (its ThirdParty folder carries Eigen,
+    Abseil and yaml-cpp) when absent. Nothing is downloaded. Exits 2 saying how to get it."""
+    if not path:
+        _give_up(BUILD_HELP)
+    p = Path(path).expanduser()
+    if p.is_file():
+        return p
+    if not (p / "CMakeLists.txt").is_file() or not (p / "src" / "kf_gins.cpp").is_file():
+        _give_up(f"{p}: neither KF-GINS's binary nor a checkout of its source\n{BUILD_HELP}")
+    binary = p / "bin" / "KF-GINS"
+    if binary.is_file():
+        return binary
+    if shutil.which("cmake") is None:
+        _give_up(f"building KF-GINS needs cmake and a C++ compiler (Debian: apt-get install cmake g++)\n{BUILD_HELP}")
+    build = p / "build"
+    build.mkdir(exist_ok=True)
+    print(f"building KF-GINS in {build} (a few minutes the first time)", file=sys.stderr)
+    for cmd in (["cmake", "..", "-DCMAKE_BUILD_TYPE=Release"], ["make", f"-j{os.cpu_count() or 1}"]):
+        r = subprocess.run(cmd, cwd=build, capture_output=True, text=True)
+        if r.returncode != 0:
+            _give_up(f"{' '.join(cmd)} failed in {build}:\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}")
+    if not binary.is_file():
+        _give_up(f"the build finished but {binary} is not there")
+    return binary
 
 
 def euler_zyx_of(c_frd_ned: np.ndarray) -> tuple[float, float, float]:
@@ -251,16 +287,18 @@ def segment_row(name, err, t_from, t_to) -> str:
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--kfgins", default=os.environ.get("KFGINS_BIN"), help="KF-GINS binary (or KFGINS_BIN)")
+    ap.add_argument(
+        "--kfgins",
+        default=os.environ.get("KFGINS_BIN"),
+        help="KF-GINS's binary, or a checkout of its source (built when needed); default KFGINS_BIN",
+    )
     ap.add_argument("--minutes", type=float, default=60.0, help="drive length incl. the 5-min static start")
     ap.add_argument("--grade", choices=sorted(GRADES), default="tactical")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--repeats", type=int, default=3, help="timed runs of each program (median)")
     ap.add_argument("--keep", type=Path, help="keep the bundle, KF-GINS's inputs and both outputs here")
     args = ap.parse_args()
-    if not args.kfgins or not Path(args.kfgins).is_file():
-        print(BUILD_HELP, file=sys.stderr)
-        sys.exit(2)
+    kfgins = find_kfgins(args.kfgins)
 
     from ldvsurvey.io.drivelog import parse_files
     from ldvsurvey.nav.attitude import c_bn_from_euler
@@ -307,7 +345,7 @@ def main():
         if smooth:
             subprocess.run(cmd, env=env, capture_output=True)
         ours[smooth] = timed(cmd, env, args.repeats), out
-    kf = timed([args.kfgins, str(cfg)], repeats=args.repeats)
+    kf = timed([str(kfgins), str(cfg)], repeats=args.repeats)
 
     rows, checks = [], []
     stretches = [("static", sc.t0_s + 10.0, sc.t0_s + sc.static_s - 10.0)]
