@@ -4,7 +4,7 @@
 # checks at the end; scripts/test.sh runs the same checks and fails on any.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ -x .venv/bin/ruff ] || ./scripts/setup.sh
+[ -x .venv/bin/ruff ] || ./scripts/setup.sh --test
 ./scripts/node-tools.sh
 
 .venv/bin/ruff check --fix --quiet . || true  # what it cannot fix is listed by the check below

@@ -6,7 +6,7 @@
 # time on PostgreSQL; an unreachable engine is then a failure, not a skip.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-./scripts/setup.sh --browser
+./scripts/setup.sh --test --browser
 ./scripts/node-tools.sh
 
 if [ $# -eq 0 ]; then
