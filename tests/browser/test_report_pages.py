@@ -14,7 +14,7 @@ import httpx
 import pytest
 
 from ldvsurvey.api import views as V
-from tests.api.helpers import SUMMARIES, provenance, store_job, tables
+from tests.api.helpers import NETWORK, SUMMARIES, provenance, store_job, tables
 from tests.browser.helpers import shot, start_server
 from tests.bundles import make_bundle
 
@@ -25,7 +25,7 @@ FILES = {
     "tilt": ("attitude.csv",),
     "navigate": ("trajectory.csv",),
     "calibrate": ("calibration_track.csv",),
-    "gravity": ("gravity.csv", "coincidence.csv"),
+    "gravity": ("gravity.csv", "coincidence.csv", "gravity_adjusted.csv", "network_residuals.csv"),
     "dov": ("dov.csv",),
     "damping": ("damping.csv",),
 }
@@ -45,7 +45,7 @@ def stored_server(tmp_path_factory):
     tabs, _ = tables()
     jobs = {}
     for pipe, names in FILES.items():
-        summary = {**provenance(pipe, SHA), **SUMMARIES[pipe]}
+        summary = {**provenance(pipe, SHA), **SUMMARIES[pipe], **(NETWORK if pipe == "gravity" else {})}
         jobs[pipe] = store_job(url, [log_id], pipe, {n: tabs[n] for n in names}, summary)
     jobs["gravity2"] = store_job(
         url, [log_id], "gravity", {n: tabs[n] for n in FILES["gravity"]}, {**provenance("gravity", SHA)}
@@ -79,7 +79,8 @@ def test_every_view_on_the_job_page_against_its_data(stored_server, page):
     for pipe in FILES:
         job = jobs[pipe]
         page.goto(f"{base}/#/jobs/{job}")
-        for v in V.views_of(pipe):
+        for name in [x["name"] for x in httpx.get(f"{base}/api/jobs/{job}").json()["views"]]:
+            v = V.VIEWS[name]
             page.wait_for_selector(f"#view-{v.name} .main-svg", timeout=30_000)
             got = page.evaluate(CHECK, page.query_selector(f"#view-{v.name}"))
             fig = httpx.get(f"{base}/api/jobs/{job}/views/{v.name}", params={"points": 2000}).json()
