@@ -8,7 +8,7 @@ suffixes (:func:`ldvsurvey.api.report.label_unit`), those of parameters from
 
 from __future__ import annotations
 
-from ldvsurvey.api.report import HEADLINES, fmt, label_unit
+from ldvsurvey.api.report import HEADLINES, fmt, label_unit, summary_value
 from ldvsurvey.pipelines.labels import param_label
 
 #: headline figures a user may hold to a specification: |value| ≤ the specification passes
@@ -19,20 +19,12 @@ SPECIFIABLE = {
 }
 
 
-def _get(d: dict, path: str):
-    for p in path.split("."):
-        if not isinstance(d, dict) or p not in d:
-            return None
-        d = d[p]
-    return d
-
-
 def headlines(pipeline: str, summary: dict | None) -> list[dict]:
     """The headline figures present in ``summary``: key (dotted path), label, value, unit, the value
     as text with its unit, and whether a specification may bound it."""
     out = []
     for key, label in HEADLINES.get(pipeline, []):
-        v = _get(summary or {}, key)
+        v = summary_value(summary or {}, key)
         if v is None or isinstance(v, (dict, list)):
             continue
         unit = label_unit(key.rsplit(".", 1)[-1])[1]

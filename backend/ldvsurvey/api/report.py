@@ -156,7 +156,8 @@ def fmt(v, unit: str = "") -> str:
     return str(v)
 
 
-def _get(d: dict, path: str):
+def summary_value(d: dict, path: str):
+    """The value at a dotted ``path`` of a summary (``noise_floor.total_mgal``); None where absent."""
     for p in path.split("."):
         if not isinstance(d, dict) or p not in d:
             return None
@@ -357,7 +358,7 @@ def _headlines(job: ReportJob) -> str:
     s = job.summary
     rows = []
     for key, lab in HEADLINES.get(job.pipeline, []):
-        v = _get(s, key)
+        v = summary_value(s, key)
         if v is None:
             continue
         unit = label_unit(key.rsplit(".", 1)[-1])[1]
@@ -514,9 +515,13 @@ def project_report(
     ]
     overview = []
     for j in jobs:
-        first = next(((k, lab) for k, lab in HEADLINES.get(j.pipeline, []) if _get(j.summary, k) is not None), None)
+        first = next(
+            ((k, lab) for k, lab in HEADLINES.get(j.pipeline, []) if summary_value(j.summary, k) is not None), None
+        )
         head = (
-            f"{first[1]}: {fmt(_get(j.summary, first[0]), label_unit(first[0].rsplit('.', 1)[-1])[1])}" if first else ""
+            f"{first[1]}: {fmt(summary_value(j.summary, first[0]), label_unit(first[0].rsplit('.', 1)[-1])[1])}"
+            if first
+            else ""
         )
         overview.append(
             [
