@@ -90,6 +90,45 @@ def test_gravity_from_the_sins_gnss_chain_within_its_noise_floor(rtk_drive):
     assert np.std(e) <= 3.0 * floor
 
 
+def test_floor_from_the_data_when_the_manifest_states_no_noise(rtk_drive):
+    """A bundle as an independent producer writes it (no ``gnss.height_noise``, no IMU noise keys): the
+    floor's figures come from the log (accelerometer density from the static start, GNSS white σ and
+    wander fitted to the chain's raw δg), are the simulator's own within their scatter, and the
+    coincidence is within 1.2× the floor printed (before the fit: a white σ from the fix quality and no
+    accelerometer term: floor 0.235 mGal, coincidence/floor 1.8)."""
+    from ldvsurvey.nav.gravity import noise_floor_mgal
+    from ldvsurvey.sim.sensors import FIX_SIGMA, FIX_WHITE, GNSS_CORR_S
+
+    sim, files, log, _ = rtk_drive
+    m = json.loads(files["manifest.json"])
+    m["gnss"].pop("height_noise")
+    m["imu"].pop("accel_noise_ug_per_rthz")
+    m["imu"].pop("gyro_arw_deg_per_rth")
+    bare = parse_files({**files, "manifest.json": json.dumps(m).encode()})
+    s = run_pipeline(get("gravity"), [bare], {"fir_length_s": 150.0}).summary
+    fl = s["noise_floor"]
+    print(f"no noise keys: coincidence {s['total_mgal']:.3f} mGal, floor {fl['total_mgal']:.3f} mGal; {fl}")
+    assert fl["accel_noise_source"].startswith("estimated from the static start")
+    assert fl["gnss_height_sigma_source"].startswith("fitted to the chain's raw δg")
+    # the simulator's truth, used only here
+    white, sigma = FIX_WHITE[4][1], FIX_SIGMA[4][1]
+    q = 2 * (sigma**2 - white**2) / GNSS_CORR_S
+    assert fl["accel_noise_ug_rthz"] == pytest.approx(sim.scenario.accel_vrw_ug_rthz, rel=0.1)
+    assert fl["gnss_height_sigma_m"] == pytest.approx(white, rel=0.1)
+    # q's own scatter on a 24-min log is ±30 % (1 σ over simulated realizations); this seed gives +20 %
+    assert fl["gnss_height_random_walk_m2_per_s"] == pytest.approx(q, rel=0.4)
+    true_floor = noise_floor_mgal(
+        150.0,
+        sim.scenario.accel_vrw_ug_rthz,
+        height_noise_m=white,
+        gnss_rate_hz=1.0,
+        height_correlated_m=float(np.sqrt(sigma**2 - white**2)),
+        height_correlation_s=GNSS_CORR_S,
+    )["total_mgal"]
+    assert fl["total_mgal"] == pytest.approx(true_floor, rel=0.2)
+    assert s["total_mgal"] <= 1.2 * fl["total_mgal"]
+
+
 def test_import_from_kfgins_without_ldv(rtk_drive, tmp_path):
     """KF-GINS IMU and GNSS text and a partial manifest without an ldv section: a bundle without
     ldv.csv, with the simulation's increments, that navigates as the native bundle does."""

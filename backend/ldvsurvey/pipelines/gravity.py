@@ -322,6 +322,7 @@ def run(logs, params, progress) -> PipelineResult:
                 # f_U, attitude and the Eötvös velocity of the SINS/LDV navigation: the chains then differ
                 # only in the vertical acceleration (LDV vs GNSS heights), and no third filter runs
                 gch = gnss_chain(log, inp, sol, fir_s, fixes)
+                gch["still"] = inp.still
                 fl = floor_of(log, gch, fir_s)
                 if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
                     gch["edge_gain_max"] = edge_gain_max(fl)
@@ -485,10 +486,10 @@ def gnss_primary_chain(log, params, fixes, fir_s, progress, i: int, n_logs: int)
         ch = gnss_chain(log, inp, sol, fir_s, fixes)
     except ValueError as exc:
         raise ParameterError(f"no SINS/GNSS chain for bundle {i + 1}: {exc}", field="gnss_fixes") from None
+    ch["still"] = inp.still  # before the floor: its accelerometer density may come from the static start
     fl = floor_of(log, ch, fir_s)
     if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
         ch["edge_gain_max"] = edge_gain_max(fl)
-    ch["still"] = inp.still
     return ch
 
 

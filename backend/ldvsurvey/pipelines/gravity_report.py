@@ -11,7 +11,9 @@ from scipy.signal import oaconvolve
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
 from ldvsurvey.nav.gravity import (
+    G0,
     MGAL,
+    _response4,
     fir_taps,
     half_wavelength_resolution_m,
     noise_floor_mgal,
@@ -256,9 +258,23 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
 
 
 def floor_of(log, chain, fir_s):
-    """White-noise floor of the coincidence for one chain, with where each noise figure came from."""
+    """White-noise floor of the coincidence for one chain, with where each noise figure came from.
+
+    The manifest's ``imu.accel_noise_ug_per_rthz`` and ``gnss.height_noise`` are overrides; without
+    them the figures are estimated from the log itself: the accelerometer density from the static
+    start (:func:`static_accel_noise_ug_rthz`), the GNSS height noise from the SINS/GNSS chain's own
+    raw δg (:func:`fit_height_noise`)."""
     acc = log.manifest.imu.accel_noise_ug_per_rthz
     out = {"accel_noise_ug_rthz": acc, "accel_noise_source": "manifest" if acc else "not given"}
+    if not acc:
+        est = static_accel_noise_ug_rthz(log, chain.get("still"))
+        if est is not None:
+            acc, (a, b) = est
+            out.update(
+                accel_noise_ug_rthz=acc,
+                accel_noise_source=f"estimated from the static start ({a:.1f}–{b:.1f} s): scatter of the "
+                "vertical specific force (first differences), as a density",
+            )
     if chain["kind"] == "ldv":
         ldv_sig = getattr(log.manifest.ldv, "noise_mps", None)
         src = "manifest"
@@ -266,30 +282,149 @@ def floor_of(log, chain, fir_s):
             ldv_sig, src = chain.get("ldv_noise_mps"), "estimated from the data (second differences)"
         out.update(ldv_noise_mps=ldv_sig, ldv_noise_source=src, ldv_rate_hz=log.manifest.ldv.rate_hz)
         out.update(noise_floor_mgal(fir_s, acc, ldv_sig, log.manifest.ldv.rate_hz))
-    else:
-        stated = _stated_height_noise(log, chain)
-        if stated is None:
-            out.update(gnss_height_sigma_m=chain["height_sigma_m"], gnss_height_sigma_source="fix quality")
-            out.update(noise_floor_mgal(fir_s, acc, height_noise_m=chain["height_sigma_m"], gnss_rate_hz=chain["fs"]))
-        else:
-            white, corr, tau = stated
-            out.update(
-                gnss_height_sigma_m=white,
-                gnss_height_correlated_m=corr,
-                gnss_height_correlation_s=tau,
-                gnss_height_sigma_source="manifest gnss.height_noise (white and Gauss-Markov parts, by fix quality)",
+        return out
+    stated = _stated_height_noise(log, chain)
+    if stated is not None:
+        white, corr, tau = stated
+        out.update(
+            gnss_height_sigma_m=white,
+            gnss_height_correlated_m=corr,
+            gnss_height_correlation_s=tau,
+            gnss_height_sigma_source="manifest gnss.height_noise (white and Gauss-Markov parts, by fix quality)",
+        )
+        out.update(
+            noise_floor_mgal(
+                fir_s,
+                acc,
+                height_noise_m=white,
+                gnss_rate_hz=chain["fs"],
+                height_correlated_m=corr,
+                height_correlation_s=tau,
             )
-            out.update(
-                noise_floor_mgal(
-                    fir_s,
-                    acc,
-                    height_noise_m=white,
-                    gnss_rate_hz=chain["fs"],
-                    height_correlated_m=corr,
-                    height_correlation_s=tau,
-                )
-            )
+        )
+        return out
+    fit = fit_height_noise(chain, fir_s, acc)
+    if fit is None:
+        out.update(gnss_height_sigma_m=chain["height_sigma_m"], gnss_height_sigma_source="fix quality")
+        out.update(noise_floor_mgal(fir_s, acc, height_noise_m=chain["height_sigma_m"], gnss_rate_hz=chain["fs"]))
+        return out
+    white, q, n_seg = fit
+    out.update(
+        gnss_height_sigma_m=white,
+        gnss_height_random_walk_m2_per_s=q,
+        gnss_height_sigma_source=f"fitted to the chain's raw δg ({n_seg} segments of {HEIGHT_FIT_SEGMENT_S:g} s, "
+        f"{2.0 / fir_s:.4f}–{0.5 * chain['fs']:.2f} Hz): white heights plus a random-walk wander",
+    )
+    out.update(noise_floor_mgal(fir_s, acc, height_noise_m=white, gnss_rate_hz=chain["fs"]))
+    out["gnss_height_correlated_mgal"] = height_wander_floor_mgal(fir_s, q)
+    parts = [v for k, v in out.items() if k.endswith("_mgal") and k != "total_mgal" and v]
+    out["total_mgal"] = float(np.sqrt(sum(v**2 for v in parts)))
     return out
+
+
+#: length of the segments of the height-noise fit's averaged periodogram (s)
+HEIGHT_FIT_SEGMENT_S = 256.0
+#: the fit uses the periodogram from this many cycles per FIR length up (above the pass band)
+HEIGHT_FIT_MIN_FIR_CYCLES = 1.0
+#: shortest static start the accelerometer density is estimated from (s)
+MIN_STATIC_S = 30.0
+
+
+def static_accel_noise_ug_rthz(log, still):
+    """Accelerometer white-noise density (µg/√Hz) from the log's static start, and that interval.
+
+    ``still``: the navigation's still intervals (the first one starts with the log when it begins at
+    rest). The vertical specific force per sample (Δv along its own mean direction over Δt) scatters
+    by σ = N·√f_s for a density N; its first differences remove the gravity, the bias and any slow
+    drift, so σ = robust σ of the differences / √2. Engine vibration at rest, if any, counts as noise
+    (it is there on the move too). None without a static start of :data:`MIN_STATIC_S`.
+    """
+    imu = getattr(log, "imu", None)
+    if not still or imu is None:
+        return None
+    a, b = still[0]
+    t = np.asarray(imu.t_s, float)
+    if b - a < MIN_STATIC_S or a > t[0] + 1.0:
+        return None
+    k = np.flatnonzero((t >= a) & (t <= b))
+    k = k[k > 0]
+    dt = t[k] - t[k - 1]
+    f = np.asarray(imu.dvel_mps, float)[k] / dt[:, None]
+    up = np.mean(f, axis=0)
+    fz = f @ (up / np.linalg.norm(up))
+    d = np.diff(fz)
+    sig = 1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0)
+    fs = 1.0 / float(np.median(dt))
+    return float(sig / np.sqrt(fs) / G0 * 1e6), (float(a), float(b))
+
+
+def fit_height_noise(chain, fir_s, accel_noise_ug_rthz=None):
+    """(white σ m, random-walk intensity q m²/s, segments used) of the GNSS heights of a SINS/GNSS
+    chain, fitted to the chain's raw δg; None when too little of it is continuous.
+
+    Why the raw δg and not the GNSS-minus-INS height residual: the smoothed INS height is pulled to
+    the fixes, and on a drive it follows their wander completely (the residual of a simulated RTK
+    drive holds only the white part: its structure function is flat from 1 s to 300 s lags), so the
+    residual hides exactly the part that dominates the floor. The raw δg (second differences of the
+    GNSS heights less the twice-integrated specific force, before the FIR) sees no filter: above the
+    FIR's pass band (f ≥ 2/``fir_s``) it holds the disturbance's negligible tail and the noise only,
+    with a two-sided PSD
+
+        S(f) = N²g²  +  σ_w² f_s³ (2 sin πf/f_s)⁴  +  q f_s² (2 sin πf/f_s)²
+
+    (accelerometer density N from the manifest or the static start; white heights σ_w per epoch;
+    a wander whose increments have variance q·Δt, i.e. a Gauss-Markov σ_c, τ with q = 2σ_c²/τ seen
+    at f ≫ 1/(2πτ)). σ_w² and q are fitted by Whittle's likelihood to the Hann-windowed, half-overlapped
+    periodogram of the continuous stretches. Only q reaches the floor in that regime (the correlation
+    time of a wander slower than the FIR is not resolved by it, and taking it as a random walk bounds
+    the floor from above; 2 % for τ = 2·``fir_s``).
+    """
+    from scipy.optimize import minimize
+
+    fs = float(chain["fs"])
+    n = int(round(HEIGHT_FIT_SEGMENT_S * fs))
+    dg = np.asarray(chain["dg"], float)
+    win = np.hanning(n)
+    pers = []
+    for a, b in runs(np.isfinite(dg)):
+        for i in range(a, b - n + 1, n // 2):
+            x = dg[i : i + n]
+            pers.append(np.abs(np.fft.rfft((x - x.mean()) * win)) ** 2 / (np.sum(win**2) * fs))  # two-sided PSD
+    if len(pers) < 2:
+        return None
+    f = np.fft.rfftfreq(n, 1.0 / fs)
+    use = (f >= HEIGHT_FIT_MIN_FIR_CYCLES / fir_s) & (f < 0.5 * fs)
+    p = np.mean(pers, axis=0)[use]
+    # the periodogram's expectation is the PSD seen through the window's spectral kernel; the steep
+    # white-height term (∝ f⁴) would otherwise spill into the low bins and pass for a wander
+    over = 8
+    ff = np.arange(n * over) * fs / (n * over)
+    kern = np.abs(np.fft.fft(win, n * over)) ** 2
+    kern /= kern.sum()
+    s_ff = (2.0 * np.sin(np.pi * ff / fs)) ** 2
+    basis = [np.real(np.fft.ifft(np.fft.fft(kern) * np.fft.fft(b)))[::over][: n // 2 + 1][use] for b in (s_ff**2, s_ff)]
+    b_white, b_walk = basis[0] * fs**3, basis[1] * fs**2
+    acc = ((accel_noise_ug_rthz or 0.0) * 1e-6 * G0) ** 2
+
+    def model(x):
+        return acc + np.exp(x[0]) * b_white + np.exp(x[1]) * b_walk
+
+    def nll(x):
+        m = model(x)
+        return float(np.sum(np.log(m) + p / m))
+
+    x0 = np.log([max(np.median(p / b_white), 1e-12), 1e-7])
+    best = min((minimize(nll, x0 + [0.0, d], method="Nelder-Mead") for d in (0.0, 6.0, 12.0)), key=lambda r: r.fun)
+    return float(np.sqrt(np.exp(best.x[0]))), float(np.exp(best.x[1])), len(pers)
+
+
+def height_wander_floor_mgal(fir_s, q_m2_per_s):
+    """1-σ (mGal) of a random-walk height wander (increments' variance q·Δt, two-sided PSD q/(2πf)²)
+    differenced twice and through the zero-phase FIR: σ² = q ∫(2πf)²|H|⁴ df (as
+    :func:`ldvsurvey.nav.gravity.noise_floor_mgal` integrates its terms)."""
+    f, h4 = _response4(fir_s)
+    w = 2 * np.pi * f
+    return float(np.sqrt(q_m2_per_s * 2.0 * np.sum(w**2 * h4) * (f[1] - f[0])) / MGAL)
 
 
 def _stated_height_noise(log, chain):
