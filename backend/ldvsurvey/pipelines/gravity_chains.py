@@ -422,7 +422,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
     rest = res - slow
     mad = 1.4826 * np.median(np.abs(rest - np.median(rest)))
     good = np.abs(rest) <= np.maximum(k_sigma * mad, 3.0 * sig_v)
-    tg, h_g, sig_v, res = tg[good], h_g[good], sig_v[good], res[good]
+    tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
     if len(tg) < 20:
         raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")
     s = _double_integral(t, sol)
@@ -478,9 +478,6 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         "bridged": bridged,
         "screened": int((~good).sum()),
         "height_sigma_m": float(np.sqrt(np.mean(sig_v**2))),
-        # the screened fixes' height minus the reference solution's (m), for the floor's noise fit
-        "height_residual_t_s": tg,
-        "height_residual_m": res,
         "fixes": tuple(fixes),
         # the lost IMU rows' velocity error enters S (and its second difference) as in the LDV chain
         "imu_bridges": lost_increment_sigmas(inp, sol),
