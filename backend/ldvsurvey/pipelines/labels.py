@@ -13,6 +13,7 @@ from __future__ import annotations
 #: parameter name → (label, unit); unit "" for dimensionless, choices and text
 PARAM_LABELS: dict[str, tuple[str, str]] = {
     "aiding": ("Aiding of the navigation", ""),
+    "base_ties": ("Base stations: latitude, longitude, ellipsoidal height, absolute g", ""),
     "calibration": ("LDV calibration", ""),
     "calibration_window": ("Calibration stretch t0, t1 (time of day)", "s"),
     "compensation": ("Grid step × update interval study", ""),
@@ -25,6 +26,9 @@ PARAM_LABELS: dict[str, tuple[str, str]] = {
     "dov_grid": ("DOV grid files (server)", ""),
     "dov_grid_id": ("Uploaded DOV grid", ""),
     "drift_correction": ("Accelerometer drift tie at stops", ""),
+    "external_grid": ("External δg grid files (server)", ""),
+    "external_grid_id": ("Uploaded external δg grid", ""),
+    "external_model": ("External check of the adjusted δg", ""),
     "fir_length_s": ("FIR filter length", "s"),
     "gnss_aided": ("Also on an LDV+GNSS navigation", ""),
     "gnss_comparison": ("SINS/GNSS comparison chain", ""),
@@ -41,11 +45,17 @@ PARAM_LABELS: dict[str, tuple[str, str]] = {
     "line_end_trim_s": ("Trim at both line ends", "s"),
     "line_leveling": ("Repeat-line adjustment", ""),
     "lines": ("Survey lines t0-t1 (time of day)", "s"),
+    "map_grid": ("Gridded map of the adjusted δg", ""),
+    "network": ("Survey network adjustment", ""),
+    "network_drift": ("Linear drift per log in the network", ""),
+    "network_line_bias": ("A bias per line in the network", ""),
+    "outlier_sigma": ("Outlier threshold of the network residuals", "σ"),
     "output_rate_hz": ("Output rate", "Hz"),
     "period_s": ("Filter update period", "s"),
     "propagation_model": ("DOV error propagation model", ""),
     "smooth": ("RTS smoother", ""),
     "spacing_m": ("Spacing of the common along-track points", "m"),
+    "tie_radius_m": ("Radius within which a stop observes a base tie", "m"),
     "update_s": ("Error-update period", "s"),
 }
 
