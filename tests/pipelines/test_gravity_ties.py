@@ -141,3 +141,30 @@ def test_external_check_against_a_user_grid(tmp_path):
     with pytest.raises(ParameterError, match="does not cover") as exc:
         _external_check(table, per_line, params, None, 200.0, [])
     assert exc.value.field == "external_grid"
+
+
+def test_external_check_synthesizes_egm2008_at_the_tracks_height():
+    """R4: the external δg is EGM2008's at the tracks' mean height, not on the ellipsoid.
+
+    Truth: −∂T/∂h by a central difference of T = γ·(ζ − ζ₀) from :func:`gravmodel.height_anomaly_m`
+    (another sum of the model: the potential, not its radial derivative), at grid nodes (bilinear exact).
+    In the Alps at 2500 m the two heights differ by tens of mGal; the difference of the normal from the
+    radial direction leaves ~0.3 mGal."""
+    from ldvsurvey.nav.gravmodel import ZERO_DEGREE_M, height_anomaly_m
+    from ldvsurvey.pipelines.gravity_network import _external_check
+
+    lat = np.array([46.5, 46.5 + 1 / 60, 46.5 + 2 / 60])
+    lon = np.array([8.0, 8.0 + 1 / 60, 8.0 + 3 / 60])
+    h = np.array([2400.0, 2500.0, 2600.0])  # mean 2500 m
+    table = {"lat_deg": lat, "lon_deg": lon, "h_m": h, "dg_mgal": np.zeros(3), "line": ["L1"] * 3}
+    out = _external_check(table, [{"name": "L1", "resolution_m": 2000.0}], {"external_model": "egm2008"}, None, 200, [])
+    assert out["synthesis_height_m"] == 2500.0
+    assert "commission" in out["commission_note"]
+
+    def t_pot(hh):
+        return (height_anomaly_m(lat, lon, hh) - ZERO_DEGREE_M) * normal_gravity(np.radians(lat), hh)
+
+    truth = -(t_pot(2502.0) - t_pot(2498.0)) / 4.0 / MGAL
+    t0 = -(t_pot(2.0) - t_pot(-2.0)) / 4.0 / MGAL
+    assert np.max(np.abs(truth - t0)) > 10.0  # the check can tell the heights apart
+    np.testing.assert_allclose(table["dg_external_mgal"], truth, atol=1.0)

@@ -410,8 +410,11 @@ def _external_check(table, per_line, params, res, fir_s, warnings):
     else:
         from ldvsurvey.pipelines.plumb import EGM_DEGREE, _egm
 
-        grid = _egm(lat, lon, lambda *a: None)
-        name, degree = f"EGM2008 to degree {EGM_DEGREE} (1′ grid, bilinear)", EGM_DEGREE
+        # δg at the tracks' height, not on the ellipsoid: the model's short wavelengths attenuate upward
+        # (degree 2190 by ~(R/(R+h))^n, a third at 3 km), as the survey's own δg at the vehicle
+        h_mean = float(np.nanmean(table["h_m"]))
+        grid = _egm(lat, lon, lambda *a: None, h_m=h_mean)
+        name, degree = f"EGM2008 to degree {EGM_DEGREE} (1′ grid, bilinear) at h = {round(h_mean):.0f} m", EGM_DEGREE
     model = grid.interpolate(lat, lon)[2] / MGAL
     table["dg_external_mgal"] = model
     out = {"model": name, "lines": []}
@@ -430,6 +433,12 @@ def _external_check(table, per_line, params, res, fir_s, warnings):
             "EGM2008 lacks the field beyond degree 2190 (half-wavelength ~9 km): the signal between that and "
             "each line's resolution, from the Tscherning-Rapp degree variances (a global average), is the "
             "expected RMS of the difference beside the survey's own noise"
+        )
+        out["synthesis_height_m"] = float(round(h_mean))
+        out["commission_note"] = (
+            "EGM2008's own error within degree 2159 (commission) adds to the omission: NGA's propagated point "
+            "σ of Δg (5′ grid, Pavlis et al. 2012) is a few mGal over land with dense terrestrial gravity and "
+            "exceeds 10 mGal where the model was filled in from topography; not included in omission_mgal"
         )
     return out
 
