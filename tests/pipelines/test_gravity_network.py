@@ -85,13 +85,19 @@ def test_absolute_dg_against_truth_per_line_without_removing_a_mean(network_run)
         log = int(t["log"][k][0])
         err = t["dg_mgal"][k] - truth_along(sims[log - 1], t["t_s"][k])
         assert np.sqrt(np.mean(err**2)) <= 0.5, (name, np.mean(err), np.std(err))
-        # absolute g: the same error (γ at the navigated position and height)
-        g_true = (
-            truth_along(sims[log - 1], t["t_s"][k]) + normal_gravity(np.radians(t["lat_deg"][k]), t["h_m"][k]) / MGAL
-        )
+        # absolute g against γ at the TRUE position and height (the navigated height's error cancels in g)
+        im = sims[log - 1].imu
+        lat_true = np.interp(t["t_s"][k], im.t_s, im.lat_rad)
+        h_true = np.interp(t["t_s"][k], im.t_s, im.h_m)
+        g_true = truth_along(sims[log - 1], t["t_s"][k]) + normal_gravity(lat_true, h_true) / MGAL
         assert np.sqrt(np.mean((t["g_mgal"][k] - g_true) ** 2)) <= 0.5
-        # the stated 1-σ is the floor and the adjustment's own
-        assert np.all((t["sigma_mgal"][k] > 0.3) & (t["sigma_mgal"][k] < 0.7))
+        # the stated 1-σ of g is the floor and the adjustment's own; δg's adds 0.3086 mGal/m · σ_h
+        assert np.all((t["g_sigma_mgal"][k] > 0.3) & (t["g_sigma_mgal"][k] < 0.7))
+        np.testing.assert_allclose(
+            t["sigma_mgal"][k] ** 2, t["g_sigma_mgal"][k] ** 2 + (0.3086 * t["h_sigma_m"][k]) ** 2, rtol=3e-3
+        )
+        # and δg's stated 1-σ covers its error (the height term included)
+        assert np.sqrt(np.mean(err**2)) <= 2.0 * np.sqrt(np.mean(t["sigma_mgal"][k] ** 2)), name
 
 
 def test_days_on_the_same_road_come_out_level(network_run):

@@ -341,6 +341,8 @@ def _adjusted_table(lines, src, chains, adj, fir_s):
             "dg_mgal",
             "free_air_mgal",
             "sigma_mgal",
+            "g_sigma_mgal",
+            "h_sigma_m",
             "height_anomaly_m",
             "dg_unadjusted_mgal",
             "correction_mgal",
@@ -360,7 +362,12 @@ def _adjusted_table(lines, src, chains, adj, fir_s):
         c = adj.correction(ln.log, i, ln.t_s)
         cs = adj.correction_sigma(ln.log, i, ln.t_s)
         dg = ln.dg_mgal - c
-        sigma = np.sqrt(ln.sigma_mgal**2 + cs**2)
+        # absolute g = δg + γ(h_nav) does not depend on the navigated height (γ cancels); δg and Δg do:
+        # γ evaluated at h_nav + δh moves them by −∂γ/∂h·δh = 0.3086 mGal/m · δh
+        sigma_g = np.sqrt(ln.sigma_mgal**2 + cs**2)
+        h_sig = height_sigma_m(ch, ln.t_s)
+        grad = (normal_gravity(lat, h - 0.5) - normal_gravity(lat, h + 0.5)) / MGAL  # mGal/m
+        sigma = np.sqrt(sigma_g**2 + (grad * h_sig) ** 2)
         cols["t_s"] += list(ln.t_s)
         cols["log"] += [ln.log + 1] * len(kk)
         cols["line"] += [ln.name] * len(kk)
@@ -371,6 +378,8 @@ def _adjusted_table(lines, src, chains, adj, fir_s):
         cols["dg_mgal"] += list(dg)
         cols["free_air_mgal"] += list(free_air_anomaly_mgal(dg, lat, h, zeta))
         cols["sigma_mgal"] += list(sigma)
+        cols["g_sigma_mgal"] += list(sigma_g)
+        cols["h_sigma_m"] += list(h_sig)
         cols["height_anomaly_m"] += list(zeta)
         cols["dg_unadjusted_mgal"] += list(ln.dg_mgal)
         cols["correction_mgal"] += list(c)
@@ -383,12 +392,22 @@ def _adjusted_table(lines, src, chains, adj, fir_s):
                 "noise_floor_mgal": ln.sigma_mgal,
                 "mean_correction_mgal": float(np.mean(c)),
                 "sigma_mgal": float(np.sqrt(np.mean(sigma**2))),
+                "g_sigma_mgal": float(np.sqrt(np.mean(sigma_g**2))),
+                "h_sigma_m": float(np.sqrt(np.mean(h_sig**2))),
                 "height_anomaly_m": float(np.mean(zeta)),
             }
         )
     table = {k: (np.array(v, float) if k != "line" else v) for k, v in cols.items()}
     table["log"] = np.array(cols["log"], dtype=np.int64)
     return table, per_line
+
+
+def height_sigma_m(ch, t_s) -> np.ndarray:
+    """The navigation's height 1-σ (m) at the times ``t_s`` (zeros for a chain that carries none)."""
+    ep = ch.get("h_sigma_epochs")
+    if ep is None or not len(ep[0]):
+        return np.zeros(len(t_s))
+    return np.interp(t_s, ep[0], ep[1])
 
 
 def _external_check(table, per_line, params, res, fir_s, warnings):
