@@ -162,7 +162,7 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
     clusters = []
     for gi, grp in enumerate(groups):
         clusters += net.repeat_clusters(lines, grp, gi, params["spacing_m"], corr_s)
-    clusters += net.crossing_clusters(lines, groups)
+    clusters += net.crossing_clusters(lines, groups, fir_s=fir_s)
     try:
         adj = net.adjust(
             lines, clusters, ties, len(logs), drift=params["network_drift"], line_bias=params["network_line_bias"]
