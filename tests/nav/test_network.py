@@ -270,3 +270,21 @@ def test_a_log_levelled_through_many_crossings_states_an_honest_sigma():
     z = np.array(z)
     assert abs(np.mean(z)) < 0.5, np.mean(z)
     assert 0.8 < np.std(z) < 1.25, np.std(z)
+
+
+def test_leave_one_line_out_is_at_the_floor_where_the_fit_residuals_are_below_it():
+    """R2: the fit's residuals have spent its degrees of freedom (a bias per line, a bias and drift per
+    log): below the floor by construction. Predicting each line from the others and the ties gives the
+    floor itself for white line noise (expectation 1 × FLOOR; a few lines per seed: averaged over seeds)."""
+    loo, fit = [], []
+    for seed in (1, 2, 3, 4):
+        lines, ties = survey(seed)
+        _, clusters, adj = network(lines, ties)
+        loo.append(net.leave_one_line_out(lines, clusters, ties, 3)["repeat"] / FLOOR)
+
+        def adjusted(cl, adj=adj, lines=lines):
+            return np.array([v - adj.correction(lines[i].log, i, t)[0] for i, v, t in zip(cl.lines, cl.values, cl.t_s)])
+
+        fit.append(net.repeat_rms(clusters, adjusted) / FLOOR)
+    assert 0.8 < np.mean(loo) < 1.2, loo
+    assert np.mean(fit) < np.mean(loo), (fit, loo)

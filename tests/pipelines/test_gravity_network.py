@@ -73,8 +73,14 @@ def test_crossover_and_repeat_rms_at_the_floor(network_run):
     assert net["n_crossings"] >= 4  # the second road weaves across the first
     floor = net["noise_floor_mgal"]
     assert 0.3 < floor < 0.5  # 5 µg/√Hz through FIR 200 s (+ the LDV)
+    # the fit's own residuals sit below the floor by construction (its degrees of freedom spent on them) …
     assert net["repeat_rms_after_mgal"] <= 1.2 * floor
     assert net["crossover_rms_after_mgal"] <= 1.2 * floor
+    # … the honest figure predicts each line from the others and the ties (leave one line out)
+    assert net["repeat_loo_rms_mgal"] <= 1.2 * floor, net["repeat_loo_floor_ratio"]
+    assert net["crossover_loo_rms_mgal"] <= 1.2 * floor, net["crossover_loo_floor_ratio"]
+    assert net["repeat_loo_rms_mgal"] > net["repeat_rms_after_mgal"]
+    assert all(ln["loo_rms_mgal"] is not None for ln in net["lines"])
 
 
 def test_absolute_dg_against_truth_per_line_without_removing_a_mean(network_run):

@@ -530,3 +530,70 @@ def coincidence_of_group(lines: list[Line], group: list[int], spacing_m: float, 
         pairs.append((s, v))
     grid, vals = common_points(pairs, spacing_m, allow_holes=True)
     return internal_coincidence(vals, [lines[i].name for i in group], grid)
+
+
+def leave_one_line_out(lines: list[Line], clusters: list[Cluster], ties: list[Tie], n_logs: int, **adjust_kw) -> dict:
+    """Prediction errors of each line from the others and the ties (the network adjusted without it).
+
+    For each line l: the adjustment of the other lines and the ties; at every point p of l with at least
+    one other line, e = (v_l(p) − b̂_L − d̂_L·(t − t_L)) − Ĝ(p), Ĝ the weighted mean of the other lines'
+    adjusted values there (l's own line bias is not known without it: taken as zero, its expectation).
+    e·√(m/(m+1)) (m other lines at p) has the variance σ_l² for independent lines of equal floor, so the
+    RMS is comparable to the white floor, unlike the fit's residuals, which have spent its degrees of
+    freedom. Returns ``{"repeat": rms, "crossing": rms, "lines": [rms per line or None]}`` (None where
+    the network without the line is not determined or the line shares no point)."""
+    sums = {"repeat": [0.0, 0], "crossing": [0.0, 0]}
+    per_line = []
+    for leave in range(len(lines)):
+        keep = [i for i in range(len(lines)) if i != leave]
+        new = {old: k for k, old in enumerate(keep)}
+        sub = []
+        for cl in clusters:
+            m = cl.lines != leave
+            if m.sum() >= 2:
+                vs = np.broadcast_to(np.asarray(cl.var_scale, float), (len(cl.lines),))[m]
+                sub.append(
+                    Cluster(
+                        cl.kind,
+                        cl.group,
+                        cl.e_m,
+                        cl.n_m,
+                        np.array([new[int(i)] for i in cl.lines[m]]),
+                        cl.values[m],
+                        cl.t_s[m],
+                        vs.copy(),
+                    )
+                )
+        try:
+            adj = adjust([lines[i] for i in keep], sub, ties, n_logs, **adjust_kw)
+        except ValueError:
+            per_line.append(None)
+            continue
+        ln = lines[leave]
+        num, den = 0.0, 0
+        for cl in clusters:
+            at = np.flatnonzero(cl.lines == leave)
+            others = np.flatnonzero(cl.lines != leave)
+            if not len(at) or not len(others):
+                continue
+            j = at[0]
+            vo = np.array(
+                [
+                    cl.values[k] - adj.correction(lines[cl.lines[k]].log, new[int(cl.lines[k])], cl.t_s[k])[0]
+                    for k in others
+                ]
+            )
+            wo = np.array([1.0 / lines[cl.lines[k]].sigma_mgal ** 2 for k in others])
+            g_hat = float(np.sum(wo * vo) / np.sum(wo))
+            e = cl.values[j] - adj.correction(ln.log, None, cl.t_s[j])[0] - g_hat
+            e2 = e * e * len(others) / (len(others) + 1)
+            if not np.isfinite(e2):
+                continue
+            sums[cl.kind][0] += e2
+            sums[cl.kind][1] += 1
+            num += e2
+            den += 1
+        per_line.append(float(np.sqrt(num / den)) if den else None)
+    out = {k: (float(np.sqrt(s / n)) if n else None) for k, (s, n) in sums.items()}
+    out["lines"] = per_line
+    return out

@@ -183,6 +183,11 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
     x_before, d_before = net.crossover_rms(clusters, groups, raw)
     x_after, d_after = net.crossover_rms(clusters, groups, adjusted)
     floor_rms = float(np.sqrt(np.mean([ln.sigma_mgal**2 for ln in lines])))
+    if progress:
+        progress("network: leave-one-line-out prediction", 0.8)
+    loo = net.leave_one_line_out(
+        lines, clusters, ties, len(logs), drift=params["network_drift"], line_bias=params["network_line_bias"]
+    )
     residuals, flagged = _residuals(lines, clusters, ties, adj, params["outlier_sigma"], origin, ties_given)
     # parameters with 1-σ
     sig = np.sqrt(np.maximum(np.diag(adj.cov), 0.0))
@@ -217,6 +222,8 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
     if progress:
         progress("network: absolute values, external check", 0.85)
     table, per_line = _adjusted_table(lines, src, chains, adj, fir_s)
+    for pl, r in zip(per_line, loo["lines"]):
+        pl["loo_rms_mgal"] = r
     external = _external_check(table, per_line, params, res, fir_s, warnings)
     summary = {
         "datum": adj.datum,
@@ -235,6 +242,10 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
         "noise_floor_mgal": floor_rms,
         "repeat_floor_ratio": rep_after / floor_rms if rep_after is not None else None,
         "crossover_floor_ratio": x_after / floor_rms if x_after is not None else None,
+        "repeat_loo_rms_mgal": loo["repeat"],
+        "crossover_loo_rms_mgal": loo["crossing"],
+        "repeat_loo_floor_ratio": loo["repeat"] / floor_rms if loo["repeat"] is not None else None,
+        "crossover_loo_floor_ratio": loo["crossing"] / floor_rms if loo["crossing"] is not None else None,
         "sigma0": adj.sigma0,
         "dof": adj.dof,
         "drift_logs": [f"B{i + 1}" for i in adj.drift_logs],
@@ -249,7 +260,10 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
         "external_check": external,
         "note": "adjusted values = filtered δg − (log bias + log drift·(t − t_ref) + line bias); the floor is the "
         "lines' white-noise floor (RMS over lines); repeat RMS is the internal coincidence about each point's "
-        "mean, crossover RMS sqrt(Σd²/2N); both after the adjustment take its degrees of freedom",
+        "mean, crossover RMS sqrt(Σd²/2N); both after the adjustment are residuals of the fit itself (it has "
+        "spent its degrees of freedom on them: they sit below the floor by construction). The honest figures "
+        "are the leave-one-line-out ones (*_loo_*): each line predicted from the other lines and the ties, "
+        "scaled to compare with the floor",
     }
     tables = {"gravity_adjusted": table, "network_residuals": residuals}
     files = {}
