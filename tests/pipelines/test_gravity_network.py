@@ -142,12 +142,17 @@ def test_free_air_anomaly_through_the_height_anomaly(network_run):
 
 
 def test_resolution_and_external_check_per_line(network_run):
-    _, summary, _, _ = network_run
+    _, summary, t, _ = network_run
     net = summary["network"]
     for ln in net["lines"]:
         assert ln["resolution_m"] == pytest.approx(1966.0 * ln["speed_mps"] / 15.0, rel=0.01)
+    # one resolution in the summary: the network's; the nominal v·L/2 under its own name
+    assert summary["resolution_m"] == pytest.approx(np.median([ln["resolution_m"] for ln in net["lines"]]))
+    assert summary["resolution_nominal_m"] == pytest.approx(0.5 * summary["median_speed_mps"] * FIR_S)
+    assert summary["resolution_m"] > 1.2 * summary["resolution_nominal_m"]  # f½ = 0.763/L: not v·L/2
     ext = net["external_check"]
     assert ext["model"].startswith("EGM2008")
+    assert ext["synthesis_height_m"] == pytest.approx(np.mean(t["h_m"]), abs=1.0)  # at the tracks' height
     assert len(ext["lines"]) == 6
     for ln in ext["lines"]:
         assert ln["omission_mgal"] > 5.0 and np.isfinite(ln["std_mgal"])
