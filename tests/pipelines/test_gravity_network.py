@@ -73,8 +73,14 @@ def test_crossover_and_repeat_rms_at_the_floor(network_run):
     assert net["n_crossings"] >= 4  # the second road weaves across the first
     floor = net["noise_floor_mgal"]
     assert 0.3 < floor < 0.5  # 5 µg/√Hz through FIR 200 s (+ the LDV)
+    # the fit's own residuals sit below the floor by construction (its degrees of freedom spent on them) …
     assert net["repeat_rms_after_mgal"] <= 1.2 * floor
     assert net["crossover_rms_after_mgal"] <= 1.2 * floor
+    # … the honest figure predicts each line from the others and the ties (leave one line out)
+    assert net["repeat_loo_rms_mgal"] <= 1.2 * floor, net["repeat_loo_floor_ratio"]
+    assert net["crossover_loo_rms_mgal"] <= 1.2 * floor, net["crossover_loo_floor_ratio"]
+    assert net["repeat_loo_rms_mgal"] > net["repeat_rms_after_mgal"]
+    assert all(ln["loo_rms_mgal"] is not None for ln in net["lines"])
 
 
 def test_absolute_dg_against_truth_per_line_without_removing_a_mean(network_run):
@@ -85,13 +91,19 @@ def test_absolute_dg_against_truth_per_line_without_removing_a_mean(network_run)
         log = int(t["log"][k][0])
         err = t["dg_mgal"][k] - truth_along(sims[log - 1], t["t_s"][k])
         assert np.sqrt(np.mean(err**2)) <= 0.5, (name, np.mean(err), np.std(err))
-        # absolute g: the same error (γ at the navigated position and height)
-        g_true = (
-            truth_along(sims[log - 1], t["t_s"][k]) + normal_gravity(np.radians(t["lat_deg"][k]), t["h_m"][k]) / MGAL
-        )
+        # absolute g against γ at the TRUE position and height (the navigated height's error cancels in g)
+        im = sims[log - 1].imu
+        lat_true = np.interp(t["t_s"][k], im.t_s, im.lat_rad)
+        h_true = np.interp(t["t_s"][k], im.t_s, im.h_m)
+        g_true = truth_along(sims[log - 1], t["t_s"][k]) + normal_gravity(lat_true, h_true) / MGAL
         assert np.sqrt(np.mean((t["g_mgal"][k] - g_true) ** 2)) <= 0.5
-        # the stated 1-σ is the floor and the adjustment's own
-        assert np.all((t["sigma_mgal"][k] > 0.3) & (t["sigma_mgal"][k] < 0.7))
+        # the stated 1-σ of g is the floor and the adjustment's own; δg's adds 0.3086 mGal/m · σ_h
+        assert np.all((t["g_sigma_mgal"][k] > 0.3) & (t["g_sigma_mgal"][k] < 0.7))
+        np.testing.assert_allclose(
+            t["sigma_mgal"][k] ** 2, t["g_sigma_mgal"][k] ** 2 + (0.3086 * t["h_sigma_m"][k]) ** 2, rtol=3e-3
+        )
+        # and δg's stated 1-σ covers its error (the height term included)
+        assert np.sqrt(np.mean(err**2)) <= 2.0 * np.sqrt(np.mean(t["sigma_mgal"][k] ** 2)), name
 
 
 def test_days_on_the_same_road_come_out_level(network_run):
@@ -130,12 +142,17 @@ def test_free_air_anomaly_through_the_height_anomaly(network_run):
 
 
 def test_resolution_and_external_check_per_line(network_run):
-    _, summary, _, _ = network_run
+    _, summary, t, _ = network_run
     net = summary["network"]
     for ln in net["lines"]:
         assert ln["resolution_m"] == pytest.approx(1966.0 * ln["speed_mps"] / 15.0, rel=0.01)
+    # one resolution in the summary: the network's; the nominal v·L/2 under its own name
+    assert summary["resolution_m"] == pytest.approx(np.median([ln["resolution_m"] for ln in net["lines"]]))
+    assert summary["resolution_nominal_m"] == pytest.approx(0.5 * summary["median_speed_mps"] * FIR_S)
+    assert summary["resolution_m"] > 1.2 * summary["resolution_nominal_m"]  # f½ = 0.763/L: not v·L/2
     ext = net["external_check"]
     assert ext["model"].startswith("EGM2008")
+    assert ext["synthesis_height_m"] == pytest.approx(np.mean(t["h_m"]), abs=1.0)  # at the tracks' height
     assert len(ext["lines"]) == 6
     for ln in ext["lines"]:
         assert ln["omission_mgal"] > 5.0 and np.isfinite(ln["std_mgal"])

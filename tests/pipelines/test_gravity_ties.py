@@ -141,3 +141,71 @@ def test_external_check_against_a_user_grid(tmp_path):
     with pytest.raises(ParameterError, match="does not cover") as exc:
         _external_check(table, per_line, params, None, 200.0, [])
     assert exc.value.field == "external_grid"
+
+
+def test_external_check_synthesizes_egm2008_at_the_tracks_height():
+    """R4: the external δg is EGM2008's at the tracks' mean height, not on the ellipsoid.
+
+    Truth: −∂T/∂h by a central difference of T = γ·(ζ − ζ₀) from :func:`gravmodel.height_anomaly_m`
+    (another sum of the model: the potential, not its radial derivative), at grid nodes (bilinear exact).
+    In the Alps at 2500 m the two heights differ by tens of mGal; the difference of the normal from the
+    radial direction leaves ~0.3 mGal."""
+    from ldvsurvey.nav.gravmodel import ZERO_DEGREE_M, height_anomaly_m
+    from ldvsurvey.pipelines.gravity_network import _external_check
+
+    lat = np.array([46.5, 46.5 + 1 / 60, 46.5 + 2 / 60])
+    lon = np.array([8.0, 8.0 + 1 / 60, 8.0 + 3 / 60])
+    h = np.array([2400.0, 2500.0, 2600.0])  # mean 2500 m
+    table = {"lat_deg": lat, "lon_deg": lon, "h_m": h, "dg_mgal": np.zeros(3), "line": ["L1"] * 3}
+    out = _external_check(table, [{"name": "L1", "resolution_m": 2000.0}], {"external_model": "egm2008"}, None, 200, [])
+    assert out["synthesis_height_m"] == 2500.0
+    assert "commission" in out["commission_note"]
+
+    def t_pot(hh):
+        return (height_anomaly_m(lat, lon, hh) - ZERO_DEGREE_M) * normal_gravity(np.radians(lat), hh)
+
+    truth = -(t_pot(2502.0) - t_pot(2498.0)) / 4.0 / MGAL
+    t0 = -(t_pot(2.0) - t_pot(-2.0)) / 4.0 / MGAL
+    assert np.max(np.abs(truth - t0)) > 10.0  # the check can tell the heights apart
+    np.testing.assert_allclose(table["dg_external_mgal"], truth, atol=1.0)
+
+
+def test_dg_sigma_carries_the_navigated_height_error_and_g_does_not():
+    """R3: δg and Δg = f − γ(h_nav) move by 0.3086 mGal/m · δh (normal gravity's free-air gradient);
+    absolute g = δg + γ(h_nav) does not. The table's δg 1-σ adds 0.3086·σ_h in quadrature to the
+    adjustment's; the absolute g's 1-σ is the adjustment's alone."""
+    from ldvsurvey.pipelines.gravity_network import _adjusted_table
+    from tests.nav.test_network import FIR_S, network, survey
+
+    lines, ties = survey(7)
+    _, _, adj = network(lines, ties)
+    chains, src = [], []
+    for lg in range(3):
+        mine = [ln for ln in lines if ln.log == lg]
+        t = np.concatenate([ln.t_s for ln in mine])
+        e = np.concatenate([ln.e_m for ln in mine])
+        n = np.concatenate([ln.n_m for ln in mine])
+        chains.append(
+            {
+                "lat": np.radians(45.0) + n / 6.37e6,
+                "lon": np.radians(10.0) + e / 4.5e6,
+                "h": np.full(len(t), 300.0),
+                # the navigation's height σ grows from 0.1 m to 2.1 m over the day
+                "h_sigma_epochs": (np.array([0.0, 5000.0]), np.array([0.1, 2.1])),
+            }
+        )
+        at = 0
+        for ln in mine:
+            src.append((None, np.arange(at, at + len(ln.t_s))))
+            at += len(ln.t_s)
+    assert [ln.log for ln in lines] == sorted(ln.log for ln in lines)  # src follows lines' order
+    table, per_line = _adjusted_table(lines, src, chains, adj, FIR_S)
+    sig_adj = np.concatenate(
+        [np.sqrt(ln.sigma_mgal**2 + adj.correction_sigma(ln.log, i, ln.t_s) ** 2) for i, ln in enumerate(lines)]
+    )
+    sig_h = np.interp(table["t_s"], [0.0, 5000.0], [0.1, 2.1])
+    np.testing.assert_allclose(table["g_sigma_mgal"], sig_adj, rtol=1e-9)
+    np.testing.assert_allclose(table["h_sigma_m"], sig_h, rtol=1e-9)
+    np.testing.assert_allclose(table["sigma_mgal"], np.sqrt(sig_adj**2 + (0.3086 * sig_h) ** 2), rtol=2e-3)
+    assert np.max(np.sqrt(table["sigma_mgal"] ** 2 - sig_adj**2)) > 0.3  # 0.3086 mGal/m · ~1.1 m on the last line
+    assert all(pl["sigma_mgal"] >= pl["g_sigma_mgal"] for pl in per_line)

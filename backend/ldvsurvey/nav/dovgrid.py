@@ -103,8 +103,16 @@ def area_for_track(lat_deg, lon_deg, step_arcmin: float, margin_steps: int = 3):
     return round(s, 9), round(n, 9), round(w, 9), round(e, 9)
 
 
-def egm_grid(area, step_arcmin: float = 1.0, degree: int = 2190, model_name: str = "egm2008", progress=None) -> DovGrid:
-    """Synthesize ξ, η, Δg from the built-in model on the area (south, north, west, east) in degrees."""
+def egm_grid(
+    area,
+    step_arcmin: float = 1.0,
+    degree: int = 2190,
+    model_name: str = "egm2008",
+    progress=None,
+    h_m: float = 0.0,
+) -> DovGrid:
+    """Synthesize ξ, η (arcsec) and the gravity disturbance δg (mGal) from the built-in model on the area
+    (south, north, west, east) in degrees, at the ellipsoidal height ``h_m`` (m; 0: on the ellipsoid)."""
     from ldvsurvey.nav.egm import disturbing_coefficients, load_model, synthesize
 
     s, n, w, e = area
@@ -117,8 +125,9 @@ def egm_grid(area, step_arcmin: float = 1.0, degree: int = 2190, model_name: str
     dg = np.empty_like(xi)
     chunk = 8
     for i in range(0, len(lat), chunk):
-        a, b, c = synthesize(model, lat[i : i + chunk], lon)
+        a, b, c = synthesize(model, lat[i : i + chunk], lon, h_m)
         xi[i : i + chunk], eta[i : i + chunk], dg[i : i + chunk] = a, b, c
         if progress is not None:
             progress(f"EGM2008 synthesis to degree {degree}", min(1.0, (i + chunk) / len(lat)))
-    return DovGrid(lat, lon, xi, eta, dg, source=f"{model_name} degree {degree}, {step_arcmin}' grid")
+    at = f", h = {h_m:.0f} m" if h_m else ""
+    return DovGrid(lat, lon, xi, eta, dg, source=f"{model_name} degree {degree}, {step_arcmin}' grid{at}")

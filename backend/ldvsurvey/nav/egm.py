@@ -205,7 +205,11 @@ def _row_sums(t, u, n_max, m_max, c, s, q):
 
 
 def synthesize(model: Model, lat_deg: np.ndarray, lon_deg: np.ndarray, h_m: float = 0.0):
-    """ξ, η (arcsec) and Δg (mGal) on the grid lat_deg × lon_deg at ellipsoidal height h_m.
+    """ξ, η (arcsec) and the gravity disturbance δg = −∂T/∂r (mGal) on the grid lat_deg × lon_deg at
+    ellipsoidal height h_m (m).
+
+    δg is the disturbance at the point (g_P − γ_P), not the free-air anomaly Δg (which refers γ to the
+    telluroid, :func:`ldvsurvey.nav.gravmodel.free_air_anomaly_mgal`).
 
     Returns three (n_lat, n_lon) arrays.
     """

@@ -19,7 +19,9 @@ biases of a log sum to zero (the log's level is b_L); without ties the logs' bia
 Weights: a filtered line's noise is correlated along the track over the filter's correlation
 time τ_c = 1/∫|H|⁴df (the white-noise equivalent: a mean over T seconds of the filtered noise has
 the variance of T/τ_c independent samples), so samples at spacing Δs carry the information of
-Δs/(v·τ_c) independent ones: their variance is σ_l²·max(1, v·τ_c/Δs).
+Δs/(v·τ_c) independent ones: their variance is σ_l²·max(1, v·τ_c/Δs). A line's samples at its crossings
+are correlated the same way: each carries σ_l²·max(1, (1/N)·Σ_jk ρ(t_j − t_k)) over the line's N
+crossings (:func:`noise_autocorrelation`), so their mean has its true variance.
 """
 
 from __future__ import annotations
@@ -83,7 +85,8 @@ class Cluster:
     lines: np.ndarray  #: line index of each sample
     values: np.ndarray  #: mGal
     t_s: np.ndarray
-    var_scale: float = 1.0  #: the samples' variance over σ_l² (along-track correlation)
+    #: the samples' variance over σ_l² (along-track correlation): one for the cluster, or one per sample
+    var_scale: float | np.ndarray = 1.0
 
 
 @dataclass
@@ -227,11 +230,51 @@ def _sorted(s, v):
     return s[o], v[o]
 
 
+def noise_autocorrelation(length_s: float, lags_s) -> np.ndarray:
+    """ρ(τ) of white noise through the applied (forward and backward) FIR of length L: the normalized
+    autocorrelation of its impulse response; ∫ρ dτ = τ_c (:func:`correlation_time_s`)."""
+    from ldvsurvey.nav.gravity import fir_taps
+
+    fs = 200.0 / length_s  # 200 samples per filter length: ρ is smooth at 1/L
+    h = fir_taps(length_s, fs)
+    g = np.convolve(h, h[::-1])  # the applied filter's impulse response
+    r = np.convolve(g, g[::-1])
+    r = r / r[(len(r) - 1) // 2]
+    lag = (np.arange(len(r)) - (len(r) - 1) // 2) / fs
+    return np.interp(np.abs(np.asarray(lags_s, float)), lag, r, right=0.0)
+
+
+def _crossing_inflation(lines: list[Line], clusters: list[Cluster], fir_s: float) -> None:
+    """Set each crossing sample's variance scale from its line's along-track noise correlation.
+
+    A line's samples at its crossings are values of one filtered noise, correlated over v·τ_c: the mean of
+    N of them at times t_j has the variance σ²/N · (1/N) Σ_jk ρ(t_j − t_k), not σ²/N. Each of the line's
+    crossing samples gets that factor (≥ 1; 1 for a single crossing or crossings far apart), so the N
+    carry together the information of N_eff = N² / Σ_jk ρ independent ones (the generalized least squares
+    of equal weights with the filtered noise's autocovariance, for the line's level)."""
+    per_line: dict[int, list[tuple[int, int, float]]] = {}
+    for ci, cl in enumerate(clusters):
+        for j, (i, t) in enumerate(zip(cl.lines, cl.t_s)):
+            per_line.setdefault(int(i), []).append((ci, j, float(t)))
+    scales = [np.ones(len(cl.lines)) for cl in clusters]
+    for items in per_line.values():
+        t = np.array([x[2] for x in items])
+        rho = noise_autocorrelation(fir_s, t[:, None] - t[None, :])
+        f = max(1.0, float(np.sum(rho)) / len(t))
+        for ci, j, _ in items:
+            scales[ci][j] = f
+    for cl, sc in zip(clusters, scales):
+        cl.var_scale = sc
+
+
 def crossing_clusters(
-    lines: list[Line], groups: list[list[int]], min_angle_deg=CROSSING_MIN_ANGLE_DEG
+    lines: list[Line], groups: list[list[int]], min_angle_deg=CROSSING_MIN_ANGLE_DEG, fir_s: float | None = None
 ) -> list[Cluster]:
     """One point per crossing of two groups' tracks: every line of both groups there (when it passes within
-    CROSSING_MAX_DISTANCE_M), its value interpolated at its sample nearest the crossing."""
+    CROSSING_MAX_DISTANCE_M), its value interpolated at its sample nearest the crossing.
+
+    ``fir_s``: the filter length; with it each sample's variance is inflated by its line's crossings'
+    noise correlation (:func:`_crossing_inflation`); without it the crossings count as independent."""
     out = []
     for a in range(len(groups)):
         for b in range(a + 1, len(groups)):
@@ -257,6 +300,8 @@ def crossing_clusters(
                 in_a = [i in groups[a] for i in idx]
                 if any(in_a) and not all(in_a):
                     out.append(Cluster("crossing", (a, b), e, n, np.array(idx), np.array(vals), np.array(ts), 1.0))
+    if fir_s:
+        _crossing_inflation(lines, out, fir_s)
     return out
 
 
@@ -354,7 +399,8 @@ def adjust(
     # per cluster: design rows, values, weights (1/σ² with the along-track inflation), marginal σ
     blocks = []
     for cl in clusters:
-        w = np.array([1.0 / (lines[i].sigma_mgal ** 2 * cl.var_scale) for i in cl.lines])
+        vs = np.broadcast_to(np.asarray(cl.var_scale, float), (len(cl.lines),))
+        w = np.array([1.0 / (lines[i].sigma_mgal ** 2 * f) for i, f in zip(cl.lines, vs)])
         a = np.array([row_of(lines[i].log, i, t) for i, t in zip(cl.lines, cl.t_s)])
         sm = np.array([lines[i].sigma_mgal for i in cl.lines])
         blocks.append((a, np.asarray(cl.values, float), w, sm))
@@ -404,7 +450,10 @@ def adjust(
         mult = [p if b[3] is not None else np.ones(1) for p, b in zip(parts, blocks)]  # ties keep their weight
     # σ0 from the residuals against their marginal variances (the along-track inflation only spreads a
     # line's information over its correlated samples; it is not a larger error of each)
-    infl = np.concatenate([np.full(len(b[1]), cl.var_scale) for b, cl in zip(blocks, clusters)] + [np.ones(len(ties))])
+    infl = np.concatenate(
+        [np.broadcast_to(np.asarray(cl.var_scale, float), (len(b[1]),)) for b, cl in zip(blocks, clusters)]
+        + [np.ones(len(ties))]
+    )
     r = (y_all - a_all @ xi) * sw * np.sqrt(infl)
     n_points = len(clusters)
     dof = int(len(y_all) - n_points - a_all.shape[1])
@@ -481,3 +530,70 @@ def coincidence_of_group(lines: list[Line], group: list[int], spacing_m: float, 
         pairs.append((s, v))
     grid, vals = common_points(pairs, spacing_m, allow_holes=True)
     return internal_coincidence(vals, [lines[i].name for i in group], grid)
+
+
+def leave_one_line_out(lines: list[Line], clusters: list[Cluster], ties: list[Tie], n_logs: int, **adjust_kw) -> dict:
+    """Prediction errors of each line from the others and the ties (the network adjusted without it).
+
+    For each line l: the adjustment of the other lines and the ties; at every point p of l with at least
+    one other line, e = (v_l(p) − b̂_L − d̂_L·(t − t_L)) − Ĝ(p), Ĝ the weighted mean of the other lines'
+    adjusted values there (l's own line bias is not known without it: taken as zero, its expectation).
+    e·√(m/(m+1)) (m other lines at p) has the variance σ_l² for independent lines of equal floor, so the
+    RMS is comparable to the white floor, unlike the fit's residuals, which have spent its degrees of
+    freedom. Returns ``{"repeat": rms, "crossing": rms, "lines": [rms per line or None]}`` (None where
+    the network without the line is not determined or the line shares no point)."""
+    sums = {"repeat": [0.0, 0], "crossing": [0.0, 0]}
+    per_line = []
+    for leave in range(len(lines)):
+        keep = [i for i in range(len(lines)) if i != leave]
+        new = {old: k for k, old in enumerate(keep)}
+        sub = []
+        for cl in clusters:
+            m = cl.lines != leave
+            if m.sum() >= 2:
+                vs = np.broadcast_to(np.asarray(cl.var_scale, float), (len(cl.lines),))[m]
+                sub.append(
+                    Cluster(
+                        cl.kind,
+                        cl.group,
+                        cl.e_m,
+                        cl.n_m,
+                        np.array([new[int(i)] for i in cl.lines[m]]),
+                        cl.values[m],
+                        cl.t_s[m],
+                        vs.copy(),
+                    )
+                )
+        try:
+            adj = adjust([lines[i] for i in keep], sub, ties, n_logs, **adjust_kw)
+        except ValueError:
+            per_line.append(None)
+            continue
+        ln = lines[leave]
+        num, den = 0.0, 0
+        for cl in clusters:
+            at = np.flatnonzero(cl.lines == leave)
+            others = np.flatnonzero(cl.lines != leave)
+            if not len(at) or not len(others):
+                continue
+            j = at[0]
+            vo = np.array(
+                [
+                    cl.values[k] - adj.correction(lines[cl.lines[k]].log, new[int(cl.lines[k])], cl.t_s[k])[0]
+                    for k in others
+                ]
+            )
+            wo = np.array([1.0 / lines[cl.lines[k]].sigma_mgal ** 2 for k in others])
+            g_hat = float(np.sum(wo * vo) / np.sum(wo))
+            e = cl.values[j] - adj.correction(ln.log, None, cl.t_s[j])[0] - g_hat
+            e2 = e * e * len(others) / (len(others) + 1)
+            if not np.isfinite(e2):
+                continue
+            sums[cl.kind][0] += e2
+            sums[cl.kind][1] += 1
+            num += e2
+            den += 1
+        per_line.append(float(np.sqrt(num / den)) if den else None)
+    out = {k: (float(np.sqrt(s / n)) if n else None) for k, (s, n) in sums.items()}
+    out["lines"] = per_line
+    return out

@@ -434,6 +434,17 @@ def run(logs, params, progress) -> PipelineResult:
                 logs, chains, res, params, floors, progress
             )
             warnings += net_warn
+            # one resolution in the summary: the network's (where the applied filter passes half the
+            # amplitude, v/(2 f½)), the nominal v·L/2 kept under its own name
+            net_res = [ln["resolution_m"] for ln in summary["network"]["lines"] if ln.get("resolution_m")]
+            if net_res:
+                summary["resolution_nominal_m"] = summary["resolution_m"]
+                summary["resolution_m"] = float(np.median(net_res))
+                summary["resolution_definition"] = (
+                    "resolution_m: half-wavelength v/(2 f½) at the frequency f½ where the applied filter passes "
+                    "half the amplitude (median over the network's lines, as network.lines[].resolution_m); "
+                    "resolution_nominal_m: v·L/2 at the single pass's cut-off 1/L"
+                )
         except ParameterError as exc:
             if params["base_ties"]:  # asked for: a tie that cannot apply is the user's to fix
                 raise

@@ -253,6 +253,14 @@ def lost_increment_sigmas(inp, sol):
     return out
 
 
+def height_sigma_epochs(sol):
+    """(t_s, σ_h m) at the filter epochs: the navigation's own 1-σ of its height (GNSS-aided where fixes
+    were used), for the δg 1-σ (normal gravity at a wrong height moves δg by 0.3086 mGal/m)."""
+    if getattr(sol, "epoch_sigma", None) is None:  # a solution without the filter's covariance
+        return None
+    return np.array(sol.epoch_t_s, float), np.array(sol.epoch_sigma[:, 8], float)
+
+
 def ldv_chain(inp, sol, setup):
     """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times.
 
@@ -306,6 +314,7 @@ def ldv_chain(inp, sol, setup):
         "screened": int(bad.sum()),
         "ldv_noise_mps": noise,
         "imu_bridges": lost_increment_sigmas(inp, sol),
+        "h_sigma_epochs": height_sigma_epochs(sol),
         "kind": "ldv",
     }
 
@@ -481,5 +490,6 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         "fixes": tuple(fixes),
         # the lost IMU rows' velocity error enters S (and its second difference) as in the LDV chain
         "imu_bridges": lost_increment_sigmas(inp, sol),
+        "h_sigma_epochs": height_sigma_epochs(sol),
         "kind": "gnss",
     }

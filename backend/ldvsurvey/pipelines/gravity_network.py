@@ -162,7 +162,7 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
     clusters = []
     for gi, grp in enumerate(groups):
         clusters += net.repeat_clusters(lines, grp, gi, params["spacing_m"], corr_s)
-    clusters += net.crossing_clusters(lines, groups)
+    clusters += net.crossing_clusters(lines, groups, fir_s=fir_s)
     try:
         adj = net.adjust(
             lines, clusters, ties, len(logs), drift=params["network_drift"], line_bias=params["network_line_bias"]
@@ -183,6 +183,11 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
     x_before, d_before = net.crossover_rms(clusters, groups, raw)
     x_after, d_after = net.crossover_rms(clusters, groups, adjusted)
     floor_rms = float(np.sqrt(np.mean([ln.sigma_mgal**2 for ln in lines])))
+    if progress:
+        progress("network: leave-one-line-out prediction", 0.8)
+    loo = net.leave_one_line_out(
+        lines, clusters, ties, len(logs), drift=params["network_drift"], line_bias=params["network_line_bias"]
+    )
     residuals, flagged = _residuals(lines, clusters, ties, adj, params["outlier_sigma"], origin, ties_given)
     # parameters with 1-σ
     sig = np.sqrt(np.maximum(np.diag(adj.cov), 0.0))
@@ -217,6 +222,8 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
     if progress:
         progress("network: absolute values, external check", 0.85)
     table, per_line = _adjusted_table(lines, src, chains, adj, fir_s)
+    for pl, r in zip(per_line, loo["lines"]):
+        pl["loo_rms_mgal"] = r
     external = _external_check(table, per_line, params, res, fir_s, warnings)
     summary = {
         "datum": adj.datum,
@@ -235,6 +242,10 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
         "noise_floor_mgal": floor_rms,
         "repeat_floor_ratio": rep_after / floor_rms if rep_after is not None else None,
         "crossover_floor_ratio": x_after / floor_rms if x_after is not None else None,
+        "repeat_loo_rms_mgal": loo["repeat"],
+        "crossover_loo_rms_mgal": loo["crossing"],
+        "repeat_loo_floor_ratio": loo["repeat"] / floor_rms if loo["repeat"] is not None else None,
+        "crossover_loo_floor_ratio": loo["crossing"] / floor_rms if loo["crossing"] is not None else None,
         "sigma0": adj.sigma0,
         "dof": adj.dof,
         "drift_logs": [f"B{i + 1}" for i in adj.drift_logs],
@@ -249,7 +260,10 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
         "external_check": external,
         "note": "adjusted values = filtered δg − (log bias + log drift·(t − t_ref) + line bias); the floor is the "
         "lines' white-noise floor (RMS over lines); repeat RMS is the internal coincidence about each point's "
-        "mean, crossover RMS sqrt(Σd²/2N); both after the adjustment take its degrees of freedom",
+        "mean, crossover RMS sqrt(Σd²/2N); both after the adjustment are residuals of the fit itself (it has "
+        "spent its degrees of freedom on them: they sit below the floor by construction). The honest figures "
+        "are the leave-one-line-out ones (*_loo_*): each line predicted from the other lines and the ties, "
+        "scaled to compare with the floor",
     }
     tables = {"gravity_adjusted": table, "network_residuals": residuals}
     files = {}
@@ -341,6 +355,8 @@ def _adjusted_table(lines, src, chains, adj, fir_s):
             "dg_mgal",
             "free_air_mgal",
             "sigma_mgal",
+            "g_sigma_mgal",
+            "h_sigma_m",
             "height_anomaly_m",
             "dg_unadjusted_mgal",
             "correction_mgal",
@@ -360,7 +376,12 @@ def _adjusted_table(lines, src, chains, adj, fir_s):
         c = adj.correction(ln.log, i, ln.t_s)
         cs = adj.correction_sigma(ln.log, i, ln.t_s)
         dg = ln.dg_mgal - c
-        sigma = np.sqrt(ln.sigma_mgal**2 + cs**2)
+        # absolute g = δg + γ(h_nav) does not depend on the navigated height (γ cancels); δg and Δg do:
+        # γ evaluated at h_nav + δh moves them by −∂γ/∂h·δh = 0.3086 mGal/m · δh
+        sigma_g = np.sqrt(ln.sigma_mgal**2 + cs**2)
+        h_sig = height_sigma_m(ch, ln.t_s)
+        grad = (normal_gravity(lat, h - 0.5) - normal_gravity(lat, h + 0.5)) / MGAL  # mGal/m
+        sigma = np.sqrt(sigma_g**2 + (grad * h_sig) ** 2)
         cols["t_s"] += list(ln.t_s)
         cols["log"] += [ln.log + 1] * len(kk)
         cols["line"] += [ln.name] * len(kk)
@@ -371,6 +392,8 @@ def _adjusted_table(lines, src, chains, adj, fir_s):
         cols["dg_mgal"] += list(dg)
         cols["free_air_mgal"] += list(free_air_anomaly_mgal(dg, lat, h, zeta))
         cols["sigma_mgal"] += list(sigma)
+        cols["g_sigma_mgal"] += list(sigma_g)
+        cols["h_sigma_m"] += list(h_sig)
         cols["height_anomaly_m"] += list(zeta)
         cols["dg_unadjusted_mgal"] += list(ln.dg_mgal)
         cols["correction_mgal"] += list(c)
@@ -383,12 +406,22 @@ def _adjusted_table(lines, src, chains, adj, fir_s):
                 "noise_floor_mgal": ln.sigma_mgal,
                 "mean_correction_mgal": float(np.mean(c)),
                 "sigma_mgal": float(np.sqrt(np.mean(sigma**2))),
+                "g_sigma_mgal": float(np.sqrt(np.mean(sigma_g**2))),
+                "h_sigma_m": float(np.sqrt(np.mean(h_sig**2))),
                 "height_anomaly_m": float(np.mean(zeta)),
             }
         )
     table = {k: (np.array(v, float) if k != "line" else v) for k, v in cols.items()}
     table["log"] = np.array(cols["log"], dtype=np.int64)
     return table, per_line
+
+
+def height_sigma_m(ch, t_s) -> np.ndarray:
+    """The navigation's height 1-σ (m) at the times ``t_s`` (zeros for a chain that carries none)."""
+    ep = ch.get("h_sigma_epochs")
+    if ep is None or not len(ep[0]):
+        return np.zeros(len(t_s))
+    return np.interp(t_s, ep[0], ep[1])
 
 
 def _external_check(table, per_line, params, res, fir_s, warnings):
@@ -410,8 +443,11 @@ def _external_check(table, per_line, params, res, fir_s, warnings):
     else:
         from ldvsurvey.pipelines.plumb import EGM_DEGREE, _egm
 
-        grid = _egm(lat, lon, lambda *a: None)
-        name, degree = f"EGM2008 to degree {EGM_DEGREE} (1′ grid, bilinear)", EGM_DEGREE
+        # δg at the tracks' height, not on the ellipsoid: the model's short wavelengths attenuate upward
+        # (degree 2190 by ~(R/(R+h))^n, a third at 3 km), as the survey's own δg at the vehicle
+        h_mean = float(np.nanmean(table["h_m"]))
+        grid = _egm(lat, lon, lambda *a: None, h_m=h_mean)
+        name, degree = f"EGM2008 to degree {EGM_DEGREE} (1′ grid, bilinear) at h = {round(h_mean):.0f} m", EGM_DEGREE
     model = grid.interpolate(lat, lon)[2] / MGAL
     table["dg_external_mgal"] = model
     out = {"model": name, "lines": []}
@@ -430,6 +466,12 @@ def _external_check(table, per_line, params, res, fir_s, warnings):
             "EGM2008 lacks the field beyond degree 2190 (half-wavelength ~9 km): the signal between that and "
             "each line's resolution, from the Tscherning-Rapp degree variances (a global average), is the "
             "expected RMS of the difference beside the survey's own noise"
+        )
+        out["synthesis_height_m"] = float(round(h_mean))
+        out["commission_note"] = (
+            "EGM2008's own error within degree 2159 (commission) adds to the omission: NGA's propagated point "
+            "σ of Δg (5′ grid, Pavlis et al. 2012) is a few mGal over land with dense terrestrial gravity and "
+            "exceeds 10 mGal where the model was filled in from topography; not included in omission_mgal"
         )
     return out
 

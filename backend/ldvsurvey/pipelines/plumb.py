@@ -87,17 +87,19 @@ def _uploaded(grid_id: str) -> DovGrid:
     return grid
 
 
-def _egm(lat_deg, lon_deg, progress) -> DovGrid:
+def _egm(lat_deg, lon_deg, progress, h_m: float = 0.0) -> DovGrid:
+    """The EGM2008 grid over the track at the ellipsoidal height ``h_m`` (m), memoized and cached."""
     from ldvsurvey.pipelines.gridctx import GRID_CACHE
 
     area = area_for_track(lat_deg, lon_deg, EGM_STEP_ARCMIN)
-    key = f"egm2008:deg{EGM_DEGREE}:step{EGM_STEP_ARCMIN}:{area}"
+    h_m = float(round(h_m))  # to the metre: δg changes by ~µGal per metre of height at these wavelengths
+    key = f"egm2008:deg{EGM_DEGREE}:step{EGM_STEP_ARCMIN}:{area}" + (f":h{h_m:.0f}" if h_m else "")
     grid = _EGM_MEMO.get(key)
     cache = GRID_CACHE.get()
     if grid is None and cache is not None:
         grid = cache.get(key)
     if grid is None:
-        grid = egm_grid(area, EGM_STEP_ARCMIN, EGM_DEGREE, progress=lambda s, f: progress(s, 0.03))
+        grid = egm_grid(area, EGM_STEP_ARCMIN, EGM_DEGREE, progress=lambda s, f: progress(s, 0.03), h_m=h_m)
         if cache is not None:
             cache.put(key, grid)
     _EGM_MEMO[key] = grid
