@@ -136,31 +136,29 @@ class GravityParams(CalibrationParams):
     @field_validator("lines")
     @classmethod
     def _lines(cls, v):
-        if v is not None:
-            try:
-                parse_lines(v)
-            except ParameterError as exc:
-                raise ValueError(exc.message) from None
-        return v
+        return _parses(parse_lines, v)
 
     @field_validator("base_ties")
     @classmethod
     def _ties(cls, v):
-        if v is not None:
-            try:
-                parse_ties(v)
-            except ParameterError as exc:
-                raise ValueError(exc.message) from None
-        return v
+        return _parses(parse_ties, v)
 
     @field_validator("gnss_fixes")
     @classmethod
     def _fixes(cls, v):
-        try:
-            parse_fixes(v)
-        except ParameterError as exc:
-            raise ValueError(exc.message) from None
+        return _parses(parse_fixes, v, none_ok=False)
+
+
+def _parses(parse, v, none_ok: bool = True):
+    """``v`` when ``parse`` accepts it (None passes when ``none_ok``); its ParameterError as the
+    ValueError a pydantic validator raises, so the refusal names the field at submit."""
+    if v is None and none_ok:
         return v
+    try:
+        parse(v)
+    except ParameterError as exc:
+        raise ValueError(exc.message) from None
+    return v
 
 
 def applicable(logs: list[LogFacts], params: GravityParams) -> list[Reason]:
