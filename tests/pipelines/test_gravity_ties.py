@@ -100,7 +100,7 @@ def test_a_log_without_static_gravity_cannot_observe_a_tie():
 def test_line_levelling_and_the_network_exclude_each_other(params):
     """Levelling moves each log's bias into its lines and the ties would put it back: refused up front."""
     pipe = get("gravity")
-    p = pipe.resolve({"line_leveling": "bias", **params})
+    p = pipe.validate({"line_leveling": "bias", **params})
     logs = [object()] if params else [object(), object()]
     with pytest.raises(ParameterError) as e:
         pipe.func(logs, p, lambda *a, **k: None)

@@ -1,8 +1,9 @@
 """What every pipeline shares: parameters, progress and cancellation, results and their files.
 
-A pipeline is ``func(logs, params, progress) -> PipelineResult``. The CLI, the job runner and
-the tests call it the same way through :func:`run_pipeline`, which adds the common summary
-keys (``pipeline``, ``inputs``, ``parameters``, ``software_version``, ...).
+A pipeline is ``func(logs, params, progress) -> PipelineResult`` where ``params`` is its validated,
+frozen parameter model. The CLI, the job runner and the tests call it through
+:func:`run_pipeline`, which adds the common summary keys (``pipeline``, ``inputs``,
+``parameters``, ``software_version``, ...).
 """
 
 from __future__ import annotations
@@ -385,14 +386,15 @@ def _jsonable(x):
 def run_pipeline(pipe: Pipeline, logs: list, params: dict, progress: Progress | None = None) -> PipelineResult:
     """Run ``pipe`` on parsed drive logs and add the common summary keys."""
     progress = progress or Progress()
-    values = pipe.resolve(params)
+    model = pipe.validate(params)
+    values = model.model_dump()
     if not pipe.multi_input and len(logs) != 1:
         raise ParameterError(f"'{pipe.name}' takes exactly one bundle, got {len(logs)}", field="BUNDLE")
     started = dt.datetime.now(dt.UTC)
     t0 = time.perf_counter()
     token = _RUN_WARNINGS.set([])
     try:
-        result = pipe.func(logs, values, progress)
+        result = pipe.func(logs, model, progress)
         staged = list(_RUN_WARNINGS.get())
     finally:
         _RUN_WARNINGS.reset(token)

@@ -46,6 +46,7 @@ def applicable(logs: list[LogFacts], params: CalibrateParams) -> list[Reason]:
 
 
 def run(logs, params, progress) -> PipelineResult:
+    params = params.model_dump()  # transitional: typed access comes with issue 30
     log = logs[0]
     progress("preparing", 0.02)
     inp = nav_inputs(log)

@@ -85,6 +85,7 @@ def _reference(log, t_s):
 
 
 def run(logs, params, progress) -> PipelineResult:
+    params = params.model_dump()  # transitional: typed access comes with issue 30
     log = logs[0]
     m = log.manifest
     if m.platform != "vessel":

@@ -148,6 +148,7 @@ def _mechanize(t, dth, dv, k_static, lat0, pos0, h_ref, gravity=None, dov0=None,
 
 
 def run(logs, params, progress) -> PipelineResult:
+    params = params.model_dump()  # transitional: typed access comes with issue 30
     log = logs[0]
     warnings = []
     progress("preparing", 0.02)

@@ -282,6 +282,7 @@ def navigation_log(log):
 
 
 def run(logs, params, progress) -> PipelineResult:
+    params = params.model_dump()  # transitional: typed access comes with issue 30
     fir_s = params["fir_length_s"]
     if not fir_s > 0:
         raise ParameterError("must be positive", field="fir_length_s")

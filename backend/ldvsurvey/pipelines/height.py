@@ -95,6 +95,7 @@ def error_stats(err: np.ndarray) -> dict:
 
 
 def run(logs, params, progress) -> PipelineResult:
+    params = params.model_dump()  # transitional: typed access comes with issue 30
     log = logs[0]
     m = log.manifest
     progress("preparing", 0.02)

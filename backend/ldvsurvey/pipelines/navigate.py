@@ -124,6 +124,7 @@ def errors_vs_gnss(log, sol, fixes=(4,)):
 
 
 def run(logs, params, progress) -> PipelineResult:
+    params = params.model_dump()  # transitional: typed access comes with issue 30
     log = logs[0]
     progress("preparing", 0.02)
     inp, setup, sol = run_navigation(log, params, progress, specific_force=False)

@@ -85,6 +85,7 @@ def oscillation(inp, c_bn, raw):
 
 
 def run(logs, params, progress) -> PipelineResult:
+    params = params.model_dump()  # transitional: typed access comes with issue 30
     log = logs[0]
     progress("preparing", 0.02)
     inp = nav_inputs(log)
