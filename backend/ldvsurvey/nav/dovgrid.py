@@ -22,9 +22,11 @@ class DovGrid:
 
     @property
     def step_arcmin(self) -> float:
+        """Node spacing in latitude (arcmin, the median)."""
         return float(np.median(np.diff(self.lat_deg)) * 60.0)
 
     def covers(self, lat_deg, lon_deg) -> bool:
+        """Whether every point (deg) lies within the grid's nodes, edges included."""
         return bool(
             np.all(
                 (lat_deg >= self.lat_deg[0])
