@@ -390,7 +390,19 @@ def manifest(sim: SimResult) -> dict:
 
 def bundle_files(sim: SimResult) -> dict[str, bytes]:
     """The four ``ldv-drive-log/1`` files of a simulation (three without ``ldv.csv`` when the
-    scenario has no LDV, ``with_ldv`` False)."""
+    scenario has no LDV, ``with_ldv`` False).
+
+    Parameters
+    ----------
+    sim : SimResult
+        The simulation.
+
+    Returns
+    -------
+    dict of str to bytes
+        ``manifest.json``, ``imu.csv`` (increments rad and m/s, turntable deg), ``ldv.csv`` (m/s, or
+        Doppler Hz with ``ldv_fd``) and ``gnss.nmea``, with the recording effects applied.
+    """
     from ldvsurvey.io.drivelog import fd_to_v_fwd
     from ldvsurvey.io.manifest import LdvOptics
     from ldvsurvey.io.writers import imu_csv, ldv_csv, manifest_json, nmea_text
@@ -438,7 +450,22 @@ def bundle_files(sim: SimResult) -> dict[str, bytes]:
 
 
 def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:
-    """Truth beside the bundle: ``truth.csv`` (every ``every``-th IMU sample) and ``truth.json``."""
+    """Truth beside the bundle: ``truth.csv`` (every ``every``-th IMU sample) and ``truth.json``.
+
+    Parameters
+    ----------
+    sim : SimResult
+        The simulation.
+    every : int
+        Keep every this-many-th IMU sample in ``truth.csv``.
+
+    Returns
+    -------
+    dict of str to bytes
+        ``truth.csv`` (position deg and m, velocity m/s, attitude deg, the effects' columns),
+        ``truth.json`` (tilt rad, LDV mounting rad and scale, biases rad/s and m/s², the effects'
+        truth) and, with the no-DOV twin, ``imu_nodov.csv``.
+    """
     from ldvsurvey.io.writers import csv_bytes, imu_csv
 
     im = sim.imu

@@ -41,7 +41,20 @@ def survey_field(lat0_rad: float = LAT0_DEG * RAD, lon0_rad: float = LON0_DEG * 
 
 def road_of(k: int, line_km: float | None = None) -> Road:
     """Road ``k``: 0 straight and flat through the origin, 1 weaving across it (± WEAVE_DEG, a crossing every
-    WEAVE_SEGMENT_M of road); ``line_km`` + 2 run-ins long, both centred on the origin."""
+    WEAVE_SEGMENT_M of road); both centred on the origin.
+
+    Parameters
+    ----------
+    k : int
+        Which road (0 or 1).
+    line_km : float, optional
+        Line length (km; default ``LINE_KM[k]``); the road adds a run-in of RUN_IN_M (m) at each end.
+
+    Returns
+    -------
+    Road
+        The road, flat, at H0_M (m).
+    """
     line_km = LINE_KM[k] if line_km is None else line_km
     length = line_km * 1000.0 + 2 * RUN_IN_M
     psi = HEADINGS_DEG[k] * RAD
