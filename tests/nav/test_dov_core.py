@@ -5,7 +5,7 @@ import pytest
 
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.gdf import parse_gdf, write_gdf
-from ldvsurvey.nav.dov import propagate, schuler_constant_dov
+from ldvsurvey.nav.dov import Deflection, Trajectory, propagate, schuler_constant_dov
 from ldvsurvey.nav.dovgrid import DovGrid, area_for_track
 from ldvsurvey.nav.earth import A_M, ARCSEC, E2, MGAL, OMEGA_IE, normal_gravity
 from ldvsurvey.nav.egm import disturbing_coefficients, load_model, synthesize
@@ -122,15 +122,8 @@ def test_constant_dov_schuler_response():
     eps = 10 * ARCSEC
     for coriolis in (False, True):
         to, dn, de, _ = propagate(
-            t,
-            lat,
-            np.zeros(n),
-            np.zeros(n),
-            f_n,
-            w_in,
-            gam,
-            np.full(n, eps),
-            np.zeros(n),
+            Trajectory(t, lat, np.zeros(n), np.zeros(n), f_n, w_in, gam),
+            Deflection(np.full(n, eps), np.zeros(n)),
             0.09,
             True,
             np.zeros(3),

@@ -12,10 +12,23 @@ from ldvsurvey.nav.earth import OMEGA_IE
 
 
 def _triad(a, b):
+    """Orthonormal frame (3, 3) whose first axis is ``a`` and second is normal to ``a`` and ``b``."""
     e1 = a / np.linalg.norm(a)
     e2 = np.cross(a, b)
     e2 /= np.linalg.norm(e2)
     return np.column_stack([e1, e2, np.cross(e1, e2)])
+
+
+def _increments_in_body(dtheta_rad, dvel_mps, c_bs, turntable_rad):
+    """(K, 3) increments taken from s to b (C_s^b = (C_b^s)ᵀ), the turntable's own turn removed from the rate."""
+    dth = np.asarray(dtheta_rad, float)
+    dv = np.asarray(dvel_mps, float)
+    if c_bs is not None:
+        dth = np.einsum("kji,kj->ki", c_bs, dth)
+        dv = np.einsum("kji,kj->ki", c_bs, dv)
+        if turntable_rad is not None:
+            dth[:, 2] -= np.diff(np.unwrap(turntable_rad), prepend=turntable_rad[0])
+    return dth, dv
 
 
 def coarse_align(dtheta_rad, dvel_mps, lat_rad: float, c_bs=None, turntable_rad=None):
@@ -23,23 +36,23 @@ def coarse_align(dtheta_rad, dvel_mps, lat_rad: float, c_bs=None, turntable_rad=
 
     Parameters
     ----------
-    dtheta_rad, dvel_mps : (K, 3) increments of the static stretch in the sensor frame.
-    lat_rad : latitude.
-    c_bs : optional (K, 3, 3) C_b^s per sample (rotating IMU): increments are taken to b first.
-    turntable_rad : optional (K,) encoder angle; its change is removed from the b-frame rate.
+    dtheta_rad : (K, 3) array
+        Angle increments of the static stretch in the sensor frame (rad).
+    dvel_mps : (K, 3) array
+        Velocity increments of the static stretch in the sensor frame (m/s).
+    lat_rad : float
+        Latitude (rad).
+    c_bs : (K, 3, 3) array, optional
+        C_b^s per sample (rotating IMU): the increments are taken to b first.
+    turntable_rad : (K,) array, optional
+        Encoder angle (rad); its change is removed from the b-frame rate.
 
     Returns
     -------
-    c_bn : (3, 3) body attitude C_b^n. With s = b this is C_s^n.
+    c_bn : (3, 3) array
+        Body attitude C_b^n. With s = b this is C_s^n.
     """
-    dth = np.asarray(dtheta_rad, float)
-    dv = np.asarray(dvel_mps, float)
-    if c_bs is not None:  # C_s^b = (C_b^s)ᵀ
-        dth = np.einsum("kji,kj->ki", c_bs, dth)
-        dv = np.einsum("kji,kj->ki", c_bs, dv)
-        if turntable_rad is not None:
-            deta = np.diff(np.unwrap(turntable_rad), prepend=turntable_rad[0])
-            dth[:, 2] -= deta
+    dth, dv = _increments_in_body(dtheta_rad, dvel_mps, c_bs, turntable_rad)
     f_b = dv.sum(axis=0)
     w_b = dth.sum(axis=0)
     f_n = np.array([0.0, 0.0, 1.0])
@@ -51,6 +64,7 @@ def align_in_motion(
     dtheta_rad,
     dvel_mps,
     duration_s: float,
+    *,
     v_fwd_mps: float,
     a_fwd_mps2: float,
     course_rad: float,
@@ -69,24 +83,33 @@ def align_in_motion(
 
     Parameters
     ----------
-    dtheta_rad, dvel_mps : (K, 3) increments of the stretch in the sensor frame.
-    duration_s : length of the stretch (s). v_fwd_mps, a_fwd_mps2 : mean travel speed and its rate.
-    course_rad : course over ground (clockwise from north). c_db_mount : (3, 3) C_d^b.
-    c_bs, turntable_rad : as in :func:`coarse_align` for a rotating IMU.
+    dtheta_rad : (K, 3) array
+        Angle increments of the stretch in the sensor frame (rad).
+    dvel_mps : (K, 3) array
+        Velocity increments of the stretch in the sensor frame (m/s).
+    duration_s : float
+        Length of the stretch (s).
+    v_fwd_mps : float
+        Mean travel speed over the stretch (m/s).
+    a_fwd_mps2 : float
+        Rate of the travel speed (m/s²).
+    course_rad : float
+        Course over ground (rad, clockwise from north).
+    c_db_mount : (3, 3) array
+        LDV mounting C_d^b.
+    c_bs : (K, 3, 3) array, optional
+        C_b^s per sample (rotating IMU), as in :func:`coarse_align`.
+    turntable_rad : (K,) array, optional
+        Encoder angle (rad), as in :func:`coarse_align`.
 
     Returns
     -------
-    c_bn : (3, 3) body attitude C_b^n.
+    c_bn : (3, 3) array
+        Body attitude C_b^n.
     """
     from ldvsurvey.nav.attitude import c_bn_from_euler
 
-    dth = np.asarray(dtheta_rad, float)
-    dv = np.asarray(dvel_mps, float)
-    if c_bs is not None:
-        dth = np.einsum("kji,kj->ki", c_bs, dth)
-        dv = np.einsum("kji,kj->ki", c_bs, dv)
-        if turntable_rad is not None:
-            dth[:, 2] -= np.diff(np.unwrap(turntable_rad), prepend=turntable_rad[0])
+    dth, dv = _increments_in_body(dtheta_rad, dvel_mps, c_bs, turntable_rad)
     f_b = dv.sum(axis=0) / duration_s
     w_b = dth.sum(axis=0) / duration_s
     fwd_b = c_db_mount @ np.array([0.0, 1.0, 0.0])

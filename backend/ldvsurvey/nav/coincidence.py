@@ -17,6 +17,8 @@ from scipy.spatial import cKDTree
 
 @dataclass
 class Coincidence:
+    """Internal coincidence of repeated lines on common points (values in the lines' unit, e.g. mGal)."""
+
     names: list[str]
     distance_m: np.ndarray  # (m,) common along-track points
     values: np.ndarray  # (n, m)
@@ -37,6 +39,26 @@ def internal_coincidence(values: np.ndarray, names=None, distance_m=None) -> Coi
     point the mean line and the n/(n−1) factor use the n_j lines present there (points with
     fewer than two are left out): ε² = Σ δ² / Σ_j (n_j − 1) and ε_i² = mean_j of n_j/(n_j − 1) δ_ij².
     Without NaN these are the formulas of methods §4a exactly.
+
+    Parameters
+    ----------
+    values : (n, m) array
+        Each line's values on the common points (any unit; NaN where a line has no value).
+    names : list of str, optional
+        Line names; default L1 … Ln.
+    distance_m : (m,) array, optional
+        Along-track distance of the common points (m); default their index.
+
+    Returns
+    -------
+    Coincidence
+        Mean line, residuals, per-line and total ε (the unit of ``values``), on the points covered by
+        at least two lines.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two lines, or fewer than two points covered by two lines.
     """
     g = np.asarray(values, dtype=float)
     n, m = g.shape
@@ -73,7 +95,22 @@ def internal_coincidence(values: np.ndarray, names=None, distance_m=None) -> Coi
 
 
 def along_track(ref_e, ref_n, e, n):
-    """Along-track distance (m) of points (e, n) projected on a reference polyline (metres)."""
+    """Along-track distance of points projected on a reference polyline, and their distance off it.
+
+    Parameters
+    ----------
+    ref_e, ref_n : (K,) arrays
+        The reference polyline, east and north (m).
+    e, n : (N,) arrays
+        The points, east and north (m).
+
+    Returns
+    -------
+    s_m : (N,) array
+        Along-track distance of each point's projection on the segment after its nearest vertex (m).
+    off_m : (N,) array
+        Distance of each point from that segment's line (m).
+    """
     seg = np.hypot(np.diff(ref_e), np.diff(ref_n))
     cum = np.concatenate([[0.0], np.cumsum(seg)])
     tree = cKDTree(np.column_stack([ref_e, ref_n]))
@@ -99,6 +136,29 @@ def common_points(
     than ``max_hole_m`` (default 3 spacings) from a line's nearest valid sample is a hole in
     that line, never bridged by interpolation: it is left out for all lines, or, with
     ``allow_holes``, set NaN in that line (points with fewer than two lines are left out).
+
+    Parameters
+    ----------
+    lines : list of (array, array)
+        Per line its along-track distance (m) and value (any unit).
+    spacing_m : float
+        Spacing of the common points (m).
+    max_hole_m : float, optional
+        Largest distance (m) of a point from a line's nearest valid sample; default 3 spacings.
+    allow_holes : bool
+        Keep the union of the lines' extents with NaN holes instead of the stretch all lines cover.
+
+    Returns
+    -------
+    distance_m : (m,) array
+        The common points (m).
+    values : (n, m) array
+        Each line's values there (the unit of the input).
+
+    Raises
+    ------
+    ValueError
+        A line with fewer than two valid points, or no common stretch.
     """
     hole = 3.0 * spacing_m if max_hole_m is None else max_hole_m
     prepared = []
@@ -133,9 +193,23 @@ def common_points(
 def crossovers(tracks: list[tuple[np.ndarray, np.ndarray, np.ndarray]], min_angle_deg: float = 0.0):
     """Differences at the crossings of distinct lines.
 
-    ``tracks``: per line (e (m), n (m), value). Crossings at an angle below ``min_angle_deg``
-    (repeated passes weaving over the same road) are not crossovers and are skipped.
-    Returns (list of (i, j, e, n, d)), ε or None.
+    Crossings at an angle below ``min_angle_deg`` (repeated passes weaving over the same road) are
+    not crossovers and are skipped.
+
+    Parameters
+    ----------
+    tracks : list of (array, array, array)
+        Per line east (m), north (m) and value (any unit) along it.
+    min_angle_deg : float
+        Smallest crossing angle that counts (deg).
+
+    Returns
+    -------
+    found : list of (int, int, float, float, float)
+        Per crossover the two lines' indices, its east and north (m) and the difference of their
+        values (line i minus line j, the unit of the values).
+    eps : float or None
+        Crossover accuracy sqrt(Σ d² / (2N)) (the unit of the values); None without crossovers.
     """
     sin_min = np.sin(np.radians(min_angle_deg))
     found = []
@@ -168,6 +242,6 @@ def crossovers(tracks: list[tuple[np.ndarray, np.ndarray, np.ndarray]], min_angl
 
 
 def total_from_lines(per_line_rms) -> float:
-    """Total internal coincidence from the per-line values: ε² is the mean of the ε_i²."""
+    """Total internal coincidence from the per-line values ε_i (any unit): ε² is the mean of the ε_i²."""
     e = np.asarray(per_line_rms, dtype=float)
     return float(np.sqrt(np.mean(e**2)))

@@ -22,9 +22,11 @@ class DovGrid:
 
     @property
     def step_arcmin(self) -> float:
+        """Node spacing in latitude (arcmin, the median)."""
         return float(np.median(np.diff(self.lat_deg)) * 60.0)
 
     def covers(self, lat_deg, lon_deg) -> bool:
+        """Whether every point (deg) lies within the grid's nodes, edges included."""
         return bool(
             np.all(
                 (lat_deg >= self.lat_deg[0])
@@ -47,7 +49,22 @@ class DovGrid:
         )
 
     def interpolate(self, lat_deg, lon_deg, method: str = "linear"):
-        """ξ, η (rad) and Δg (m/s², 0 without) at the points; method 'linear' (bilinear) or 'cubic'."""
+        """ξ, η and Δg interpolated at the points.
+
+        Parameters
+        ----------
+        lat_deg, lon_deg : arrays
+            The points (deg), same shape, inside the grid.
+        method : str
+            'linear' (bilinear) or 'cubic' (interpolating bicubic spline).
+
+        Returns
+        -------
+        xi_rad, eta_rad : arrays
+            Deflection (rad), the shape of ``lat_deg``.
+        dg_mps2 : array
+            Δg (m/s²; zeros when the grid has none).
+        """
         from scipy.interpolate import RectBivariateSpline, RegularGridInterpolator
 
         la = np.asarray(lat_deg, float).ravel()
@@ -68,7 +85,18 @@ class DovGrid:
         return tuple(out)
 
     def resample(self, step_arcmin: float) -> DovGrid:
-        """The grid's values sampled at a coarser step, covering at least the original extent."""
+        """The grid's values sampled at a coarser step, covering at least the original extent.
+
+        Parameters
+        ----------
+        step_arcmin : float
+            The new node spacing (arcmin).
+
+        Returns
+        -------
+        DovGrid
+            Bilinear samples of ξ, η (arcsec) and Δg (mGal) from the south-west corner on.
+        """
         from scipy.interpolate import RegularGridInterpolator
 
         st = step_arcmin / 60.0
@@ -94,7 +122,22 @@ class DovGrid:
 
 
 def area_for_track(lat_deg, lon_deg, step_arcmin: float, margin_steps: int = 3):
-    """Grid bounds (south, north, west, east) snapped to the step, covering the track with a margin."""
+    """Grid bounds snapped to the step, covering the track with a margin.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : arrays
+        The track (deg).
+    step_arcmin : float
+        Grid step (arcmin).
+    margin_steps : int
+        Margin beyond the track on each side (steps).
+
+    Returns
+    -------
+    tuple of float
+        (south, north, west, east) (deg).
+    """
     st = step_arcmin / 60.0
     s = np.floor(np.min(lat_deg) / st) * st - margin_steps * st
     n = np.ceil(np.max(lat_deg) / st) * st + margin_steps * st
@@ -111,8 +154,28 @@ def egm_grid(
     progress=None,
     h_m: float = 0.0,
 ) -> DovGrid:
-    """Synthesize ξ, η (arcsec) and the gravity disturbance δg (mGal) from the built-in model on the area
-    (south, north, west, east) in degrees, at the ellipsoidal height ``h_m`` (m; 0: on the ellipsoid)."""
+    """Synthesize ξ, η and the gravity disturbance δg from the built-in model on an area.
+
+    Parameters
+    ----------
+    area : tuple of float
+        (south, north, west, east) (deg), e.g. from :func:`area_for_track`.
+    step_arcmin : float
+        Grid step (arcmin).
+    degree : int
+        Degree of the synthesis.
+    model_name : str
+        Coefficient file (:func:`ldvsurvey.nav.egm.model_path`).
+    progress : callable, optional
+        ``progress(message, fraction)`` after each block of rows.
+    h_m : float
+        Ellipsoidal height of the synthesis (m; 0: on the ellipsoid).
+
+    Returns
+    -------
+    DovGrid
+        ξ, η (arcsec) and δg (mGal) on the nodes.
+    """
     from ldvsurvey.nav.egm import disturbing_coefficients, load_model, synthesize
 
     s, n, w, e = area

@@ -42,7 +42,7 @@ class Model:
 
 
 def model_path(name: str = "egm2008") -> Path:
-    """Coefficient file shipped by the ``ssa-data-gravity`` package."""
+    """Path of the coefficient file ``<name>.egm.cof`` shipped by the ``ssa-data-gravity`` package."""
     import ssa_data_gravity
 
     return Path(ssa_data_gravity.__file__).parent / "data" / f"{name}.egm.cof"
@@ -58,7 +58,21 @@ def _metadata(cof: Path) -> dict:
 
 
 def load_model(name: str = "egm2008", n_max: int | None = None) -> Model:
-    """Read a GeographicLib ``.egm.cof`` (id, N, M, then C̄ and S̄ column-major by order)."""
+    """Read a GeographicLib ``.egm.cof`` (id, N, M, then C̄ and S̄ column-major by order).
+
+    Parameters
+    ----------
+    name : str
+        Model name (the file's stem).
+    n_max : int, optional
+        Truncate to this degree (and order); default the file's.
+
+    Returns
+    -------
+    Model
+        Fully normalized C̄, S̄ (dimensionless), GM (m³/s²) and reference radius (m) from the
+        model's metadata.
+    """
     path = model_path(name)
     meta = _metadata(path)
     with open(path, "rb") as fh:
@@ -87,7 +101,21 @@ def load_model(name: str = "egm2008", n_max: int | None = None) -> Model:
 
 
 def disturbing_coefficients(model: Model) -> Model:
-    """Subtract the WGS-84 normal potential's even zonal terms (in the model's GM and radius)."""
+    """The disturbing potential's coefficients: the model less the WGS-84 normal potential.
+
+    Degrees 0 and 1 are zeroed and the normal field's even zonal terms C̄_{2n,0} (to degree 10),
+    scaled to the model's GM and radius, subtracted.
+
+    Parameters
+    ----------
+    model : Model
+        The full model.
+
+    Returns
+    -------
+    Model
+        A copy with the coefficients of T = V_model − U_WGS84.
+    """
     c = model.c.copy()
     c[0, 0] = 0.0
     if model.n_max >= 1:
@@ -211,7 +239,19 @@ def synthesize(model: Model, lat_deg: np.ndarray, lon_deg: np.ndarray, h_m: floa
     δg is the disturbance at the point (g_P − γ_P), not the free-air anomaly Δg (which refers γ to the
     telluroid, :func:`ldvsurvey.nav.gravmodel.free_air_anomaly_mgal`).
 
-    Returns three (n_lat, n_lon) arrays.
+    Parameters
+    ----------
+    model : Model
+        Disturbing-potential coefficients (:func:`disturbing_coefficients`).
+    lat_deg, lon_deg : (n_lat,), (n_lon,) arrays
+        Geodetic latitudes and longitudes of the grid (deg).
+    h_m : float
+        Ellipsoidal height (m).
+
+    Returns
+    -------
+    xi_arcsec, eta_arcsec, dg_mgal : (n_lat, n_lon) arrays
+        ξ, η (arcsec) and δg (mGal).
     """
     lat = np.radians(np.asarray(lat_deg, float))
     lon = np.radians(np.asarray(lon_deg, float))

@@ -28,7 +28,21 @@ TR_A_MGAL2, TR_B, TR_S = 425.28, 24.0, 0.999617
 
 
 def omission_mgal(n_model: int, resolution_m: float) -> float:
-    """RMS (mGal) of the gravity signal between the model's degree and the data's half-wavelength resolution."""
+    """RMS of the gravity signal between the model's degree and the data's half-wavelength resolution.
+
+    Parameters
+    ----------
+    n_model : int
+        Degree to which the model is complete.
+    resolution_m : float
+        Half-wavelength resolution of the data (m).
+
+    Returns
+    -------
+    float
+        Omission error (mGal) from the Tscherning–Rapp degree variances; 0 when the data resolve no
+        more than the model.
+    """
     n_s = int(np.ceil(np.pi * R_MEAN_M / max(resolution_m, 1.0)))
     if n_s <= n_model:
         return 0.0
@@ -45,8 +59,23 @@ def _model(degree: int):
 
 
 def height_anomaly_m(lat_deg, lon_deg, h_m: float = 0.0, degree: int = 2190) -> np.ndarray:
-    """ζ (m) from EGM2008 to ``degree`` at the points (one synthesis per distinct latitude: give a grid's
-    nodes, or few points)."""
+    """Height anomaly ζ from EGM2008 to ``degree`` at the points (one synthesis per distinct latitude:
+    give a grid's nodes, or few points).
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : arrays
+        Geodetic latitude and longitude of the points (deg), same length.
+    h_m : float
+        Ellipsoidal height at which T is evaluated (m).
+    degree : int
+        Degree of the synthesis.
+
+    Returns
+    -------
+    (N,) array
+        ζ (m), with EGM2008's zero-degree term.
+    """
     from ldvsurvey.nav.egm import _row_sums
 
     model = _model(degree)
@@ -72,7 +101,24 @@ def height_anomaly_m(lat_deg, lon_deg, h_m: float = 0.0, degree: int = 2190) -> 
 
 
 def height_anomaly_grid(lat_deg, lon_deg, h_m: float = 0.0, degree: int = 2190, step_deg: float = 1.0 / 30):
-    """ζ (m) at the points from a coarse grid (2′ by default; ζ varies by centimetres over it) over their extent."""
+    """Height anomaly ζ at the points from a coarse grid over their extent (ζ varies by centimetres over 2′).
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : arrays
+        Geodetic latitude and longitude of the points (deg), same shape.
+    h_m : float
+        Ellipsoidal height of the synthesis (m).
+    degree : int
+        Degree of the synthesis.
+    step_deg : float
+        Grid step (deg; 2′ by default).
+
+    Returns
+    -------
+    array
+        ζ (m), bilinear from the grid, the shape of ``lat_deg``.
+    """
     from scipy.interpolate import RegularGridInterpolator
 
     la = np.asarray(lat_deg, float)
@@ -85,7 +131,24 @@ def height_anomaly_grid(lat_deg, lon_deg, h_m: float = 0.0, degree: int = 2190, 
 
 
 def free_air_anomaly_mgal(dg_mgal, lat_rad, h_m, zeta_m) -> np.ndarray:
-    """Δg = δg + γ(φ, h) − γ(φ, h − ζ) (mGal): the disturbance referred to the telluroid."""
+    """Free-air anomaly Δg = δg + γ(φ, h) − γ(φ, h − ζ): the disturbance referred to the telluroid.
+
+    Parameters
+    ----------
+    dg_mgal : array
+        Gravity disturbance δg (mGal).
+    lat_rad : array
+        Latitude (rad).
+    h_m : array
+        Ellipsoidal height (m).
+    zeta_m : array
+        Height anomaly ζ (m).
+
+    Returns
+    -------
+    array
+        Δg (mGal).
+    """
     from ldvsurvey.nav.earth import MGAL
 
     return (

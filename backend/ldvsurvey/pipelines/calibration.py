@@ -13,7 +13,7 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import forward_accel_mps2
 from ldvsurvey.nav.innovations import variance_inflation
-from ldvsurvey.nav.tilt import TiltEstimate
+from ldvsurvey.nav.turntable import TiltEstimate
 from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Reason, window_inside
 from ldvsurvey.pipelines.inputs import (
     NAV_FIXES,

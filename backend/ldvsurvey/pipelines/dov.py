@@ -14,7 +14,7 @@ from ldvsurvey.io.drivelog import parse_imu
 from ldvsurvey.io.imutime import check_no_long_gaps
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_from_q, q_from_c
-from ldvsurvey.nav.dov import initial_misalignment, propagate
+from ldvsurvey.nav.dov import Deflection, Trajectory, initial_misalignment, propagate
 from ldvsurvey.nav.dovgrid import DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import OMEGA_IE, enu_offset_m, normal_gravity, radii
 from ldvsurvey.nav.mech import mechanize
@@ -185,15 +185,8 @@ def run(logs, params, progress) -> PipelineResult:
     out = {}
     for name, rk in (("direct", False), ("rk4", True)):
         to, dn, de, _ = propagate(
-            inp.t_s,
-            lat,
-            h,
-            ref.v_n[:, 0],
-            f_n,
-            w_in,
-            gam,
-            xi,
-            eta,
+            Trajectory(inp.t_s, lat, h, ref.v_n[:, 0], f_n, w_in, gam),
+            Deflection(xi, eta),
             params["update_s"],
             rk,
             phi0,

@@ -66,6 +66,20 @@ class BodyModel:
         return p, r, y
 
     def c_dt(self, t, tr=None):
+        """Attitude C_d^t of the vehicle body (LDV) frame d relative to the travel frame t at times ``t``.
+
+        Parameters
+        ----------
+        t : (N,) array
+            Times (s).
+        tr : dict, optional
+            ``Motion.truth(t)`` when already at hand (else computed).
+
+        Returns
+        -------
+        (N, 3, 3) array
+            C_d^t from the stance, squat, roll, bounce and crab angles (rad).
+        """
         p, r, y = self.angles(t, tr)
         return c_bn_from_euler(p, r, y)
 

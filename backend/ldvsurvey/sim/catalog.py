@@ -12,7 +12,22 @@ from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402  (rad per degree)
 
 
 def drive(minutes: float = 40.0, speed_mps: float = 15.0, **kw) -> Scenario:
-    """A vehicle drive with turns and grades: 5 min static, then driving along a winding road."""
+    """A vehicle drive with turns and grades: 5 min static, then driving along a winding road.
+
+    Parameters
+    ----------
+    minutes : float
+        Length of the log (min).
+    speed_mps : float
+        Cruising speed (m/s).
+    **kw
+        Further :class:`~ldvsurvey.sim.scenario.Scenario` fields (sensor grades, rates, seed, ...).
+
+    Returns
+    -------
+    Scenario
+        The drive (fixed IMU, 2-D LDV).
+    """
     static = kw.pop("static_s", 300.0)
     length = speed_mps * (minutes * 60.0 - static) + 2000.0
     heading = Ramps(
@@ -39,6 +54,22 @@ def height(minutes: float = 40.0, length_m: float = 10000.0, relief_m: float = 3
     """The height paper's drive: rotating IMU (4-position), 1-D LDV, out-and-back with relief.
 
     Sensor defaults from the paper: gyro 0.002°/h, accel 50 µg, LDV 0.05 %.
+
+    Parameters
+    ----------
+    minutes : float
+        Length of the log (min).
+    length_m : float
+        Road length, driven out and back (m).
+    relief_m : float
+        Height climbed (m).
+    **kw
+        Further :class:`~ldvsurvey.sim.scenario.Scenario` fields (sensor grades, rates, seed, ...).
+
+    Returns
+    -------
+    Scenario
+        The drive, its two lines set.
     """
     static = kw.pop("static_s", 300.0)
     turn_s = 40.0
@@ -105,7 +136,26 @@ def gravity(
     n_lines: int = 6, line_km: float = 11.0, relief_m: float = 332.0, speed_mps: float = 15.0, **kw
 ) -> Scenario:
     """The gravimetry paper's survey: fixed IMU (0.003°/h, 20 µg), 2-D LDV (0.1 %), repeated lines
-    with large relief, GNSS partly degraded, a synthetic field with gradients up to 3 mGal/km."""
+    with large relief, GNSS partly degraded, a synthetic field with gradients up to 3 mGal/km.
+
+    Parameters
+    ----------
+    n_lines : int
+        Lines driven (alternately out and back).
+    line_km : float
+        Line length (km).
+    relief_m : float
+        Height climbed along the road (m).
+    speed_mps : float
+        Speed on the lines (m/s).
+    **kw
+        Further :class:`~ldvsurvey.sim.scenario.Scenario` fields (sensor grades, rates, seed, ...).
+
+    Returns
+    -------
+    Scenario
+        The survey, its lines set (absolute times, s).
+    """
     from ldvsurvey.sim.fields import SinusoidField
     from ldvsurvey.sim.motion import Motion
 
@@ -184,7 +234,27 @@ class GridField:
 
 def dov(km: float = 315.0, speed_mps: float = 25.0, step_arcmin: float = 1.0, degree: int = 2190, **kw) -> Scenario:
     """The DOV paper's simulation: due north from N34°18'57" E109°7'36" at 25 m/s; gyro 0.01°/h,
-    ARW 0.001°/√h, accel 50 µg, 5 µg/√Hz; the true field is the built-in EGM2008 on a 1' grid."""
+    ARW 0.001°/√h, accel 50 µg, 5 µg/√Hz; the true field is the built-in EGM2008 on a 1' grid.
+
+    Parameters
+    ----------
+    km : float
+        Distance driven (km).
+    speed_mps : float
+        Speed (m/s).
+    step_arcmin : float
+        Step of the field's grid (arcmin).
+    degree : int
+        Degree of the EGM2008 synthesis.
+    **kw
+        Further :class:`~ldvsurvey.sim.scenario.Scenario` fields; ``grid`` a ready
+        :class:`~ldvsurvey.nav.dovgrid.DovGrid` (skips the synthesis).
+
+    Returns
+    -------
+    Scenario
+        The drive (1-D LDV at 10 Hz).
+    """
     from ldvsurvey.nav.dovgrid import area_for_track, egm_grid
 
     lat0, lon0 = 34 + 18 / 60 + 57 / 3600, 109 + 7 / 60 + 36 / 3600
@@ -213,7 +283,26 @@ def vessel(
 ) -> Scenario:
     """The damping paper's simulation: moored for ``mooring_s`` (1000 s), a left turn at 0.1°/s for
     450 s, 1 m/s² for 20 s, hours of straight run, 1 m/s² deceleration; a water-track LDV; a steady
-    current (from the end of the mooring)."""
+    current (from the end of the mooring).
+
+    Parameters
+    ----------
+    hours : float
+        Length of the straight run (h).
+    current_mps : float
+        Speed of the current toward ENE (m/s).
+    speed_mps : float
+        Speed through the water (m/s).
+    mooring_s : float
+        Moored time at the start (s).
+    **kw
+        Further :class:`~ldvsurvey.sim.scenario.Scenario` fields (sensor grades, rates, seed, ...).
+
+    Returns
+    -------
+    Scenario
+        The vessel's run.
+    """
     length = speed_mps * hours * 3600.0 + 2 * speed_mps * 20.0 + 2000.0
     road = Road(30.56 * RAD, 114.32 * RAD, 7.0, length, Ramps(0.0))  # water track due north
     segs = [

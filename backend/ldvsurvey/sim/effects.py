@@ -154,6 +154,7 @@ class Effects:
 
     @classmethod
     def ideal(cls) -> Effects:
+        """Every effect off (the ideal simulation)."""
         return cls()
 
     @classmethod

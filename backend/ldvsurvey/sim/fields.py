@@ -27,6 +27,7 @@ class SinusoidField:
         return (lon - self.lon0_rad) * rn * np.cos(self.lat0_rad), (lat - self.lat0_rad) * rm
 
     def dg_mgal(self, lat_rad, lon_rad):
+        """Δg (mGal) at latitude, longitude (rad), any shape."""
         e, n = self._en(np.asarray(lat_rad, float), np.asarray(lon_rad, float))
         out = np.full(np.shape(e), self.offset_mgal)
         for a, lam, th, ph in self.terms:
@@ -34,9 +35,11 @@ class SinusoidField:
         return out
 
     def max_gradient_mgal_per_km(self) -> float:
+        """Bound of the largest horizontal gradient of Δg, Σ 2π A_k / λ_k (mGal/km)."""
         return float(sum(2 * np.pi * a / lam for a, lam, _, _ in self.terms) * 1000.0)
 
     def __call__(self, lat_rad, lon_rad, h_m):
+        """ξ, η (rad, zero) and Δg (m/s²) at latitude, longitude (rad) and height (m)."""
         dg = self.dg_mgal(lat_rad, lon_rad) * MGAL
         z = np.zeros_like(dg)
         return z, z, dg

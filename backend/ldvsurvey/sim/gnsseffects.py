@@ -26,7 +26,23 @@ def _events(rng, per_h: float, dur: tuple, t_a: float, t_b: float):
 
 
 def gnss_events(spec: GnssEffects, t0_s: float, t_end_s: float, rng) -> dict:
-    """Random outage, degradation and multipath windows (absolute times, s)."""
+    """Random convergence, outage, degradation and multipath windows.
+
+    Parameters
+    ----------
+    spec : GnssEffects
+        Rates (per h), durations (s) and multipath sizes (m).
+    t0_s, t_end_s : float
+        The log's span (s).
+    rng : numpy.random.Generator
+        The effects' generator.
+
+    Returns
+    -------
+    dict
+        ``convergence`` and ``degraded`` as (t_start_s, t_end_s, fix), ``outages`` as (t_start_s,
+        t_end_s), ``multipath`` as (t_start_s, t_end_s, de_m, dn_m, du_m).
+    """
     conv = [(t0_s, t0_s + 20.0, 1), (t0_s + 20.0, t0_s + 40.0, 2), (t0_s + 40.0, t0_s + 60.0, 5)]
     degraded = [
         (a, b, int(rng.choice([5, 2, 1])))

@@ -51,10 +51,40 @@ def rates(
     alpha_rad: float = 0.0,
     beta_rad: float = 0.0,
 ):
-    """ω_is^s (rad/s), f^s (m/s²) and the truth at times t.
+    """Angular rate and specific force the sensor feels at times ``t``, with the truth.
 
-    ``c_bt``: constant C_b^t (3, 3), or a callable ``c_bt(t, truth) -> (C_b^t (N,3,3), ω_tb^b (N,3))``
-    for a body whose attitude over the travel direction varies (see ``body.py``).
+    Parameters
+    ----------
+    motion : Motion
+        The vehicle's timeline.
+    t : (N,) array
+        Times (s).
+    c_bt : (3, 3) array or callable
+        Constant C_b^t, or ``c_bt(t, truth) -> (C_b^t (N, 3, 3), ω_tb^b (N, 3) rad/s)`` for a body
+        whose attitude over the travel direction varies (see ``body.py``).
+    field : callable, optional
+        ``field(lat_rad, lon_rad, h_m) -> (ξ rad, η rad, Δg m/s²)``; default none (normal gravity).
+    turntable : object, optional
+        ``turntable.angle(t) -> (η rad, η̇ rad/s)`` of a rotating IMU; default a fixed IMU (s = b).
+    alpha_rad, beta_rad : float
+        Tilt of the turntable axis (rad).
+
+    Returns
+    -------
+    w_is_s : (N, 3) array
+        ω_is^s (rad/s).
+    f_s : (N, 3) array
+        Specific force f^s (m/s²).
+    truth : dict
+        ``Motion.truth(t)``.
+    c_bn : (N, 3, 3) array
+        Body attitude C_b^n.
+    f_n : (N, 3) array
+        Specific force in n (m/s²).
+    w_nb_b : (N, 3) array
+        Body rate with respect to n (rad/s).
+    eta_rad : (N,) array or None
+        Turntable angle (rad), None for a fixed IMU.
     """
     tr = motion.truth(t)
     if callable(c_bt):

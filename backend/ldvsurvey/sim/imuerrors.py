@@ -36,7 +36,26 @@ def misalignment(scale_ppm, nonorth_urad) -> np.ndarray:
 
 
 def gauss_markov(n: int, dt_s: float, sigma, tau_s: float, rng) -> np.ndarray:
-    """(n, len(sigma)) stationary first-order Gauss–Markov sequences."""
+    """Stationary first-order Gauss–Markov sequences.
+
+    Parameters
+    ----------
+    n : int
+        Samples.
+    dt_s : float
+        Sampling interval (s).
+    sigma : sequence of float
+        Stationary σ of each sequence (any unit).
+    tau_s : float
+        Correlation time (s).
+    rng : numpy.random.Generator
+        Noise generator.
+
+    Returns
+    -------
+    (n, len(sigma)) array
+        The sequences (the unit of ``sigma``).
+    """
     sigma = np.atleast_1d(np.asarray(sigma, float))
     phi = np.exp(-dt_s / tau_s)
     out = np.empty((n, len(sigma)))
@@ -50,7 +69,29 @@ def gauss_markov(n: int, dt_s: float, sigma, tau_s: float, rng) -> np.ndarray:
 def apply_imu_errors(
     dtheta, dvel, dt_s: float, spec: ImuErrorSpec, gyro_bias_dph: float, accel_bias_ug: float, rng
 ) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Increments with scale, non-orthogonality and bias instability; and their truth."""
+    """Increments with scale, non-orthogonality and bias instability; and their truth.
+
+    Parameters
+    ----------
+    dtheta, dvel : (N, 3) arrays
+        Ideal angle (rad) and velocity (m/s) increments.
+    dt_s : float
+        Sampling interval (s).
+    spec : ImuErrorSpec
+        Scale factors (ppm), non-orthogonality (µrad), instability fraction and correlation times (s).
+    gyro_bias_dph, accel_bias_ug : float
+        The IMU's bias grade (°/h, µg); the instability σ is ``spec``'s fraction of it.
+    rng : numpy.random.Generator
+        The effects' generator.
+
+    Returns
+    -------
+    dtheta, dvel : (N, 3) arrays
+        The increments with the errors (rad, m/s).
+    truth : dict
+        The matrices ``m_gyro``, ``m_accel``, the Gauss-Markov biases ``gyro_gm_rps`` (rad/s) and
+        ``accel_gm_mps2`` (m/s²), their σ and correlation times (s).
+    """
     n = len(dtheta)
     mg = misalignment(spec.gyro_scale_ppm, spec.gyro_nonorth_urad)
     ma = misalignment(spec.accel_scale_ppm, spec.accel_nonorth_urad)
@@ -74,7 +115,26 @@ def apply_imu_errors(
 
 
 def timing(t_s: np.ndarray, dt_s: float, spec: ImuTiming, rng) -> tuple[np.ndarray, np.ndarray]:
-    """(keep mask, written time tags) for rows at true times ``t_s``."""
+    """Dropped rows and jittered time tags of a logger writing rows at true times ``t_s``.
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        True sample times (s).
+    dt_s : float
+        Sampling interval (s).
+    spec : ImuTiming
+        Drops per minute, longest drop (rows), jitter σ (s) and share of large jitter.
+    rng : numpy.random.Generator
+        The effects' generator.
+
+    Returns
+    -------
+    keep : (N,) bool array
+        Rows written.
+    t_written_s : (N,) array
+        Written time tags (s), within ±0.4 ``dt_s`` of the truth.
+    """
     n = len(t_s)
     keep = np.ones(n, bool)
     minutes = n * dt_s / 60.0

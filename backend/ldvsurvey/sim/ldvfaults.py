@@ -20,9 +20,31 @@ KINDS = ("zeros", "stale", "spikes", "noise")
 
 
 def apply_dropouts(t_s, v_fwd, v_up, quality, spec: LdvDropouts, static_end_s: float, rng):
-    """Corrupt LDV rows in place-free copies; returns (v_fwd, v_up, quality, bursts, spike_times).
+    """Corrupt LDV rows (in copies): bursts of zeros, stale values, spikes or noise, and isolated spikes.
 
-    ``bursts``: list of (t_start_s, t_end_s, kind); rows with t_start ≤ t < t_end are corrupted.
+    Parameters
+    ----------
+    t_s : (N,) array
+        Sample times (s).
+    v_fwd, v_up : (N,) arrays
+        Forward and up speed (m/s).
+    quality : (N,) array
+        Signal quality.
+    spec : LdvDropouts
+        Burst rate (per min), lengths (s), spike rate (per min) and sizes (m/s).
+    static_end_s : float
+        End of the static start (s); ``spec.static_bursts`` bursts fall inside it.
+    rng : numpy.random.Generator
+        The effects' generator.
+
+    Returns
+    -------
+    v_fwd, v_up, quality : (N,) arrays
+        The corrupted copies (m/s; bursts flagged with quality below 100).
+    bursts : list of (float, float, str)
+        ``(t_start_s, t_end_s, kind)``; rows with t_start ≤ t < t_end are corrupted.
+    spike_times : list of float
+        Times (s) of the isolated spikes left with good quality.
     """
     t = np.asarray(t_s, float)
     vf, vu, q = v_fwd.copy(), v_up.copy(), quality.copy()

@@ -19,6 +19,8 @@ from ldvsurvey.sim.road import Road, smooth_step, smooth_step_integral
 
 @dataclass
 class Static:
+    """Stand still for ``duration_s`` (s)."""
+
     duration_s: float
 
 
@@ -40,6 +42,7 @@ class TurnInPlace:
 
 
 def _grid(x: float, dt: float) -> float:
+    """``x`` (s) rounded to whole steps ``dt`` (s), at least one step."""
     return max(dt, round(x / dt) * dt)
 
 
@@ -66,6 +69,7 @@ class Motion:
         road: Road,
         segments: list,
         t0_s: float,
+        *,
         dt_s: float = 0.01,
         s0_m: float = 0.0,
         heading_offset0_rad: float = 0.0,
@@ -73,9 +77,34 @@ class Motion:
         current_from_s: float = 0.0,
         current_ramp_s: float = 30.0,
     ):
-        """``current_n_mps`` (ENU, m/s): a water current the vehicle (vessel) drifts with from
-        ``t0_s + current_from_s`` on (smoothly over ``current_ramp_s``); the road is then the track
-        through the water and the LDV frame moves along it relative to the water."""
+        """Lay the segments out in time from ``t0_s`` on the sampling grid.
+
+        Parameters
+        ----------
+        road : Road
+            The road driven (for a vessel: the track through the water).
+        segments : list of Static, Drive, TurnInPlace
+            The timeline, in order.
+        t0_s : float
+            Start of the first segment (s of day).
+        dt_s : float
+            Sampling interval (s); segment boundaries fall on its grid.
+        s0_m : float
+            Arc length of the road where the vehicle starts (m).
+        heading_offset0_rad : float
+            Initial heading relative to the road (rad; π faces backwards).
+        current_n_mps : (3,) array, optional
+            A water current (ENU, m/s) the vehicle (vessel) drifts with from ``t0_s + current_from_s``
+            on, smoothly over ``current_ramp_s`` (s); the LDV frame moves along the road relative to
+            the water.
+        current_from_s, current_ramp_s : float
+            Start (s after ``t0_s``) and ramp length (s) of the current.
+
+        Raises
+        ------
+        ValueError
+            A turn in place on a graded or banked road, or a drive the vehicle does not face.
+        """
         self.road = road
         self.t0_s = t0_s
         self.current = None if current_n_mps is None else np.asarray(current_n_mps, float)

@@ -81,7 +81,20 @@ class PointMassField:
 
 
 def build_field(spec: GravityFieldSpec, lat_rad, lon_rad, h_m) -> PointMassField:
-    """A realistic point-mass field around a track (arrays of its positions); see the module text."""
+    """A realistic point-mass field around a track; see the module text.
+
+    Parameters
+    ----------
+    spec : GravityFieldSpec
+        The field's seed and magnitudes.
+    lat_rad, lon_rad, h_m : arrays
+        Positions along the track (rad, rad, m).
+
+    Returns
+    -------
+    PointMassField
+        Masses about the track's mean position, ``field(lat_rad, lon_rad, h_m) -> (ξ rad, η rad, Δg m/s²)``.
+    """
     rng = np.random.default_rng([spec.seed, 17])
     lat0, lon0 = float(np.mean(lat_rad)), float(np.mean(lon_rad))
     h0 = float(np.mean(h_m))

@@ -64,6 +64,7 @@ class Scenario:
     lead_s: float = 0.0  #: the motion starts this long before t0_s (a log that starts on the move)
 
     def fix_of_t(self, t):
+        """GNSS fix quality (GGA code, 4 RTK fixed unless ``fix_schedule`` says otherwise) at times ``t`` (s)."""
         fix = np.full(len(t), 4)
         for a, b, q in self.fix_schedule:
             fix[(t >= self.t0_s + a) & (t < self.t0_s + b)] = q
@@ -72,6 +73,8 @@ class Scenario:
 
 @dataclass
 class SimResult:
+    """A simulated drive: the sensor data (IMU increments rad, m/s; LDV m/s; GNSS deg, m) and the truth."""
+
     scenario: Scenario
     motion: Motion
     imu: ImuTruth
@@ -101,16 +104,28 @@ OPTICS = {"wavelength_nm": 1064.0, "beam_angle_deg": 10.0, "surface_angle_deg": 
 
 
 def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) -> SimResult:
-    """Simulate all sensors of a scenario (``seed`` defaults to ``sc.seed``).
+    """Simulate all sensors of a scenario.
 
     The effects of ``sc.effects`` draw from their own generator, so the ideal scenarios (all
-    effects off) give exactly the sensor data they always gave.
+    effects off) give exactly the sensor data they always gave. The stages run in a fixed order
+    (each generator's draws follow it): motion, body, gravity field, turntable, IMU, LDV, GNSS.
+
+    Parameters
+    ----------
+    sc : Scenario
+        The drive.
+    seed : int, optional
+        Sensor-noise seed; default ``sc.seed``.
+    with_nodov : bool
+        Also simulate the IMU of the same drive without the deflection of the vertical (same sensor
+        errors), in ``imu_nodov``; only when the drive has a gravity field.
+
+    Returns
+    -------
+    SimResult
+        Sensor data (IMU increments rad and m/s, LDV m/s, GNSS deg and m) with the truth beside it.
     """
     seed = sc.seed if seed is None else seed
-    rng = np.random.default_rng(seed)
-    eff = sc.effects
-    erng = np.random.default_rng([eff.seed, seed, 99])
-    extras: dict = {}
     dt = 1.0 / sc.imu_rate_hz
     lead = round(sc.lead_s / dt) * dt
     motion = Motion(
@@ -123,65 +138,134 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
         current_n_mps=sc.current_n_mps,
         current_from_s=sc.current_from_s + lead,
     )
+    d = _Draw(sc, motion, dt, np.random.default_rng(seed), np.random.default_rng([sc.effects.seed, seed, 99]), {})
+    body, c_bt = _travel_to_body(d)
+    field = d.extras["gravity_field"] = _gravity_field(d)
+    table = _turntable(d)
     n = int(round((motion.t_end_s - sc.t0_s) / dt))
-    t = sc.t0_s + np.arange(n + 1) * dt
+    imu, ref = _ideal_imu(d, sc.t0_s + np.arange(n + 1) * dt, c_bt, field, table, with_nodov)
+    err, dth, dv, nodov = _imu_errors(d, imu, ref)
+    _recording(d, imu, table)
+    t_l, vf, vu, quality = _ldv(d, body)
+    t_g, lat, lon, h, fix = _gnss(d, c_bt)
+    return SimResult(
+        sc, motion, imu, err, dth, dv, t_l, vf, vu, quality, t_g, lat, lon, h, fix, nodov, extras=d.extras, body=body
+    )
+
+
+@dataclass
+class _Draw:
+    """What the stages of one simulation share: the drive, its motion, the IMU step, the two
+    generators (sensor noise; the effects) and the effects' truth collected so far."""
+
+    sc: Scenario
+    motion: Motion
+    dt_s: float
+    rng: np.random.Generator
+    erng: np.random.Generator
+    extras: dict
+
+
+def _travel_to_body(d: _Draw):
+    """The body model (None without the body-attitude effect) and what takes the travel frame to the
+    body: the LDV mounting C_b^t, or the body model itself."""
+    sc = d.sc
     c_bt = sc.ldv.c_bt()
     body = None
-    if eff.body_attitude is not None:
+    if sc.effects.body_attitude is not None:
         from ldvsurvey.sim.body import BodyModel
 
-        body = c_bt = BodyModel(eff.body_attitude, motion, sc.ldv.pitch_rad, sc.ldv.heading_rad, erng)
+        body = c_bt = BodyModel(sc.effects.body_attitude, d.motion, sc.ldv.pitch_rad, sc.ldv.heading_rad, d.erng)
+    return body, c_bt
+
+
+def _gravity_field(d: _Draw):
+    """The field the IMU senses: the scenario's, or the effect's point masses along the track, or None."""
+    sc = d.sc
     field = sc.gravity_field
-    if eff.gravity_field is not None and field is None:
+    if sc.effects.gravity_field is not None and field is None:
         from ldvsurvey.sim.pointmass import build_field
 
-        tr = motion.truth(np.linspace(sc.t0_s, motion.t_end_s, 2001))
-        field = build_field(eff.gravity_field, tr["lat_rad"], tr["lon_rad"], tr["h_m"])
-    extras["gravity_field"] = field
-    table = None
-    if sc.rotating and eff.turntable is not None:
+        tr = d.motion.truth(np.linspace(sc.t0_s, d.motion.t_end_s, 2001))
+        field = build_field(sc.effects.gravity_field, tr["lat_rad"], tr["lon_rad"], tr["h_m"])
+    return field
+
+
+def _turntable(d: _Draw):
+    """The turntable of a rotating IMU (the effect's schedule, or the 4-position scheme), or None."""
+    sc = d.sc
+    if sc.rotating and sc.effects.turntable is not None:
         from ldvsurvey.sim.turntable import ScheduledTurntable
 
-        table = ScheduledTurntable(eff.turntable, sc.t0_s, motion.t_end_s, dt, erng)
-        extras["turntable"] = table
-    elif sc.rotating:
-        table = Turntable(sc.t0_s, dwell_s=sc.turntable_dwell_s, dt_s=dt)
-    imu = simulate_imu(motion, t, c_bt, field, table, sc.alpha_rad, sc.beta_rad)
-    nodov = None
+        table = ScheduledTurntable(sc.effects.turntable, sc.t0_s, d.motion.t_end_s, d.dt_s, d.erng)
+        d.extras["turntable"] = table
+        return table
+    if sc.rotating:
+        return Turntable(sc.t0_s, dwell_s=sc.turntable_dwell_s, dt_s=d.dt_s)
+    return None
+
+
+def _ideal_imu(d: _Draw, t, c_bt, field, table, with_nodov):
+    """Error-free IMU at times ``t`` (s), and with ``with_nodov`` the same drive sensing only the
+    field's Δg (no deflection), else None."""
+    sc = d.sc
+    imu = simulate_imu(d.motion, t, c_bt, field, table, sc.alpha_rad, sc.beta_rad)
+    ref = None
     if with_nodov and field is not None:
 
         def dg_only(lat, lon, h):
             _, _, dg = field(lat, lon, h)
             return 0.0 * lat, 0.0 * lat, dg
 
-        ref = simulate_imu(motion, t, c_bt, dg_only, table, sc.alpha_rad, sc.beta_rad)
+        ref = simulate_imu(d.motion, t, c_bt, dg_only, table, sc.alpha_rad, sc.beta_rad)
+    return imu, ref
+
+
+def _imu_errors(d: _Draw, imu, ref):
+    """The sensor errors: the effects' (scale, misalignment, bias instability), then the turn-on biases
+    and white noise. Returns the drawn ``ImuErrors``, the measured increments (rad, m/s) and those of
+    ``ref`` with identical errors (None without ``ref``)."""
+    sc, dt, rng = d.sc, d.dt_s, d.rng
     ideal_dth, ideal_dv = imu.dtheta_rad, imu.dvel_mps
-    if eff.imu_errors is not None:
+    if sc.effects.imu_errors is not None:
         from ldvsurvey.sim.imuerrors import apply_imu_errors
 
-        ideal_dth, ideal_dv, extras["imu_errors"] = apply_imu_errors(
-            imu.dtheta_rad, imu.dvel_mps, dt, eff.imu_errors, sc.gyro_bias_dph, sc.accel_bias_ug, erng
+        ideal_dth, ideal_dv, d.extras["imu_errors"] = apply_imu_errors(
+            imu.dtheta_rad, imu.dvel_mps, dt, sc.effects.imu_errors, sc.gyro_bias_dph, sc.accel_bias_ug, d.erng
         )
     err = ImuErrors.draw(rng, sc.gyro_bias_dph, sc.accel_bias_ug, sc.gyro_arw_dprh, sc.accel_vrw_ug_rthz)
     state = rng.bit_generator.state
     dth, dv = err.apply(ideal_dth, ideal_dv, dt, rng)
-    if with_nodov and field is not None:  # identical sensor errors in both files
+    nodov = None
+    if ref is not None:  # identical sensor errors in both files
         rng.bit_generator.state = state
         r_dth, r_dv = ref.dtheta_rad, ref.dvel_mps
-        if "imu_errors" in extras:
-            x = extras["imu_errors"]
+        if "imu_errors" in d.extras:
+            x = d.extras["imu_errors"]
             r_dth = r_dth @ x["m_gyro"].T + x["gyro_gm_rps"] * dt
             r_dv = r_dv @ x["m_accel"].T + x["accel_gm_mps2"] * dt
         nodov = err.apply(r_dth, r_dv, dt, rng)
+    return err, dth, dv, nodov
+
+
+def _recording(d: _Draw, imu, table):
+    """What the logger writes other than the sensor sensed (into ``extras``): dropped rows and jittered
+    time tags, and the encoder's counts."""
+    eff = d.sc.effects
     if eff.imu_timing is not None:
         from ldvsurvey.sim.imuerrors import timing
 
-        extras["imu_keep"], extras["imu_t_written"] = timing(imu.t_s, dt, eff.imu_timing, erng)
+        d.extras["imu_keep"], d.extras["imu_t_written"] = timing(imu.t_s, d.dt_s, eff.imu_timing, d.erng)
     if table is not None and eff.turntable is not None:
         from ldvsurvey.sim.turntable import encoder_reading
 
-        extras["encoder_deg"] = encoder_reading(imu.eta_rad, eff.turntable, erng)
-    # LDV
+        d.extras["encoder_deg"] = encoder_reading(imu.eta_rad, eff.turntable, d.erng)
+
+
+def _ldv(d: _Draw, body):
+    """LDV samples: times (s), forward and up speed (m/s) and quality, with the ordinary low-quality
+    samples and the effect's dropouts."""
+    sc, motion, rng = d.sc, d.motion, d.rng
     n_l = int(np.floor((motion.t_end_s - sc.t0_s) * sc.ldv_rate_hz + 1e-9))
     t_l = sc.t0_s + np.arange(1, n_l + 1) / sc.ldv_rate_hz
     current = None
@@ -196,26 +280,32 @@ def simulate(sc: Scenario, seed: int | None = None, with_nodov: bool = False) ->
     quality[bad] = rng.integers(10, 90, bad.sum())
     vf[bad] += rng.normal(0, 2.0, bad.sum())
     vu[bad] += rng.normal(0, 2.0, bad.sum())
-    if eff.ldv_dropouts is not None:
+    if sc.effects.ldv_dropouts is not None:
         from ldvsurvey.sim.ldvfaults import apply_dropouts
 
         static_end = sc.t0_s + (sc.segments[0].duration_s if sc.static_s > 0 else 0.0)
-        vf, vu, quality, bursts, spikes = apply_dropouts(t_l, vf, vu, quality, eff.ldv_dropouts, static_end, erng)
-        extras["ldv_bursts"], extras["ldv_spikes_t"] = bursts, spikes
-    # GNSS at whole seconds
+        vf, vu, quality, bursts, spikes = apply_dropouts(
+            t_l, vf, vu, quality, sc.effects.ldv_dropouts, static_end, d.erng
+        )
+        d.extras["ldv_bursts"], d.extras["ldv_spikes_t"] = bursts, spikes
+    return t_l, vf, vu, quality
+
+
+def _gnss(d: _Draw, c_bt):
+    """GNSS fixes at whole seconds: times (s), latitude, longitude (deg), height (m) and fix quality,
+    with the effect's outages and multipath."""
+    sc, motion = d.sc, d.motion
     t_g = np.arange(np.ceil(sc.t0_s), np.floor(motion.t_end_s) + 1e-9, 1.0)
     fix_of_t, extra = sc.fix_of_t, None
-    if eff.gnss is not None:
+    if sc.effects.gnss is not None:
         from ldvsurvey.sim.gnsseffects import fix_with_events, gnss_events, multipath_offsets
 
-        ev = gnss_events(eff.gnss, sc.t0_s, motion.t_end_s, erng)
+        ev = gnss_events(sc.effects.gnss, sc.t0_s, motion.t_end_s, d.erng)
         fix_of_t = fix_with_events(sc.fix_of_t, ev)
         extra = multipath_offsets(t_g, fix_of_t(t_g), ev)
-        extras["gnss_events"] = ev
-    lat, lon, h, fix = gnss_fixes(motion, t_g, c_bt, sc.gnss_lever_m, fix_of_t, rng, extra_enu_m=extra)
-    return SimResult(
-        sc, motion, imu, err, dth, dv, t_l, vf, vu, quality, t_g, lat, lon, h, fix, nodov, extras=extras, body=body
-    )
+        d.extras["gnss_events"] = ev
+    lat, lon, h, fix = gnss_fixes(motion, t_g, c_bt, sc.gnss_lever_m, fix_of_t, d.rng, extra_enu_m=extra)
+    return t_g, lat, lon, h, fix
 
 
 #: correlation time the manifest states for the bias instability (s): the middle of the 10–60 min
@@ -239,6 +329,19 @@ def gnss_height_noise() -> dict:
 
 
 def manifest(sim: SimResult) -> dict:
+    """The ``manifest.json`` of a simulation: the instruments as a datasheet states them (not the drawn errors).
+
+    Parameters
+    ----------
+    sim : SimResult
+        The simulation.
+
+    Returns
+    -------
+    dict
+        The ``ldv-drive-log/1`` manifest (rates Hz, biases °/h and µg, noise, lever arms m, initial
+        position deg and m, lines with absolute times s); no ``ldv`` section without an LDV.
+    """
     sc = sim.scenario
     m = {
         "format": "ldv-drive-log/1",
@@ -287,7 +390,19 @@ def manifest(sim: SimResult) -> dict:
 
 def bundle_files(sim: SimResult) -> dict[str, bytes]:
     """The four ``ldv-drive-log/1`` files of a simulation (three without ``ldv.csv`` when the
-    scenario has no LDV, ``with_ldv`` False)."""
+    scenario has no LDV, ``with_ldv`` False).
+
+    Parameters
+    ----------
+    sim : SimResult
+        The simulation.
+
+    Returns
+    -------
+    dict of str to bytes
+        ``manifest.json``, ``imu.csv`` (increments rad and m/s, turntable deg), ``ldv.csv`` (m/s, or
+        Doppler Hz with ``ldv_fd``) and ``gnss.nmea``, with the recording effects applied.
+    """
     from ldvsurvey.io.drivelog import fd_to_v_fwd
     from ldvsurvey.io.manifest import LdvOptics
     from ldvsurvey.io.writers import imu_csv, ldv_csv, manifest_json, nmea_text
@@ -335,7 +450,22 @@ def bundle_files(sim: SimResult) -> dict[str, bytes]:
 
 
 def truth_files(sim: SimResult, every: int = 10) -> dict[str, bytes]:
-    """Truth beside the bundle: ``truth.csv`` (every ``every``-th IMU sample) and ``truth.json``."""
+    """Truth beside the bundle: ``truth.csv`` (every ``every``-th IMU sample) and ``truth.json``.
+
+    Parameters
+    ----------
+    sim : SimResult
+        The simulation.
+    every : int
+        Keep every this-many-th IMU sample in ``truth.csv``.
+
+    Returns
+    -------
+    dict of str to bytes
+        ``truth.csv`` (position deg and m, velocity m/s, attitude deg, the effects' columns),
+        ``truth.json`` (tilt rad, LDV mounting rad and scale, biases rad/s and m/s², the effects'
+        truth) and, with the no-DOV twin, ``imu_nodov.csv``.
+    """
     from ldvsurvey.io.writers import csv_bytes, imu_csv
 
     im = sim.imu

@@ -45,7 +45,22 @@ class ImuErrors:
         return cls(gb, ab, (arw_dprh * DEG / 60.0) ** 2, (vrw_ug_rthz * 1e-6 * G0) ** 2)
 
     def apply(self, dtheta, dvel, dt_s, rng):
-        """Increments with the errors added."""
+        """Increments with the biases and white noise added.
+
+        Parameters
+        ----------
+        dtheta, dvel : (N, 3) arrays
+            Angle (rad) and velocity (m/s) increments.
+        dt_s : float
+            Sampling interval (s).
+        rng : numpy.random.Generator
+            Noise generator.
+
+        Returns
+        -------
+        dtheta, dvel : (N, 3) arrays
+            The measured increments (rad, m/s).
+        """
         n = len(dtheta)
         dth = dtheta + self.gyro_bias_rps * dt_s
         dv = dvel + self.accel_bias_mps2 * dt_s
@@ -74,11 +89,27 @@ class LdvSpecSim:
 
 
 def ldv_measure(motion: Motion, t_s, spec: LdvSpecSim, rng, current_n=None, body=None):
-    """Forward (and up) speeds along the head axes, (v_fwd, v_up) in m/s.
+    """Forward and up speeds along the LDV head's axes, with scale factor and white noise.
 
-    ``current_n`` (N, 3) m/s: water velocity to subtract (water-track LDV).
-    ``body``: a :class:`~ldvsurvey.sim.body.BodyModel` (the head frame then is fixed in the
-    body, no longer the travel frame).
+    Parameters
+    ----------
+    motion : Motion
+        The vehicle's timeline.
+    t_s : (N,) array
+        Sample times (s).
+    spec : LdvSpecSim
+        The LDV (mounting rad, scale factors, lever arm m, noise σ m/s).
+    rng : numpy.random.Generator
+        Noise generator.
+    current_n : (N, 3) array, optional
+        Water velocity to subtract (ENU, m/s; a water-track LDV).
+    body : BodyModel, optional
+        The vehicle body's attitude (the head frame then is fixed in the body, no longer the travel frame).
+
+    Returns
+    -------
+    v_fwd, v_up : (N,) arrays
+        Measured forward and up speed (m/s).
     """
     c_bt = spec.c_bt() if body is None else body
     _, _, tr, c_bn, _, w_nb_b, _ = rates(motion, np.asarray(t_s, float), c_bt)
@@ -95,14 +126,35 @@ def ldv_measure(motion: Motion, t_s, spec: LdvSpecSim, rng, current_n=None, body
 
 
 def gnss_fixes(motion: Motion, t_s, c_bt, lever_arm_m, fix_of_t, rng, white_only: bool = False, extra_enu_m=None):
-    """Antenna fixes (lat_deg, lon_deg, h_m ellipsoidal, fix) with fix-dependent errors
-    (white plus Gauss-Markov, see FIX_SIGMA and FIX_WHITE).
+    """Antenna fixes with fix-dependent errors (white plus Gauss-Markov, see FIX_SIGMA and FIX_WHITE).
 
-    ``c_bt``: constant C_b^t or a body model (see ``imu.rates``); the lever arm (body RFU, m)
-    is rotated by the true body attitude. ``extra_enu_m`` (N, 3): further errors (multipath jumps).
+    Parameters
+    ----------
+    motion : Motion
+        The vehicle's timeline.
+    t_s : (N,) array
+        Fix times (s).
+    c_bt : (3, 3) array or callable
+        Constant C_b^t or a body model (see :func:`ldvsurvey.sim.imu.rates`).
+    lever_arm_m : (3,) sequence
+        Antenna lever arm in the body (right, forward, up; m), rotated by the true body attitude.
+    fix_of_t : callable
+        ``fix_of_t(t) -> int array``: the fix quality (GGA code, 0 = no fix) at each time.
+    rng : numpy.random.Generator
+        Noise generator.
+    white_only : bool
+        Make the whole error white (σ from FIX_SIGMA).
+    extra_enu_m : (N, 3) array, optional
+        Further errors (ENU, m; multipath jumps).
 
-    ``fix_of_t(t) -> int array`` gives the fix quality (0 = no fix) at each time.
-    ``white_only`` makes the whole error white (σ from FIX_SIGMA).
+    Returns
+    -------
+    lat_deg, lon_deg : (N,) arrays
+        Latitude and longitude (deg; NaN without a fix).
+    h_m : (N,) array
+        Ellipsoidal height (m; NaN without a fix).
+    fix : (N,) int array
+        Fix quality.
     """
     t = np.asarray(t_s, float)
     _, _, tr, c_bn, _, _, _ = rates(motion, t, c_bt)

@@ -41,7 +41,20 @@ def survey_field(lat0_rad: float = LAT0_DEG * RAD, lon0_rad: float = LON0_DEG * 
 
 def road_of(k: int, line_km: float | None = None) -> Road:
     """Road ``k``: 0 straight and flat through the origin, 1 weaving across it (± WEAVE_DEG, a crossing every
-    WEAVE_SEGMENT_M of road); ``line_km`` + 2 run-ins long, both centred on the origin."""
+    WEAVE_SEGMENT_M of road); both centred on the origin.
+
+    Parameters
+    ----------
+    k : int
+        Which road (0 or 1).
+    line_km : float, optional
+        Line length (km; default ``LINE_KM[k]``); the road adds a run-in of RUN_IN_M (m) at each end.
+
+    Returns
+    -------
+    Road
+        The road, flat, at H0_M (m).
+    """
     line_km = LINE_KM[k] if line_km is None else line_km
     length = line_km * 1000.0 + 2 * RUN_IN_M
     psi = HEADINGS_DEG[k] * RAD
@@ -71,6 +84,7 @@ def road_of(k: int, line_km: float | None = None) -> Road:
 
 def day(
     road: int = 0,
+    *,
     seed: int = 1,
     line_km: float | None = None,
     speed_mps: float = 15.0,
@@ -83,7 +97,36 @@ def day(
 ) -> Scenario:
     """One day of the survey: a static start at the road's start (the alignment, a tie point), then
     ``passes`` lines along the road, a stop of ``end_stop_s`` and a turn at each end, the last stop
-    at the end reached. Lines: from the first to the last line point of each pass."""
+    at the end reached. Lines: from the first to the last line point of each pass.
+
+    Parameters
+    ----------
+    road : int
+        Which road (0 straight, 1 weaving across it; see :func:`road_of`).
+    seed : int
+        Sensor-noise seed (the day's own turn-on biases).
+    line_km : float, optional
+        Line length (km); default ``LINE_KM[road]``.
+    speed_mps : float
+        Driving speed (m/s).
+    end_stop_s : float
+        Standing time at each end, half before and half after the turn (s).
+    passes : int
+        Number of lines driven (out and back alternately).
+    accel_noise_ug_rthz : float
+        Accelerometer white noise (µg/√Hz).
+    accel_bias_ug : float
+        Accelerometer turn-on bias, ± this on each axis with a random sign (µg).
+    date : str
+        Date of the drive (ISO).
+    **kw
+        Further :class:`~ldvsurvey.sim.scenario.Scenario` fields (e.g. ``imu_rate_hz``).
+
+    Returns
+    -------
+    Scenario
+        The day, its ``lines`` set (absolute times, s).
+    """
     line_km = LINE_KM[road] if line_km is None else line_km
     rd = road_of(road, line_km)
     a, b = RUN_IN_M, RUN_IN_M + line_km * 1000.0

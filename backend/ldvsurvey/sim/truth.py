@@ -55,8 +55,23 @@ def effective_scale(sim: SimResult, t_from_s: float, t_to_s: float) -> float:
 def mean_travel_direction(
     sim: SimResult, t_from_s: float | None = None, t_to_s: float | None = None, min_speed_mps: float = 2.0
 ) -> dict:
-    """Mean effective LDV pitch/heading (rad) over the moving samples (speed ≥ ``min_speed_mps``)
-    of [t_from_s, t_to_s] (default: the whole drive), sampled at 10 Hz, with their std."""
+    """Mean effective LDV pitch and heading over the moving samples, sampled at 10 Hz, with their std.
+
+    Parameters
+    ----------
+    sim : SimResult
+        The simulation.
+    t_from_s, t_to_s : float, optional
+        The span (s); default the whole drive.
+    min_speed_mps : float
+        Samples at least this fast count as moving (m/s).
+
+    Returns
+    -------
+    dict
+        ``pitch_rad``, ``heading_rad``, ``pitch_std_rad``, ``heading_std_rad`` (None when the log
+        never moves), ``t_from_s``, ``t_to_s`` and ``n_samples``.
+    """
     a = sim.scenario.t0_s if t_from_s is None else t_from_s
     b = sim.motion.t_end_s if t_to_s is None else t_to_s
     t = np.arange(a, b, 0.1)

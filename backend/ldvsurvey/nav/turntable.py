@@ -51,7 +51,26 @@ def find_stops(
     t_s, eta_rad, min_dwell_s: float = 5.0, tol_rad: float = STOP_TOL_RAD, window_s: float = 1.0
 ) -> list[Stop]:
     """Stretches where the encoder angle stays within ``tol_rad`` over every ``window_s`` window for
-    at least ``min_dwell_s`` (encoder jitter of a few counts does not end a stop)."""
+    at least ``min_dwell_s`` (encoder jitter of a few counts does not end a stop).
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Sample times (s).
+    eta_rad : (N,) array
+        Encoder angle (rad, unwrapped).
+    min_dwell_s : float
+        Shortest stop (s).
+    tol_rad : float
+        Largest encoder movement within a window that still counts as standing (rad).
+    window_s : float
+        Window length (s).
+
+    Returns
+    -------
+    list of Stop
+        Each stop's span (s) and median encoder angle (rad), in time order.
+    """
     from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
     t = np.asarray(t_s, float)
@@ -87,7 +106,18 @@ class TiltEstimate:
 
 
 def diversity(eta_rad) -> float:
-    """1 − |mean e^{iη}|²: 0 when η takes one value, 1 for two values 180° apart or a uniform turn."""
+    """η diversity 1 − |mean e^{iη}|²: 0 when η takes one value, 1 for two values 180° apart or a uniform turn.
+
+    Parameters
+    ----------
+    eta_rad : (K,) array
+        Encoder angles (rad).
+
+    Returns
+    -------
+    float
+        The diversity, in [0, 1] (dimensionless); 0 for no samples.
+    """
     eta = np.asarray(eta_rad, float)
     if len(eta) == 0:
         return 0.0
@@ -156,37 +186,36 @@ def estimate_tilt(
 
     Parameters
     ----------
-    t_s : (N,) s; c_sn : (N, 3, 3) sensor attitude C_s^n (best the smoothed ZUPT solution);
-    eta_rad : (N,) encoder angle; still : [(t0, t1)] s where the vehicle stands still.
-    trim_s : cut from both ends of each still interval; rate_hz : samples used per second.
-    block_s : jackknife block length (s); bias_sigma_rad : horizontal accelerometer-bias σ / g of
-        the filter (a floor of the 1-σ).
+    t_s : (N,) array
+        Sample times (s).
+    c_sn : (N, 3, 3) array
+        Sensor attitude C_s^n (best the smoothed ZUPT solution).
+    eta_rad : (N,) array
+        Encoder angle (rad, unwrapped).
+    still : list of (float, float)
+        ``(t0, t1)`` (s) of each interval where the vehicle stands still.
+    trim_s : float
+        Cut from both ends of each still interval (s).
+    rate_hz : float
+        Samples used per second (Hz).
+    block_s : float
+        Jackknife block length (s).
+    bias_sigma_rad : float
+        Horizontal accelerometer-bias σ / g of the filter (rad), a floor of the 1-σ.
+    stops : list of Stop, optional
+        Turntable stops; consecutive ones about 180° apart in one still interval are recorded as ``pairs``.
 
     Returns
     -------
-    TiltEstimate; ``observable`` False (α = β = 0, a warning) when no interval turns enough.
+    TiltEstimate
+        α, β (rad) and their 1-σ (rad); ``observable`` False (α = β = 0, a warning) when no interval
+        turns enough.
     """
     t = np.asarray(t_s, float)
     eta = np.asarray(eta_rad, float)
     step = max(1, int(round(1.0 / (rate_hz * np.median(np.diff(t))))))
-    groups, blocks = [], []
-    for a, b in still:
-        k = np.flatnonzero((t >= a + trim_s) & (t <= b - trim_s))[::step]
-        if len(k) < 10 or diversity(eta[k]) < MIN_DIVERSITY:
-            continue
-        gi = len(groups)
-        tau = 2.0 * (t[k] - t[k[0]]) / max(t[k[-1]] - t[k[0]], 1e-9) - 1.0
-        groups.append((eta[k], c_sn[k, 2, :], tau))
-        nb = max(1, int((t[k[-1]] - t[k[0]]) // block_s))
-        for part in np.array_split(np.arange(len(k)), nb):
-            blocks.append((gi, part))
-    pairs = []  # consecutive stops about 180° apart within one still interval (for the record)
-    for a, b in still:
-        inside = [Stop(max(s.t_start_s, a), min(s.t_end_s, b), s.eta_rad) for s in stops or []]
-        inside = [s for s in inside if s.t_end_s - s.t_start_s >= 5.0]
-        for s1, s2 in zip(inside[:-1], inside[1:]):
-            if abs(abs(s2.eta_rad - s1.eta_rad) % (2 * np.pi) - np.pi) < np.radians(5.0):
-                pairs.append((s1.t_start_s, s2.t_end_s))
+    groups, blocks = _still_groups(t, eta, c_sn, still, trim_s=trim_s, step=step, block_s=block_s)
+    pairs = _stop_pairs(still, stops)
     n = sum(len(g[0]) for g in groups)
     div = (sum(len(g[0]) * diversity(g[0]) for g in groups) / n) if n else 0.0
     if not groups:
@@ -203,12 +232,63 @@ def estimate_tilt(
                 "attitude keeps an oscillation of the size of the tilt"
             ],
         )
+    x, jm, rv = _fit(groups, _initial_levels(groups))
+    sig = np.maximum(_tilt_sigma(groups, blocks, x, jm, rv), bias_sigma_rad)
+    return TiltEstimate(
+        float(x[0]),
+        float(x[1]),
+        float(sig[0]),
+        float(sig[1]),
+        pairs,
+        observable=True,
+        n_intervals=len(groups),
+        n_samples=n,
+        diversity=div,
+        rms_residual_rad=float(np.sqrt(np.mean(rv**2))),
+    )
+
+
+def _still_groups(t, eta, c_sn, still, *, trim_s, step, block_s):
+    """The fit's groups (η, up vector in s, τ) of each still interval that turns enough, and its
+    jackknife blocks [(group index, sample indices)]."""
+    groups, blocks = [], []
+    for a, b in still:
+        k = np.flatnonzero((t >= a + trim_s) & (t <= b - trim_s))[::step]
+        if len(k) < 10 or diversity(eta[k]) < MIN_DIVERSITY:
+            continue
+        gi = len(groups)
+        tau = 2.0 * (t[k] - t[k[0]]) / max(t[k[-1]] - t[k[0]], 1e-9) - 1.0
+        groups.append((eta[k], c_sn[k, 2, :], tau))
+        nb = max(1, int((t[k[-1]] - t[k[0]]) // block_s))
+        for part in np.array_split(np.arange(len(k)), nb):
+            blocks.append((gi, part))
+    return groups, blocks
+
+
+def _stop_pairs(still, stops):
+    """[(t1, t2)] (s) of consecutive stops about 180° apart within one still interval (for the record)."""
+    pairs = []
+    for a, b in still:
+        inside = [Stop(max(s.t_start_s, a), min(s.t_end_s, b), s.eta_rad) for s in stops or []]
+        inside = [s for s in inside if s.t_end_s - s.t_start_s >= 5.0]
+        for s1, s2 in zip(inside[:-1], inside[1:]):
+            if abs(abs(s2.eta_rad - s1.eta_rad) % (2 * np.pi) - np.pi) < np.radians(5.0):
+                pairs.append((s1.t_start_s, s2.t_end_s))
+    return pairs
+
+
+def _initial_levels(groups):
+    """Start of the fit: α = β = 0 and each interval's level from its mean up vector brought back to b."""
     x0 = [0.0, 0.0]
-    for e, u, _ in groups:  # level of each interval from the mean up vector brought back to b
+    for e, u, _ in groups:
         ub = np.mean(np.einsum("kji,kj->ki", c_bs(e), u), axis=0)
         x0 += [np.arcsin(np.clip(ub[1], -1, 1)), np.arctan2(-ub[0], ub[2]), 0.0, 0.0]
-    x, jm, rv = _fit(groups, x0)
-    # jackknife over blocks: leave one block out, refit
+    return x0
+
+
+def _tilt_sigma(groups, blocks, x, jm, rv):
+    """1-σ of α, β (rad): the leave-one-block-out jackknife spread, or with fewer than three refits the
+    formal σ with one independent error per interval."""
     est = []
     if len(blocks) >= 3:
         for gi, part in blocks:
@@ -227,25 +307,11 @@ def estimate_tilt(
     if len(est) >= 3:
         est = np.array(est)
         m = len(est)
-        jk = np.sqrt((m - 1) / m * np.sum((est - est.mean(axis=0)) ** 2, axis=0))
-    else:  # formal σ with one independent error per interval
-        dof = max(1, len(rv) - jm.shape[1])
-        s2 = float(rv @ rv) / dof * (len(rv) / (3 * len(groups)))
-        cov = s2 * np.linalg.pinv(jm.T @ jm)
-        jk = np.sqrt(np.diag(cov)[:2])
-    sig = np.maximum(jk, bias_sigma_rad)
-    return TiltEstimate(
-        float(x[0]),
-        float(x[1]),
-        float(sig[0]),
-        float(sig[1]),
-        pairs,
-        observable=True,
-        n_intervals=len(groups),
-        n_samples=n,
-        diversity=div,
-        rms_residual_rad=float(np.sqrt(np.mean(rv**2))),
-    )
+        return np.sqrt((m - 1) / m * np.sum((est - est.mean(axis=0)) ** 2, axis=0))
+    dof = max(1, len(rv) - jm.shape[1])
+    s2 = float(rv @ rv) / dof * (len(rv) / (3 * len(groups)))
+    cov = s2 * np.linalg.pinv(jm.T @ jm)
+    return np.sqrt(np.diag(cov)[:2])
 
 
 def oscillation_per_cycle(t_s, values, eta_rad, still: list[tuple[float, float]]):
@@ -253,7 +319,22 @@ def oscillation_per_cycle(t_s, values, eta_rad, still: list[tuple[float, float]]
 
     A cycle runs from a time to the next time the encoder comes back to the same angle after
     having turned at least 180° away (a stop scheme) or after a full turn (continuous rotation).
-    Returns the list of peak-to-peak values (same unit as ``values``).
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Sample times (s).
+    values : (N,) array
+        The quantity whose oscillation is measured (any unit, e.g. pitch in rad).
+    eta_rad : (N,) array
+        Encoder angle (rad, unwrapped).
+    still : list of (float, float)
+        ``(t0, t1)`` (s) of each interval where the vehicle stands still.
+
+    Returns
+    -------
+    list of float
+        Peak-to-peak of ``values`` over each complete cycle (the unit of ``values``).
     """
     t = np.asarray(t_s, float)
     eta = np.asarray(eta_rad, float)
