@@ -151,3 +151,34 @@ def test_other_projects_and_the_demo_account(two_projects):
     assert mine.status_code == 201, mine.text
     assert c.delete(f"/api/projects/{demo_p}/ties/{mine.json()['id']}").status_code == 204
     assert c.get(f"/api/projects/{pa}/ties").status_code == 404  # the demo is no member of A
+
+
+def test_cli_ties(tmp_path, monkeypatch, capsys):
+    """``ldv-survey ties list|add|delete``: the same checks (exit 2 naming the field, nothing stored)."""
+    from ldvsurvey.cli import main
+    from ldvsurvey.settings import get_settings
+
+    monkeypatch.setenv("LDVSURVEY_DATA_DIR", str(tmp_path / "d"))
+    monkeypatch.delenv("LDVSURVEY_DATABASE_URL", raising=False)
+    get_settings.cache_clear()
+    try:
+        assert main(["project", "add", "Gravity 2026"]) == 0
+        args = ["28.4861", "113.0623", "120.5", "979137.254", "0.005"]
+        assert main(["ties", "add", "Gravity 2026", "AG-1", *args, "--note", "FG5 2021"]) == 0
+        assert main(["ties", "add", "Gravity 2026", "AG-2", "28.5", "113.1", "120.5", "13.2", "0.005"]) == 2
+        assert "g_mgal" in capsys.readouterr().err
+        assert main(["ties", "add", "Gravity 2026", "AG-1", *args]) == 2  # the name is taken
+        assert main(["ties", "add", "Nowhere", "AG-3", *args]) == 2
+        capsys.readouterr()
+        assert main(["ties", "list", "Gravity 2026"]) == 0
+        out = capsys.readouterr().out
+        assert out.count("\n") == 2 and "T1\t" in out and "AG-1" in out
+        text = out.splitlines()[-1].removeprefix("base_ties=")
+        assert parse_ties(text) == [(28.4861, 113.0623, 120.5, 979137.254)]
+        assert main(["ties", "delete", "Gravity 2026", "AG-1"]) == 0
+        assert main(["ties", "delete", "Gravity 2026", "AG-1"]) == 2
+        capsys.readouterr()
+        assert main(["ties", "list", "Gravity 2026"]) == 0
+        assert "no base station" in capsys.readouterr().out
+    finally:
+        get_settings.cache_clear()
