@@ -1,6 +1,8 @@
 """A project's base stations (``/api/projects/{id}/ties``): entered once, offered to gravity jobs as
 ``base_ties``; refused input names the field and stores nothing; access as for the project's logs."""
 
+import json
+
 import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import func, select
@@ -182,3 +184,33 @@ def test_cli_ties(tmp_path, monkeypatch, capsys):
         assert "no base station" in capsys.readouterr().out
     finally:
         get_settings.cache_clear()
+
+
+def test_any_numbers_are_stored_within_the_bounds_or_refused_naming_a_field(open_app):
+    """Random values (huge, tiny, NaN, infinite, out of every bound): never a server error; what is
+    stored lies within the bounds of base_ties, and every refusal names one of the station's fields."""
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    c, pid = open_app
+    num = st.one_of(
+        st.floats(allow_nan=True, allow_infinity=True), st.integers(-(10**20), 10**20), st.floats(-200.0, 400.0)
+    )
+
+    @given(lat=num, lon=num, h=num, g=st.one_of(num, st.floats(975000, 985000)), sig=num)
+    @settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck), database=None)
+    def check(lat, lon, h, g, sig):
+        body = {"name": "X", "lat_deg": lat, "lon_deg": lon, "h_m": h, "g_mgal": g, "sigma_mgal": sig}
+        r = c.post(f"/api/projects/{pid}/ties", content=json.dumps(body), headers={"content-type": "application/json"})
+        assert r.status_code in (201, 422), r.text
+        if r.status_code == 422:
+            err = r.json().get("error") or {}
+            fields = {"lat_deg", "lon_deg", "h_m", "g_mgal", "sigma_mgal"}
+            assert err.get("field") in fields or any(d["loc"][-1] in fields for d in r.json()["detail"]), r.text
+            return
+        t = r.json()
+        assert -90 <= t["lat_deg"] <= 90 and -180 <= t["lon_deg"] <= 180 and -500 <= t["h_m"] <= 9000
+        assert 976000 <= t["g_mgal"] <= 984000 and 0 < t["sigma_mgal"] <= 100
+        assert c.delete(f"/api/projects/{pid}/ties/{t['id']}").status_code == 204
+
+    check()
