@@ -110,7 +110,8 @@ def test_residuals_consistent_with_the_weights(weighted_run):
     print(
         f"sigma0 {net['sigma0']:.3f} (white only {white_net['sigma0']:.3f}); B2 z RMS "
         f"{np.sqrt(np.mean(z_drift**2)):.2f} (white only {np.sqrt(np.mean(z_white**2)):.2f}); steady z RMS "
-        f"{np.sqrt(np.mean(_z(result.tables, {'B1', 'B3'}) ** 2)):.2f}"
+        f"{np.sqrt(np.mean(_z(result.tables, {'B1', 'B3'}) ** 2)):.2f} (white only "
+        f"{np.sqrt(np.mean(_z(white_tables, {'B1', 'B3'}) ** 2)):.2f})"
     )
     assert 0.5 < net["sigma0"] < 1.5, net["sigma0"]
     assert 0.5 < np.sqrt(np.mean(z_drift**2)) < 1.5
