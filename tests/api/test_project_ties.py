@@ -214,3 +214,11 @@ def test_any_numbers_are_stored_within_the_bounds_or_refused_naming_a_field(open
         assert c.delete(f"/api/projects/{pid}/ties/{t['id']}").status_code == 204
 
     check()
+
+
+def test_deleting_the_project_deletes_its_stations(two_projects):
+    c, url, ha, _, hadm, pa, _ = two_projects
+    assert c.post(f"/api/projects/{pa}/ties", headers=ha, json=STATION).status_code == 201
+    r = c.delete(f"/api/admin/projects/{pa}", headers=hadm)
+    assert r.status_code == 200 and "base stations" in r.json()["effect"], r.text
+    assert _count(url) == 0
