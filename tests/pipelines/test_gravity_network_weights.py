@@ -152,3 +152,22 @@ def test_an_orthometric_tie_height_is_reported(weighted_run):
         assert r["h_difference_m"] == pytest.approx(-zeta, abs=1.5)
         assert f"{h - zeta:.1f} m" in r["height_warning"] and f"{r['h_gnss_m']:.1f} m" in r["height_warning"]
         assert "T1" in r["height_warning"] and "orthometric" in r["height_warning"]
+
+
+def test_without_gnss_the_navigated_height_is_the_reference(weighted_run):
+    """A log without fixes at the stop: the tie's height is compared with the navigated one (the
+    simulator's true height there is the independent check of that reference)."""
+    import types
+
+    sims, logs, chains, ties, result, _ = weighted_run
+    lat, lon, h, g = ties[0]
+    no_gnss = [types.SimpleNamespace(gnss=None, manifest=lg.manifest) for lg in logs]
+    rows = [dict(r) for r in result.summary["network"]["ties"]]
+    warnings = check_tie_heights(rows, [(lat, lon, h - 20.0, g)] + list(ties[1:]), chains, no_gnss)
+    for r in rows:
+        assert r["h_gnss_m"] is None
+        ci = int(r["log"][1:]) - 1
+        true_h = float(np.interp(r["t_s"], sims[ci].imu.t_s, sims[ci].imu.h_m))
+        assert r["h_nav_m"] == pytest.approx(true_h, abs=1.0)
+        assert (r["height_warning"] is not None) == (r["tie"] == "T1")
+    assert warnings and all("navigated height" in w and "T1" in w for w in warnings)
