@@ -399,6 +399,35 @@ def _cmd_project(args) -> int:
     return 0
 
 
+def _cmd_ties(args) -> int:
+    from ldvsurvey.pipelines.ties import base_ties_text, check_tie
+    from ldvsurvey.store import ties as tstore
+    from ldvsurvey.store import users as ustore
+
+    with _db() as s:
+        p = ustore.find_project(s, args.project)
+        if args.action == "list":
+            rows = tstore.list_ties(s, p.id)
+            for k, t in enumerate(rows):
+                print(
+                    f"T{k + 1}\t{t.id}\t{t.name}\t{t.lat_deg:.9f}\t{t.lon_deg:.9f}\t{t.h_m:.3f} m\t"
+                    f"{t.g_mgal:.4f} ± {t.sigma_mgal:g} mGal\t{t.note}"
+                )
+            text = base_ties_text(rows)
+            print(f"base_ties={text}" if text else f"project '{p.name}' has no base station")
+        elif args.action == "add":
+            values = check_tie(args.name, args.lat_deg, args.lon_deg, args.h_m, args.g_mgal, args.sigma_mgal, args.note)
+            t = tstore.add_tie(s, p.id, values)
+            print(f"base station {t.id} '{t.name}' added to '{p.name}'")
+        elif args.action == "delete":
+            rows = [t for t in tstore.list_ties(s, p.id) if args.tie in (t.name, str(t.id))]
+            if not rows:
+                raise InputError(f"project '{p.name}' has no base station {args.tie!r}", field="tie")
+            tstore.delete_tie(s, rows[0])
+            print(f"base station '{rows[0].name}' deleted from '{p.name}'")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="ldv-survey", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"ldv-survey {__version__}")
@@ -537,6 +566,22 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("username")
     x.add_argument("--remove", action="store_true")
     pr.set_defaults(func=_cmd_project)
+
+    ti = sub.add_parser("ties", help="a project's base stations (absolute gravity ties for base_ties)")
+    ta = ti.add_subparsers(dest="action", required=True)
+    x = ta.add_parser("list", help="the stations (Tn as a job numbers them) and their base_ties text")
+    x.add_argument("project", help="project name or id")
+    x = ta.add_parser("add", help="add a station (checked as base_ties checks it)")
+    x.add_argument("project", help="project name or id")
+    x.add_argument("name")
+    for k, h in (("lat_deg", "deg"), ("lon_deg", "deg"), ("h_m", "ellipsoidal, m"), ("g_mgal", "absolute, mGal")):
+        x.add_argument(k, type=float, help=h)
+    x.add_argument("sigma_mgal", type=float, help="1-σ of g, mGal")
+    x.add_argument("--note", default="", help="where the value comes from")
+    x = ta.add_parser("delete", help="remove a station")
+    x.add_argument("project", help="project name or id")
+    x.add_argument("tie", help="station name or id")
+    ti.set_defaults(func=_cmd_ties)
 
     s = sub.add_parser("serve", help="run the dashboard")
     s.add_argument("--host", default="127.0.0.1")

@@ -4,6 +4,7 @@ import { html, render, $, $$ } from "./html.js";
 import { fixed, num } from "./format.js";
 import { draw } from "./plots.js";
 import { checks } from "./import.js";
+import { offerProjectTies } from "./ties.js";
 
 // the import's cross-checks, kept in the manifest of an imported bundle
 const importChecks = (prov) => (prov && prov.checks ? checks(prov.checks) : "");
@@ -116,6 +117,7 @@ export async function logPage(ctx, app, id) {
         p.multi_input ? html`<label>other log ids <input type="text" id="extra" placeholder="e.g. 3,4" /> </label>` : ""
       }`,
     );
+    offerProjectTies($('[data-p="base_ties"]', box), log.project_id);
   };
   sel.addEventListener("change", showParams);
   showParams();

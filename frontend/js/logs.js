@@ -3,6 +3,7 @@ import { api, session } from "./api.js";
 import { html, render, $, $$ } from "./html.js";
 import { fixed, pct } from "./format.js";
 import { dropZone } from "./upload.js";
+import { tiesPanel } from "./ties.js";
 
 export async function logsPage(ctx, app) {
   const projects = (session.me && session.me.project_list) || [];
@@ -52,10 +53,12 @@ export async function logsPage(ctx, app) {
             <td colspan="8">Loading…</td>
           </tr>
         </tbody>
-      </table>`,
+      </table>
+      <div id="project-ties"></div>`,
   );
   const names = Object.fromEntries(projects.map((p) => [p.id, p.name]));
-  const refresh = () => (projectReport(names), refreshLogs(ctx, names));
+  const ties = () => tiesPanel($("#project-ties"), $("#f-project").value, names[$("#f-project").value]);
+  const refresh = () => (projectReport(names), ties(), refreshLogs(ctx, names));
   dropZone($("#upload"), { projectId: () => $("#f-project").value || null, done: refresh });
   $("#filters").addEventListener("change", () => {
     const p = new URLSearchParams();

@@ -27,6 +27,7 @@ from ldvsurvey.api.reports import router as reports_router
 from ldvsurvey.api.security import SecurityHeaders
 from ldvsurvey.api.storage import router as storage_router
 from ldvsurvey.api.throttle import LoginThrottle
+from ldvsurvey.api.ties import router as ties_router
 from ldvsurvey.errors import InputError
 from ldvsurvey.settings import Settings, get_settings
 from ldvsurvey.store.db import get_engine, upgrade_head
@@ -120,6 +121,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(grids_router)
     app.include_router(storage_router)
     app.include_router(reports_router)
+    app.include_router(ties_router)
 
     import plotly
 

@@ -96,6 +96,31 @@ class UserOut(Out):
     projects: list[ProjectRef]
 
 
+# --- base stations of a project --------------------------------------------------------------------
+
+
+class TieOut(Out):
+    id: int
+    project_id: int
+    name: str
+    lat_deg: float = Field(description="geodetic latitude (deg)")
+    lon_deg: float = Field(description="geodetic longitude (deg, east positive, -180 to 180)")
+    h_m: float = Field(description="ellipsoidal height (m, WGS-84)")
+    g_mgal: float = Field(description="absolute gravity (mGal)")
+    sigma_mgal: float = Field(description="1-σ of g_mgal (mGal)")
+    note: str = Field("", description="where the value comes from")
+    created_at: str | None = None
+
+
+class ProjectTies(Out):
+    project_id: int
+    ties: list[TieOut] = Field(description="in the order entered: the n-th is a gravity job's tie Tn")
+    base_ties: str | None = Field(
+        description="the gravity pipeline's base_ties parameter of these stations (LAT,LON,H_M,G_MGAL;...), "
+        "none without a station"
+    )
+
+
 # --- logs ---------------------------------------------------------------------------------------
 
 

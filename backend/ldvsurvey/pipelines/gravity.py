@@ -38,6 +38,7 @@ from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_appli
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
+from ldvsurvey.pipelines.gravity_netfloor import network_floors
 from ldvsurvey.pipelines.gravity_network import parse_ties, survey_network
 from ldvsurvey.pipelines.gravity_report import (
     block,
@@ -427,12 +428,13 @@ def run(logs, params, progress) -> PipelineResult:
     net_tables, net_files = {}, {}
     if network:
         progress("network adjustment", 0.8)
-        floors = [floor_of(log, ch, fir_s)["total_mgal"] for log, ch in zip(logs, chains)]
+        floors, floor_rows = network_floors(logs, chains, res, params, drift_reports, drift)
         try:
             summary["network"], net_tables, net_files, net_warn = survey_network(
                 logs, chains, res, params, floors, progress
             )
             warnings += net_warn
+            summary["network"]["log_floors"] = floor_rows  # the lines' weights: white and drift per log
             # one resolution in the summary: the network's (where the applied filter passes half the
             # amplitude, v/(2 f½)), the nominal v·L/2 kept under its own name
             net_res = [ln["resolution_m"] for ln in summary["network"]["lines"] if ln.get("resolution_m")]

@@ -50,11 +50,13 @@ def drift_floor(
     leveling: str = "none",
     n_real: int = N_REALISATIONS,
     seed: int = 0,
+    bundle: int = 0,
 ) -> dict:
     """Expected coincidence (mGal) of the manifest's accelerometer bias instability after the processing.
 
     ``chain``: the SINS/LDV chain (times, stops); ``res``: :func:`gravity_report.evaluate`'s result
-    (the lines and their samples); ``tie_applied``: whether the stop tie was subtracted.
+    (the lines and their samples); ``tie_applied``: whether the stop tie was subtracted; ``bundle``: the
+    index of ``log`` among the run's logs (its lines are those of ``res`` with that bundle index).
     Returns a dict with ``drift_mgal`` (None when the manifest gives no bias instability) and how
     it was computed.
     """
@@ -70,9 +72,12 @@ def drift_floor(
     sigma = float(sig_ug) * 1e-6 * G0
     t = chain["t_s"]
     tg = np.arange(t[0], t[-1], 1.0 / MC_RATE_HZ)
-    used = [p for p in res["per_line"] if len(p[3]) and p[1] == 0]
+    used = [p for p in res["per_line"] if len(p[3]) and p[1] == bundle]
     if len(used) < 2:
-        return {"drift_mgal": None, "drift_source": "fewer than two lines in the first bundle"}
+        return {
+            "drift_mgal": None,
+            "drift_source": "fewer than two lines in the " + (f"bundle {bundle + 1}" if bundle else "first bundle"),
+        }
     # the filtered drift is smooth at 1/L: the lines' samples thinned to ~the Monte Carlo rate
     step = max(1, int(round(chain.get("fs", 1.0 / float(np.median(np.diff(t[:1000])))) / MC_RATE_HZ)))
     line_t = [(t[p[2]][::step], p[3][::step]) for p in used]

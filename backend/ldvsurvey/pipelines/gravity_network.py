@@ -20,6 +20,7 @@ from ldvsurvey.nav.earth import MGAL, normal_gravity
 from ldvsurvey.nav.gravity import G0
 from ldvsurvey.nav.gravmodel import free_air_anomaly_mgal, height_anomaly_grid, omission_mgal
 from ldvsurvey.pipelines.gravity_drift import stop_means
+from ldvsurvey.pipelines.gravity_tieheight import check_tie_heights
 from ldvsurvey.pipelines.inputs import local_metres
 
 #: a tie's absolute g must be a plausible value on the Earth's surface (mGal)
@@ -135,7 +136,8 @@ def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], 
 def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[dict, dict, dict, list[str]]:
     """The network block of the summary, its tables, other files (the gridded map) and warnings.
 
-    ``floors``: per log, the 1-σ white-noise floor (mGal) of one filtered line value."""
+    ``floors``: per log, the 1-σ floor (mGal) of one filtered line value the lines are weighted by (the
+    pipeline gives the combined one, :func:`gravity_netfloor.network_floors`)."""
     warnings = []
     fir_s = params["fir_length_s"]
     ties_given = parse_ties(params["base_ties"]) if params.get("base_ties") else []
@@ -219,6 +221,9 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
                 "sigma_mgal": t.sigma_mgal,
             }
         )
+    # validated at the door (gravity's parse_fixes): 4,5 -> (4, 5)
+    fixes = tuple(int(x) for x in str(params.get("gnss_fixes") or "4").split(","))
+    warnings += check_tie_heights(tie_rows, ties_given, chains, logs, fixes)
     if progress:
         progress("network: absolute values, external check", 0.85)
     table, per_line = _adjusted_table(lines, src, chains, adj, fir_s)
@@ -259,7 +264,8 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
         "lines": per_line,
         "external_check": external,
         "note": "adjusted values = filtered δg − (log bias + log drift·(t − t_ref) + line bias); the floor is the "
-        "lines' white-noise floor (RMS over lines); repeat RMS is the internal coincidence about each point's "
+        "lines' combined floor, white noise and accelerometer drift (RMS over lines; per log: log_floors); "
+        "repeat RMS is the internal coincidence about each point's "
         "mean, crossover RMS sqrt(Σd²/2N); both after the adjustment are residuals of the fit itself (it has "
         "spent its degrees of freedom on them: they sit below the floor by construction). The honest figures "
         "are the leave-one-line-out ones (*_loo_*): each line predicted from the other lines and the ties, "

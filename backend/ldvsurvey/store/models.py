@@ -200,6 +200,27 @@ class Project(Base):
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), nullable=False, default=utcnow)
 
 
+class ProjectTie(Base):
+    """A base station of a project: where it is (geodetic, ellipsoidal height) and its absolute gravity
+    with 1-σ, entered once and offered to every gravity job of the project (``base_ties``)."""
+
+    __tablename__ = "project_ties"
+    __table_args__ = (UniqueConstraint("project_id", "name", name="uq_project_ties_project_name"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    project_id: Mapped[int] = mapped_column(ForeignKey("projects.id", ondelete="CASCADE"), nullable=False, index=True)
+    name: Mapped[str] = mapped_column(String(100), nullable=False)
+    lat_deg: Mapped[float] = mapped_column(Float, nullable=False)
+    lon_deg: Mapped[float] = mapped_column(Float, nullable=False)
+    h_m: Mapped[float] = mapped_column(Float, nullable=False)
+    g_mgal: Mapped[float] = mapped_column(Float, nullable=False)
+    sigma_mgal: Mapped[float] = mapped_column(Float, nullable=False)
+    note: Mapped[str] = mapped_column(String(500), nullable=False, default="")
+    #: who entered it (None in open mode): the demo account changes only the ties it entered
+    user_id: Mapped[int | None] = mapped_column(Integer, nullable=True)
+    created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), nullable=False, default=utcnow)
+
+
 class Membership(Base):
     __tablename__ = "memberships"
 

@@ -205,14 +205,14 @@ def delete_user(s: Session, user: User) -> dict:
 #: what deleting a project does to the data
 PROJECT_DELETE_EFFECT = (
     "its logs are deleted with their stored files and every job computed from them (results "
-    "included); its members lose access to it, their accounts stay"
+    "included), and its base stations; its members lose access to it, their accounts stay"
 )
 
 
 def delete_project(s: Session, project: Project) -> dict:
     """Delete a project with its logs (:data:`PROJECT_DELETE_EFFECT`); what was deleted."""
     from ldvsurvey.store.logs import delete_log
-    from ldvsurvey.store.models import Job, Log
+    from ldvsurvey.store.models import Job, Log, ProjectTie
 
     log_ids = list(s.scalars(select(Log.id).where(Log.project_id == project.id)))
     ids = set(log_ids)
@@ -220,6 +220,7 @@ def delete_project(s: Session, project: Project) -> dict:
     for lid in log_ids:
         delete_log(s, lid)
     s.execute(delete(Membership).where(Membership.project_id == project.id))
+    s.execute(delete(ProjectTie).where(ProjectTie.project_id == project.id))
     name = project.name
     s.delete(project)
     s.flush()
