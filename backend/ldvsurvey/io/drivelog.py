@@ -131,6 +131,8 @@ def _combine(hashes: dict[str, str]) -> str:
 
 
 def bundle_sha256(files: dict[str, bytes | Path]) -> str:
+    """SHA-256 (hex) of a bundle: of its files' names and SHA-256 in name order, so that the order given does not
+    matter."""
     return _combine({name: file_sha256(v) for name, v in files.items()})
 
 
@@ -184,6 +186,7 @@ class BundleFiles(dict):
 
     @classmethod
     def in_temp_folder(cls, parent: str | Path | None = None) -> BundleFiles:
+        """An empty bundle whose files go into a new temporary folder (under ``parent``, or the system's)."""
         return cls(folder=_TempFolder(parent))
 
     def write(self, name: str, chunks) -> Path:

@@ -63,6 +63,7 @@ class LongGap:
     missing_rows: int
 
     def describe(self) -> str:
+        """The gap in words: its length and times (s), the line after it and the missing rows."""
         return (
             f"{self.t_after_s - self.t_before_s:.3f} s between t={self.t_before_s:.3f} s and "
             f"t={self.t_after_s:.3f} s (line {self.line}, about {self.missing_rows} missing rows)"

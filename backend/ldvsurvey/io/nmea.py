@@ -511,11 +511,37 @@ def format_gga(
     h_msl_m: float,
     sep_m: float,
     fix: int,
+    *,
     n_sat: int = 12,
     hdop: float = 0.9,
     talker: str = "GP",
 ) -> str:
-    """One GGA sentence with checksum (no line end). Time is taken modulo one day."""
+    """One GGA sentence with checksum (no line end).
+
+    Parameters
+    ----------
+    t_s : float
+        UTC time (s of day; taken modulo one day).
+    lat_deg, lon_deg : float
+        WGS-84 latitude and longitude (deg); with ``fix`` 0 or a NaN latitude the position fields stay empty.
+    h_msl_m : float
+        Altitude above mean sea level (m): the ellipsoidal height minus ``sep_m``.
+    sep_m : float
+        Geoid separation (m).
+    fix : int
+        GGA fix quality (0 none, 1 single, 2 differential, 4 RTK fixed, 5 RTK float).
+    n_sat : int
+        Satellites in use.
+    hdop : float
+        Horizontal dilution of precision.
+    talker : str
+        Two-letter talker ID (``GP``, ``GN``...).
+
+    Returns
+    -------
+    str
+        ``$..GGA,...*hh``, without a line end.
+    """
     tod = t_s % 86400.0
     hh, rem = divmod(tod, 3600.0)
     mm, ss = divmod(rem, 60.0)

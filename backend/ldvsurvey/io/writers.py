@@ -82,6 +82,7 @@ def nmea_text(
 
 
 def manifest_json(manifest: dict) -> bytes:
+    """``manifest.json`` bytes: the manifest as indented JSON with a final line end."""
     return (json.dumps(manifest, indent=2) + "\n").encode()
 
 

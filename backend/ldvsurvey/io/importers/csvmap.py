@@ -87,6 +87,7 @@ CFG = "import.{role}.csv"
 
 
 def sniff(data: bytes, name: str) -> str | None:
+    """Never a role: a CSV file is read only with a column map given for it."""
     return None  # a column map is always needed
 
 
@@ -99,6 +100,30 @@ def _split(line: str, delim: str | None) -> list[str]:
 
 
 def read(data: bytes, file: str, role: str, opts: dict):
+    """Columns of delimited text, by the column map ``import.<role>.csv``, in the bundle's units.
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    file : str
+        The file's name, for messages.
+    role : str
+        ``imu``, ``gnss`` or ``ldv``.
+    opts : dict
+        ``import.<role>`` of the partial manifest: ``csv`` (the column map), ``axes`` (IMU).
+
+    Returns
+    -------
+    ImuPart or GnssPart or LdvPart
+        IMU increments (rad, m/s over (t_prev, t]), GNSS fixes (deg, m; epochs without a fix left out) or
+        LDV columns (m/s, Hz), stamped with the map's time kind.
+
+    Raises
+    ------
+    BundleError
+        A map key that is wrong (naming ``import.<role>.csv.<key>``), or a row naming its line and field.
+    """
     cfg = opts.get("csv")
     if not isinstance(cfg, dict):
         raise _cfg_error(role, "the csv format needs a column map here (see the importer documentation)", "")

@@ -175,6 +175,7 @@ _PROMPT = re.compile(rb"(?:\[?[A-Z]*COM\d*\]?|\]|<OK|\s)+")  # port prompts and 
 
 
 def sniff(data: bytes, name: str) -> str | None:
+    """``imu`` (raw IMU logs) or ``gnss`` when the first 8 kB hold a NovAtel binary sync or ASCII log, else None."""
     head = data[:8192]
     if any(s in head for s in _SYNC_BINARY[:2]) or any(
         t in head for t in (b"#RAWIMU", b"%RAWIMU", b"#BESTPOS", b"#BESTGNSSPOS", b"#INSPVA", b"%INSPVA")
@@ -251,6 +252,30 @@ def _imu_type(value, file: str) -> int:
 
 
 def read(data: bytes, file: str, role: str, opts: dict):
+    """Raw IMU increments or GNSS positions of a NovAtel log (see the module docstring).
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    file : str
+        The file's name, for messages.
+    role : str
+        ``imu`` (RAWIMU family) or ``gnss`` (BESTGNSSPOS, else BESTPOS).
+    opts : dict
+        ``import.<role>`` of the partial manifest: ``imu_type`` (RAWIMU/RAWIMUS), ``rate_hz`` (Epson, Hz), ``axes``.
+
+    Returns
+    -------
+    ImuPart or GnssPart
+        Increments (rad, m/s; axes RFU unless given) or fixes (deg, ellipsoidal height m, undulation m), on GPS
+        week and seconds, with INSPVA as a reference trajectory when logged.
+
+    Raises
+    ------
+    BundleError
+        Naming the message number and the quantity.
+    """
     if role not in ROLES:
         raise BundleError(f"the novatel format has no '{role}' data (it has: imu, gnss)", file=file)
     bad: list[int] = []

@@ -31,6 +31,7 @@ WGS84_F = 1.0 / 298.257223563
 
 
 def sniff(data: bytes, name: str) -> str | None:
+    """``gnss`` when the first 4 kB hold an RTKLIB header line (``% GPST latitude(deg) ...``), else None."""
     head = data[:4096].decode("ascii", "replace")
     return "gnss" if re.search(r"^%\s+(GPST|UTC|JST)\s+(latitude|x-ecef)", head, re.M) else None
 
@@ -64,6 +65,29 @@ def _num(tok: str, file: str, line: int, name: str) -> float:
 
 
 def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
+    """GNSS fixes of an RTKLIB ``.pos`` solution file (see the module docstring).
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    file : str
+        The file's name, for messages.
+    role : str
+        ``gnss`` only.
+    opts : dict
+        ``import.gnss`` of the partial manifest: ``height`` ('ellipsoidal' for a file without a header saying so).
+
+    Returns
+    -------
+    GnssPart
+        Fixes (deg, ellipsoidal height m) on GPS week and seconds, or UNIX seconds for UTC/JST times.
+
+    Raises
+    ------
+    BundleError
+        A defective line naming its line and field; a datum other than WGS84 or heights not ellipsoidal.
+    """
     if role != "gnss":
         raise BundleError(f"the rtklib format has only GNSS fixes, not '{role}'", file=file)
     text = data.decode("utf-8", "replace")

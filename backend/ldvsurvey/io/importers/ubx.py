@@ -83,6 +83,7 @@ _LENGTH = {
 
 
 def sniff(data: bytes, name: str) -> str | None:
+    """``imu`` (ESF-RAW or ESF-MEAS frames) or ``gnss`` (navigation frames) in the first 64 kB, else None."""
     head = data[:65536]
     if b"\xb5\x62\x10\x03" in head or b"\xb5\x62\x10\x02" in head:
         return "imu"
@@ -463,6 +464,30 @@ def _clock(log: _Log, msgs: np.ndarray, tags: np.ndarray, what: str, opts: dict)
 
 
 def read(data: bytes, file: str, role: str, opts: dict):
+    """ESF-RAW/ESF-MEAS increments or NAV fixes of a u-blox UBX log (see the module docstring).
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    file : str
+        The file's name, for messages.
+    role : str
+        ``imu`` or ``gnss``.
+    opts : dict
+        ``import.<role>`` of the partial manifest: ``esf`` (``raw`` or ``meas``), ``time_offset_s``
+        (s, the NAV messages' known output latency), ``axes``.
+
+    Returns
+    -------
+    ImuPart or GnssPart
+        Increments (rad, m/s; in the sensor's own frame, as ``axes`` names it) or fixes (deg, ellipsoidal height m).
+
+    Raises
+    ------
+    BundleError
+        Naming the frame and the field.
+    """
     if role not in ROLES:
         raise BundleError(f"the ubx format has no '{role}' data (it has: imu, gnss)", file=file)
     log = _Log(data, file)
