@@ -37,6 +37,7 @@ silently across a gap, so :func:`regularize_imu` is applied where the IMU is par
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -82,6 +83,19 @@ class BridgedGap:
     t_before_s: float
     t_after_s: float
     lost: bool
+
+
+class RegularImu(NamedTuple):
+    """``imu.csv`` in time order with its short gaps bridged (what :func:`regularize_imu` returns)."""
+
+    cols: dict  #: column name -> (N,) array (``t`` s, increments rad and m/s, ``turntable_deg``)
+    lines: np.ndarray  #: (N,) 1-based file line of each row (inserted rows: the line of the row after their gap)
+    warnings: list[str]
+    n_bridged_rows: int  #: rows inserted
+    #: gaps too long to bridge, left as they are: :func:`check_no_long_gaps` refuses them before any
+    #: integration, while the bundle itself stays readable for its quality report
+    long_gaps: list[LongGap]
+    bridged: list[BridgedGap]  #: the bridged gaps, in time order
 
 
 def check_no_long_gaps(long_gaps, file: str = "imu.csv") -> None:
@@ -133,7 +147,7 @@ def nominal_interval(t_s: np.ndarray, rate_hz: float | None):
     return dt, warn
 
 
-def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: str = "imu.csv"):
+def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: str = "imu.csv") -> RegularImu:
     """Put rows in time order, bridge short gaps, refuse long ones (see the module docstring).
 
     Parameters
@@ -145,11 +159,9 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
 
     Returns
     -------
-    (cols, lines, warnings, n_bridged_rows, long_gaps, bridged) : the regular columns (inserted
-        rows carry the line of the row after their gap), the warnings, how many rows were inserted,
-        the gaps too long to bridge (left as they are: :func:`check_no_long_gaps` refuses them before
-        any integration, while the bundle itself stays readable for its quality report), and the
-        bridged gaps (:class:`BridgedGap`, in time order).
+    RegularImu
+        The regular columns and their lines, the warnings, how many rows were inserted, the gaps too long
+        to bridge and the bridged gaps.
     """
     from ldvsurvey.io.csvtable import check_time
 
@@ -160,13 +172,13 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
     t = cols["t"]
     check_time(t, lines, file)
     if len(t) < 3:
-        return cols, lines, warnings, 0, [], []
+        return RegularImu(cols, lines, warnings, 0, [], [])
     dt_nom, msg = nominal_interval(t, rate_hz)
     if msg:
         warnings.append(msg)
     gaps = _gaps(t, dt_nom)
     if len(gaps) == 0:
-        return cols, lines, warnings, 0, [], []
+        return RegularImu(cols, lines, warnings, 0, [], [])
     k_missing = np.rint(np.diff(t)[gaps] / dt_nom).astype(int) - 1
     k_missing = np.maximum(k_missing, 1)
     long_ = k_missing > MAX_BRIDGE_ROWS
@@ -181,11 +193,11 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         )
     gaps, k_missing = gaps[~long_], k_missing[~long_]
     if len(gaps) == 0:
-        return cols, lines, warnings, 0, long_gaps, []
+        return RegularImu(cols, lines, warnings, 0, long_gaps, [])
     out, new_lines, times = _bridge(cols, lines, gaps, k_missing)
     bridged = _keep_accumulated_shares(out, t, gaps, k_missing, times)
     warnings.append(_bridged_warning(file, times, int(k_missing.sum())))
-    return out, new_lines, warnings, int(k_missing.sum()), long_gaps, bridged
+    return RegularImu(out, new_lines, warnings, int(k_missing.sum()), long_gaps, bridged)
 
 
 def _gaps(t: np.ndarray, dt_nom: float) -> np.ndarray:
