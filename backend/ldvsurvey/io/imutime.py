@@ -136,7 +136,20 @@ def _reorder(cols: dict, lines: np.ndarray, file: str):
 
 
 def nominal_interval(t_s: np.ndarray, rate_hz: float | None):
-    """Nominal sampling interval (s): the median interval; and a warning when the manifest disagrees."""
+    """Nominal sampling interval (s): the median interval; and a warning when the manifest disagrees.
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Time tags, s.
+    rate_hz : float or None
+        The manifest's IMU rate, Hz.
+
+    Returns
+    -------
+    (float, str or None)
+        The median interval (s), and a warning when it differs from 1 / ``rate_hz`` by more than 5 %.
+    """
     dt = float(np.median(np.diff(t_s)))
     warn = None
     if rate_hz and abs(dt * rate_hz - 1.0) > 0.05:
@@ -152,10 +165,15 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
 
     Parameters
     ----------
-    cols : column name -> (N,) float arrays of ``imu.csv`` (``t`` in s, increments in rad and m/s,
-        optional ``turntable_deg``).
-    lines : (N,) 1-based file line of each row.
-    rate_hz : the manifest's nominal IMU rate (Hz), or None.
+    cols : dict
+        Column name -> (N,) float array of ``imu.csv`` (``t`` in s, increments in rad and m/s, optional
+        ``turntable_deg`` in deg).
+    lines : (N,) array
+        1-based file line of each row.
+    rate_hz : float or None
+        The manifest's nominal IMU rate, Hz.
+    file : str
+        The file named in messages.
 
     Returns
     -------

@@ -119,7 +119,24 @@ def _date_of(parts: dict, manifest: dict) -> dt.date:
 
 
 def to_bundle_time(st: Stamps, day: dt.date, leap_s: int, near_week: int) -> np.ndarray:
-    """Any :class:`Stamps` to the bundle clock of ``day``."""
+    """Any :class:`Stamps` to the bundle clock of ``day``.
+
+    Parameters
+    ----------
+    st : Stamps
+        The times as a recording states them.
+    day : datetime.date
+        The bundle's date; its clock counts s from 00:00 UTC of it.
+    leap_s : int
+        GPS − UTC, s.
+    near_week : int
+        The GPS week of ``day``, to resolve 10-bit week numbers.
+
+    Returns
+    -------
+    (N,) array
+        s on the bundle clock, rounded to the nanosecond.
+    """
     return np.round(_to_bundle_time(st, day, leap_s, near_week), 9)  # time tags are kept to the nanosecond
 
 

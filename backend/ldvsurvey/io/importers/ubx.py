@@ -326,7 +326,24 @@ def ecef_to_lla(x: float, y: float, z: float) -> tuple[float, float, float]:
 
 
 def unwrap_tags(tags: np.ndarray, modulus: int, where: np.ndarray, file: str, field: str) -> np.ndarray:
-    """Sensor time tags made continuous across their roll-over; a tag going back otherwise is refused."""
+    """Sensor time tags made continuous across their roll-over; a tag going back otherwise is refused.
+
+    Parameters
+    ----------
+    tags : (N,) int array
+        Sensor time tags, counts of the receiver's sensor clock.
+    modulus : int
+        Where the tags roll over (a drop of more than half of it is a roll-over).
+    where : (N,) array
+        Message number of each tag, for errors.
+    file, field : str
+        The file and the tag's field named in the error.
+
+    Returns
+    -------
+    (N,) int array
+        The tags, counting on across roll-overs.
+    """
     t = np.asarray(tags, dtype=np.int64)
     d = np.diff(t)
     back = d < 0
