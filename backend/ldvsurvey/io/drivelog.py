@@ -131,6 +131,8 @@ def _combine(hashes: dict[str, str]) -> str:
 
 
 def bundle_sha256(files: dict[str, bytes | Path]) -> str:
+    """SHA-256 (hex) of a bundle: of its files' names and SHA-256 in name order, so that the order given does not
+    matter."""
     return _combine({name: file_sha256(v) for name, v in files.items()})
 
 
@@ -184,6 +186,7 @@ class BundleFiles(dict):
 
     @classmethod
     def in_temp_folder(cls, parent: str | Path | None = None) -> BundleFiles:
+        """An empty bundle whose files go into a new temporary folder (under ``parent``, or the system's)."""
         return cls(folder=_TempFolder(parent))
 
     def write(self, name: str, chunks) -> Path:
@@ -268,8 +271,9 @@ def parse_imu(data: bytes | Path, manifest: Manifest) -> tuple[ImuData, list[str
     tab = read_numeric_csv(data, file, IMU_COLUMNS, optional=["turntable_deg"], groups=IMU_GROUPS)
     warnings = list(tab.warnings)
     cols, lines, dups = _drop_duplicate_rows(tab.columns, tab.line_of_row, file)
-    cols, lines, w, bridged, long_gaps, bridges = regularize_imu(cols, lines, manifest.imu.rate_hz, file)
-    warnings += w
+    reg = regularize_imu(cols, lines, manifest.imu.rate_hz, file)
+    cols = reg.cols
+    warnings += reg.warnings
     if manifest.imu.rotating and "turntable_deg" not in cols:
         raise BundleError(
             "manifest says imu.rotating is true but the column is missing", file=file, line=1, field="turntable_deg"
@@ -286,9 +290,9 @@ def parse_imu(data: bytes | Path, manifest: Manifest) -> tuple[ImuData, list[str
         dvel_mps=_stacked(cols, IMU_GROUPS["dvel"], tab.groups.get("dvel")),
         turntable_deg=turn,
         duplicated_rows=dups,
-        bridged_rows=bridged,
-        long_gaps=long_gaps,
-        bridges=bridges,
+        bridged_rows=reg.n_bridged_rows,
+        long_gaps=reg.long_gaps,
+        bridges=reg.bridged,
     )
     return imu, warnings
 

@@ -102,7 +102,24 @@ def parse_gdf(data: bytes, name: str = "grid.gdf"):
 
 
 def write_gdf(lat_deg, lon_deg, values, functional: str, unit: str) -> bytes:
-    """A ``.gdf`` file (for tests and for exporting grids)."""
+    """A ``.gdf`` file (for tests and for exporting grids).
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : (n_lat,), (n_lon,) arrays
+        The grid's WGS-84 latitudes and longitudes, deg, ascending.
+    values : (n_lat, n_lon) array
+        The grid's values in ``unit``.
+    functional : str
+        What the values are (the ``functional`` keyword, e.g. ``gravity_disturbance``).
+    unit : str
+        Their unit (the ``unit`` keyword, e.g. ``mGal``).
+
+    Returns
+    -------
+    bytes
+        The file's text: ICGEM header, then one ``lon lat value`` row per point, north to south.
+    """
     lat = np.asarray(lat_deg)
     lon = np.asarray(lon_deg)
     head = [

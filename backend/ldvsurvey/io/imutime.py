@@ -37,6 +37,7 @@ silently across a gap, so :func:`regularize_imu` is applied where the IMU is par
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -63,6 +64,7 @@ class LongGap:
     missing_rows: int
 
     def describe(self) -> str:
+        """The gap in words: its length and times (s), the line after it and the missing rows."""
         return (
             f"{self.t_after_s - self.t_before_s:.3f} s between t={self.t_before_s:.3f} s and "
             f"t={self.t_after_s:.3f} s (line {self.line}, about {self.missing_rows} missing rows)"
@@ -81,6 +83,19 @@ class BridgedGap:
     t_before_s: float
     t_after_s: float
     lost: bool
+
+
+class RegularImu(NamedTuple):
+    """``imu.csv`` in time order with its short gaps bridged (what :func:`regularize_imu` returns)."""
+
+    cols: dict  #: column name -> (N,) array (``t`` s, increments rad and m/s, ``turntable_deg``)
+    lines: np.ndarray  #: (N,) 1-based file line of each row (inserted rows: the line of the row after their gap)
+    warnings: list[str]
+    n_bridged_rows: int  #: rows inserted
+    #: gaps too long to bridge, left as they are: :func:`check_no_long_gaps` refuses them before any
+    #: integration, while the bundle itself stays readable for its quality report
+    long_gaps: list[LongGap]
+    bridged: list[BridgedGap]  #: the bridged gaps, in time order
 
 
 def check_no_long_gaps(long_gaps, file: str = "imu.csv") -> None:
@@ -121,7 +136,20 @@ def _reorder(cols: dict, lines: np.ndarray, file: str):
 
 
 def nominal_interval(t_s: np.ndarray, rate_hz: float | None):
-    """Nominal sampling interval (s): the median interval; and a warning when the manifest disagrees."""
+    """Nominal sampling interval (s): the median interval; and a warning when the manifest disagrees.
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Time tags, s.
+    rate_hz : float or None
+        The manifest's IMU rate, Hz.
+
+    Returns
+    -------
+    (float, str or None)
+        The median interval (s), and a warning when it differs from 1 / ``rate_hz`` by more than 5 %.
+    """
     dt = float(np.median(np.diff(t_s)))
     warn = None
     if rate_hz and abs(dt * rate_hz - 1.0) > 0.05:
@@ -132,23 +160,26 @@ def nominal_interval(t_s: np.ndarray, rate_hz: float | None):
     return dt, warn
 
 
-def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: str = "imu.csv"):
+def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: str = "imu.csv") -> RegularImu:
     """Put rows in time order, bridge short gaps, refuse long ones (see the module docstring).
 
     Parameters
     ----------
-    cols : column name -> (N,) float arrays of ``imu.csv`` (``t`` in s, increments in rad and m/s,
-        optional ``turntable_deg``).
-    lines : (N,) 1-based file line of each row.
-    rate_hz : the manifest's nominal IMU rate (Hz), or None.
+    cols : dict
+        Column name -> (N,) float array of ``imu.csv`` (``t`` in s, increments in rad and m/s, optional
+        ``turntable_deg`` in deg).
+    lines : (N,) array
+        1-based file line of each row.
+    rate_hz : float or None
+        The manifest's nominal IMU rate, Hz.
+    file : str
+        The file named in messages.
 
     Returns
     -------
-    (cols, lines, warnings, n_bridged_rows, long_gaps, bridged) : the regular columns (inserted
-        rows carry the line of the row after their gap), the warnings, how many rows were inserted,
-        the gaps too long to bridge (left as they are: :func:`check_no_long_gaps` refuses them before
-        any integration, while the bundle itself stays readable for its quality report), and the
-        bridged gaps (:class:`BridgedGap`, in time order).
+    RegularImu
+        The regular columns and their lines, the warnings, how many rows were inserted, the gaps too long
+        to bridge and the bridged gaps.
     """
     from ldvsurvey.io.csvtable import check_time
 
@@ -159,20 +190,14 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
     t = cols["t"]
     check_time(t, lines, file)
     if len(t) < 3:
-        return cols, lines, warnings, 0, [], []
+        return RegularImu(cols, lines, warnings, 0, [], [])
     dt_nom, msg = nominal_interval(t, rate_hz)
     if msg:
         warnings.append(msg)
-    dt = np.diff(t)
-    gaps = np.flatnonzero(dt > GAP_FACTOR * dt_nom)
-    if len(gaps):  # a tag displaced by jitter lengthens one interval and shortens its neighbour
-        pair_next = np.rint((dt[gaps] + dt[np.minimum(gaps + 1, len(dt) - 1)]) / dt_nom)
-        pair_prev = np.rint((dt[gaps] + dt[np.maximum(gaps - 1, 0)]) / dt_nom)
-        jitter = ((pair_next <= 2) & (gaps + 1 < len(dt))) | ((pair_prev <= 2) & (gaps > 0))
-        gaps = gaps[~jitter]
+    gaps = _gaps(t, dt_nom)
     if len(gaps) == 0:
-        return cols, lines, warnings, 0, [], []
-    k_missing = np.rint(dt[gaps] / dt_nom).astype(int) - 1
+        return RegularImu(cols, lines, warnings, 0, [], [])
+    k_missing = np.rint(np.diff(t)[gaps] / dt_nom).astype(int) - 1
     k_missing = np.maximum(k_missing, 1)
     long_ = k_missing > MAX_BRIDGE_ROWS
     long_gaps = [
@@ -186,48 +211,79 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
         )
     gaps, k_missing = gaps[~long_], k_missing[~long_]
     if len(gaps) == 0:
-        return cols, lines, warnings, 0, long_gaps, []
+        return RegularImu(cols, lines, warnings, 0, long_gaps, [])
+    out, new_lines, times = _bridge(cols, lines, gaps, k_missing)
+    bridged = _keep_accumulated_shares(out, t, gaps, k_missing, times)
+    warnings.append(_bridged_warning(file, times, int(k_missing.sum())))
+    return RegularImu(out, new_lines, warnings, int(k_missing.sum()), long_gaps, bridged)
+
+
+def _gaps(t: np.ndarray, dt_nom: float) -> np.ndarray:
+    """Indices ``g`` of the intervals (t[g], t[g+1]] longer than :data:`GAP_FACTOR` nominal intervals (s) that
+    no short neighbour makes up (a tag displaced by jitter lengthens one interval and shortens its neighbour)."""
+    dt = np.diff(t)
+    gaps = np.flatnonzero(dt > GAP_FACTOR * dt_nom)
+    if len(gaps):
+        pair_next = np.rint((dt[gaps] + dt[np.minimum(gaps + 1, len(dt) - 1)]) / dt_nom)
+        pair_prev = np.rint((dt[gaps] + dt[np.maximum(gaps - 1, 0)]) / dt_nom)
+        jitter = ((pair_next <= 2) & (gaps + 1 < len(dt))) | ((pair_prev <= 2) & (gaps > 0))
+        gaps = gaps[~jitter]
+    return gaps
+
+
+def _accumulated(dv_norm: np.ndarray, gaps: np.ndarray, g: int, k: int) -> bool:
+    """Whether the row after gap ``g`` (``k`` rows missing) accumulated the gap: its velocity increment (m/s)
+    is nearer k + 1 times its neighbours' than once."""
+    nb = np.r_[np.arange(max(0, g - 3), g + 1), np.arange(g + 2, min(len(dv_norm), g + 5))]
+    nb = nb[~np.isin(nb, gaps + 1)]  # neighbours that follow no gap themselves
+    ref = float(np.median(dv_norm[nb])) if len(nb) else float(np.median(dv_norm))
+    ratio = dv_norm[g + 1] / ref if ref > 0 else 1.0
+    return abs(ratio - (k + 1)) < abs(ratio - 1.0)
+
+
+def _gap_rows(name: str, col: np.ndarray, g: int, k: int, t_new: np.ndarray, accumulated: bool) -> np.ndarray:
+    """The ``k`` rows of column ``name`` inserted into gap ``g`` (time s, turntable deg, increments rad or m/s)."""
+    if name == "t":
+        return t_new
+    if name == "turntable_deg":
+        a = col[g]
+        b = a + (np.mod(col[g + 1] - a + 180.0, 360.0) - 180.0)
+        return np.mod(a + (b - a) * np.arange(1, k + 1) / (k + 1), 360.0)
+    if accumulated:  # the row after the gap keeps its share too (_keep_accumulated_shares)
+        return np.full(k, col[g + 1] / (k + 1))
+    w = np.arange(1, k + 1) / (k + 1)  # each lost row spans one interval of the IMU's own clock, whatever the tags say
+    return (1 - w) * col[g] + w * col[g + 1]
+
+
+def _bridge(cols: dict, lines: np.ndarray, gaps: np.ndarray, k_missing: np.ndarray):
+    """The columns and lines with ``k`` rows on an even grid in every short gap; and (t before s, k, accumulated)
+    of each gap."""
+    t = cols["t"]
     dv = np.column_stack([cols[c] for c in ("dvel_x", "dvel_y", "dvel_z")])
     dv_norm = np.linalg.norm(dv, axis=1)
-    n = len(t)
     pieces = {k: [] for k in cols}
     line_pieces = []
-    modes = {"accumulated": 0, "lost": 0}
     start = 0
     times = []
     for g, k in zip(gaps, k_missing):
         g = int(g)
-        nb = np.r_[np.arange(max(0, g - 3), g + 1), np.arange(g + 2, min(n, g + 5))]
-        nb = nb[~np.isin(nb, gaps + 1)]  # neighbours that follow no gap themselves
-        ref = float(np.median(dv_norm[nb])) if len(nb) else float(np.median(dv_norm))
-        ratio = dv_norm[g + 1] / ref if ref > 0 else 1.0
-        accumulated = abs(ratio - (k + 1)) < abs(ratio - 1.0)
+        accumulated = _accumulated(dv_norm, gaps, g, k)
         h = (t[g + 1] - t[g]) / (k + 1)
         t_new = t[g] + h * np.arange(1, k + 1)
         for name in cols:
             pieces[name].append(cols[name][start : g + 1])
-            if name == "t":
-                new = t_new
-            elif name == "turntable_deg":
-                a = cols[name][g]
-                b = a + (np.mod(cols[name][g + 1] - a + 180.0, 360.0) - 180.0)
-                new = np.mod(a + (b - a) * np.arange(1, k + 1) / (k + 1), 360.0)
-            elif accumulated:  # the row after the gap keeps its share too (below)
-                new = np.full(k, cols[name][g + 1] / (k + 1))
-            else:  # each lost row spans one interval of the IMU's own clock, whatever the tags say
-                w = np.arange(1, k + 1) / (k + 1)
-                new = (1 - w) * cols[name][g] + w * cols[name][g + 1]
-            pieces[name].append(new)
+            pieces[name].append(_gap_rows(name, cols[name], g, k, t_new, accumulated))
         line_pieces += [lines[start : g + 1], np.full(k, lines[g + 1])]
         start = g + 1
-        modes["accumulated" if accumulated else "lost"] += 1
         times.append((float(t[g]), int(k), accumulated))
     for name in cols:
         pieces[name].append(cols[name][start:])
     line_pieces.append(lines[start:])
-    out = {name: np.concatenate(p) for name, p in pieces.items()}
-    # the rows after accumulated gaps keep their 1/(k+1) share
-    new_lines = np.concatenate(line_pieces)
+    return {name: np.concatenate(p) for name, p in pieces.items()}, np.concatenate(line_pieces), times
+
+
+def _keep_accumulated_shares(out: dict, t: np.ndarray, gaps, k_missing, times: list) -> list[BridgedGap]:
+    """Give the row after each accumulated gap its 1/(k+1) share (in place); the :class:`BridgedGap` s."""
     offset = 0
     bridged = []
     for (g, k), (_, _, acc) in zip(zip(gaps, k_missing), times):
@@ -238,16 +294,20 @@ def regularize_imu(cols: dict, lines: np.ndarray, rate_hz: float | None, file: s
                 if name in out:
                     out[name][row] = out[name][row] / (k + 1)
         offset += int(k)
-    total = int(k_missing.sum())
+    return bridged
+
+
+def _bridged_warning(file: str, times: list, total: int) -> str:
+    """The warning naming the bridged gaps (the first ten by time), the missing rows and how each was bridged."""
+    lost = sum(not acc for _, _, acc in times)
     listed = ", ".join(f"t={a:.3f} s ({k} row{'s' if k > 1 else ''})" for a, k, _ in times[:10])
     more = f" and {len(times) - 10} more" if len(times) > 10 else ""
     how = []
-    if modes["lost"]:
-        how.append(f"{modes['lost']} with lost increments interpolated linearly between the neighbouring rows")
-    if modes["accumulated"]:
-        how.append(f"{modes['accumulated']} whose next row accumulated the gap, split evenly over it")
-    warnings.append(
+    if lost:
+        how.append(f"{lost} with lost increments interpolated linearly between the neighbouring rows")
+    if len(times) - lost:
+        how.append(f"{len(times) - lost} whose next row accumulated the gap, split evenly over it")
+    return (
         f"{file}: {len(times)} gap(s) in the IMU time tags bridged, {total} missing row(s) in all, "
         f"after {listed}{more}; {'; '.join(how)}"
     )
-    return out, new_lines, warnings, total, long_gaps, bridged

@@ -13,6 +13,7 @@ import math
 import re
 from bisect import bisect_left
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -73,6 +74,19 @@ class GnssData:
 
     def __len__(self) -> int:
         return len(self.t_s)
+
+
+class GgaFields(NamedTuple):
+    """The fields of one GGA sentence, or of many column by column (one array entry per sentence)."""
+
+    tod_s: float | np.ndarray  #: UTC time of day, s
+    lat_deg: float | np.ndarray  #: WGS-84 latitude, deg (NaN without a fix)
+    lon_deg: float | np.ndarray  #: WGS-84 longitude, deg
+    h_m: float | np.ndarray  #: ellipsoidal height (altitude + separation), m
+    fix: int | np.ndarray  #: GGA fix quality
+    n_sat: float | np.ndarray  #: satellites in use (NaN when empty)
+    hdop: float | np.ndarray  #: horizontal dilution of precision (NaN when empty)
+    sep_m: float | np.ndarray  #: geoid separation, m (NaN when empty)
 
 
 _TIME = re.compile(r"\d{6}(\.\d*)?")
@@ -144,8 +158,8 @@ def _degrees(dm: str, hemi: str, line: int, name: str, hemispheres: str) -> floa
     return -deg if hemi in "SW" else deg
 
 
-def _gga(body: str, lineno: int) -> tuple:
-    """One GGA sentence body to (time of day s, lat deg, lon deg, h m, fix, n_sat, hdop, sep m)."""
+def _gga(body: str, lineno: int) -> GgaFields:
+    """The fields of one GGA sentence body (time of day s, lat and lon deg, h m, fix, n_sat, hdop, sep m)."""
     f = body.split(",")
     if not _TALKER_GGA.fullmatch(f[0]) or "*" in body:
         raise BundleError(f"GGA sentence could not be parsed: '{body[:40]}'", file=FILE, line=lineno)
@@ -168,7 +182,7 @@ def _gga(body: str, lineno: int) -> tuple:
         h = alt + (0.0 if math.isnan(sep) else sep)
     else:
         lat = lon = h = sep = math.nan
-    return tod, lat, lon, h, fix, _num(f[7], lineno, "num_sats"), _num(f[8], lineno, "hdop"), sep
+    return GgaFields(tod, lat, lon, h, fix, _num(f[7], lineno, "num_sats"), _num(f[8], lineno, "hdop"), sep)
 
 
 _COL_TIME = re.compile(r"(?:\d{6}(?:\.\d*)?\n)*\d{6}(?:\.\d*)?")
@@ -217,7 +231,7 @@ def _dm_degrees(col) -> np.ndarray:
     return d + m / 60
 
 
-def _gga_columns(bodies: list[str]) -> tuple | None:
+def _gga_columns(bodies: list[str]) -> GgaFields | None:
     """All GGA sentences at once, column by column; None when anything is unusual (then the
     line-by-line path runs and names the exact line and field)."""
     rows = [b.split(",") for b in bodies]
@@ -263,7 +277,7 @@ def _gga_columns(bodies: list[str]) -> tuple | None:
         hdop = _floats(cols[8], empty_ok=True)
     except ValueError:
         return None
-    return tod, lat, lon, h, fix, n_sat, hdop, sep_all
+    return GgaFields(tod, lat, lon, h, fix, n_sat, hdop, sep_all)
 
 
 _RMC_DATE = re.compile(r"\d{6}")
@@ -341,159 +355,216 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None, *, file: str = FILE, l
     """
     if not data.strip():
         raise BundleError("file is empty", file=file, line=1)
+    tally = _Tally()
+    gga_body, gga_line, skipped, rmc = _sort_sentences(*_checked_sentences(data, tally), lenient, tally)
+    cols, gga_line = _gga_fields(gga_body, gga_line, file, lenient, tally)
+    rows = _epochs(cols.tod_s.tolist(), gga_line, t_ref_s, file, lenient, tally) if cols is not None else []
+    _check_epochs(len(rows), file, lenient, tally)
+    keep = np.array([j for j, _ in rows], dtype=np.int64)
+    t_s = np.array([t for _, t in rows], dtype=np.float64)
+    got = GgaFields(*(np.asarray(c)[keep] for c in cols))
+    line_of_row = np.array(gga_line, dtype=np.int64)[keep]
+    return GnssData(
+        t_s=t_s,
+        lat_deg=got.lat_deg.astype(np.float64),
+        lon_deg=got.lon_deg.astype(np.float64),
+        h_m=got.h_m.astype(np.float64),
+        fix=got.fix.astype(np.int16),
+        n_sat=got.n_sat.astype(np.float64),
+        hdop=got.hdop.astype(np.float64),
+        line_of_row=line_of_row,
+        bad_checksum=tally.bad_checksum,
+        malformed_lines=tally.malformed,
+        duplicate_epochs=tally.duplicates,
+        skipped_sentences=skipped,
+        warnings=_warnings(file, lenient, tally),
+        sep_m=got.sep_m.astype(np.float64),
+        day=_day_of(rmc, line_of_row, t_s),
+        no_fix=tally.no_fix,
+        defective=tally.defective,
+    )
+
+
+@dataclass
+class _Tally:
+    """What :func:`parse_nmea` left out on the way, for the warnings: counts and the first of each kind."""
+
+    bad_checksum: int = 0
+    malformed: int = 0  #: lines that are no NMEA sentence
+    after_binary: int = 0  #: sentences read after other bytes on their line
+    no_fix: int = 0
+    not_measured: int = 0  #: GGA of quality 6, 7 or 8
+    defective: int = 0
+    duplicates: int = 0
+    out_of_order: int = 0
+    first_defect: BundleError | None = None
+    first_backwards: BundleError | None = None
+
+
+def _checked_sentences(data: bytes, tally: _Tally) -> tuple[list[int], list[str]]:
+    """(line, body) of every sentence with a good checksum; the others and the lines that are none counted."""
     text = data.decode("ascii", "replace")
-    cand_line, cand_body, cand_cks, malformed, after_binary = _split_sentences(text)
+    cand_line, cand_body, cand_cks, tally.malformed, tally.after_binary = _split_sentences(text)
     ok = _checksums(cand_body) == np.fromiter(
         (_given_checksum(c.strip()[:2]) for c in cand_cks), dtype=np.int64, count=len(cand_cks)
     )
-    bad_checksum = int(len(ok) - np.count_nonzero(ok))
+    tally.bad_checksum = int(len(ok) - np.count_nonzero(ok))
+    good = np.flatnonzero(ok).tolist()
+    return [cand_line[i] for i in good], [cand_body[i] for i in good]
+
+
+def _sort_sentences(lines: list[int], bodies: list[str], lenient: bool, tally: _Tally):
+    """The GGA sentences with an epoch (bodies, lines), the other sentences counted by type, and (line, time of
+    day s, date) of the first RMC with a date (or None); GGA without a fix or not measured counted."""
     skipped: dict[str, int] = {}
     gga_body, gga_line = [], []
-    rmc = None  # (line, time of day, date) of the first RMC with a date
-    no_fix = not_measured = 0
-    for i in np.flatnonzero(ok).tolist():
-        body = cand_body[i]
+    rmc = None
+    for lineno, body in zip(lines, bodies):
         head = body[: body.find(",")] if "," in body else body
         stype = head[-3:]
         if stype != "GGA" or body.startswith("P"):
             if stype == "RMC" and rmc is None and not body.startswith("P"):
                 got = _rmc_date(body)
                 if got is not None:
-                    rmc = (cand_line[i], *got)
+                    rmc = (lineno, *got)
             skipped[stype] = skipped.get(stype, 0) + 1
             continue
         f = body.split(",", 7)
         quality = f[6] if len(f) > 6 else ""
         if (quality == "" and lenient) or (quality == "0" and (lenient or f[1] == "")):
-            no_fix += 1  # no solution: no epoch (pre-fix sentences often have no time either)
+            tally.no_fix += 1  # no solution: no epoch (pre-fix sentences often have no time either)
             continue
         if lenient and quality in NOT_MEASURED:
-            not_measured += 1
+            tally.not_measured += 1
             continue
         gga_body.append(body)
-        gga_line.append(cand_line[i])
+        gga_line.append(lineno)
+    return gga_body, gga_line, skipped, rmc
+
+
+def _gga_fields(gga_body: list[str], gga_line: list[int], file: str, lenient: bool, tally: _Tally):
+    """The GGA fields column by column (None without one) and the lines they come from: all at once, or line by
+    line when anything is unusual, so that an error names its line and field (lenient: defective ones skipped)."""
     cols = _gga_columns(gga_body)
-    defective, first_defect = 0, None
-    if cols is None and gga_body:  # something unusual: line by line, so that an error names its line and field
-        parsed, lines_ok = [], []
-        for b, ln in zip(gga_body, gga_line):
-            try:
-                parsed.append(_gga(b, ln))
-            except BundleError as exc:
-                if not lenient:
-                    raise BundleError(exc.message, file=file, line=exc.line, field=exc.field) from None
-                defective += 1
-                if first_defect is None:
-                    first_defect = exc
-                continue
-            lines_ok.append(ln)
-        gga_line = lines_ok
-        cols = tuple(np.array(c) for c in zip(*parsed)) if parsed else None
+    if cols is not None or not gga_body:
+        return cols, gga_line
+    parsed, lines_ok = [], []
+    for b, ln in zip(gga_body, gga_line):
+        try:
+            parsed.append(_gga(b, ln))
+        except BundleError as exc:
+            if not lenient:
+                raise BundleError(exc.message, file=file, line=exc.line, field=exc.field) from None
+            tally.defective += 1
+            if tally.first_defect is None:
+                tally.first_defect = exc
+            continue
+        lines_ok.append(ln)
+    return (GgaFields(*(np.array(c) for c in zip(*parsed))) if parsed else None), lines_ok
+
+
+def _epochs(tod: list[float], gga_line: list[int], t_ref_s, file: str, lenient: bool, tally: _Tally) -> list:
+    """(index, time s on the counting clock) of each epoch kept: times of day (s) counted on past midnight from the
+    day nearest ``t_ref_s``; a repeated epoch dropped, one going backwards refused (lenient: dropped, counted)."""
     rows = []
-    duplicates = out_of_order = 0
-    first_backwards = None
-    if cols is not None:
-        tod = cols[0].tolist()
-        k_day = None
-        prev_t = None
-        for j, lineno in enumerate(gga_line):
-            if k_day is None:
-                ref = t_ref_s if t_ref_s is not None else tod[j]
-                k_day = round((ref - tod[j]) / 86400.0)
-            t = tod[j] + 86400.0 * k_day
-            if prev_t is not None and t < prev_t - 43200.0:  # passed midnight
-                k_day += 1
-                t += 86400.0
-            if prev_t is not None and t <= prev_t:
-                if t == prev_t:  # the same epoch again (e.g. GP and GN talkers): keep the first
-                    duplicates += 1
-                    continue
-                backwards = BundleError(
-                    f"GGA time goes backwards: {t:.2f} s after {prev_t:.2f} s", file=file, line=lineno, field="time"
-                )
-                if not lenient:
-                    raise backwards
-                out_of_order += 1  # a stray epoch is dropped; a clock that jumps back is refused below
-                first_backwards = first_backwards or backwards
+    k_day = None
+    prev_t = None
+    for j, lineno in enumerate(gga_line):
+        if k_day is None:
+            ref = t_ref_s if t_ref_s is not None else tod[j]
+            k_day = round((ref - tod[j]) / 86400.0)
+        t = tod[j] + 86400.0 * k_day
+        if prev_t is not None and t < prev_t - 43200.0:  # passed midnight
+            k_day += 1
+            t += 86400.0
+        if prev_t is not None and t <= prev_t:
+            if t == prev_t:  # the same epoch again (e.g. GP and GN talkers): keep the first
+                tally.duplicates += 1
                 continue
-            prev_t = t
-            rows.append((j, t))
-    if out_of_order > max(1, len(rows) // 100):
+            backwards = BundleError(
+                f"GGA time goes backwards: {t:.2f} s after {prev_t:.2f} s", file=file, line=lineno, field="time"
+            )
+            if not lenient:
+                raise backwards
+            tally.out_of_order += 1  # a stray epoch is dropped; a clock that jumps back is refused (_check_epochs)
+            tally.first_backwards = tally.first_backwards or backwards
+            continue
+        prev_t = t
+        rows.append((j, t))
+    return rows
+
+
+def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally) -> None:
+    """Refuse a clock that jumped back (more than a stray epoch in a hundred out of order) or no epoch at all."""
+    if tally.out_of_order > max(1, n_rows // 100):
+        first = tally.first_backwards
         raise BundleError(
-            f"{first_backwards.message} ({out_of_order} GGA epochs out of order: the receiver's clock jumped; "
+            f"{first.message} ({tally.out_of_order} GGA epochs out of order: the receiver's clock jumped; "
             "only a stray one in a hundred is left out)",
             file=file,
-            line=first_backwards.line,
+            line=first.line,
             field="time",
         )
-    if not rows:
-        what = "with a fix" if lenient else "with a time"
-        counts = (
-            f"{no_fix} without a fix, {defective} defective, {bad_checksum} with a bad checksum, {malformed} lines "
-            "that are no NMEA sentence"
+    if n_rows:
+        return
+    what = "with a fix" if lenient else "with a time"
+    counts = (
+        f"{tally.no_fix} without a fix, {tally.defective} defective, {tally.bad_checksum} with a bad checksum, "
+        f"{tally.malformed} lines that are no NMEA sentence"
+    )
+    first = tally.first_defect
+    if first is not None:
+        raise BundleError(
+            f"no valid GGA sentence {what} ({counts}); the first defective one: {first.message}",
+            file=file,
+            line=first.line,
+            field=first.field,
         )
-        if first_defect is not None:
-            raise BundleError(
-                f"no valid GGA sentence {what} ({counts}); the first defective one: {first_defect.message}",
-                file=file,
-                line=first_defect.line,
-                field=first_defect.field,
-            )
-        raise BundleError(f"no valid GGA sentence {what} ({counts})", file=file)
-    keep = np.array([j for j, _ in rows], dtype=np.int64)
-    t_s = np.array([t for _, t in rows], dtype=np.float64)
-    _, lat, lon, h, fix, n_sat, hdop, sep = (np.asarray(c)[keep] for c in cols)
-    line_of_row = np.array(gga_line, dtype=np.int64)[keep]
-    day = None
-    if rmc is not None:  # the RMC's time on the rows' counting clock, from the row nearest to it in the file
-        k = min(bisect_left(line_of_row.tolist(), rmc[0]), len(line_of_row) - 1)
-        t_rmc = rmc[1] + 86400.0 * round((t_s[k] - rmc[1]) / 86400.0)
-        day = rmc[2] - dt.timedelta(days=int(t_rmc // 86400.0) - int(t_s[0] // 86400.0))
+    raise BundleError(f"no valid GGA sentence {what} ({counts})", file=file)
+
+
+def _day_of(rmc, line_of_row: np.ndarray, t_s: np.ndarray) -> dt.date | None:
+    """UTC day of the first row (s on the counting clock) from the first RMC's date, its time placed on the rows'
+    clock by the row nearest to it in the file; None without an RMC."""
+    if rmc is None:
+        return None
+    k = min(bisect_left(line_of_row.tolist(), rmc[0]), len(line_of_row) - 1)
+    t_rmc = rmc[1] + 86400.0 * round((t_s[k] - rmc[1]) / 86400.0)
+    return rmc[2] - dt.timedelta(days=int(t_rmc // 86400.0) - int(t_s[0] // 86400.0))
+
+
+def _warnings(file: str, lenient: bool, tally: _Tally) -> list[str]:
+    """One warning per kind of sentence or epoch left out."""
     warnings = []
-    if bad_checksum:
-        warnings.append(f"{file}: {bad_checksum} sentence(s) with a bad checksum skipped")
-    if malformed:
-        warnings.append(f"{file}: {malformed} line(s) that are not NMEA sentences skipped")
-    if after_binary:
-        warnings.append(f"{file}: {after_binary} sentence(s) read after other bytes on their line (binary frames)")
-    if lenient and no_fix:
-        warnings.append(f"{file}: {no_fix} GGA sentence(s) without a fix (quality 0 or empty) left out")
-    if not_measured:
+    if tally.bad_checksum:
+        warnings.append(f"{file}: {tally.bad_checksum} sentence(s) with a bad checksum skipped")
+    if tally.malformed:
+        warnings.append(f"{file}: {tally.malformed} line(s) that are not NMEA sentences skipped")
+    if tally.after_binary:
         warnings.append(
-            f"{file}: {not_measured} GGA sentence(s) of quality 6, 7 or 8 (dead reckoning, manual input, "
+            f"{file}: {tally.after_binary} sentence(s) read after other bytes on their line (binary frames)"
+        )
+    if lenient and tally.no_fix:
+        warnings.append(f"{file}: {tally.no_fix} GGA sentence(s) without a fix (quality 0 or empty) left out")
+    if tally.not_measured:
+        warnings.append(
+            f"{file}: {tally.not_measured} GGA sentence(s) of quality 6, 7 or 8 (dead reckoning, manual input, "
             "simulator: no measured position) left out"
         )
-    if defective:
+    if tally.defective:
+        d = tally.first_defect
         warnings.append(
-            f"{file}: {defective} GGA sentence(s) with a good checksum but a defective field skipped; the first: "
-            f"line {first_defect.line}, field '{first_defect.field}': {first_defect.message}"
+            f"{file}: {tally.defective} GGA sentence(s) with a good checksum but a defective field skipped; the "
+            f"first: line {d.line}, field '{d.field}': {d.message}"
         )
-    if duplicates:
-        warnings.append(f"{file}: {duplicates} repeated GGA epoch(s) skipped")
-    if out_of_order:
+    if tally.duplicates:
+        warnings.append(f"{file}: {tally.duplicates} repeated GGA epoch(s) skipped")
+    if tally.out_of_order:
+        b = tally.first_backwards
         warnings.append(
-            f"{file}: {out_of_order} GGA epoch(s) out of order left out; the first: line {first_backwards.line}, "
-            f"{first_backwards.message}"
+            f"{file}: {tally.out_of_order} GGA epoch(s) out of order left out; the first: line {b.line}, {b.message}"
         )
-    return GnssData(
-        t_s=t_s,
-        lat_deg=lat.astype(np.float64),
-        lon_deg=lon.astype(np.float64),
-        h_m=h.astype(np.float64),
-        fix=fix.astype(np.int16),
-        n_sat=n_sat.astype(np.float64),
-        hdop=hdop.astype(np.float64),
-        line_of_row=line_of_row,
-        bad_checksum=bad_checksum,
-        malformed_lines=malformed,
-        duplicate_epochs=duplicates,
-        skipped_sentences=skipped,
-        warnings=warnings,
-        sep_m=sep.astype(np.float64),
-        day=day,
-        no_fix=no_fix,
-        defective=defective,
-    )
+    return warnings
 
 
 def _ddmm(deg: float, width: int) -> str:
@@ -511,11 +582,37 @@ def format_gga(
     h_msl_m: float,
     sep_m: float,
     fix: int,
+    *,
     n_sat: int = 12,
     hdop: float = 0.9,
     talker: str = "GP",
 ) -> str:
-    """One GGA sentence with checksum (no line end). Time is taken modulo one day."""
+    """One GGA sentence with checksum (no line end).
+
+    Parameters
+    ----------
+    t_s : float
+        UTC time (s of day; taken modulo one day).
+    lat_deg, lon_deg : float
+        WGS-84 latitude and longitude (deg); with ``fix`` 0 or a NaN latitude the position fields stay empty.
+    h_msl_m : float
+        Altitude above mean sea level (m): the ellipsoidal height minus ``sep_m``.
+    sep_m : float
+        Geoid separation (m).
+    fix : int
+        GGA fix quality (0 none, 1 single, 2 differential, 4 RTK fixed, 5 RTK float).
+    n_sat : int
+        Satellites in use.
+    hdop : float
+        Horizontal dilution of precision.
+    talker : str
+        Two-letter talker ID (``GP``, ``GN``...).
+
+    Returns
+    -------
+    str
+        ``$..GGA,...*hh``, without a line end.
+    """
     tod = t_s % 86400.0
     hh, rem = divmod(tod, 3600.0)
     mm, ss = divmod(rem, 60.0)

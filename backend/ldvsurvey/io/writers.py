@@ -26,7 +26,24 @@ def csv_bytes(columns: dict[str, np.ndarray], comment: str | None = None) -> byt
 
 
 def imu_csv(t_s, dtheta_rad, dvel_mps, turntable_deg=None, comment=None) -> bytes:
-    """``imu.csv`` bytes from (N,) times, (N,3) angle increments (rad), (N,3) velocity increments (m/s)."""
+    """``imu.csv`` bytes (columns ``t``, ``dtheta_x..z``, ``dvel_x..z``, optional ``turntable_deg``).
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Times on the bundle clock, s.
+    dtheta_rad, dvel_mps : (N, 3) arrays
+        Angle increments (rad) and velocity increments (m/s) over (t_prev, t], bundle axes.
+    turntable_deg : (N,) array, optional
+        Turntable angle, deg (a rotating IMU).
+    comment : str, optional
+        A ``#`` comment line written first.
+
+    Returns
+    -------
+    bytes
+        The CSV text (shortest round-trip float text).
+    """
     cols = {
         "t": t_s,
         "dtheta_x": dtheta_rad[:, 0],
@@ -42,7 +59,26 @@ def imu_csv(t_s, dtheta_rad, dvel_mps, turntable_deg=None, comment=None) -> byte
 
 
 def ldv_csv(t_s, v_fwd_mps=None, v_up_mps=None, quality=None, fd_hz=None, comment=None) -> bytes:
-    """``ldv.csv`` bytes; give either ``v_fwd_mps`` or ``fd_hz``."""
+    """``ldv.csv`` bytes; give either ``v_fwd_mps`` or ``fd_hz``.
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Times on the bundle clock, s.
+    v_fwd_mps, v_up_mps : (N,) arrays, optional
+        Forward and vertical velocity, m/s (``v_fwd`` is left out when ``fd_hz`` is given).
+    quality : (N,) array, optional
+        The LDV's signal quality figure.
+    fd_hz : (N,) array, optional
+        Doppler frequency, Hz (converted with the manifest optics when the bundle is read).
+    comment : str, optional
+        A ``#`` comment line written first.
+
+    Returns
+    -------
+    bytes
+        The CSV text.
+    """
     cols = {"t": t_s}
     if fd_hz is not None:
         cols["fd_hz"] = fd_hz
@@ -58,7 +94,30 @@ def ldv_csv(t_s, v_fwd_mps=None, v_up_mps=None, quality=None, fd_hz=None, commen
 def nmea_text(
     t_s, lat_deg, lon_deg, h_ell_m, fix, sep_m: float = -16.0, talker: str = "GP", extra_sentences: bool = True
 ) -> bytes:
-    """``gnss.nmea`` bytes: one GGA per epoch (altitude = ellipsoidal height − separation), CRLF."""
+    """``gnss.nmea`` bytes: one GGA per epoch (altitude = ellipsoidal height − separation), CRLF.
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        UTC times, s of day (past 86400 after midnight; written modulo one day).
+    lat_deg, lon_deg : (N,) arrays
+        WGS-84 latitude and longitude, deg.
+    h_ell_m : (N,) array
+        Ellipsoidal height, m.
+    fix : (N,) array
+        GGA fix quality.
+    sep_m : float
+        Geoid separation written in every sentence, m.
+    talker : str
+        Talker ID of the sentences.
+    extra_sentences : bool
+        A GSA sentence after every GGA (as receivers write; the reader skips it).
+
+    Returns
+    -------
+    bytes
+        The NMEA text.
+    """
     lines = []
     for k in range(len(t_s)):
         lines.append(
@@ -82,6 +141,7 @@ def nmea_text(
 
 
 def manifest_json(manifest: dict) -> bytes:
+    """``manifest.json`` bytes: the manifest as indented JSON with a final line end."""
     return (json.dumps(manifest, indent=2) + "\n").encode()
 
 

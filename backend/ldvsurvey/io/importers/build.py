@@ -7,6 +7,7 @@ import datetime as dt
 import hashlib
 import json
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -118,7 +119,24 @@ def _date_of(parts: dict, manifest: dict) -> dt.date:
 
 
 def to_bundle_time(st: Stamps, day: dt.date, leap_s: int, near_week: int) -> np.ndarray:
-    """Any :class:`Stamps` to the bundle clock of ``day``."""
+    """Any :class:`Stamps` to the bundle clock of ``day``.
+
+    Parameters
+    ----------
+    st : Stamps
+        The times as a recording states them.
+    day : datetime.date
+        The bundle's date; its clock counts s from 00:00 UTC of it.
+    leap_s : int
+        GPS − UTC, s.
+    near_week : int
+        The GPS week of ``day``, to resolve 10-bit week numbers.
+
+    Returns
+    -------
+    (N,) array
+        s on the bundle clock, rounded to the nanosecond.
+    """
     return np.round(_to_bundle_time(st, day, leap_s, near_week), 9)  # time tags are kept to the nanosecond
 
 
@@ -199,17 +217,78 @@ def _jsonable(x):
 def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
     """Read every source with its importer, put all on the bundle clock and axes, write and validate.
 
+    Parameters
+    ----------
+    sources : list of Source
+        The recordings: an IMU and a GNSS or an LDV, each with its format.
+    partial_manifest : dict
+        What no recording holds (LDV kind and mounting, lever arms in m...) and the importers' options under
+        ``import.<role>`` (``import.time.gps_utc_s``: GPS−UTC in s).
+
+    Returns
+    -------
+    ImportResult
+        The bundle's files (times in s on the bundle clock, increments in rad and m/s in the bundle's axes), the
+        warnings, a summary for previews and the files kept beside the bundle.
+
     Raises
     ------
     BundleError
         Naming the source file, the line or message number and the field; nothing is returned then.
     """
     from ldvsurvey.io.drivelog import parse_files
-    from ldvsurvey.io.importers import get_importer
-    from ldvsurvey.io.writers import imu_csv, ldv_csv, manifest_json
+    from ldvsurvey.io.writers import manifest_json
 
     m = copy.deepcopy(partial_manifest)
     warnings: list[str] = []
+    parts, by_role = _read_sources(sources, m, warnings)
+    names = {role: src.name for role, src in by_role.items()}
+    day = _date_of(parts, m)
+    checks = {"dates": check_dates(parts, names, day if m.get("date") is not None else None)}
+    clock = _clock(day, parts, m, warnings)
+    t = {role: to_bundle_time(p.stamps, *clock) for role, p in parts.items()}
+    _check_time_tags(t, parts, by_role, checks, warnings)
+    rfu = _imu_in_rfu(parts, t["imu"], m, by_role["imu"], checks, warnings)
+    rates = _complete_manifest(m, day, parts, t, by_role["imu"].name, warnings)
+    files, how = _data_files(m, parts, t, by_role, rfu)
+    m.setdefault("import", {})
+    if isinstance(m["import"], dict):
+        m["import"]["provenance"] = _provenance(sources, clock, rfu, how, checks)
+    files["manifest.json"] = manifest_json(m)
+    files = {k: files[k] for k in ("manifest.json", "imu.csv", "ldv.csv", "gnss.nmea") if k in files}
+    log = parse_files(files)  # the same validation as any upload
+    warnings += log.warnings
+    summary = _summary(sources, parts, t, rates, day, rfu, checks)
+    beside = {}
+    refs = [p.reference for p in parts.values() if getattr(p, "reference", None) is not None]
+    if refs:  # the bundle format has no place for a reference trajectory: it goes beside the bundle
+        beside["reference.csv"] = reference_csv(refs[0], to_bundle_time(refs[0].stamps, *clock))
+        summary["reference"] = {"source": refs[0].source, "epochs": len(refs[0].lat_deg)}
+    return ImportResult(files=files, warnings=warnings, summary=summary, beside=beside)
+
+
+class _Clock(NamedTuple):
+    """What puts a recording's time tags on the bundle clock (the arguments of :func:`to_bundle_time` after the
+    stamps)."""
+
+    day: dt.date  #: the bundle's date (UTC)
+    gps_minus_utc_s: int  #: leap seconds, s
+    near_week: int  #: the GPS week of ``day``, to resolve a recording's truncated week numbers
+
+
+class _RfuImu(NamedTuple):
+    """The IMU increments turned into the bundle's axes (right, forward, up)."""
+
+    axes: str  #: the sensor's axis code they were turned from
+    dtheta_rad: np.ndarray  #: (N, 3) rad
+    dvel_mps: np.ndarray  #: (N, 3) m/s
+    static_tilt_deg: float  #: tilt of gravity's reaction in the static start, deg
+
+
+def _read_sources(sources: list[Source], m: dict, warnings: list[str]) -> tuple[dict, dict]:
+    """Role -> part read by the source's importer, and role -> source; an IMU and a GNSS or LDV are required."""
+    from ldvsurvey.io.importers import get_importer
+
     parts, by_role = {}, {}
     for src in sources:
         if src.role in parts:
@@ -228,10 +307,13 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         raise BundleError(
             "an IMU needs a GNSS or an LDV recording beside it (--gnss or --ldv FORMAT:FILE)", field="gnss"
         )
+    return parts, by_role
+
+
+def _clock(day: dt.date, parts: dict, m: dict, warnings: list[str]) -> _Clock:
+    """The bundle clock of ``day``: GPS−UTC (s) from ``import.time.gps_utc_s`` or the leap-second table (a warning
+    past the table's end when a recording counts GPS time), and the GPS week of the day."""
     time_opts = (m.get("import") or {}).get("time") or {}
-    day = _date_of(parts, m)
-    names = {role: src.name for role, src in by_role.items()}
-    checks = {"dates": check_dates(parts, names, day if m.get("date") is not None else None)}
     if time_opts.get("gps_utc_s") is not None:
         leap = time_opts["gps_utc_s"]
         if not isinstance(leap, int) or isinstance(leap, bool):
@@ -247,8 +329,11 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
                 f"{day} is later: GPS−UTC = {leap} s assumed (set import.time.gps_utc_s if a leap "
                 "second was inserted since)"
             )
-    near_week = gpstime.gps_week_of(day, leap)[0]
-    t = {role: to_bundle_time(p.stamps, day, leap, near_week) for role, p in parts.items()}
+    return _Clock(day, leap, gpstime.gps_week_of(day, leap)[0])
+
+
+def _check_time_tags(t: dict, parts: dict, by_role: dict, checks: dict, warnings: list[str]) -> None:
+    """Refuse time tags (s, bundle clock) that do not increase; measure how far the GNSS fixes cover the IMU."""
     for role, p in parts.items():
         check_increasing(
             t[role],
@@ -257,53 +342,62 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
             unit="line" if by_role[role].format not in ("ubx", "novatel") else "message",
         )
     checks["time_tags"] = "strictly increasing in every recording"
-    checks["overlap"] = check_overlap(t, names)
+    checks["overlap"] = check_overlap(t, {role: src.name for role, src in by_role.items()})
     if checks["overlap"] and checks["overlap"]["share"] < OVERLAP_WARN:
         warnings.append(
             f"the GNSS fixes cover {checks['overlap']['share'] * 100:.0f} % of the IMU's time span "
             f"({checks['overlap']['overlap_s']:.1f} of {t['imu'][-1] - t['imu'][0]:.1f} s)"
         )
 
+
+def _imu_in_rfu(parts: dict, t_imu: np.ndarray, m: dict, src: Source, checks: dict, warnings: list[str]) -> _RfuImu:
+    """The IMU increments in the bundle's axes, after the static start's checks (gravity up, its size and the gyro
+    at rest against the Earth's rotation) and the rate's (Hz, against the partial manifest's)."""
     imu: ImuPart = parts["imu"]
     static_s = float(((m.get("initial") or {}).get("static_s")) or 10.0)
     code = _options(m, "imu").get("axes") or imu.axes
     if not code:  # a format without a fixed sensor frame (u-blox): say what the data show
-        require_axes(imu.dvel_mps, t["imu"], min(static_s, 60.0), by_role["imu"].name, by_role["imu"].format)
+        require_axes(imu.dvel_mps, t_imu, min(static_s, 60.0), src.name, src.format)
     c = c_rfu_sensor(code, file=MANIFEST_FILE, field="import.imu.axes")
     dth = imu.dtheta_rad @ c.T
     dv = imu.dvel_mps @ c.T
     max_tilt = float(_options(m, "imu").get("max_static_tilt_deg", 5.0))
-    tilt = check_static_up(dv, t["imu"], code, min(static_s, 60.0), by_role["imu"].name, max_tilt)
+    tilt = check_static_up(dv, t_imu, code, min(static_s, 60.0), src.name, max_tilt)
     if "gnss" in parts:
         where = (float(parts["gnss"].lat_deg[0]), float(parts["gnss"].h_ell_m[0]))
     else:
         init = m.get("initial") or {}
         where = (init.get("lat_deg"), init.get("h_m"))
-    checks["static_gravity"] = static_figures(dth, dv, t["imu"], min(static_s, 60.0), *where)
+    checks["static_gravity"] = static_figures(dth, dv, t_imu, min(static_s, 60.0), *where)
     judge_static(
         checks["static_gravity"],
         (m.get("imu") or {}).get("gyro_bias_dph"),
-        by_role["imu"].name,
+        src.name,
         warnings,
         _options(m, "imu").get("static_gravity_tolerance"),
     )
-    checks["imu_rate"] = measure_imu_rate(t["imu"], (m.get("imu") or {}).get("rate_hz"))
+    checks["imu_rate"] = measure_imu_rate(t_imu, (m.get("imu") or {}).get("rate_hz"))
     if abs(checks["imu_rate"].get("error_rel", 0.0)) > RATE_WARN:
         warnings.append(
-            f"{by_role['imu'].name}: the IMU samples come at {checks['imu_rate']['measured_hz']:.3f} Hz, the partial "
+            f"{src.name}: the IMU samples come at {checks['imu_rate']['measured_hz']:.3f} Hz, the partial "
             f"manifest declares {checks['imu_rate']['declared_hz']} Hz"
         )
     if imu.report:
         checks["imu_source"] = imu.report
+    return _RfuImu(code, dth, dv, tilt)
 
+
+def _complete_manifest(m: dict, day: dt.date, parts: dict, t: dict, imu_name: str, warnings: list[str]) -> tuple:
+    """Fill in what the recordings tell and the partial manifest left out (date, rates in Hz, LDV kind); the
+    rounded IMU and LDV rates (Hz, None without an LDV)."""
     m.setdefault("format", FORMAT_VERSION)
     m["date"] = day.isoformat()
-    m.setdefault("name", f"Imported {by_role['imu'].name}")
+    m.setdefault("name", f"Imported {imu_name}")
     m.setdefault("platform", "vehicle")
     m.setdefault("imu", {})
     imu_rate = _round_rate(_rate_hz(t["imu"]))
     m["imu"].setdefault("rate_hz", imu_rate)
-    m["imu"].setdefault("rotating", imu.turntable_deg is not None)
+    m["imu"].setdefault("rotating", parts["imu"].turntable_deg is not None)
     ldv: LdvPart | None = parts.get("ldv")
     ldv_rate = None
     if ldv is not None:
@@ -317,17 +411,25 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
         warnings.append(
             "no LDV recording given: the partial manifest's ldv section was left out (a bundle without an LDV)"
         )
+    return imu_rate, ldv_rate
+
+
+def _data_files(m: dict, parts: dict, t: dict, by_role: dict, rfu: _RfuImu) -> tuple[dict, str | None]:
+    """``imu.csv``, ``ldv.csv`` and ``gnss.nmea`` of the bundle, and how the GGA heights were made (None without
+    GNSS)."""
+    from ldvsurvey.io.writers import imu_csv, ldv_csv
 
     files = {}
+    src = by_role["imu"]
     files["imu.csv"] = imu_csv(
         t["imu"],
-        dth,
-        dv,
-        imu.turntable_deg,
-        comment=f"imported from {by_role['imu'].name} ({by_role['imu'].format}, axes {code})",
+        rfu.dtheta_rad,
+        rfu.dvel_mps,
+        parts["imu"].turntable_deg,
+        comment=f"imported from {src.name} ({src.format}, axes {rfu.axes})",
     )
-    if ldv is not None:
-        lc = ldv.columns
+    if "ldv" in parts:
+        lc = parts["ldv"].columns
         files["ldv.csv"] = ldv_csv(
             t["ldv"],
             v_fwd_mps=lc.get("v_fwd"),
@@ -336,7 +438,7 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
             fd_hz=lc.get("fd_hz"),
             comment=f"imported from {by_role['ldv'].name} ({by_role['ldv'].format})",
         )
-    gnss_track, gnss_rate = [], None
+    how = None
     if "gnss" in parts:
         g: GnssPart = parts["gnss"]
         if g.raw_nmea is not None:
@@ -344,19 +446,18 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
             how = "copied unchanged"
         else:
             files["gnss.nmea"], how = _gga_lines(t["gnss"], g, _options(m, "gnss").get("geoid_separation_m"))
-        gnss_rate = _rate_hz(t["gnss"])
-        step = max(1, len(g.lat_deg) // 500)
-        gnss_track = [
-            [round(float(lo), 8), round(float(la), 8)] for lo, la in zip(g.lon_deg[::step], g.lat_deg[::step])
-        ]
-    else:
-        how = None
+    return files, how
+
+
+def _provenance(sources: list[Source], clock: _Clock, rfu: _RfuImu, how: str | None, checks: dict) -> dict:
+    """``import.provenance`` of the manifest: the software, the clock and axes used, the sources' SHA-256 and the
+    checks (kept with the bundle: the log page shows them)."""
     prov = {
         "software": f"ldv-survey {__version__}",
-        "gps_minus_utc_s": leap,
+        "gps_minus_utc_s": clock.gps_minus_utc_s,
         "leap_table_valid_to": gpstime.LEAP_TABLE_VALID_TO.isoformat(),
-        "imu_axes": code,
-        "static_tilt_deg": round(tilt, 3),
+        "imu_axes": rfu.axes,
+        "static_tilt_deg": round(rfu.static_tilt_deg, 3),
         "sources": [
             {"role": s.role, "format": s.format, "file": s.name, "sha256": hashlib.sha256(s.data).hexdigest()}
             for s in sources
@@ -364,28 +465,29 @@ def build_bundle(sources: list[Source], partial_manifest: dict) -> ImportResult:
     }
     if how:
         prov["gnss_heights"] = how
-    prov["checks"] = _jsonable(checks)  # kept with the bundle: the log page shows them
-    m.setdefault("import", {})
-    if isinstance(m["import"], dict):
-        m["import"]["provenance"] = prov
-    files["manifest.json"] = manifest_json(m)
-    files = {k: files[k] for k in ("manifest.json", "imu.csv", "ldv.csv", "gnss.nmea") if k in files}
-    log = parse_files(files)  # the same validation as any upload
-    warnings += log.warnings
+    prov["checks"] = _jsonable(checks)
+    return prov
+
+
+def _summary(sources: list[Source], parts: dict, t: dict, rates: tuple, day: dt.date, rfu: _RfuImu, checks: dict):
+    """The import's summary for previews: files, time span (s), rates (Hz), a thinned GNSS track (lon, lat deg)."""
+    gnss_track, gnss_rate = [], None
+    if "gnss" in parts:
+        g = parts["gnss"]
+        gnss_rate = _rate_hz(t["gnss"])
+        step = max(1, len(g.lat_deg) // 500)
+        gnss_track = [
+            [round(float(lo), 8), round(float(la), 8)] for lo, la in zip(g.lon_deg[::step], g.lat_deg[::step])
+        ]
     spans = [(float(v[0]), float(v[-1])) for v in t.values() if len(v)]
-    summary = {
+    imu_rate, ldv_rate = rates
+    return {
         "files": [{"name": s.name, "format": s.format, "role": s.role} for s in sources],
         "time_span_s": [min(a for a, _ in spans), max(b for _, b in spans)],
         "rates_hz": {"imu": imu_rate, "ldv": ldv_rate, "gnss": None if gnss_rate is None else round(gnss_rate, 3)},
         "gnss_track": gnss_track,
         "date": day.isoformat(),
-        "imu_axes": code,
-        "static_tilt_deg": round(tilt, 3),
+        "imu_axes": rfu.axes,
+        "static_tilt_deg": round(rfu.static_tilt_deg, 3),
         "checks": _jsonable(checks),
     }
-    beside = {}
-    refs = [p.reference for p in parts.values() if getattr(p, "reference", None) is not None]
-    if refs:  # the bundle format has no place for a reference trajectory: it goes beside the bundle
-        beside["reference.csv"] = reference_csv(refs[0], to_bundle_time(refs[0].stamps, day, leap, near_week))
-        summary["reference"] = {"source": refs[0].source, "epochs": len(refs[0].lat_deg)}
-    return ImportResult(files=files, warnings=warnings, summary=summary, beside=beside)

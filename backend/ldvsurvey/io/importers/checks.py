@@ -117,7 +117,25 @@ def static_figures(
     lat_deg: float | None,
     h_m: float | None,
 ) -> dict:
-    """Mean |f| and |ω| over the first ``static_s`` seconds, with normal gravity and Earth rate beside them."""
+    """Mean |f| and |ω| over the first ``static_s`` seconds, with normal gravity and Earth rate beside them.
+
+    Parameters
+    ----------
+    dth_rfu, dv_rfu : (N, 3) arrays
+        Angle (rad) and velocity (m/s) increments in the bundle's axes.
+    t_imu : (N,) array
+        Their times, s.
+    static_s : float
+        Length of the static start, s (at least 1 s is used).
+    lat_deg, h_m : float or None
+        Where the start is (latitude deg, ellipsoidal height m), for normal gravity; None when unknown.
+
+    Returns
+    -------
+    dict
+        ``window_s``, ``measured_mps2`` (|f|, m/s²), ``omega_dph`` (|ω|, deg/h), ``earth_rate_dph``; with a
+        position also ``normal_mps2``, ``error_rel`` (|f|/γ − 1) and ``at``.
+    """
     t = np.asarray(t_imu, dtype=np.float64)
     sel = t <= t[0] + max(static_s, 1.0)
     if sel.sum() < 2:

@@ -169,7 +169,24 @@ def read_number_table(
 
 
 def check_increasing(t: np.ndarray, where: np.ndarray, file: str, field: str = "time", unit: str = "line") -> None:
-    """Times must strictly increase; name the first sample that does not."""
+    """Times must strictly increase; name the first sample that does not.
+
+    Parameters
+    ----------
+    t : (N,) array
+        Times, s.
+    where : (N,) array
+        Line or message number of each sample.
+    file, field : str
+        The file and the field named in the error.
+    unit : str
+        ``line`` (the error names the line) or what ``where`` counts otherwise (e.g. ``message``).
+
+    Raises
+    ------
+    BundleError
+        At the first time that repeats or goes backwards.
+    """
     bad = np.flatnonzero(np.diff(t) <= 0)
     if len(bad):
         k = int(bad[0]) + 1

@@ -36,6 +36,7 @@ class Option:
     roles: tuple[str, ...] = ("imu", "gnss", "ldv")
 
     def check(self, value, role: str) -> None:
+        """Raise a :class:`BundleError` naming ``import.<role>.<name>`` if ``value`` has none of the types."""
         ok = any(
             (isinstance(value, t) and not isinstance(value, bool))
             or (t is float and isinstance(value, int) and not isinstance(value, bool))
@@ -78,13 +79,16 @@ class Importer:
 
     @property
     def NAME(self) -> str:  # noqa: N802 - the module-level name the builder has always read
+        """The format's name (as the module-level ``NAME`` of an importer module)."""
         return self.name
 
     @property
     def ROLES(self) -> tuple[str, ...]:  # noqa: N802
+        """The roles the format reads (as the module-level ``ROLES`` of an importer module)."""
         return self.roles
 
     def option_specs(self, role: str) -> dict[str, Option]:
+        """Option name -> :class:`Option` of everything the format takes in ``role`` (common options included)."""
         return {o.name: o for o in (*COMMON_OPTIONS, *self.options) if role in o.roles}
 
     def read(self, data: bytes, file: str, role: str, options: dict | None = None):
@@ -109,6 +113,7 @@ class Importer:
         return part
 
     def sniff(self, data: bytes, name: str) -> str | None:
+        """The role the file's first bytes show it holds in this format, or None when it is not this format."""
         return self.sniffer(data, name)
 
 

@@ -87,6 +87,22 @@ def gps_to_bundle(sow: np.ndarray, day: dt.date, leap_s: int, week: np.ndarray |
     Without a week the samples are placed in the GPS week whose day lies nearest to ``day``
     (the first sample within half a week of that day's noon), and later week roll-overs
     (seconds of week dropping back to 0) keep counting.
+
+    Parameters
+    ----------
+    sow : (N,) array
+        GPS seconds of week, s.
+    day : datetime.date
+        The bundle's date (UTC).
+    leap_s : int
+        GPS − UTC, s.
+    week : (N,) array or int, optional
+        Absolute GPS week of each sample.
+
+    Returns
+    -------
+    (N,) array
+        s since 00:00 UTC of ``day``.
     """
     week0, sow_midnight = gps_week_of(day, leap_s)
     sow = np.asarray(sow, dtype=np.float64)

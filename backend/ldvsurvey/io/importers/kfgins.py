@@ -42,6 +42,29 @@ def sniff(data: bytes, name: str) -> str | None:
 
 
 def read(data: bytes, file: str, role: str, opts: dict) -> ImuPart | GnssPart:
+    """A KF-GINS IMU or GNSS text file (GPS seconds of week, no week).
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    file : str
+        The file's name, for messages.
+    role : str
+        ``imu`` or ``gnss``.
+    opts : dict
+        ``import.<role>`` of the partial manifest (``axes`` for the IMU, FRD when not given).
+
+    Returns
+    -------
+    ImuPart or GnssPart
+        Increments (rad, m/s) or fixes (deg, ellipsoidal height m; fix quality from the 1-σ, m).
+
+    Raises
+    ------
+    BundleError
+        A row that is no number, time tags not increasing: naming the line and field.
+    """
     if role == "imu":
         a, lines = read_number_table(data, file, 7, IMU_NAMES)
         check_increasing(_unwrapped(a[:, 0]), lines, file, field="gps_sow")

@@ -15,6 +15,7 @@ ROLES = ("imu", "ldv", "gnss")
 
 
 def sniff(data: bytes, name: str) -> str | None:
+    """``imu`` or ``ldv`` when the header is the bundle's ``imu.csv`` or ``ldv.csv`` header, else None."""
     head = data[:2048].decode("utf-8", "replace")
     header = next((ln for ln in head.splitlines() if ln.strip() and not ln.startswith("#")), "")
     cols = [c.strip() for c in header.split(",")]
@@ -26,6 +27,29 @@ def sniff(data: bytes, name: str) -> str | None:
 
 
 def read(data: bytes, file: str, role: str, opts: dict):
+    """A file already in the bundle's format (``imu.csv``, ``ldv.csv`` or ``gnss.nmea``), on the bundle clock.
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    file : str
+        The file's name, for messages.
+    role : str
+        ``imu``, ``ldv`` or ``gnss``.
+    opts : dict
+        ``import.<role>`` of the partial manifest (``axes`` for the IMU, RFU when not given).
+
+    Returns
+    -------
+    ImuPart or LdvPart or GnssPart
+        The columns as the bundle holds them (s, rad, m/s, deg, m); ``gnss.nmea`` is kept unchanged.
+
+    Raises
+    ------
+    BundleError
+        As the bundle reader: naming the line and field.
+    """
     if role == "imu":
         tab = read_numeric_csv(data, file, IMU_COLUMNS, optional=["turntable_deg"])
         c = tab.columns

@@ -38,6 +38,29 @@ def sniff(data: bytes, name: str) -> str | None:
 
 
 def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
+    """GGA fixes of an NMEA field recording (lenient: defective sentences skipped and counted).
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    file : str
+        The file's name, for messages.
+    role : str
+        ``gnss`` only.
+    opts : dict
+        ``import.gnss`` of the partial manifest (no option of its own).
+
+    Returns
+    -------
+    GnssPart
+        Fixes (deg, ellipsoidal height m, geoid separation m) on the UTC time of day, with the RMC's date.
+
+    Raises
+    ------
+    BundleError
+        No GGA sentence with a fix, or a clock that jumps back: naming the line and field.
+    """
     if role != "gnss":
         raise BundleError(f"the nmea format has only GNSS fixes, not '{role}'", file=file)
     g = parse_nmea(data, file=file, lenient=True)

@@ -30,6 +30,9 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
+from dataclasses import field as _field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -175,6 +178,7 @@ _PROMPT = re.compile(rb"(?:\[?[A-Z]*COM\d*\]?|\]|<OK|\s)+")  # port prompts and 
 
 
 def sniff(data: bytes, name: str) -> str | None:
+    """``imu`` (raw IMU logs) or ``gnss`` when the first 8 kB hold a NovAtel binary sync or ASCII log, else None."""
     head = data[:8192]
     if any(s in head for s in _SYNC_BINARY[:2]) or any(
         t in head for t in (b"#RAWIMU", b"%RAWIMU", b"#BESTPOS", b"#BESTGNSSPOS", b"#INSPVA", b"%INSPVA")
@@ -251,20 +255,91 @@ def _imu_type(value, file: str) -> int:
 
 
 def read(data: bytes, file: str, role: str, opts: dict):
+    """Raw IMU increments or GNSS positions of a NovAtel log (see the module docstring).
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    file : str
+        The file's name, for messages.
+    role : str
+        ``imu`` (RAWIMU family) or ``gnss`` (BESTGNSSPOS, else BESTPOS).
+    opts : dict
+        ``import.<role>`` of the partial manifest: ``imu_type`` (RAWIMU/RAWIMUS), ``rate_hz`` (Epson, Hz), ``axes``.
+
+    Returns
+    -------
+    ImuPart or GnssPart
+        Increments (rad, m/s; axes RFU unless given) or fixes (deg, ellipsoidal height m, undulation m), on GPS
+        week and seconds, with INSPVA as a reference trajectory when logged.
+
+    Raises
+    ------
+    BundleError
+        Naming the message number and the quantity.
+    """
     if role not in ROLES:
         raise BundleError(f"the novatel format has no '{role}' data (it has: imu, gnss)", file=file)
-    bad: list[int] = []
-    nmea: list[int] = []
-    imu_rows, corr, ref_rows = [], 0, []
-    pos_rows: dict[str, list] = {m: [] for m in POSITIONS}
-    left_out: dict[str, int] = {}
-    ins_types = 0
-    types, type_names = set(), set()
-    body_named: list[str] = []  # a definition naming the fields del_vel_body_*: the y sign is not documented
-    seen: dict[tuple, int] = {}  # (name, time) -> hash of the body: a repeat on another port has the same
+    dec = _decode(data, file, role, opts)
+    notes = []
+    if dec.bad:
+        notes.append(
+            f"{file}: {len(dec.bad)} undecodable frame(s) (bad CRC or truncated) skipped, first at message {dec.bad[0]}"
+        )
+    if dec.nmea:
+        notes.append(f"{file}: {len(dec.nmea)} NMEA sentence(s) in the stream (read them with the nmea format)")
+    if dec.repeats:
+        notes.append(f"{file}: {dec.repeats} message(s) repeated on another port (same content and time) kept once")
+    reference = _reference(dec.ref_rows, file, notes)
+    if role == "imu":
+        return _imu_part(dec, file, opts, notes, reference)
+    return _gnss_part(dec, file, notes, reference)
+
+
+class _Message(NamedTuple):
+    """One decoded message: its number in the stream, name, field values by name, definition CRC and header time."""
+
+    n: int
+    name: str
+    values: dict
+    crc: int | None
+    week: int  #: GPS week of the header
+    ms: float  #: header time, ms of the GPS week
+    file: str
+
+    def value(self, meaning: str):
+        """The value of a quantity of :data:`MEANINGS`, whatever this message's definition calls it."""
+        return field(self.values, meaning, self.name, self.n, self.crc, self.file)
+
+
+@dataclass
+class _Decoded:
+    """The rows a log's messages give for one role, and what was left out or refused on the way."""
+
+    #: RAWIMU family: (week, s of week, gyro x, y, z, accel x, y, z in counts, message number)
+    imu_rows: list = _field(default_factory=list)
+    corr: int = 0  #: CORRIMUDATA family messages (not usable)
+    ref_rows: list = _field(default_factory=list)  #: INSPVA family rows, see :func:`_ins_row`
+    #: BESTGNSSPOS and BESTPOS rows: (week, s of week, lat deg, lon deg, h_ell m, undulation m, fix, n_sat, message)
+    pos_rows: dict = _field(default_factory=lambda: {m: [] for m in POSITIONS})
+    left_out: dict = _field(default_factory=dict)  #: "message type (why)" -> count of positions left out
+    ins_types: int = 0  #: positions of an INS solution type
+    types: set = _field(default_factory=set)  #: IMU types of the raw IMU messages
+    type_names: set = _field(default_factory=set)  #: the raw IMU messages' names
+    body_named: list = _field(default_factory=list)  #: a definition naming the fields del_vel_body_*
+    bad: list = _field(default_factory=list)  #: message numbers of undecodable frames
+    nmea: list = _field(default_factory=list)  #: message numbers of NMEA sentences in the stream
+    repeats: int = 0  #: messages logged again on another port
+
+
+def _decode(data: bytes, file: str, role: str, opts: dict) -> _Decoded:
+    """The rows of every message the role reads (and of INSPVA), each message once (a repeat on another port has
+    the same content and time; a different one for the same time is refused)."""
+    dec = _Decoded()
+    seen: dict[tuple, int] = {}  # (name, time) -> hash of the body
     names_of: dict[type, list] = {}
-    repeats = 0
-    for n, name, msg in _messages(data, file, bad, nmea):
+    for n, name, msg in _messages(data, file, dec.bad, dec.nmea):
         want = (role == "imu" and name in RAW_IMU + CORR_IMU) or (role == "gnss" and name in POSITIONS)
         if not want and name not in INS_PVA:
             continue
@@ -272,18 +347,18 @@ def read(data: bytes, file: str, role: str, opts: dict):
         if kind not in names_of:  # one definition version: its field names, once
             names_of[kind] = msg.get_field_names()
         values = msg.get_field_values()
-        d = dict(zip(names_of[kind], values))
         hdr = msg.header
-        h = {"week": hdr.week, "milliseconds": hdr.milliseconds}
-        crc = hdr.message_definition_crc
-        key = (name, h["week"], h["milliseconds"], d.get("gps_seconds", d.get("seconds")))
+        m = _Message(
+            n, name, dict(zip(names_of[kind], values)), hdr.message_definition_crc, hdr.week, hdr.milliseconds, file
+        )
+        key = (name, m.week, m.ms, m.values.get("gps_seconds", m.values.get("seconds")))
         try:
             body = hash(tuple(values))
         except TypeError:  # array fields
             body = hash(repr(values))
         if key in seen:
             if seen[key] == body:  # the same message logged on another port
-                repeats += 1
+                dec.repeats += 1
                 continue
             raise BundleError(
                 f"two different {name} messages for the same time (week {key[1]}, {key[2]} ms)",
@@ -291,166 +366,199 @@ def read(data: bytes, file: str, role: str, opts: dict):
                 field=f"message {n}",
             )
         seen[key] = body
-
-        def f(meaning, d=d, name=name, n=n, crc=crc):
-            return field(d, meaning, name, n, crc, file)
-
         if name in RAW_IMU:
-            if "imu_type" in d:
-                t = int(d["imu_type"])
-                if t not in SCALES:
-                    raise BundleError(
-                        f"IMU type {t} has no known scale factors (known: "
-                        f"{', '.join(f'{k} {v[0]}' for k, v in SCALES.items())})",
-                        file=file,
-                        field=f"message {n} imu_type",
-                    )
-            elif opts.get("imu_type") is not None:
-                t = _imu_type(opts["imu_type"], file)
-            else:
-                raise BundleError(
-                    f"{name} does not state the IMU type: give it as import.imu.imu_type (known: "
-                    f"{', '.join(f'{k} {v[0]}' for k, v in SCALES.items())})",
-                    file=file,
-                    field=f"message {n} imu_type",
-                )
-            types.add(t)
-            type_names.add(name)
-            if "del_vel_body_y" in d and not body_named:
-                body_named.append(f"{name} 0x{crc:04x}")
-            imu_rows.append(
-                (
-                    f("week"),
-                    f("seconds"),
-                    f("x_gyro"),
-                    -f("neg_y_gyro"),
-                    f("z_gyro"),
-                    f("x_accel"),
-                    -f("neg_y_accel"),
-                    f("z_accel"),
-                    n,
-                )
-            )
+            _raw_imu(dec, m, opts)
         elif name in CORR_IMU:
-            corr += 1
+            dec.corr += 1
         elif name in POSITIONS:
-            status, ptype = f("solution_status").name, f("position_type").name
-            if status != "SOL_COMPUTED" or ptype not in FIX_OF_TYPE:
-                why = NOT_MEASURED.get(ptype, "an unknown solution type") if status == "SOL_COMPUTED" else status
-                k = f"{name} {ptype if status == 'SOL_COMPUTED' else status} ({why})"
-                left_out[k] = left_out.get(k, 0) + 1
-                continue
-            ins_types += ptype.startswith("INS") or ptype == "RTK_DIRECT_INS"
-            und = float(f("undulation"))
-            pos_rows[name].append(
-                (
-                    h["week"],
-                    h["milliseconds"] / 1000.0,
-                    f("latitude"),
-                    f("longitude"),
-                    float(f("height_msl")) + und,
-                    und,
-                    FIX_OF_TYPE[ptype],
-                    f("num_soln_svs"),
-                    n,
-                )
-            )
+            _position(dec, m)
         elif name in INS_PVA:
-            if name == "INSPVAX":
-                week, sow = h["week"], h["milliseconds"] / 1000.0
-                h_ell = float(f("height_msl")) + float(f("undulation"))
-            else:
-                week, sow, h_ell = f("week"), f("seconds"), float(f("height_ell"))
-            ref_rows.append(
-                (week, sow, f("latitude"), f("longitude"), h_ell, f("east_vel"), f("north_vel"), f("up_vel"))
-                + (f("roll"), f("pitch"), f("azimuth"), n, f("ins_status").name)
+            dec.ref_rows.append(_ins_row(m))
+    return dec
+
+
+def _known_types() -> str:
+    """The IMU types of :data:`SCALES`, as ``number name`` for messages."""
+    return ", ".join(f"{k} {v[0]}" for k, v in SCALES.items())
+
+
+def _raw_imu(dec: _Decoded, m: _Message, opts: dict) -> None:
+    """A RAWIMU-family message's row (counts in x, y, z order: the message carries z, -y, x) and its IMU type."""
+    if "imu_type" in m.values:
+        t = int(m.values["imu_type"])
+        if t not in SCALES:
+            raise BundleError(
+                f"IMU type {t} has no known scale factors (known: {_known_types()})",
+                file=m.file,
+                field=f"message {m.n} imu_type",
             )
-    notes = []
-    if bad:
-        notes.append(
-            f"{file}: {len(bad)} undecodable frame(s) (bad CRC or truncated) skipped, first at message {bad[0]}"
+    elif opts.get("imu_type") is not None:
+        t = _imu_type(opts["imu_type"], m.file)
+    else:
+        raise BundleError(
+            f"{m.name} does not state the IMU type: give it as import.imu.imu_type (known: {_known_types()})",
+            file=m.file,
+            field=f"message {m.n} imu_type",
         )
-    if nmea:
-        notes.append(f"{file}: {len(nmea)} NMEA sentence(s) in the stream (read them with the nmea format)")
-    if repeats:
-        notes.append(f"{file}: {repeats} message(s) repeated on another port (same content and time) kept once")
-    reference = _reference(ref_rows, file, notes)
-    if role == "imu":
-        if not imu_rows:
-            if corr:
-                raise BundleError(
-                    f"only CORRIMUDATA/CORRIMUS ({corr} messages): NovAtel removes gravity, the Earth's rotation and "
-                    "its own sensor error estimates from them, so a strapdown mechanisation cannot use them; log "
-                    "RAWIMUSX (or RAWIMUS/RAWIMU) on the receiver",
-                    file=file,
-                    field="message CORRIMUDATA",
-                )
-            raise BundleError("no RAWIMUSX, RAWIMUX, RAWIMUS or RAWIMU message", file=file)
-        if len(types) > 1:
-            raise BundleError(f"messages of several IMU types {sorted(types)}", file=file, field="imu_type")
-        if corr:
-            notes.append(f"{file}: {corr} CORRIMUDATA/CORRIMUS message(s) ignored (gravity-compensated)")
-        if body_named:
-            notes.append(
-                f"{file}: definition {body_named[0]} names the increments del_vel_body_*/del_ang_body_*; they are "
-                "read in RAWIMU's documented order and signs (z, -y, x): check the y axis (the static check "
-                "sees only the vertical)"
+    dec.types.add(t)
+    dec.type_names.add(m.name)
+    if "del_vel_body_y" in m.values and not dec.body_named:
+        dec.body_named.append(f"{m.name} 0x{m.crc:04x}")
+    f = m.value
+    dec.imu_rows.append(
+        (
+            f("week"),
+            f("seconds"),
+            f("x_gyro"),
+            -f("neg_y_gyro"),
+            f("z_gyro"),
+            f("x_accel"),
+            -f("neg_y_accel"),
+            f("z_accel"),
+            m.n,
+        )
+    )
+
+
+def _position(dec: _Decoded, m: _Message) -> None:
+    """A BESTGNSSPOS/BESTPOS row (ellipsoidal height = height above mean sea level + undulation, m), or its solution
+    type counted as left out when it is no computed, measured position."""
+    f = m.value
+    status, ptype = f("solution_status").name, f("position_type").name
+    if status != "SOL_COMPUTED" or ptype not in FIX_OF_TYPE:
+        why = NOT_MEASURED.get(ptype, "an unknown solution type") if status == "SOL_COMPUTED" else status
+        k = f"{m.name} {ptype if status == 'SOL_COMPUTED' else status} ({why})"
+        dec.left_out[k] = dec.left_out.get(k, 0) + 1
+        return
+    dec.ins_types += ptype.startswith("INS") or ptype == "RTK_DIRECT_INS"
+    und = float(f("undulation"))
+    dec.pos_rows[m.name].append(
+        (
+            m.week,
+            m.ms / 1000.0,
+            f("latitude"),
+            f("longitude"),
+            float(f("height_msl")) + und,
+            und,
+            FIX_OF_TYPE[ptype],
+            f("num_soln_svs"),
+            m.n,
+        )
+    )
+
+
+def _ins_row(m: _Message) -> tuple:
+    """An INSPVA-family row: week, s of week, lat and lon deg, h_ell m, v east/north/up m/s, roll, pitch and azimuth
+    deg, message number, INS status."""
+    f = m.value
+    if m.name == "INSPVAX":
+        week, sow = m.week, m.ms / 1000.0
+        h_ell = float(f("height_msl")) + float(f("undulation"))
+    else:
+        week, sow, h_ell = f("week"), f("seconds"), float(f("height_ell"))
+    return (week, sow, f("latitude"), f("longitude"), h_ell, f("east_vel"), f("north_vel"), f("up_vel")) + (
+        f("roll"),
+        f("pitch"),
+        f("azimuth"),
+        m.n,
+        f("ins_status").name,
+    )
+
+
+def _imu_part(dec: _Decoded, file: str, opts: dict, notes: list, reference) -> ImuPart:
+    """The raw IMU samples as increments (rad, m/s) by the IMU type's scale factors; CORRIMUDATA alone refused."""
+    if not dec.imu_rows:
+        if dec.corr:
+            raise BundleError(
+                f"only CORRIMUDATA/CORRIMUS ({dec.corr} messages): NovAtel removes gravity, the Earth's rotation and "
+                "its own sensor error estimates from them, so a strapdown mechanisation cannot use them; log "
+                "RAWIMUSX (or RAWIMUS/RAWIMU) on the receiver",
+                file=file,
+                field="message CORRIMUDATA",
             )
-        a = np.array(imu_rows, dtype=np.float64)
-        if len(type_names) > 1:  # e.g. RAWIMUSX and RAWIMUX of the same samples: one time line, each sample once
-            a = a[np.lexsort((a[:, 8], a[:, 1], a[:, 0]))]
-            same_t = (np.diff(a[:, 0]) == 0) & (np.diff(a[:, 1]) == 0)
-            differ = same_t & ~np.all(a[1:, 2:8] == a[:-1, 2:8], axis=1)
-            if differ.any():
-                k = int(np.flatnonzero(differ)[0]) + 1
-                raise BundleError(
-                    f"two different raw IMU samples for the same time ({', '.join(sorted(type_names))})",
-                    file=file,
-                    field=f"message {int(a[k, 8])}",
-                )
-            if same_t.any():
-                notes.append(
-                    f"{file}: {int(same_t.sum())} IMU sample(s) logged in both {' and '.join(sorted(type_names))} "
-                    "kept once"
-                )
-                a = a[np.concatenate(([True], ~same_t))]
-        tname, s_gyro, s_acc, per_rate = SCALES[types.pop()]
-        if per_rate:
-            rate = float(opts.get("rate_hz") or 0) or (1.0 / float(np.median(np.diff(a[:, 1]))) if len(a) > 1 else 0.0)
-            if not rate > 0:
-                raise BundleError(
-                    "a single RAWIMUSX message of a rate-scaled IMU: give import.imu.rate_hz",
-                    file=file,
-                    field="rate_hz",
-                )
-            rate = float(round(rate))  # the nominal data rate (the time tags' jitter must not scale the data)
-            s_gyro, s_acc = s_gyro / rate, s_acc / rate
+        raise BundleError("no RAWIMUSX, RAWIMUX, RAWIMUS or RAWIMU message", file=file)
+    if len(dec.types) > 1:
+        raise BundleError(f"messages of several IMU types {sorted(dec.types)}", file=file, field="imu_type")
+    if dec.corr:
+        notes.append(f"{file}: {dec.corr} CORRIMUDATA/CORRIMUS message(s) ignored (gravity-compensated)")
+    if dec.body_named:
         notes.append(
-            f"{file}: {', '.join(sorted(type_names))} of IMU type {tname}: {s_gyro:.6g} rad and {s_acc:.6g} m/s "
-            "per count; time base GPS week and seconds of the IMU sample"
+            f"{file}: definition {dec.body_named[0]} names the increments del_vel_body_*/del_ang_body_*; they are "
+            "read in RAWIMU's documented order and signs (z, -y, x): check the y axis (the static check "
+            "sees only the vertical)"
         )
-        return ImuPart(
-            stamps=Stamps("gps", a[:, 1], a[:, 8].astype(np.int64), week=a[:, 0].astype(np.int64)),
-            dtheta_rad=a[:, 2:5] * s_gyro,
-            dvel_mps=a[:, 5:8] * s_acc,
-            axes=opts.get("axes", "RFU"),
-            notes=notes,
-            quantum=(s_gyro, s_acc),
-            reference=reference,
+    a = np.array(dec.imu_rows, dtype=np.float64)
+    if len(dec.type_names) > 1:
+        a = _once_per_sample(a, dec.type_names, file, notes)
+    tname, s_gyro, s_acc = _scales(dec.types.pop(), a, opts, file)
+    notes.append(
+        f"{file}: {', '.join(sorted(dec.type_names))} of IMU type {tname}: {s_gyro:.6g} rad and {s_acc:.6g} m/s "
+        "per count; time base GPS week and seconds of the IMU sample"
+    )
+    return ImuPart(
+        stamps=Stamps("gps", a[:, 1], a[:, 8].astype(np.int64), week=a[:, 0].astype(np.int64)),
+        dtheta_rad=a[:, 2:5] * s_gyro,
+        dvel_mps=a[:, 5:8] * s_acc,
+        axes=opts.get("axes", "RFU"),
+        notes=notes,
+        quantum=(s_gyro, s_acc),
+        reference=reference,
+    )
+
+
+def _once_per_sample(a: np.ndarray, type_names: set, file: str, notes: list) -> np.ndarray:
+    """Raw IMU rows of several messages (e.g. RAWIMUSX and RAWIMUX of the same samples) on one time line, each sample
+    once; two different samples for the same time refused."""
+    a = a[np.lexsort((a[:, 8], a[:, 1], a[:, 0]))]
+    same_t = (np.diff(a[:, 0]) == 0) & (np.diff(a[:, 1]) == 0)
+    differ = same_t & ~np.all(a[1:, 2:8] == a[:-1, 2:8], axis=1)
+    if differ.any():
+        k = int(np.flatnonzero(differ)[0]) + 1
+        raise BundleError(
+            f"two different raw IMU samples for the same time ({', '.join(sorted(type_names))})",
+            file=file,
+            field=f"message {int(a[k, 8])}",
         )
-    for k, v in left_out.items():
+    if same_t.any():
+        notes.append(
+            f"{file}: {int(same_t.sum())} IMU sample(s) logged in both {' and '.join(sorted(type_names))} kept once"
+        )
+        a = a[np.concatenate(([True], ~same_t))]
+    return a
+
+
+def _scales(imu_type: int, a: np.ndarray, opts: dict, file: str) -> tuple[str, float, float]:
+    """The IMU type's name and its rad per gyro count and m/s per accelerometer count; for rate-scaled (Epson) types
+    divided by the nominal data rate (Hz: ``import.imu.rate_hz`` or the median of the time tags, rounded)."""
+    tname, s_gyro, s_acc, per_rate = SCALES[imu_type]
+    if per_rate:
+        rate = float(opts.get("rate_hz") or 0) or (1.0 / float(np.median(np.diff(a[:, 1]))) if len(a) > 1 else 0.0)
+        if not rate > 0:
+            raise BundleError(
+                "a single RAWIMUSX message of a rate-scaled IMU: give import.imu.rate_hz",
+                file=file,
+                field="rate_hz",
+            )
+        rate = float(round(rate))  # the nominal data rate (the time tags' jitter must not scale the data)
+        s_gyro, s_acc = s_gyro / rate, s_acc / rate
+    return tname, s_gyro, s_acc
+
+
+def _gnss_part(dec: _Decoded, file: str, notes: list, reference) -> GnssPart:
+    """The positions of BESTGNSSPOS, else BESTPOS (a warning when a SPAN receiver's BESTPOS blends its INS)."""
+    for k, v in dec.left_out.items():
         notes.append(f"{file}: {v} {k} left out")
-    use = next((m for m in POSITIONS if pos_rows[m]), None)
+    use = next((m for m in POSITIONS if dec.pos_rows[m]), None)
     if use is None:
         raise BundleError("no BESTGNSSPOS or BESTPOS message with a computed, measured solution", file=file)
-    if use == "BESTGNSSPOS" and pos_rows["BESTPOS"]:
-        notes.append(f"{file}: BESTGNSSPOS used; {len(pos_rows['BESTPOS'])} BESTPOS (INS-blended on SPAN) ignored")
-    if use == "BESTPOS" and (ins_types or ref_rows or corr or types):
+    if use == "BESTGNSSPOS" and dec.pos_rows["BESTPOS"]:
+        notes.append(f"{file}: BESTGNSSPOS used; {len(dec.pos_rows['BESTPOS'])} BESTPOS (INS-blended on SPAN) ignored")
+    if use == "BESTPOS" and (dec.ins_types or dec.ref_rows or dec.corr or dec.types):
         notes.append(
             f"{file}: BESTPOS of a SPAN receiver blends the receiver's own INS (INS solution types or INS logs "
             "in the file): aiding an INS with it is circular; log BESTGNSSPOS"
         )
-    a = np.array(pos_rows[use], dtype=np.float64)
+    a = np.array(dec.pos_rows[use], dtype=np.float64)
     return GnssPart(
         stamps=Stamps("gps", a[:, 1], a[:, 8].astype(np.int64), week=a[:, 0].astype(np.int64)),
         lat_deg=a[:, 2],

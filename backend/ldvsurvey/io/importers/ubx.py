@@ -83,6 +83,7 @@ _LENGTH = {
 
 
 def sniff(data: bytes, name: str) -> str | None:
+    """``imu`` (ESF-RAW or ESF-MEAS frames) or ``gnss`` (navigation frames) in the first 64 kB, else None."""
     head = data[:65536]
     if b"\xb5\x62\x10\x03" in head or b"\xb5\x62\x10\x02" in head:
         return "imu"
@@ -325,7 +326,24 @@ def ecef_to_lla(x: float, y: float, z: float) -> tuple[float, float, float]:
 
 
 def unwrap_tags(tags: np.ndarray, modulus: int, where: np.ndarray, file: str, field: str) -> np.ndarray:
-    """Sensor time tags made continuous across their roll-over; a tag going back otherwise is refused."""
+    """Sensor time tags made continuous across their roll-over; a tag going back otherwise is refused.
+
+    Parameters
+    ----------
+    tags : (N,) int array
+        Sensor time tags, counts of the receiver's sensor clock.
+    modulus : int
+        Where the tags roll over (a drop of more than half of it is a roll-over).
+    where : (N,) array
+        Message number of each tag, for errors.
+    file, field : str
+        The file and the tag's field named in the error.
+
+    Returns
+    -------
+    (N,) int array
+        The tags, counting on across roll-overs.
+    """
     t = np.asarray(tags, dtype=np.int64)
     d = np.diff(t)
     back = d < 0
@@ -463,6 +481,30 @@ def _clock(log: _Log, msgs: np.ndarray, tags: np.ndarray, what: str, opts: dict)
 
 
 def read(data: bytes, file: str, role: str, opts: dict):
+    """ESF-RAW/ESF-MEAS increments or NAV fixes of a u-blox UBX log (see the module docstring).
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    file : str
+        The file's name, for messages.
+    role : str
+        ``imu`` or ``gnss``.
+    opts : dict
+        ``import.<role>`` of the partial manifest: ``esf`` (``raw`` or ``meas``), ``time_offset_s``
+        (s, the NAV messages' known output latency), ``axes``.
+
+    Returns
+    -------
+    ImuPart or GnssPart
+        Increments (rad, m/s; in the sensor's own frame, as ``axes`` names it) or fixes (deg, ellipsoidal height m).
+
+    Raises
+    ------
+    BundleError
+        Naming the frame and the field.
+    """
     if role not in ROLES:
         raise BundleError(f"the ubx format has no '{role}' data (it has: imu, gnss)", file=file)
     log = _Log(data, file)
