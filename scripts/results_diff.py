@@ -109,6 +109,8 @@ def _record(result) -> dict:
 
 
 def _close(a, b, rtol: float) -> bool:
+    if isinstance(a, str) and isinstance(b, str):
+        a, b = (re.sub(r"/ldv-matrix-[^/]+/", "/ldv-matrix-TMP/", x) for x in (a, b))
     if isinstance(a, np.ndarray) and isinstance(b, np.ndarray):
         if a.shape != b.shape:
             return False
