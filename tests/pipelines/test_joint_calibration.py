@@ -18,11 +18,11 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav import kfloop
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.pipelines import calibration as CAL
 from ldvsurvey.pipelines import navigate as NV
 from ldvsurvey.pipelines.base import Progress, run_pipeline
-from ldvsurvey.pipelines.inputs import NAV_FIXES
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.pipelines.stages import ldv_mounting as CAL
+from ldvsurvey.pipelines.stages.aids import NAV_FIXES
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
 

@@ -13,8 +13,8 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.attitude import c_from_q, euler_from_c_bn
-from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs, navigate, pipeline_cfg
-from ldvsurvey.pipelines.tiltfit import static_part, tilt_stage
+from ldvsurvey.pipelines.stages.aids import c_bs_of, nav_inputs, navigate, pipeline_cfg
+from ldvsurvey.pipelines.stages.turntable_tilt import static_part, tilt_stage
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.effects import Effects, TurntableSpec
 from ldvsurvey.sim.scenario import bundle_files, simulate

@@ -14,10 +14,10 @@ from ldvsurvey.pipelines.base import (
     needs_ldv,
     window_inside,
 )
-from ldvsurvey.pipelines.calibration import calibration_stage, time_window
-from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs
-from ldvsurvey.pipelines.plumb import DovParams, apply_dov
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.aids import c_bs_of, nav_inputs
+from ldvsurvey.pipelines.stages.ldv_mounting import calibration_stage, time_window
+from ldvsurvey.pipelines.stages.plumb_line import DovParams, apply_dov
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
 

@@ -21,8 +21,8 @@ from ldvsurvey.pipelines.base import (
     output_rate,
     rate_within_imu,
 )
-from ldvsurvey.pipelines.inputs import c_bs_of, initial_attitude, nav_inputs
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.aids import c_bs_of, initial_attitude, nav_inputs
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as DEG
 
 

@@ -31,10 +31,10 @@ from ldvsurvey.pipelines.base import (
     output_rate,
     rate_within_imu,
 )
-from ldvsurvey.pipelines.gridctx import GRID_CACHE  # defined there, so setting it need not import this module
-from ldvsurvey.pipelines.inputs import c_bs_of, gnss_ins, nav_inputs
-from ldvsurvey.pipelines.plumb import load_grids
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.aids import c_bs_of, gnss_ins, nav_inputs
+from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE  # defined there, so setting it need not import this module
+from ldvsurvey.pipelines.stages.plumb_line import load_grids
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 
 
 class DovStudyParams(Params):

@@ -21,15 +21,15 @@ from ldvsurvey.pipelines.base import (
     output_rate,
     rate_within_imu,
 )
-from ldvsurvey.pipelines.calibration import (
+from ldvsurvey.pipelines.stages.aids import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
+from ldvsurvey.pipelines.stages.ldv_mounting import (
     CalibrationParams,
     calibration_applicable,
     ldv_aid_of,
     ldv_body_velocity,
     ldv_setup,
 )
-from ldvsurvey.pipelines.inputs import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
-from ldvsurvey.pipelines.plumb import DovParams, apply_dov
+from ldvsurvey.pipelines.stages.plumb_line import DovParams, apply_dov
 
 
 class HeightParams(CalibrationParams, DovParams):

@@ -20,9 +20,9 @@ from ldvsurvey.pipelines.base import (
     output_rate,
     rate_within_imu,
 )
-from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_setup
-from ldvsurvey.pipelines.inputs import attitude_at, gnss_aid, nav_inputs, navigate
-from ldvsurvey.pipelines.plumb import DOV_HELP, DovChoice, DovParams, apply_dov
+from ldvsurvey.pipelines.stages.aids import attitude_at, gnss_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.stages.ldv_mounting import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_setup
+from ldvsurvey.pipelines.stages.plumb_line import DOV_HELP, DovChoice, DovParams, apply_dov
 from ldvsurvey.units import DEG_PER_RAD as DEG
 
 
@@ -84,8 +84,8 @@ def run_navigation(log, params, progress, specific_force: bool = True):
     )
     cbs = setup.cbs if setup else None
     if setup is None and inp.eta_rad is not None:
-        from ldvsurvey.pipelines.inputs import c_bs_of
-        from ldvsurvey.pipelines.tiltfit import tilt_stage
+        from ldvsurvey.pipelines.stages.aids import c_bs_of
+        from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 
         est, _ = tilt_stage(inp)
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)

@@ -9,8 +9,8 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.tilt import oscillation_per_cycle
 from ldvsurvey.pipelines.base import LogFacts, Params, Pipeline, PipelineResult, Reason, output_rate, rate_within_imu
-from ldvsurvey.pipelines.inputs import c_bs_of, gnss_aid, ldv_aid, nav_inputs, navigate
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.aids import c_bs_of, gnss_aid, ldv_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
 

@@ -18,7 +18,7 @@ from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, ldv_spikes, run_filter
 from ldvsurvey.pipelines.base import warn
-from ldvsurvey.pipelines.start import (
+from ldvsurvey.pipelines.stages.start import (
     _body_signals,
     _still_intervals,
     detect_static_start,

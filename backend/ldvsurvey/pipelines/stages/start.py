@@ -1,7 +1,7 @@
 """How a log starts and where it stands still: still intervals, the static period at the start,
 the start position, and the coarse alignment on the move when the log has no static start.
 
-Shared by the pipelines through :func:`ldvsurvey.pipelines.inputs.nav_inputs`.
+Shared by the pipelines through :func:`ldvsurvey.pipelines.stages.aids.nav_inputs`.
 """
 
 from __future__ import annotations

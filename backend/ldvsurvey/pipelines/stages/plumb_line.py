@@ -19,7 +19,7 @@ from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.nav.dovgrid import ARCSEC, DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.pipelines.base import Params, Paths, Text
-from ldvsurvey.pipelines.inputs import NavInputs
+from ldvsurvey.pipelines.stages.aids import NavInputs
 
 EGM_STEP_ARCMIN = 1.0
 EGM_DEGREE = 2190
@@ -74,7 +74,7 @@ def load_grids(paths) -> DovGrid:
 
 
 def _uploaded(grid_id: str) -> DovGrid:
-    from ldvsurvey.pipelines.gridctx import GRID_CACHE
+    from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE
 
     cache = GRID_CACHE.get()
     if cache is None:
@@ -89,7 +89,7 @@ def _uploaded(grid_id: str) -> DovGrid:
 
 def _egm(lat_deg, lon_deg, progress, h_m: float = 0.0) -> DovGrid:
     """The EGM2008 grid over the track at the ellipsoidal height ``h_m`` (m), memoized and cached."""
-    from ldvsurvey.pipelines.gridctx import GRID_CACHE
+    from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE
 
     area = area_for_track(lat_deg, lon_deg, EGM_STEP_ARCMIN)
     h_m = float(round(h_m))  # to the metre: δg changes by ~µGal per metre of height at these wavelengths

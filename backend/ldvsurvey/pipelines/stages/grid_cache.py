@@ -1,7 +1,7 @@
 """The DOV grid cache a caller may provide to the pipelines, as a context variable.
 
 The job runner sets it (the store's database cache) around every job; :mod:`ldvsurvey.pipelines.dov`
-and :mod:`ldvsurvey.pipelines.plumb` read it. It lives in this module of its own, which imports
+and :mod:`ldvsurvey.pipelines.stages.plumb_line` read it. It lives in this module of its own, which imports
 nothing heavy, so that setting it does not import the ``dov`` pipeline (and its numerical core)
 into a worker whose job does not need it.
 """

@@ -7,7 +7,7 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
 from ldvsurvey.pipelines.base import warn
-from ldvsurvey.pipelines.inputs import NavInputs, c_bs_of, gnss_aid, ldv_aid, navigate, pipeline_cfg
+from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, gnss_aid, ldv_aid, navigate, pipeline_cfg
 
 
 def static_part(inp: NavInputs) -> NavInputs:

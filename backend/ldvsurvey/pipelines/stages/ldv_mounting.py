@@ -15,7 +15,7 @@ from ldvsurvey.nav.filter import forward_accel_mps2
 from ldvsurvey.nav.innovations import variance_inflation
 from ldvsurvey.nav.tilt import TiltEstimate
 from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Reason, window_inside
-from ldvsurvey.pipelines.inputs import (
+from ldvsurvey.pipelines.stages.aids import (
     NAV_FIXES,
     NavInputs,
     attitude_at,
@@ -26,7 +26,7 @@ from ldvsurvey.pipelines.inputs import (
     navigate,
     pipeline_cfg,
 )
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
@@ -161,7 +161,7 @@ def calibration_stage(
     4/5/2) in the window; its attitude also serves the closed form (no separate GNSS/INS run).
 
     ``joint`` (no ``window``): the navigation of ``navigate`` with ``aiding=ldv+gnss``, i.e. every
-    fix the navigation takes (:func:`~ldvsurvey.pipelines.inputs.gnss_aid`'s qualities, the
+    fix the navigation takes (:func:`~ldvsurvey.pipelines.stages.aids.gnss_aid`'s qualities, the
     single-point ones included, each with its quality's σ), kept whole in ``Calibration.solution``:
     the LDV calibration estimated together with the navigation in one filter and smoother, instead
     of a second run with the estimate held fixed (``specific_force``: whether that navigation keeps
