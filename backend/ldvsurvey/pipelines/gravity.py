@@ -48,7 +48,8 @@ from ldvsurvey.pipelines.gravity_report import (
     with_imu_bridges,
 )
 from ldvsurvey.pipelines.navigate import run_navigation
-from ldvsurvey.pipelines.stages.aids import gnss_aid, navigate
+from ldvsurvey.pipelines.stages.aids import gnss_aid
+from ldvsurvey.pipelines.stages.aids import run_navigation_filter as navigate
 from ldvsurvey.pipelines.stages.ldv_mounting import CalibrationParams, calibration_applicable, ldv_aid_of
 
 

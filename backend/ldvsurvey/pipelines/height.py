@@ -21,7 +21,7 @@ from ldvsurvey.pipelines.base import (
     output_rate,
     rate_within_imu,
 )
-from ldvsurvey.pipelines.stages.aids import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, navigate
+from ldvsurvey.pipelines.stages.aids import antenna_to_imu_h, attitude_at, c_bs_of, nav_inputs, run_navigation_filter
 from ldvsurvey.pipelines.stages.ldv_mounting import (
     CalibrationParams,
     calibration_applicable,
@@ -107,11 +107,11 @@ def run(logs, params, progress) -> PipelineResult:
     est, pitch, heading, scale, scale_up = setup.tilt, setup.pitch_rad, setup.heading_rad, setup.scale, setup.scale_up
     progress("navigation (INS/LDV, no GNSS)", 0.5)
     aid = ldv_aid_of(inp, setup)
-    sol = navigate(inp, cbs=setup.cbs, ldv=aid)
+    sol = run_navigation_filter(inp, cbs=setup.cbs, ldv=aid)
     sol_raw = sol
     if est is not None:  # the same chain without the tilt compensation (α = β = 0)
         progress("navigation without the tilt compensation", 0.7)
-        sol_raw = navigate(inp, cbs=c_bs_of(inp, 0.0, 0.0), ldv=aid)
+        sol_raw = run_navigation_filter(inp, cbs=c_bs_of(inp, 0.0, 0.0), ldv=aid)
     progress("height integration", 0.85)
     ldv = log.ldv
     t_l = ldv.t_s

@@ -20,7 +20,7 @@ from ldvsurvey.pipelines.base import (
     output_rate,
     rate_within_imu,
 )
-from ldvsurvey.pipelines.stages.aids import attitude_at, gnss_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.stages.aids import attitude_at, gnss_aid, nav_inputs, run_navigation_filter
 from ldvsurvey.pipelines.stages.ldv_mounting import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_setup
 from ldvsurvey.pipelines.stages.plumb_line import DOV_HELP, DovChoice, DovParams, apply_dov
 from ldvsurvey.units import DEG_PER_RAD as DEG
@@ -93,7 +93,7 @@ def run_navigation(log, params, progress, specific_force: bool = True):
     if setup is not None and setup.solution is not None:
         return inp, setup, setup.solution
     progress(f"navigation ({aiding})", 0.5)
-    sol = navigate(
+    sol = run_navigation_filter(
         inp,
         cbs=cbs,
         ldv=ldv_aid_of(inp, setup) if use_ldv else None,

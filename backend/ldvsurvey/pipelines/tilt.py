@@ -9,7 +9,7 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.tilt import oscillation_per_cycle
 from ldvsurvey.pipelines.base import LogFacts, Params, Pipeline, PipelineResult, Reason, output_rate, rate_within_imu
-from ldvsurvey.pipelines.stages.aids import c_bs_of, gnss_aid, ldv_aid, nav_inputs, navigate
+from ldvsurvey.pipelines.stages.aids import c_bs_of, gnss_aid, ldv_aid, nav_inputs, run_navigation_filter
 from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
@@ -53,7 +53,7 @@ def compensated_attitude(inp, est, params, progress, frac=0.4):
     cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
     progress("navigation with the tilt compensated", frac)
     if not inp.has_ldv:
-        sol = navigate(inp, cbs=cbs, gnss=gnss_aid(inp.log))
+        sol = run_navigation_filter(inp, cbs=cbs, gnss=gnss_aid(inp.log))
     else:
         aid = ldv_aid(
             inp,
@@ -61,7 +61,7 @@ def compensated_attitude(inp, est, params, progress, frac=0.4):
             pitch_rad=None if params.get("ldv_pitch_deg") is None else params["ldv_pitch_deg"] * RAD,
             heading_rad=None if params.get("ldv_heading_deg") is None else params["ldv_heading_deg"] * RAD,
         )
-        sol = navigate(inp, cbs=cbs, ldv=aid)
+        sol = run_navigation_filter(inp, cbs=cbs, ldv=aid)
     c_bn = sol.c_bn()
     c_sn = c_bn @ np.swapaxes(cbs, -1, -2)
     raw = c_sn @ c_bs_of(inp, 0.0, 0.0)

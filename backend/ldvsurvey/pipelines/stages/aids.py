@@ -299,7 +299,7 @@ def pipeline_cfg(**kw) -> FilterConfig:
     return FilterConfig(**base)
 
 
-def navigate(
+def run_navigation_filter(
     inp: NavInputs,
     *,
     cbs=None,
@@ -353,7 +353,7 @@ def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:
     """The GNSS-aided INS (every fix weighted by its quality, no LDV), computed once per run."""
     key = ("gnss_ins", None if cbs is None else id(cbs))
     if key not in inp.cache:
-        inp.cache[key] = navigate(inp, cbs=cbs, gnss=gnss_aid(inp.log))
+        inp.cache[key] = run_navigation_filter(inp, cbs=cbs, gnss=gnss_aid(inp.log))
     return inp.cache[key]
 
 

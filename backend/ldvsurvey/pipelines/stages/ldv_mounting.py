@@ -23,8 +23,8 @@ from ldvsurvey.pipelines.stages.aids import (
     gnss_aid,
     ldv_aid,
     local_metres,
-    navigate,
     pipeline_cfg,
+    run_navigation_filter,
 )
 from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
@@ -160,7 +160,7 @@ def calibration_stage(
     One navigation: the filter with the LDV states augmented, LDV everywhere and GNSS (fix 4, else
     4/5/2) in the window; its attitude also serves the closed form (no separate GNSS/INS run).
 
-    ``joint`` (no ``window``): the navigation of ``navigate`` with ``aiding=ldv+gnss``, i.e. every
+    ``joint`` (no ``window``): the navigation of the ``navigate`` pipeline with ``aiding=ldv+gnss``, i.e. every
     fix the navigation takes (:func:`~ldvsurvey.pipelines.stages.aids.gnss_aid`'s qualities, the
     single-point ones included, each with its quality's σ), kept whole in ``Calibration.solution``:
     the LDV calibration estimated together with the navigation in one filter and smoother, instead
@@ -195,7 +195,7 @@ def calibration_stage(
     cfg = pipeline_cfg(ldv_aug=aug)
     aid = ldv_aid(inp, scale_up=nom.scale)  # the up scale starts from (unobservable: stays at) the nominal
     aid.accel_fwd_mps2 = a_f
-    sol = navigate(
+    sol = run_navigation_filter(
         inp,
         cbs=cbs,
         ldv=aid,

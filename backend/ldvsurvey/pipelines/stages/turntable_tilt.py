@@ -7,7 +7,7 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.tilt import TiltEstimate, estimate_tilt, find_stops
 from ldvsurvey.pipelines.base import warn
-from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, gnss_aid, ldv_aid, navigate, pipeline_cfg
+from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, gnss_aid, ldv_aid, pipeline_cfg, run_navigation_filter
 
 
 def static_part(inp: NavInputs) -> NavInputs:
@@ -62,13 +62,13 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     stops = find_stops(st.t_s, st.eta_rad)
     est = None
     if len(st.t_s) >= 100:
-        sol = navigate(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True, attitude_only=True)
+        sol = run_navigation_filter(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True, attitude_only=True)
         est = _tilt_from(st, sol, st.still, stops)
     later = [(a, b) for a, b in inp.still if a >= inp.static_end_s - 1e-6]
     if (est is None or not est.observable) and later:
         stops_all = find_stops(inp.t_s, inp.eta_rad)
         has_ldv = inp.has_ldv  # without a (usable) LDV: the GNSS fixes aid the whole-log navigation
-        sol = navigate(
+        sol = run_navigation_filter(
             inp,
             cbs=c_bs_of(inp),
             ldv=ldv_aid(inp) if has_ldv else None,
