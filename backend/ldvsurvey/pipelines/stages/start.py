@@ -164,6 +164,27 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
 COURSE_BASELINE_S = {4: 1.0, 5: 2.0, 2: 3.0, 1: 5.0}
 
 
+def _course_fixes(g, t0_s: float, what: str) -> tuple[int, int]:
+    """The indices of the two GNSS fixes the course at the start comes from: of the best quality
+    present in the first 30 s after ``t0_s`` (4, 5, 2, then 1), :data:`COURSE_BASELINE_S` apart;
+    a ParameterError starting with ``what`` when there are none."""
+    early = np.isfinite(g.lat_deg) & (g.t_s >= t0_s - 0.5) & (g.t_s <= t0_s + 30.0)
+    for q in (4, 5, 2, 1):
+        idx = np.flatnonzero(early & (g.fix == q))
+        for i in idx:
+            later = idx[
+                (g.t_s[idx] >= g.t_s[i] + COURSE_BASELINE_S[q] - 0.01)
+                & (g.t_s[idx] <= g.t_s[i] + COURSE_BASELINE_S[q] + 1.01)
+            ]
+            if len(later):
+                return int(i), int(later[0])
+    raise ParameterError(
+        what + "two GNSS fixes of one quality a few seconds apart within the first 30 s",
+        file="gnss.nmea",
+        field="fix_quality",
+    )
+
+
 def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     """Start state of a log that begins on the move: C_b^n, v^n (m/s) and the IMU-centre position
     (lat, lon rad, h m) at the first IMU sample, or a ParameterError naming what is missing.
@@ -187,27 +208,7 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     )
     if g is None:
         raise ParameterError(what + "GNSS fixes (no gnss.nmea)", file="gnss.nmea", field="initial.static_s")
-    early = np.isfinite(g.lat_deg) & (g.t_s >= t[0] - 0.5) & (g.t_s <= t[0] + 30.0)
-    pair = None
-    for q in (4, 5, 2, 1):
-        idx = np.flatnonzero(early & (g.fix == q))
-        for i in idx:
-            later = idx[
-                (g.t_s[idx] >= g.t_s[i] + COURSE_BASELINE_S[q] - 0.01)
-                & (g.t_s[idx] <= g.t_s[i] + COURSE_BASELINE_S[q] + 1.01)
-            ]
-            if len(later):
-                pair = (int(i), int(later[0]))
-                break
-        if pair:
-            break
-    if pair is None:
-        raise ParameterError(
-            what + "two GNSS fixes of one quality a few seconds apart within the first 30 s",
-            file="gnss.nmea",
-            field="fix_quality",
-        )
-    k = np.array(pair)
+    k = np.array(_course_fixes(g, float(t[0]), what))
     lat, lon, h = np.radians(g.lat_deg[k]), np.radians(g.lon_deg[k]), g.h_m[k]
     rm, rn = radii(lat[0])
     de = (lon[1] - lon[0]) * (rn + h[0]) * np.cos(lat[0])
