@@ -121,16 +121,34 @@ def _track(inp: NavInputs):
     )
 
 
-def apply_dov(inp: NavInputs, params: dict, progress) -> tuple[dict, list[str]]:
+def apply_dov(inp: NavInputs, params: DovParams, progress) -> tuple[dict, list[str]]:
     """Set ``inp.gravity`` from the chosen source; return the summary block and warnings.
 
     The block states the source, max/RMS of ξ, η (arcsec) and Δg (mGal) along the track, and the
     first-order height difference the levelling makes: δh(t) = ∫ (ξ v_N + η v_E) dt (the height
     an INS levelled to the plumb line gains, the geoid change along the track with opposite sign),
     with v from the GNSS track.
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log; its ``gravity`` is set to (ξ rad, η rad, Δg m/s²) per IMU sample.
+    params : DovParams
+        ``dov`` (none, egm2008, grid) and the grids for ``dov=grid`` (``dov_grid`` files or an
+        uploaded ``dov_grid_id``).
+    progress : Progress
+        Stage reporter.
+
+    Returns
+    -------
+    info : dict
+        The summary block (``source``, ``xi_arcsec_max``/``_rms``, ``eta_arcsec_*``, ``dg_mgal_*``,
+        ``dg_used``, ``height_effect_max_m``).
+    warnings : list of str
+        What had to be assumed (no GNSS track: the deflection at the start position throughout).
     """
-    mode = params.get("dov") or "none"
-    paths = params.get("dov_grid") or params.get("dov_grid_id")
+    mode = params.dov
+    paths = params.dov_grid or params.dov_grid_id
     if mode == "none":
         if paths:
             raise ParameterError("dov_grid is given but dov=none; set dov=grid to use it", field="dov")
@@ -142,9 +160,9 @@ def apply_dov(inp: NavInputs, params: dict, progress) -> tuple[dict, list[str]]:
             raise ParameterError(
                 "dov=grid needs dov_grid=xi.gdf,eta.gdf[,dg.gdf] (or dov_grid_id of an upload)", field="dov_grid"
             )
-        if params.get("dov_grid") and params.get("dov_grid_id"):
+        if params.dov_grid and params.dov_grid_id:
             raise ParameterError("give dov_grid or dov_grid_id, not both", field="dov_grid_id")
-        grid = load_grids(paths) if params.get("dov_grid") else _uploaded(params["dov_grid_id"])
+        grid = load_grids(params.dov_grid) if params.dov_grid else _uploaded(params.dov_grid_id)
     else:
         if paths:
             raise ParameterError("dov_grid is given but dov=egm2008; set dov=grid to use it", field="dov")
