@@ -155,8 +155,26 @@ def run_navigation(
     return inp, setup, sol
 
 
-def errors_vs_gnss(log, sol, fixes=(4,)):
-    """Horizontal and height errors (m) of the solution at GNSS fixes of the given qualities (IMU centre)."""
+def errors_vs_gnss(log: DriveLog, sol: NavSolution, fixes=(4,)):
+    """Horizontal and height errors of the solution at the GNSS fixes of the given qualities.
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle.
+    sol : NavSolution
+        The navigation.
+    fixes : tuple of int
+        The fix qualities compared with.
+
+    Returns
+    -------
+    horizontal_m, height_m : ndarray or None
+        Per fix, the horizontal distance (m) and the height difference (m, solution minus fix) of
+        the IMU centre (the fixes brought there through the lever arm); None without such a fix.
+    n : int
+        The number of fixes compared.
+    """
     g = log.gnss
     if g is None:
         return None, None, 0

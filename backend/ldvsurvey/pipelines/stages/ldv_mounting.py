@@ -60,7 +60,22 @@ GOOD_FIXES = ((4,), (4, 5, 2))
 
 def choose_window(inp: NavInputs, window=None, min_distance_m: float = 500.0) -> tuple[float, float]:
     """The calibration stretch: given, or the longest RTK-fixed (fix 4) moving stretch, else the
-    longest one of fix 4, 5 or 2."""
+    longest one of fix 4, 5 or 2.
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log (GNSS needed).
+    window : (float, float) or None
+        A given ``t0, t1`` (s), checked to lie inside the log and hold 10 good fixes.
+    min_distance_m : float
+        The shortest stretch (m) accepted when none is given.
+
+    Returns
+    -------
+    (float, float)
+        ``t0, t1`` (s) of the stretch.
+    """
     return _choose_window(inp, window, min_distance_m)[0]
 
 

@@ -48,7 +48,19 @@ class DovParams(Params):
 
 
 def load_grids(paths) -> DovGrid:
-    """ξ, η (and Δg) grids from two (three) ``.gdf`` files on the same nodes."""
+    """ξ, η (and Δg) grids from two (three) ``.gdf`` files on the same nodes.
+
+    Parameters
+    ----------
+    paths : list of str
+        ``xi.gdf, eta.gdf[, dg.gdf]``: ξ, η in arcsec, Δg in mGal (ICGEM grid files, server paths).
+
+    Returns
+    -------
+    DovGrid
+        The grids on their nodes (deg), named after the files; a ParameterError naming the file
+        that is missing, malformed or on other nodes.
+    """
     if len(paths) not in (2, 3):
         raise ParameterError("give two or three .gdf files: dov_grid=xi.gdf,eta.gdf[,dg.gdf]", field="dov_grid")
     parsed = []

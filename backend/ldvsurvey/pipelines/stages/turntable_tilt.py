@@ -48,6 +48,18 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     LDV aiding) and every later still interval with turntable motion is used. When nothing makes
     the tilt observable, α = β = 0 is returned with ``observable`` False and a warning in
     ``warnings``: the caller goes on (the attitude then keeps an oscillation of the tilt's size).
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log of a rotating IMU (the estimate is kept in ``inp.cache``).
+
+    Returns
+    -------
+    est : TiltEstimate
+        α, β (rad) with their 1-σ, whether they were observable, the pairs and intervals used.
+    stops : list
+        The turntable stops found (:func:`ldvsurvey.nav.tilt.find_stops`) in the span used.
     """
     if inp.eta_rad is None:
         raise ParameterError(
