@@ -97,13 +97,17 @@ def run_pipeline_cli(
     pipe.validate(params)  # unknown, malformed or out-of-range parameters fail before any work
     logs = [load_bundle(b) for b in bundles]
     pipe.check([LogFacts.of_log(log) for log in logs], params)  # and a pipeline that cannot apply
-    if pipe.uses_grid_cache and open_grid_cache is not None:
-        GRID_CACHE.set(open_grid_cache())
 
     def report(stage, frac):
         print(f"[{frac * 100:5.1f} %] {stage}", file=sys.stderr)
 
-    result = run_pipeline(pipe, logs, params, Progress(report))
+    opened = pipe.uses_grid_cache and open_grid_cache is not None
+    token = GRID_CACHE.set(open_grid_cache()) if opened else None  # for this run only
+    try:
+        result = run_pipeline(pipe, logs, params, Progress(report))
+    finally:
+        if token is not None:
+            GRID_CACHE.reset(token)
     for p in write_result(result, out):
         print(p)
     return 0
