@@ -87,7 +87,7 @@ def applicable(logs: list[LogFacts], params: DovStudyParams) -> list[Reason]:
     return needs_gnss(logs, "the DOV pipeline needs GNSS for the reference trajectory") + rate_within_imu(logs, params)
 
 
-def _grid(params: DovStudyParams, lat_deg, lon_deg, progress) -> DovGrid:
+def _grid(params: DovStudyParams, lat_deg, lon_deg, progress: Progress) -> DovGrid:
     """The DOV grid over the track (deg): the two ``dov_grid`` files, else EGM2008 synthesized at
     ``grid_step_arcmin`` to ``degree`` (kept in the caller's grid cache when there is one)."""
     paths = params.dov_grid

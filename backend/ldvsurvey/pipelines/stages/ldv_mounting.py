@@ -14,7 +14,7 @@ from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import LdvAid, forward_accel_mps2
 from ldvsurvey.nav.innovations import variance_inflation
 from ldvsurvey.nav.tilt import TiltEstimate
-from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Reason, window_inside
+from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Progress, Reason, window_inside
 from ldvsurvey.pipelines.stages.aids import (
     NAV_FIXES,
     NavInputs,
@@ -414,7 +414,12 @@ def _calibrated_track(inp: NavInputs, w: _WindowSamples, cal: Calibration) -> di
 
 
 def calibration_stage(
-    inp: NavInputs, cbs, window=None, progress=None, joint: bool = False, specific_force: bool = True
+    inp: NavInputs,
+    cbs: np.ndarray | None,
+    window: tuple[float, float] | list[float] | None = None,
+    progress: Progress | None = None,
+    joint: bool = False,
+    specific_force: bool = True,
 ) -> Calibration:
     """The Kalman estimate of the travel direction the LDV sees (η_L, φ_L, pitch compliance k_η)
     and the scale K, with the closed-form dead-reckoning comparison beside.
@@ -564,7 +569,7 @@ def _calibration_info(cal: Calibration, joint: bool) -> dict:
 
 
 def ldv_setup(
-    inp: NavInputs, params: CalibrationParams, progress, joint: bool = False, specific_force: bool = True
+    inp: NavInputs, params: CalibrationParams, progress: Progress, joint: bool = False, specific_force: bool = True
 ) -> LdvSetup:
     """Base tilt (if the IMU rotates), then the LDV calibration: given, automatic or nominal.
 
@@ -645,17 +650,17 @@ def ldv_setup(
         info["ldv_scale_up"] = scale_up
     solution = cal.solution if info["source"] == "calibrate" else None
     return LdvSetup(
-        cbs,
-        est,
-        pitch,
-        heading,
-        scale,
-        scale_up,
-        info,
-        warnings,
-        pitch_k,
-        accel_fwd(inp) if pitch_k else None,
-        solution,
+        cbs=cbs,
+        tilt=est,
+        pitch_rad=pitch,
+        heading_rad=heading,
+        scale=scale,
+        scale_up=scale_up,
+        info=info,
+        warnings=warnings,
+        pitch_k_rad_per_mps2=pitch_k,
+        accel_fwd_mps2=accel_fwd(inp) if pitch_k else None,
+        solution=solution,
     )
 
 

@@ -18,7 +18,7 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.nav.dovgrid import ARCSEC, DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.pipelines.base import Params, Paths, Text
+from ldvsurvey.pipelines.base import Params, Paths, Progress, Text
 from ldvsurvey.pipelines.stages.aids import NavInputs
 
 EGM_STEP_ARCMIN = 1.0
@@ -133,7 +133,7 @@ def _track(inp: NavInputs):
     )
 
 
-def apply_dov(inp: NavInputs, params: DovParams, progress) -> tuple[dict, list[str]]:
+def apply_dov(inp: NavInputs, params: DovParams, progress: Progress) -> tuple[dict, list[str]]:
     """Set ``inp.gravity`` from the chosen source; return the summary block and warnings.
 
     The block states the source, max/RMS of ξ, η (arcsec) and Δg (mGal) along the track, and the

@@ -132,8 +132,27 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
     order), averaged, brought from the antenna to the IMU centre through the lever arm
     (``gnss.lever_arm_m``, body RFU) and the coarse-aligned attitude of the static period.
     Without a fix in the static period, the first fix of the best quality in the log is used with
-    a warning (the vehicle may have moved by then). ``moving``: the start state of
-    :func:`moving_start` (a log that begins on the move), whose position is used.
+    a warning (the vehicle may have moved by then).
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle.
+    t : ndarray
+        (N,) IMU times (s).
+    static_end : float
+        End of the static period at the start (s).
+    eta : ndarray or None
+        (N,) unwrapped turntable angle (rad) of a rotating IMU.
+    warnings : list or None
+        Receives what had to be assumed.
+    moving : tuple or None
+        The start state of :func:`moving_start` (a log that begins on the move), whose position is used.
+
+    Returns
+    -------
+    ndarray
+        Latitude, longitude (rad) and ellipsoidal height (m) of the IMU centre at the start.
     """
     m = log.manifest
     if m.initial.lat_deg is not None and m.initial.lon_deg is not None and m.initial.h_m is not None:
