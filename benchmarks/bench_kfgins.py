@@ -140,7 +140,7 @@ def scenario(minutes: float, grade: str, drive: str = "effects"):
 
 def write_kfgins_inputs(sim, log, folder: Path) -> dict:
     """KF-GINS's IMU and GNSS text files from the bundle's data; returns what its config needs."""
-    from ldvsurvey.pipelines.inputs import gnss_aid, initial_attitude, nav_inputs, pipeline_cfg
+    from ldvsurvey.pipelines.stages.aids import gnss_aid, initial_attitude, nav_inputs, pipeline_cfg
 
     t_imu, dth, dv = sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps
     if "imu_keep" in sim.extras:  # the rows imu.csv holds (dropped rows, jittered time tags)

@@ -93,11 +93,22 @@ def _cmd_demo(args) -> int:
 def _cmd_run(args) -> int:
     from ldvsurvey.pipelines.registry import run_pipeline_cli
 
-    rc = run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [])
+    rc = run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [], open_grid_cache=_db_grid_cache)
     if rc == 0 and args.format != "csv":
         for p in export_geo_files(args.out, args.format, args.bundles[0]):
             print(p)
     return rc
+
+
+def _db_grid_cache():
+    """The application database's grid cache (migrated first): synthesized grids kept between runs."""
+    from ldvsurvey.settings import get_settings
+    from ldvsurvey.store.db import upgrade_head
+    from ldvsurvey.store.gridcache import DbGridCache
+
+    url = get_settings().resolved_database_url()
+    upgrade_head(url)
+    return DbGridCache(url)
 
 
 def export_geo_files(out_dir, fmt: str, bundle) -> list:

@@ -11,7 +11,7 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.io.writers import imu_csv
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.mech import mechanize
-from ldvsurvey.pipelines.inputs import nav_inputs
+from ldvsurvey.pipelines.stages.aids import nav_inputs
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
 

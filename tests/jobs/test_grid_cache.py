@@ -14,7 +14,8 @@ import pytest
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.jobs.runner import LazyGridCache
 from ldvsurvey.nav.dovgrid import DovGrid
-from ldvsurvey.pipelines import gridctx, plumb
+from ldvsurvey.pipelines.stages import grid_cache as gridctx
+from ldvsurvey.pipelines.stages import plumb_line as plumb
 from ldvsurvey.store.db import upgrade_head
 from ldvsurvey.store.gridcache import DbGridCache
 

@@ -13,7 +13,7 @@ from ldvsurvey.nav import kfloop
 from ldvsurvey.nav.attitude import c_from_q, q_from_c, skew
 from ldvsurvey.nav.earth import ARCSEC
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, run_filter
-from ldvsurvey.pipelines.inputs import attitude_at
+from ldvsurvey.pipelines.stages.aids import attitude_at
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.sensors import (
     FIX_SIGMA,

@@ -17,7 +17,7 @@ import ldvsurvey.pipelines.gravity_chains as gc
 from ldvsurvey.nav.attitude import c_bs, c_from_q
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.gravity import bridge_velocity
-from ldvsurvey.pipelines.calibration import ldv_body_velocity
+from ldvsurvey.pipelines.stages.ldv_mounting import ldv_body_velocity
 
 
 def fake_run(n=1001, rotating=False, seed=3):

@@ -12,7 +12,7 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import enu_offset_m
-from ldvsurvey.pipelines.inputs import nav_inputs
+from ldvsurvey.pipelines.stages.aids import nav_inputs
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
 

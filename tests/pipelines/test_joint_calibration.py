@@ -18,11 +18,11 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav import kfloop
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.pipelines import calibration as CAL
 from ldvsurvey.pipelines import navigate as NV
 from ldvsurvey.pipelines.base import Progress, run_pipeline
-from ldvsurvey.pipelines.inputs import NAV_FIXES
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.pipelines.stages import ldv_mounting as CAL
+from ldvsurvey.pipelines.stages.aids import NAV_FIXES
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
 
@@ -145,6 +145,12 @@ def test_joint_calibration_against_truth_and_calibrate(drive, runs):
     assert n_used <= n_good < n_used + 0.02 * n_good + 5
 
 
+def _navigation(log, given: dict, **kw):
+    """``run_navigation`` as the navigate pipeline calls it, with its parameters from ``given``."""
+    params = NV.NavigateParams(**given)
+    return NV.run_navigation(log, params, Progress(), aiding=params.aiding, smooth=params.smooth, dov=params, **kw)
+
+
 def joint_log_fixes(drive):
     _, log = drive
     return log.gnss.fix[np.isfinite(log.gnss.lat_deg)]
@@ -168,7 +174,7 @@ def test_epochs_fixed_by_matches_the_filter(drive):
     """The epochs the compiled filter updated with GNSS (a normalized innovation, taken or gated)
     are exactly those the mapping gives for the fixes the navigation takes."""
     _, log = drive
-    _, _, sol = NV.run_navigation(log, PARAMS, Progress())
+    _, _, sol = _navigation(log, PARAMS)
     took = np.isfinite(sol.normalized_innovations[:, 6])
     assert took.sum() > 500
     assert np.array_equal(CAL._epochs_fixed_by(sol.epoch_t_s, log.gnss, NAV_FIXES), took)
@@ -182,8 +188,8 @@ def test_navigation_without_specific_force_is_the_same(drive, aiding):
     for bit, as with it."""
     _, log = drive
     params = {**PARAMS, "aiding": aiding}
-    _, _, with_f = NV.run_navigation(log, params, Progress())
-    _, _, without = NV.run_navigation(log, params, Progress(), specific_force=False)
+    _, _, with_f = _navigation(log, params)
+    _, _, without = _navigation(log, params, specific_force=False)
     assert len(with_f.f_u_mps2) == len(with_f.t_s) and len(without.f_u_mps2) == 0 == len(without.f_u_bias_mps2)
     for name in ("q_sn", "v_n", "pos", "epoch_sigma"):
         assert np.array_equal(getattr(with_f, name), getattr(without, name)), name

@@ -16,8 +16,8 @@ from ldvsurvey.io.writers import imu_csv, ldv_csv, nmea_text
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
 from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.inputs import nav_inputs
 from ldvsurvey.pipelines.registry import get
+from ldvsurvey.pipelines.stages.aids import nav_inputs
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import GEOID_SEPARATION_M, bundle_files, simulate
 

@@ -237,7 +237,7 @@ def test_moving_start_without_ldv():
     no manifest start): aligned from the GNSS course and speed, then the GNSS-aided filter."""
     from ldvsurvey.io.writers import imu_csv, nmea_text
     from ldvsurvey.nav.attitude import euler_from_c_bn
-    from ldvsurvey.pipelines.inputs import nav_inputs
+    from ldvsurvey.pipelines.stages.aids import nav_inputs
     from ldvsurvey.sim.scenario import GEOID_SEPARATION_M
 
     sim = simulate(catalog.drive(minutes=6.0, static_s=60.0, with_ldv=False), seed=8)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.pipelines.inputs import nav_inputs
+from ldvsurvey.pipelines.stages.aids import nav_inputs
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.motion import Drive, Static
 from ldvsurvey.sim.scenario import bundle_files, simulate

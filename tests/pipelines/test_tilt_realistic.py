@@ -13,8 +13,8 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.attitude import c_from_q, euler_from_c_bn
-from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs, navigate, pipeline_cfg
-from ldvsurvey.pipelines.tiltfit import static_part, tilt_stage
+from ldvsurvey.pipelines.stages.aids import c_bs_of, nav_inputs, pipeline_cfg, run_navigation_filter
+from ldvsurvey.pipelines.stages.turntable_tilt import static_part, tilt_stage
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.effects import Effects, TurntableSpec
 from ldvsurvey.sim.scenario import bundle_files, simulate
@@ -45,7 +45,7 @@ def test_tilt_with_every_effect_on(scheme, rate_dps):
         return
     # the estimate, not the mechanical (α, β), is what levels the body: pitch/roll over the static period
     st = static_part(inp)
-    c_sn = c_from_q(navigate(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True).q_sn)
+    c_sn = c_from_q(run_navigation_filter(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True).q_sn)
     pt, rt, _ = euler_from_c_bn(sim.imu.c_bn[: len(st.t_s)])
     spread = {}
     for key, (a, b) in {"estimate": (est.alpha_rad, est.beta_rad), "mechanical": (sc.alpha_rad, sc.beta_rad)}.items():

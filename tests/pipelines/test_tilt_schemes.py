@@ -13,9 +13,9 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.inputs import nav_inputs
 from ldvsurvey.pipelines.registry import get
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.aids import nav_inputs
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.motion import Static
 from ldvsurvey.sim.scenario import bundle_files

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ldvsurvey.api.views import VIEWS, MissingResult, Tables, build_view, views_of
-from ldvsurvey.pipelines.inputs import local_metres
+from ldvsurvey.pipelines.stages.aids import local_metres
 from ldvsurvey.units import RAD_PER_DEG
 
 #: points per trace in a report figure (enough for print; keeps the file small)

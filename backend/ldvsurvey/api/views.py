@@ -19,7 +19,7 @@ from tsdownsample import MinMaxLTTBDownsampler
 
 from ldvsurvey.io.nmea import FIX_QUALITY_NAMES
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.pipelines.inputs import local_metres
+from ldvsurvey.pipelines.stages.aids import local_metres
 from ldvsurvey.units import DEG_PER_RAD, RAD_PER_DEG
 
 ARCSEC_PER_RAD = DEG_PER_RAD * 3600.0

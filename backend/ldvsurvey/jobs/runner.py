@@ -18,7 +18,7 @@ from sqlalchemy.exc import IntegrityError
 from ldvsurvey.errors import InputError
 from ldvsurvey.jobs.queue import make_huey
 from ldvsurvey.pipelines.base import Cancelled, LogFacts, Progress, result_files, run_pipeline
-from ldvsurvey.pipelines.gridctx import GRID_CACHE
+from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE
 from ldvsurvey.store.db import session_scope
 from ldvsurvey.store.models import Job, JobFile
 

@@ -95,6 +95,7 @@ class Progress:
             self._cb(stage, max(0.0, min(1.0, float(fraction))))
 
     def check(self) -> None:
+        """Raise :class:`Cancelled` when cancellation was asked."""
         if self._cancelled is not None and self._cancelled():
             raise Cancelled("cancelled")
 
@@ -229,6 +230,7 @@ def window_inside(logs: list[LogFacts], window, field_name: str) -> list[Reason]
 
 
 def needs_gnss(logs: list[LogFacts], why: str, field_name: str = "BUNDLE") -> list[Reason]:
+    """A pipeline (or a choice of its parameters) that needs GNSS, on a log without ``gnss.nmea``."""
     return [Reason(field_name, f"{why}: log '{f.name}' has no gnss.nmea") for f in logs if not f.has_gnss]
 
 
@@ -308,8 +310,10 @@ class Pipeline:
     description: str
     multi_input: bool = False
     applicable: Callable[[list[LogFacts], Params], list[Reason]] = _no_reasons
-    #: run by ``ldv-survey run`` before the pipeline (e.g. the dov pipeline's grid cache)
-    cli_setup: Callable[[], None] | None = None
+    #: the pipeline keeps the grids it synthesizes in a grid cache the caller provides
+    #: (:data:`ldvsurvey.pipelines.stages.grid_cache.GRID_CACHE`): ``ldv-survey run`` opens the
+    #: database's for it, as the job runner does for every job
+    uses_grid_cache: bool = False
 
     @property
     def params(self) -> list[ParamInfo]:
@@ -511,6 +515,7 @@ def result_files(result: PipelineResult) -> dict[str, bytes]:
 
 
 def write_result(result: PipelineResult, out_dir: str | Path) -> list[Path]:
+    """Write :func:`result_files` into ``out_dir`` (created if missing); the paths written."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = []

@@ -4,20 +4,22 @@ from __future__ import annotations
 
 from pydantic import Field, field_validator
 
+from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.pipelines.base import (
     Floats,
     LogFacts,
     Pipeline,
     PipelineResult,
+    Progress,
     Reason,
     needs_gnss,
     needs_ldv,
     window_inside,
 )
-from ldvsurvey.pipelines.calibration import calibration_stage, time_window
-from ldvsurvey.pipelines.inputs import c_bs_of, nav_inputs
-from ldvsurvey.pipelines.plumb import DovParams, apply_dov
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.aids import c_bs_of, nav_inputs
+from ldvsurvey.pipelines.stages.ldv_mounting import calibration_stage, time_window
+from ldvsurvey.pipelines.stages.plumb_line import DovParams, apply_dov
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
 
@@ -45,18 +47,35 @@ def applicable(logs: list[LogFacts], params: CalibrateParams) -> list[Reason]:
     )
 
 
-def run(logs, params, progress) -> PipelineResult:
-    params = params.model_dump()  # transitional: typed access comes with issue 30
+def run(logs: list[DriveLog], params: CalibrateParams, progress: Progress) -> PipelineResult:
+    """Calibrate the LDV mounting (pitch η_L, heading φ_L, pitch compliance k_η) and scale K
+    against the GNSS track, with the closed-form dead-reckoning estimate beside.
+
+    Parameters
+    ----------
+    logs : list of DriveLog
+        One parsed bundle with an LDV and GNSS.
+    params : CalibrateParams
+        The calibration window ``t0, t1`` (s; None: every good fix for the filter, the longest
+        good-GNSS moving stretch for the closed form) and the deflection of the vertical.
+    progress : Progress
+        Stage reporter and cancellation.
+
+    Returns
+    -------
+    PipelineResult
+        ``calibration_track.csv``: the calibrated dead-reckoning track over the window (t_s,
+        lat_deg, lon_deg, h_m at 10 Hz). Summary: ``ldv_pitch_deg``, ``ldv_heading_deg``,
+        ``ldv_scale``, ``ldv_pitch_k_rad_per_mps2`` (each with ``_sigma``),
+        ``ldv_pitch_compliance_deg_per_g``, ``fix_qualities``, ``segment_t_s``, ``closed_form``,
+        ``sigma_inflation``, ``dov``, with a 2-D LDV ``ldv_scale_up``, with a rotating IMU
+        ``alpha_rad``, ``beta_rad``.
+    """
     log = logs[0]
     progress("preparing", 0.02)
     inp = nav_inputs(log)
     inp.require_ldv()
     dov_info, warnings = apply_dov(inp, params, progress)
-    window = params["calibration_window"]
-    if window is not None and len(window) != 2:
-        from ldvsurvey.errors import ParameterError
-
-        raise ParameterError("give two times: calibration_window=t0,t1", field="calibration_window")
     cbs = None
     extra = {}
     if inp.eta_rad is not None:
@@ -64,7 +83,7 @@ def run(logs, params, progress) -> PipelineResult:
         est, _ = tilt_stage(inp)
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
         extra = {"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad}
-    cal = calibration_stage(inp, cbs, window, progress)
+    cal = calibration_stage(inp, cbs, params.calibration_window, progress)
     s = {
         "ldv_pitch_deg": cal.pitch_rad / RAD,
         "ldv_pitch_deg_sigma": cal.sigma["pitch"] / RAD,

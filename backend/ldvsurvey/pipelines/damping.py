@@ -6,6 +6,7 @@ import numpy as np
 from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
+from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.nav.attitude import q_from_c
 from ldvsurvey.nav.damping import MODES, Damping, WaterLdv, run_damping
 from ldvsurvey.nav.earth import enu_offset_m
@@ -15,14 +16,15 @@ from ldvsurvey.pipelines.base import (
     Params,
     Pipeline,
     PipelineResult,
+    Progress,
     Reason,
     needs_gnss,
     needs_ldv,
     output_rate,
     rate_within_imu,
 )
-from ldvsurvey.pipelines.inputs import c_bs_of, initial_attitude, nav_inputs
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, initial_attitude, nav_inputs
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as DEG
 
 
@@ -64,7 +66,7 @@ def applicable(logs: list[LogFacts], params: DampingParams) -> list[Reason]:
     return out + needs_gnss(logs, "the damping comparison needs a GNSS reference") + rate_within_imu(logs, params)
 
 
-def _reference(log, t_s):
+def _reference(log: DriveLog, t_s: np.ndarray) -> tuple:
     """Reference positions (IMU centre, rad/m) and velocities (m/s) from GNSS at fix 4/2/5."""
     g = log.gnss
     if g is None:
@@ -84,10 +86,8 @@ def _reference(log, t_s):
     return tg, lat, lon, h, v_n
 
 
-def run(logs, params, progress) -> PipelineResult:
-    params = params.model_dump()  # transitional: typed access comes with issue 30
-    log = logs[0]
-    m = log.manifest
+def _check_vessel(m) -> None:
+    """A vessel with a water-track LDV and a moored period at the start, else a ParameterError."""
     if m.platform != "vessel":
         raise ParameterError(
             f"damping is for vessels: the manifest says platform '{m.platform}'", file="manifest.json", field="platform"
@@ -105,18 +105,12 @@ def run(logs, params, progress) -> PipelineResult:
             file="manifest.json",
             field="initial.static_s",
         )
-    progress("preparing", 0.02)
-    inp = nav_inputs(log)
-    inp.require_ldv()
-    warnings = list(inp.warnings)
-    tg, glat, glon, gh, gv = _reference(log, inp.t_s)
-    if inp.eta_rad is not None:  # a rotating IMU: C_b^s from the encoder and the base tilt
-        progress("base tilt of the rotating IMU", 0.05)
-        est, _ = tilt_stage(inp)
-        warnings += est.warnings
-        cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
-    else:
-        cbs = None
+
+
+def _filter_inputs(inp: NavInputs, cbs, params: DampingParams) -> tuple[ImuIn, Start, WaterLdv, Damping]:
+    """The compiled filters' inputs: the IMU (normal gravity), the start state (C_s^n of the
+    coarse alignment, at rest at the start position), the water LDV through the nominal mounting
+    and the damping set-up (its ``mode`` set per run)."""
     q0 = q_from_c(initial_attitude(inp, cbs))  # C_s^n at the start
     cbs_arr = np.ascontiguousarray(np.eye(3)[None] if cbs is None else cbs)
     noise = inp.noise
@@ -134,9 +128,7 @@ def run(logs, params, progress) -> PipelineResult:
         ** 2
     )
     qd = np.concatenate([np.full(3, noise.arw_psd), np.full(3, noise.vrw_psd), np.zeros(9), [1e-12]])
-    nom = m.ldv.nominal
-    results = {}
-    lever = np.asarray(m.gnss.lever_arm_m, float)
+    nom = inp.log.manifest.ldv.nominal
     empty = np.empty(0)
     imu = ImuIn(inp.t_s, inp.dtheta_rad, inp.dvel_mps, cbs_arr, empty, empty, empty)  # normal gravity
     start = Start(q0, np.zeros(3), inp.pos0, np.zeros(6))
@@ -146,13 +138,13 @@ def run(logs, params, progress) -> PipelineResult:
         1.0 / nom.scale,
         nom.pitch_deg * DEG,
         nom.heading_deg * DEG,
-        float(params["ldv_sigma_mps"]),
+        float(params.ldv_sigma_mps),
     )
     dmp = Damping(
         mode=0,
-        period_s=float(params["period_s"]),
-        ds_every=max(1, int(round(params["delayed_baseline_s"] / params["period_s"]))),
-        gate=float(params["delayed_gate_sigma"]),
+        period_s=float(params.period_s),
+        ds_every=max(1, int(round(params.delayed_baseline_s / params.period_s))),
+        gate=float(params.delayed_gate_sigma),
         zupt_end_s=float(inp.static_end_s),
         p0=p0,
         qd=qd,
@@ -160,31 +152,32 @@ def run(logs, params, progress) -> PipelineResult:
         vu_sigma=0.05,
         h_sigma=0.5,
     )
-    for i, name in enumerate(MODES):
-        progress(f"{name.replace('_', ' ')} navigation", 0.1 + 0.28 * i)
-        q, v, p, s, n_rej = run_damping(imu, start, water, dmp._replace(mode=MODES[name]))
-        # errors against GNSS (antenna → IMU centre) at the fixes after the moored period
-        use = tg > inp.static_end_s
-        from ldvsurvey.nav.attitude import c_from_q
+    return imu, start, water, dmp
 
-        j = np.clip(np.searchsorted(inp.t_s, tg[use]), 0, len(inp.t_s) - 1)  # sample at (or after) each fix
-        c_fix = c_from_q(q[j]) if cbs is None else c_from_q(q[j]) @ cbs[j]  # C_b^n
-        lev = c_fix @ lever
-        lat = np.interp(tg[use], inp.t_s, p[:, 0])
-        lon = np.interp(tg[use], inp.t_s, p[:, 1])
-        d = enu_offset_m(glat[use], glon[use], gh[use], lat, lon, gh[use])
-        d[:, 0] += lev[:, 0]
-        d[:, 1] += lev[:, 1]
-        dv = np.column_stack([np.interp(tg[use], inp.t_s, v[:, j]) for j in range(2)]) - gv[use]
-        results[name] = {
-            "t": tg[use],
-            "dn": d[:, 1],
-            "de": d[:, 0],
-            "dvn": dv[:, 1],
-            "dve": dv[:, 0],
-            "scale": 1.0 / s[-1],
-            "rejected": int(n_rej),
-        }
+
+def _errors_vs_gnss(inp: NavInputs, cbs, ref: tuple, q, v, p) -> dict:
+    """The navigation's errors against GNSS (antenna brought to the IMU centre) at the fixes after
+    the moored period: times (s), north/east position (m) and velocity (m/s) errors."""
+    from ldvsurvey.nav.attitude import c_from_q
+
+    tg, glat, glon, gh, gv = ref
+    lever = np.asarray(inp.log.manifest.gnss.lever_arm_m, float)
+    use = tg > inp.static_end_s
+    j = np.clip(np.searchsorted(inp.t_s, tg[use]), 0, len(inp.t_s) - 1)  # sample at (or after) each fix
+    c_fix = c_from_q(q[j]) if cbs is None else c_from_q(q[j]) @ cbs[j]  # C_b^n
+    lev = c_fix @ lever
+    lat = np.interp(tg[use], inp.t_s, p[:, 0])
+    lon = np.interp(tg[use], inp.t_s, p[:, 1])
+    d = enu_offset_m(glat[use], glon[use], gh[use], lat, lon, gh[use])
+    d[:, 0] += lev[:, 0]
+    d[:, 1] += lev[:, 1]
+    dv = np.column_stack([np.interp(tg[use], inp.t_s, v[:, j]) for j in range(2)]) - gv[use]
+    return {"t": tg[use], "dn": d[:, 1], "de": d[:, 0], "dvn": dv[:, 1], "dve": dv[:, 0]}
+
+
+def _summary(results: dict) -> dict:
+    """Per mode the largest and RMS position (m) and velocity (m/s) errors, the delayed-state filter's
+    improvement over the conventional one (%), the LDV scale estimates and the skipped measurements."""
     summary = {}
     for name, r in results.items():
         pe = np.hypot(r["dn"], r["de"])
@@ -201,9 +194,14 @@ def run(logs, params, progress) -> PipelineResult:
     summary["reference"] = "GNSS fixes of quality 4, 5, 2 (antenna brought to the IMU centre)"
     summary["ldv_scale_estimate"] = {k: r["scale"] for k, r in results.items() if k != "undamped"}
     summary["delayed_state_skipped"] = results["delayed_state"]["rejected"]
-    step = max(1, int(round(1.0 / params["output_rate_hz"])))
-    t_out = results["undamped"]["t"][::step]
-    cols = {"t_s": t_out}
+    return summary
+
+
+def _table(results: dict, output_rate_hz: float) -> dict:
+    """The ``damping.csv`` columns: every ``1/output_rate_hz``-th fix, each mode's north and east
+    position (m) and velocity (m/s) errors."""
+    step = max(1, int(round(1.0 / output_rate_hz)))
+    cols = {"t_s": results["undamped"]["t"][::step]}
     for name, r in results.items():
         for key, col in (
             ("dn", "north_error_m"),
@@ -212,6 +210,55 @@ def run(logs, params, progress) -> PipelineResult:
             ("dve", "east_velocity_error_mps"),
         ):
             cols[f"{name}_{col}"] = r[key][::step]
+    return cols
+
+
+def run(logs: list[DriveLog], params: DampingParams, progress: Progress) -> PipelineResult:
+    """Navigate a vessel three ways (undamped, conventional and delayed-state water-velocity
+    damping) and compare each with GNSS.
+
+    Parameters
+    ----------
+    logs : list of DriveLog
+        One parsed vessel bundle with a water-track LDV, a moored period (manifest
+        ``initial.static_s``) and GNSS.
+    params : DampingParams
+        The filters' update period (s), the delayed-state baseline (s), the water LDV's 1-σ (m/s),
+        the delayed-state gate (σ) and the output rate (Hz, of the GNSS fixes).
+    progress : Progress
+        Stage reporter and cancellation.
+
+    Returns
+    -------
+    PipelineResult
+        ``damping.csv``: t_s and per mode ``<mode>_north/east_error_m``,
+        ``<mode>_north/east_velocity_error_mps``. Summary: per mode ``max/rms_position_error_m``,
+        ``rms/max_velocity_error_mps``; ``position_improvement_pct``, ``velocity_improvement_pct``
+        (delayed-state over conventional), ``reference``, ``ldv_scale_estimate``,
+        ``delayed_state_skipped`` and, with a rotating IMU, ``tilt``.
+    """
+    log = logs[0]
+    _check_vessel(log.manifest)
+    progress("preparing", 0.02)
+    inp = nav_inputs(log)
+    inp.require_ldv()
+    warnings = list(inp.warnings)
+    ref = _reference(log, inp.t_s)
+    if inp.eta_rad is not None:  # a rotating IMU: C_b^s from the encoder and the base tilt
+        progress("base tilt of the rotating IMU", 0.05)
+        est, _ = tilt_stage(inp)
+        warnings += est.warnings
+        cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
+    else:
+        cbs = None
+    imu, start, water, dmp = _filter_inputs(inp, cbs, params)
+    results = {}
+    for i, name in enumerate(MODES):
+        progress(f"{name.replace('_', ' ')} navigation", 0.1 + 0.28 * i)
+        q, v, p, s, n_rej = run_damping(imu, start, water, dmp._replace(mode=MODES[name]))
+        results[name] = {**_errors_vs_gnss(inp, cbs, ref, q, v, p), "scale": 1.0 / s[-1], "rejected": int(n_rej)}
+    summary = _summary(results)
+    cols = _table(results, params.output_rate_hz)
     if cbs is not None:
         summary["tilt"] = {"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad, "observable": est.observable}
     return PipelineResult(summary=summary, tables={"damping": cols}, warnings=warnings)

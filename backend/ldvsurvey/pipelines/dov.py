@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -10,7 +11,7 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.io.drivelog import parse_imu
+from ldvsurvey.io.drivelog import DriveLog, parse_imu
 from ldvsurvey.io.imutime import check_no_long_gaps
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_from_q, q_from_c
@@ -25,16 +26,17 @@ from ldvsurvey.pipelines.base import (
     Paths,
     Pipeline,
     PipelineResult,
+    Progress,
     Reason,
     Text,
     needs_gnss,
     output_rate,
     rate_within_imu,
 )
-from ldvsurvey.pipelines.gridctx import GRID_CACHE  # defined there, so setting it need not import this module
-from ldvsurvey.pipelines.inputs import c_bs_of, gnss_ins, nav_inputs
-from ldvsurvey.pipelines.plumb import load_grids
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, gnss_ins, nav_inputs
+from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE  # defined there, so setting it need not import this module
+from ldvsurvey.pipelines.stages.plumb_line import load_grids
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 
 
 class DovStudyParams(Params):
@@ -85,20 +87,22 @@ def applicable(logs: list[LogFacts], params: DovStudyParams) -> list[Reason]:
     return needs_gnss(logs, "the DOV pipeline needs GNSS for the reference trajectory") + rate_within_imu(logs, params)
 
 
-def _grid(params, lat_deg, lon_deg, progress) -> DovGrid:
-    paths = params["dov_grid"]
+def _grid(params: DovStudyParams, lat_deg, lon_deg, progress: Progress) -> DovGrid:
+    """The DOV grid over the track (deg): the two ``dov_grid`` files, else EGM2008 synthesized at
+    ``grid_step_arcmin`` to ``degree`` (kept in the caller's grid cache when there is one)."""
+    paths = params.dov_grid
     if paths:
         if len(paths) != 2:
             raise ParameterError("give two .gdf files: dov_grid=xi.gdf,eta.gdf", field="dov_grid")
         grid = load_grids(paths)
     else:
-        step = params["grid_step_arcmin"]
+        step = params.grid_step_arcmin
         area = area_for_track(lat_deg, lon_deg, step)
-        key = f"egm2008:deg{params['degree']}:step{step}:{area}"
+        key = f"egm2008:deg{params.degree}:step{step}:{area}"
         cache = GRID_CACHE.get()
         grid = cache.get(key) if cache is not None else None
         if grid is None:
-            grid = egm_grid(area, step, params["degree"], progress=lambda s, f: progress(s, 0.05 + 0.2 * f))
+            grid = egm_grid(area, step, params.degree, progress=lambda s, f: progress(s, 0.05 + 0.2 * f))
             if cache is not None:
                 cache.put(key, grid)
     problem = grid.missing_cover(lat_deg, lon_deg)
@@ -107,7 +111,7 @@ def _grid(params, lat_deg, lon_deg, progress) -> DovGrid:
     return grid
 
 
-def _f_n_w_in(sol, inp):
+def _f_n_w_in(sol, inp: NavInputs):
     """Specific force in n (m/s²) and ω_in^n (rad/s) along the reference trajectory."""
     c = sol.c_bn() if sol.c_bs is None else c_from_q(sol.q_sn)
     dt = np.r_[np.diff(inp.t_s)[:1], np.diff(inp.t_s)]
@@ -125,31 +129,54 @@ def _f_n_w_in(sol, inp):
     return f_n, w_in
 
 
-def _mechanize(t, dth, dv, k_static, lat0, pos0, h_ref, gravity=None, dov0=None, rot=None):
-    """Pure INS from a coarse alignment (levelled to the plumb line, or to the normal when the
-    DOV at the start is known), height held to the reference.
+@dataclass(frozen=True)
+class _FreeInertial:
+    """Free-inertial mechanizations of one log from a coarse alignment over its static period, height
+    held to the reference (``h_ref``: its height in m and vertical velocity in m/s per sample).
 
-    ``rot`` = (C_b^s per sample, encoder angle per sample) for a rotating IMU: the alignment
+    ``rot`` = (C_b^s per sample, encoder angle per sample in rad) for a rotating IMU: the alignment
     removes the turntable motion and the mechanization starts from C_s^n = C_b^n (C_b^s)ᵀ."""
-    if rot is None:
-        c0 = coarse_align(dth[k_static], dv[k_static], lat0)
-    else:
-        cbs, turn = rot
-        c0 = (
-            coarse_align(dth[k_static], dv[k_static], lat0, c_bs=cbs[k_static], turntable_rad=turn[k_static]) @ cbs[0].T
+
+    t_s: np.ndarray
+    dtheta_rad: np.ndarray
+    dvel_mps: np.ndarray
+    k_static: np.ndarray  #: the samples of the static period
+    lat0_rad: float
+    pos0: np.ndarray  #: lat, lon (rad), h (m) at the start
+    h_ref: tuple
+    rot: tuple | None = None
+
+    def positions(self, dtheta_rad=None, dvel_mps=None, dov=None) -> np.ndarray:
+        """Positions (lat, lon rad, h m per sample) of a pure INS of the increments (default: the
+        log's), levelled to the plumb line; ``dov`` = (ξ, η) per sample (rad) compensates the gravity
+        vector and the alignment (levelled to the normal) with that deflection."""
+        dth = self.dtheta_rad if dtheta_rad is None else dtheta_rad
+        dv = self.dvel_mps if dvel_mps is None else dvel_mps
+        k_static, lat0 = self.k_static, self.lat0_rad
+        if self.rot is None:
+            c0 = coarse_align(dth[k_static], dv[k_static], lat0)
+        else:
+            cbs, turn = self.rot
+            c0 = (
+                coarse_align(dth[k_static], dv[k_static], lat0, c_bs=cbs[k_static], turntable_rad=turn[k_static])
+                @ cbs[0].T
+            )
+        gravity = None
+        if dov is not None:  # the alignment knows the deflection: undo the plumb-line levelling
+            gravity = (*dov, np.zeros_like(dov[0]))
+            phi0 = initial_misalignment(dov[0][0], dov[1][0], lat0)
+            from ldvsurvey.nav.attitude import skew
+
+            c0 = (np.eye(3) + skew(phi0)) @ c0
+        q, v, p = mechanize(
+            self.t_s, dth, dv, q_from_c(c0), np.zeros(3), self.pos0, gravity=gravity, height_ref=self.h_ref
         )
-    if dov0 is not None:  # the alignment knows the deflection: undo the plumb-line levelling
-        phi0 = initial_misalignment(dov0[0], dov0[1], lat0)
-        from ldvsurvey.nav.attitude import skew
-
-        c0 = (np.eye(3) + skew(phi0)) @ c0
-    q, v, p = mechanize(t, dth, dv, q_from_c(c0), np.zeros(3), pos0, gravity=gravity, height_ref=h_ref)
-    return p
+        return p
 
 
-def run(logs, params, progress) -> PipelineResult:
-    params = params.model_dump()  # transitional: typed access comes with issue 30
-    log = logs[0]
+def _prepared(log: DriveLog, progress: Progress) -> tuple[NavInputs, tuple | None, list[str]]:
+    """The loaded log (GNSS and a static start required), a rotating IMU's (C_b^s, encoder angle)
+    with the base tilt applied, and the warnings so far."""
     warnings = []
     progress("preparing", 0.02)
     inp = nav_inputs(log)
@@ -171,13 +198,12 @@ def run(logs, params, progress) -> PipelineResult:
         est, _ = tilt_stage(inp)
         warnings += est.warnings
         rot = (c_bs_of(inp, est.alpha_rad, est.beta_rad), inp.eta_rad)
-    progress("reference trajectory (GNSS/INS)", 0.04)
-    ref = gnss_ins(inp, None if rot is None else rot[0])
-    lat_deg, lon_deg = np.degrees(ref.pos[:, 0]), np.degrees(ref.pos[:, 1])
-    grid = _grid(params, lat_deg, lon_deg, progress)
-    method = "linear" if params["interpolation"] == "bilinear" else "cubic"
-    xi, eta, _ = grid.interpolate(lat_deg, lon_deg, method)
-    progress("direct and RK4 propagation", 0.3)
+    return inp, rot, warnings
+
+
+def _propagated(inp: NavInputs, ref, xi, eta, params: DovStudyParams) -> tuple[dict, np.ndarray]:
+    """The DOV-induced position errors by the direct and the RK4 propagators along the reference:
+    ``{"direct"|"rk4": (t_s, north_m, east_m)}``, and the initial misalignment (rad) the DOV causes."""
     f_n, w_in = _f_n_w_in(ref, inp)
     lat, h = ref.pos[:, 0], ref.pos[:, 2]
     gam = normal_gravity(lat, h)
@@ -187,42 +213,143 @@ def run(logs, params, progress) -> PipelineResult:
         to, dn, de, _ = propagate(
             Trajectory(inp.t_s, lat, h, ref.v_n[:, 0], f_n, w_in, gam),
             Deflection(xi, eta),
-            params["update_s"],
+            params.update_s,
             rk,
             phi0,
-            params["propagation_model"] == "full",
+            params.propagation_model == "full",
         )
         out[name] = (to, dn, de)
-    progress("theoretical: two mechanizations", 0.45)
-    k_static = inp.t_s <= inp.static_end_s
-    h_ref = (ref.pos[:, 2], ref.v_n[:, 2])
-    pos0 = ref.pos[0].copy()
+    return out, phi0
 
-    def free_inertial(dtheta_rad=inp.dtheta_rad, dvel_mps=inp.dvel_mps, dov=None):
-        """Positions of a free-inertial mechanization of the increments; ``dov`` = (ξ, η) per sample
-        (rad) compensates the gravity vector and the alignment with that deflection."""
-        kw = {} if dov is None else {"gravity": (*dov, np.zeros_like(dov[0])), "dov0": (dov[0][0], dov[1][0])}
-        return _mechanize(inp.t_s, dtheta_rad, dvel_mps, k_static, lat[0], pos0, h_ref, rot=rot, **kw)
 
-    p_unc = free_inertial()
-    p_exact = None  # compensated with the DOV along the track: computed once, used by both studies
-    if params["imu_nodov"]:
-        path = Path(params["imu_nodov"])
+def _theoretical(log: DriveLog, fi: _FreeInertial, xi, eta, imu_nodov: str | None, warnings: list):
+    """The reference of the theoretical error: the mechanization of ``imu_nodov`` (the same drive
+    without the DOV), else the mechanization compensated with the DOV along the track. Returns its
+    positions, the compensated positions when computed (else None) and what the reference was."""
+    if imu_nodov:
+        path = Path(imu_nodov)
         if not path.is_file():
             raise ParameterError("no such file", file=str(path), field="imu_nodov")
         imu2, _ = parse_imu(path.read_bytes(), log.manifest)
         check_no_long_gaps(imu2.long_gaps, path.name)
-        if len(imu2.t_s) != len(inp.t_s) or not np.allclose(imu2.t_s, inp.t_s):
+        if len(imu2.t_s) != len(fi.t_s) or not np.allclose(imu2.t_s, fi.t_s):
             raise ParameterError("imu_nodov must have the same sample times as imu.csv", file=path.name, field="t")
-        p_ref = free_inertial(imu2.dtheta_rad, imu2.dvel_mps)
-        theo_kind = "two IMU files (with and without DOV)"
-    else:
-        p_ref = p_exact = free_inertial(dov=(xi, eta))
-        theo_kind = "uncompensated vs compensated mechanization (no imu_nodov given)"
-        warnings.append(
-            "theoretical error from compensated vs uncompensated mechanization: give imu_nodov "
-            "for two independent mechanizations"
-        )
+        return fi.positions(imu2.dtheta_rad, imu2.dvel_mps), None, "two IMU files (with and without DOV)"
+    warnings.append(
+        "theoretical error from compensated vs uncompensated mechanization: give imu_nodov "
+        "for two independent mechanizations"
+    )
+    p_exact = fi.positions(dov=(xi, eta))
+    return p_exact, p_exact, "uncompensated vs compensated mechanization (no imu_nodov given)"
+
+
+def _compensation_study(
+    fi: _FreeInertial, grid: DovGrid, track_deg: tuple, p_exact: np.ndarray, params: DovStudyParams, progress
+) -> list[dict]:
+    """Residual of an INS compensated with a coarser grid and a held DOV against the exactly
+    compensated one, per grid step (arcmin) × update interval (s): the largest horizontal residual (m)."""
+    lat_deg, lon_deg = track_deg
+    comp = []
+    steps, updates = params.compensation_steps_arcmin, params.compensation_updates_s
+    for i, st in enumerate(steps):
+        g2 = grid if abs(st - grid.step_arcmin) < 1e-9 else grid.resample(st)
+        xs, es, _ = g2.interpolate(lat_deg, lon_deg, "linear")
+        for u in updates:
+            progress(f"compensation study: {st}' grid, {u} s updates", 0.55 + 0.4 * i / len(steps))
+            k = np.floor((fi.t_s - fi.t_s[0]) / u).astype(int)
+            first = np.r_[0, np.flatnonzero(np.diff(k)) + 1]
+            held = np.repeat(first, np.diff(np.r_[first, len(k)]))  # the DOV of each update held until the next
+            p_c = fi.positions(dov=(xs[held], es[held]))
+            r = enu_offset_m(p_exact[:, 0], p_exact[:, 1], p_exact[:, 2], p_c[:, 0], p_c[:, 1], p_exact[:, 2])
+            comp.append(
+                {"grid_step_arcmin": st, "update_s": u, "max_residual_m": float(np.max(np.hypot(r[:, 0], r[:, 1])))}
+            )
+    return comp
+
+
+def _table(t_s, track_deg: tuple, xi, eta, out: dict, output_rate_hz: float) -> dict:
+    """The ``dov.csv`` columns at ``output_rate_hz``: the track (deg), ξ, η (arcsec) and the north and
+    east errors (m) of each method."""
+    lat_deg, lon_deg = track_deg
+    step = max(1, int(round(1.0 / (output_rate_hz * np.median(np.diff(t_s))))))
+    t_out = t_s[step - 1 :: step]
+    cols = {
+        "t_s": t_out,
+        "lat_deg": lat_deg[step - 1 :: step],
+        "lon_deg": lon_deg[step - 1 :: step],
+        "xi_arcsec": np.degrees(xi[step - 1 :: step]) * 3600,
+        "eta_arcsec": np.degrees(eta[step - 1 :: step]) * 3600,
+    }
+    for name in ("direct", "rk4", "theoretical"):
+        to, dn, de = out[name]
+        cols[f"dn_{name}_m"] = np.interp(t_out, to, dn)
+        cols[f"de_{name}_m"] = np.interp(t_out, to, de)
+    return cols
+
+
+def _maxima(out: dict, theo_kind: str) -> dict:
+    """Per method the largest north and east errors (m, signed), and the direct and RK4 methods'
+    deviation (%) from the theoretical one."""
+    maxima = {}
+    for name in ("direct", "rk4", "theoretical"):
+        _, dn, de = out[name]
+        maxima[name] = {"max_north_m": float(dn[np.argmax(np.abs(dn))]), "max_east_m": float(de[np.argmax(np.abs(de))])}
+    th = maxima["theoretical"]
+    for name in ("direct", "rk4"):
+        maxima[name]["north_deviation_pct"] = 100 * (abs(maxima[name]["max_north_m"]) / abs(th["max_north_m"]) - 1)
+        maxima[name]["east_deviation_pct"] = 100 * (abs(maxima[name]["max_east_m"]) / abs(th["max_east_m"]) - 1)
+    maxima["theoretical"]["kind"] = theo_kind
+    return maxima
+
+
+def run(logs: list[DriveLog], params: DovStudyParams, progress: Progress) -> PipelineResult:
+    """The INS position error the deflection of the vertical causes, by direct difference, RK4 and
+    two mechanizations ("theoretical"), and the compensation study over grid step × update interval.
+
+    Parameters
+    ----------
+    logs : list of DriveLog
+        One parsed bundle with GNSS (the reference trajectory) and a static start.
+    params : DovStudyParams
+        The DOV source (``dov_grid`` files, else EGM2008 at ``grid_step_arcmin`` and ``degree``), the
+        interpolation, the propagators' update period (s) and model, ``imu_nodov``, the study's grid
+        steps (arcmin) and update intervals (s), the output rate (Hz).
+    progress : Progress
+        Stage reporter and cancellation.
+
+    Returns
+    -------
+    PipelineResult
+        ``dov.csv`` at ``output_rate_hz``: t_s, lat_deg, lon_deg, xi_arcsec, eta_arcsec and
+        dn_/de_<method>_m for direct, rk4 and theoretical. Summary: ``max_north_error_m``,
+        ``max_east_error_m`` per method, ``methods`` (with the deviations in %), ``compensation``
+        (max_residual_m per grid step and update), ``dov_source``,
+        ``mechanization_vs_reference_max_m``, ``rotating_imu``, ``initial_misalignment_arcsec``,
+        ``xi_range_arcsec``, ``eta_range_arcsec``.
+    """
+    log = logs[0]
+    inp, rot, warnings = _prepared(log, progress)
+    progress("reference trajectory (GNSS/INS)", 0.04)
+    ref = gnss_ins(inp, None if rot is None else rot[0])
+    lat_deg, lon_deg = np.degrees(ref.pos[:, 0]), np.degrees(ref.pos[:, 1])
+    grid = _grid(params, lat_deg, lon_deg, progress)
+    method = "linear" if params.interpolation == "bilinear" else "cubic"
+    xi, eta, _ = grid.interpolate(lat_deg, lon_deg, method)
+    progress("direct and RK4 propagation", 0.3)
+    out, phi0 = _propagated(inp, ref, xi, eta, params)
+    progress("theoretical: two mechanizations", 0.45)
+    fi = _FreeInertial(
+        inp.t_s,
+        inp.dtheta_rad,
+        inp.dvel_mps,
+        inp.t_s <= inp.static_end_s,
+        ref.pos[0, 0],
+        ref.pos[0].copy(),
+        (ref.pos[:, 2], ref.v_n[:, 2]),
+        rot,
+    )
+    p_unc = fi.positions()
+    p_ref, p_exact, theo_kind = _theoretical(log, fi, xi, eta, params.imu_nodov, warnings)
     # how far the free-inertial mechanization strays from the GNSS/INS reference (its alignment and
     # sensor errors, not the DOV): the scale against which the DOV-induced errors are read
     drift = enu_offset_m(ref.pos[:, 0], ref.pos[:, 1], ref.pos[:, 2], p_unc[:, 0], p_unc[:, 1], ref.pos[:, 2])
@@ -231,44 +358,13 @@ def run(logs, params, progress) -> PipelineResult:
     out["theoretical"] = (inp.t_s, d[:, 1], d[:, 0])
     # compensation study: residual of a compensated INS against the exactly compensated one
     comp = []
-    if params["compensation"]:
-        if p_exact is None:
-            p_exact = free_inertial(dov=(xi, eta))
-        steps, updates = params["compensation_steps_arcmin"], params["compensation_updates_s"]
-        for i, st in enumerate(steps):
-            g2 = grid if abs(st - grid.step_arcmin) < 1e-9 else grid.resample(st)
-            xs, es, _ = g2.interpolate(lat_deg, lon_deg, "linear")
-            for u in updates:
-                progress(f"compensation study: {st}' grid, {u} s updates", 0.55 + 0.4 * i / len(steps))
-                k = np.floor((inp.t_s - inp.t_s[0]) / u).astype(int)
-                first = np.r_[0, np.flatnonzero(np.diff(k)) + 1]
-                held = np.repeat(first, np.diff(np.r_[first, len(k)]))  # the DOV of each update held until the next
-                p_c = free_inertial(dov=(xs[held], es[held]))
-                r = enu_offset_m(p_exact[:, 0], p_exact[:, 1], p_exact[:, 2], p_c[:, 0], p_c[:, 1], p_exact[:, 2])
-                comp.append(
-                    {"grid_step_arcmin": st, "update_s": u, "max_residual_m": float(np.max(np.hypot(r[:, 0], r[:, 1])))}
-                )
+    if params.compensation:
+        if p_exact is None:  # compensated with the DOV along the track: computed once, used by both studies
+            p_exact = fi.positions(dov=(xi, eta))
+        comp = _compensation_study(fi, grid, (lat_deg, lon_deg), p_exact, params, progress)
     progress("writing", 0.95)
-    step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(inp.t_s))))))
-    t_out = inp.t_s[step - 1 :: step]
-    cols = {
-        "t_s": t_out,
-        "lat_deg": lat_deg[step - 1 :: step],
-        "lon_deg": lon_deg[step - 1 :: step],
-        "xi_arcsec": np.degrees(xi[step - 1 :: step]) * 3600,
-        "eta_arcsec": np.degrees(eta[step - 1 :: step]) * 3600,
-    }
-    maxima = {}
-    for name in ("direct", "rk4", "theoretical"):
-        to, dn, de = out[name]
-        cols[f"dn_{name}_m"] = np.interp(t_out, to, dn)
-        cols[f"de_{name}_m"] = np.interp(t_out, to, de)
-        maxima[name] = {"max_north_m": float(dn[np.argmax(np.abs(dn))]), "max_east_m": float(de[np.argmax(np.abs(de))])}
-    th = maxima["theoretical"]
-    for name in ("direct", "rk4"):
-        maxima[name]["north_deviation_pct"] = 100 * (abs(maxima[name]["max_north_m"]) / abs(th["max_north_m"]) - 1)
-        maxima[name]["east_deviation_pct"] = 100 * (abs(maxima[name]["max_east_m"]) / abs(th["max_east_m"]) - 1)
-    maxima["theoretical"]["kind"] = theo_kind
+    cols = _table(inp.t_s, (lat_deg, lon_deg), xi, eta, out, params.output_rate_hz)
+    maxima = _maxima(out, theo_kind)
     s = {
         "max_north_error_m": {k: v["max_north_m"] for k, v in maxima.items()},
         "max_east_error_m": {k: v["max_east_m"] for k, v in maxima.items()},
@@ -284,22 +380,11 @@ def run(logs, params, progress) -> PipelineResult:
     return PipelineResult(summary=s, tables={"dov": cols}, warnings=warnings)
 
 
-def cli_setup() -> None:
-    """Before a CLI run: synthesized grids are cached in the application's database."""
-    from ldvsurvey.settings import get_settings
-    from ldvsurvey.store.db import upgrade_head
-    from ldvsurvey.store.gridcache import DbGridCache
-
-    url = get_settings().resolved_database_url()
-    upgrade_head(url)
-    GRID_CACHE.set(DbGridCache(url))
-
-
 PIPELINE = Pipeline(
     "dov",
     run,
     DovStudyParams,
     "DOV-induced INS position error and its compensation",
     applicable=applicable,
-    cli_setup=cli_setup,
+    uses_grid_cache=True,
 )

@@ -34,7 +34,6 @@ from ldvsurvey.pipelines.base import (
     rate_within_imu,
     window_inside,
 )
-from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of
 from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
 from ldvsurvey.pipelines.gravity_drift import drift_correction
 from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
@@ -49,8 +48,10 @@ from ldvsurvey.pipelines.gravity_report import (
     frame_tilt,
     with_imu_bridges,
 )
-from ldvsurvey.pipelines.inputs import gnss_aid, navigate
 from ldvsurvey.pipelines.navigate import run_navigation
+from ldvsurvey.pipelines.stages.aids import gnss_aid
+from ldvsurvey.pipelines.stages.aids import run_navigation_filter as navigate
+from ldvsurvey.pipelines.stages.ldv_mounting import CalibrationParams, calibration_applicable, ldv_aid_of
 
 
 class GravityParams(CalibrationParams):

@@ -32,8 +32,8 @@ from scipy.ndimage import median_filter, uniform_filter1d
 from ldvsurvey.nav.attitude import c_from_q
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.gravity import bridge_velocity, disturbance_mps2, runs, zero_phase_lowpass
-from ldvsurvey.pipelines.calibration import accel_fwd, ldv_body_velocity
-from ldvsurvey.pipelines.inputs import GNSS_SIGMA, attitude_at
+from ldvsurvey.pipelines.stages.aids import GNSS_SIGMA, attitude_at
+from ldvsurvey.pipelines.stages.ldv_mounting import accel_fwd, ldv_body_velocity
 
 #: GNSS fixes (each side) through whose offset from the doubly integrated f_U a line is fitted to tie a gap's bridge
 GNSS_EDGE_N = 10

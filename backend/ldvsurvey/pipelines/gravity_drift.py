@@ -16,7 +16,7 @@ import numpy as np
 from scipy.stats import chi2 as chi2_dist
 
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.pipelines.inputs import local_metres
+from ldvsurvey.pipelines.stages.aids import local_metres
 
 #: stops shorter than this (after trimming their edges) are not used, s
 MIN_STOP_S = 10.0

@@ -21,7 +21,7 @@ from ldvsurvey.nav.gravity import G0
 from ldvsurvey.nav.gravmodel import free_air_anomaly_mgal, height_anomaly_grid, omission_mgal
 from ldvsurvey.pipelines.gravity_drift import stop_means
 from ldvsurvey.pipelines.gravity_tieheight import check_tie_heights
-from ldvsurvey.pipelines.inputs import local_metres
+from ldvsurvey.pipelines.stages.aids import local_metres
 
 #: a tie's absolute g must be a plausible value on the Earth's surface (mGal)
 G_RANGE_MGAL = (976000.0, 984000.0)
@@ -447,7 +447,7 @@ def _external_check(table, per_line, params, res, fir_s, warnings):
             )
         name, degree = grid.source or "user grid", None
     else:
-        from ldvsurvey.pipelines.plumb import EGM_DEGREE, _egm
+        from ldvsurvey.pipelines.stages.plumb_line import EGM_DEGREE, _egm
 
         # δg at the tracks' height, not on the ellipsoid: the model's short wavelengths attenuate upward
         # (degree 2190 by ~(R/(R+h))^n, a third at 3 km), as the survey's own δg at the vehicle
@@ -483,7 +483,7 @@ def _external_check(table, per_line, params, res, fir_s, warnings):
 
 
 def _user_grid(params):
-    from ldvsurvey.pipelines.plumb import _uploaded, load_grids
+    from ldvsurvey.pipelines.stages.plumb_line import _uploaded, load_grids
 
     if params.get("external_grid_id"):
         return _uploaded(params["external_grid_id"])

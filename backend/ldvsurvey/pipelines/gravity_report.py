@@ -22,7 +22,7 @@ from ldvsurvey.nav.gravity import (
     trim_line,
     zero_phase_lowpass,
 )
-from ldvsurvey.pipelines.inputs import local_metres
+from ldvsurvey.pipelines.stages.aids import local_metres
 
 #: filtered values are withheld where bridged samples take more than this share of the FIR's weight …
 MAX_BRIDGED_SHARE = 0.5

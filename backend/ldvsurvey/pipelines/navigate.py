@@ -8,21 +8,39 @@ import numpy as np
 from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
+from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
+from ldvsurvey.nav.filter import NavSolution
 from ldvsurvey.pipelines.base import (
     LogFacts,
     Pipeline,
     PipelineResult,
+    Progress,
     Reason,
     needs_gnss,
     needs_ldv,
     output_rate,
     rate_within_imu,
+    warn,
 )
-from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of, ldv_setup
-from ldvsurvey.pipelines.inputs import attitude_at, gnss_aid, nav_inputs, navigate
-from ldvsurvey.pipelines.plumb import DOV_HELP, DovChoice, DovParams, apply_dov
+from ldvsurvey.pipelines.stages.aids import (
+    NavInputs,
+    attitude_at,
+    c_bs_of,
+    gnss_aid,
+    nav_inputs,
+    run_navigation_filter,
+)
+from ldvsurvey.pipelines.stages.ldv_mounting import (
+    CalibrationParams,
+    LdvSetup,
+    calibration_applicable,
+    ldv_aid_of,
+    ldv_setup,
+)
+from ldvsurvey.pipelines.stages.plumb_line import DOV_HELP, DovChoice, DovParams, apply_dov
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import DEG_PER_RAD as DEG
 
 
@@ -59,41 +77,74 @@ def applicable(logs: list[LogFacts], params: NavigateParams) -> list[Reason]:
     return out + (calibration_applicable(logs, params) if ldv_runs else []) + rate_within_imu(logs, params)
 
 
-def run_navigation(log, params, progress, specific_force: bool = True):
-    """The navigation solution and what was used (shared with the gravity pipeline; ``specific_force``
-    False: the solution carries no per-sample up specific force, which only gravity reads)."""
+def run_navigation(
+    log: DriveLog,
+    params: CalibrationParams,
+    progress: Progress,
+    *,
+    aiding: str = "auto",
+    smooth: bool = True,
+    dov: DovParams | None = None,
+    specific_force: bool = True,
+) -> tuple[NavInputs, LdvSetup | None, NavSolution]:
+    """The navigation of a log with the LDV set up as ``params`` say (shared with the gravity pipeline).
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle.
+    params : CalibrationParams
+        The LDV calibration: automatic, nominal or given values (a gravity or navigate model works too).
+    progress : Progress
+        Stage reporter.
+    aiding : {"auto", "ldv", "gnss", "ldv+gnss"}
+        What aids the filter (``auto``: ``ldv`` on a log with a usable LDV, else ``gnss``).
+    smooth : bool
+        Run the RTS smoother after the forward filter.
+    dov : DovParams or None
+        The deflection of the vertical in the mechanization's gravity; None (a pipeline without
+        those parameters): normal gravity.
+    specific_force : bool
+        False: the solution carries no per-sample up specific force (only gravity reads it).
+
+    Returns
+    -------
+    inp : NavInputs
+        The loaded log; ``inp.cache["aiding"]`` the aiding used, ``inp.cache["dov"]`` the DOV summary
+        block and its warnings.
+    setup : LdvSetup or None
+        The LDV set-up used (None without LDV aiding).
+    sol : NavSolution
+        The navigation solution.
+    """
+    if isinstance(params, dict):  # transitional: gravity hands its parameters as a dict until the grav branch
+        aiding, smooth = params.get("aiding", "auto"), params.get("smooth", True)
+        params = CalibrationParams(**{k: v for k, v in params.items() if k in CalibrationParams.model_fields})
     inp = nav_inputs(log)
-    aiding = resolve_aiding(params.get("aiding", "auto"), inp.has_ldv)
+    aiding = resolve_aiding(aiding, inp.has_ldv)
     if "ldv" in aiding:
         inp.require_ldv()
     if log.ldv is not None and not inp.has_ldv:
-        from ldvsurvey.pipelines.base import warn
-
         warn(f"the LDV has no usable sample ({inp.ldv_unusable.message}): navigated with {aiding} aiding")
-    # pipelines that share this function without the dov parameters keep normal gravity
-    dov_info, dov_warn = ({"source": "none"}, []) if "dov" not in params else apply_dov(inp, params, progress)
+    dov_info, dov_warn = ({"source": "none"}, []) if dov is None else apply_dov(inp, dov, progress)
     inp.cache["dov"] = (dov_info, dov_warn)
     use_ldv = "ldv" in aiding
     use_gnss = "gnss" in aiding
     if use_gnss and log.gnss is None:
         raise ParameterError("aiding includes gnss but the bundle has no gnss.nmea", field="aiding")
-    smooth = params.get("smooth", True)
     # LDV and GNSS, smoothed: the automatic calibration and the navigation are one filter run
     setup = (
         ldv_setup(inp, params, progress, joint=use_gnss and smooth, specific_force=specific_force) if use_ldv else None
     )
     cbs = setup.cbs if setup else None
     if setup is None and inp.eta_rad is not None:
-        from ldvsurvey.pipelines.inputs import c_bs_of
-        from ldvsurvey.pipelines.tiltfit import tilt_stage
-
         est, _ = tilt_stage(inp)
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
     inp.cache["aiding"] = aiding
     if setup is not None and setup.solution is not None:
         return inp, setup, setup.solution
     progress(f"navigation ({aiding})", 0.5)
-    sol = navigate(
+    sol = run_navigation_filter(
         inp,
         cbs=cbs,
         ldv=ldv_aid_of(inp, setup) if use_ldv else None,
@@ -104,8 +155,26 @@ def run_navigation(log, params, progress, specific_force: bool = True):
     return inp, setup, sol
 
 
-def errors_vs_gnss(log, sol, fixes=(4,)):
-    """Horizontal and height errors (m) of the solution at GNSS fixes of the given qualities (IMU centre)."""
+def errors_vs_gnss(log: DriveLog, sol: NavSolution, fixes=(4,)):
+    """Horizontal and height errors of the solution at the GNSS fixes of the given qualities.
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle.
+    sol : NavSolution
+        The navigation.
+    fixes : tuple of int
+        The fix qualities compared with.
+
+    Returns
+    -------
+    horizontal_m, height_m : ndarray or None
+        Per fix, the horizontal distance (m) and the height difference (m, solution minus fix) of
+        the IMU centre (the fixes brought there through the lever arm); None without such a fix.
+    n : int
+        The number of fixes compared.
+    """
     g = log.gnss
     if g is None:
         return None, None, 0
@@ -123,14 +192,36 @@ def errors_vs_gnss(log, sol, fixes=(4,)):
     return np.hypot(d[:, 0], d[:, 1]), d[:, 2], int(k.sum())
 
 
-def run(logs, params, progress) -> PipelineResult:
-    params = params.model_dump()  # transitional: typed access comes with issue 30
+def run(logs: list[DriveLog], params: NavigateParams, progress: Progress) -> PipelineResult:
+    """Navigate one log: alignment, the filter with the chosen aiding (and the LDV calibration it
+    needs), the RTS smoother.
+
+    Parameters
+    ----------
+    logs : list of DriveLog
+        One parsed bundle.
+    params : NavigateParams
+        Aiding, smoothing, output rate (Hz), the LDV calibration and the deflection of the vertical.
+    progress : Progress
+        Stage reporter and cancellation.
+
+    Returns
+    -------
+    PipelineResult
+        ``trajectory.csv`` at ``output_rate_hz``: t_s, lat_deg, lon_deg, h_m, v_e/v_n/v_u_mps,
+        pitch/roll/heading_deg and their 1-σ (deg, m/s, m). Summary: ``aiding``, ``smoothed``,
+        ``max_horizontal_error_m``, ``max_height_error_m``, ``rms_horizontal_error_m`` against fix-4
+        GNSS (IMU centre) and ``n_reference``, ``rejected_measurements``, ``gyro_bias_dph``,
+        ``accel_bias_ug``, ``dov`` and, with the LDV, ``calibration``.
+    """
     log = logs[0]
     progress("preparing", 0.02)
-    inp, setup, sol = run_navigation(log, params, progress, specific_force=False)
+    inp, setup, sol = run_navigation(
+        log, params, progress, aiding=params.aiding, smooth=params.smooth, dov=params, specific_force=False
+    )
     progress("writing", 0.9)
     horiz, vert, n_ref = errors_vs_gnss(log, sol)
-    step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(sol.t_s))))))
+    step = max(1, int(round(1.0 / (params.output_rate_hz * np.median(np.diff(sol.t_s))))))
     sl = slice(step - 1, None, step)
     p, r, hd = euler_from_c_bn(sol.c_bn(sl))
     sg = sol.sigma_at(sl)
@@ -157,7 +248,7 @@ def run(logs, params, progress) -> PipelineResult:
     }
     s = {
         "aiding": inp.cache["aiding"],
-        "smoothed": bool(params["smooth"]),
+        "smoothed": bool(params.smooth),
         "max_horizontal_error_m": None if horiz is None else float(np.max(horiz)),
         "max_height_error_m": None if vert is None else float(vert[np.argmax(np.abs(vert))]),
         "rms_horizontal_error_m": None if horiz is None else float(np.sqrt(np.mean(horiz**2))),

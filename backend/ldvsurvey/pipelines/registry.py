@@ -9,7 +9,7 @@ pipelines themselves (``values()``, ``items()``: ``GET /api/pipelines``, the war
 from __future__ import annotations
 
 import importlib
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 
 from ldvsurvey.errors import ParameterError
 
@@ -61,25 +61,53 @@ def get(name: str):
     return PIPELINES[name]
 
 
-def run_pipeline_cli(name: str, bundles: list[str], out: str, sets: list[str]) -> int:
-    """``ldv-survey run``: load the bundles, run, write summary.json and the CSV tables."""
+def run_pipeline_cli(
+    name: str, bundles: list[str], out: str, sets: list[str], open_grid_cache: Callable[[], object] | None = None
+) -> int:
+    """``ldv-survey run``: load the bundles, run, write summary.json and the CSV tables.
+
+    Parameters
+    ----------
+    name : str
+        The pipeline.
+    bundles : list of str
+        Bundle folders or zip files.
+    out : str
+        Folder for the result files.
+    sets : list of str
+        ``KEY=VALUE`` parameters.
+    open_grid_cache : callable or None
+        Opens the grid cache (``get(key)``, ``put(key, grid)``) a pipeline that
+        :attr:`~ldvsurvey.pipelines.base.Pipeline.uses_grid_cache` keeps its grids in (the CLI
+        passes the database's; the pipelines never open it themselves).
+
+    Returns
+    -------
+    int
+        The exit code (0).
+    """
     import sys
 
     from ldvsurvey.io.drivelog import load_bundle
     from ldvsurvey.pipelines.base import LogFacts, Progress, parse_set_args, run_pipeline, write_result
+    from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE
 
     pipe = get(name)
     params = parse_set_args(sets)
     pipe.validate(params)  # unknown, malformed or out-of-range parameters fail before any work
     logs = [load_bundle(b) for b in bundles]
     pipe.check([LogFacts.of_log(log) for log in logs], params)  # and a pipeline that cannot apply
-    if pipe.cli_setup is not None:
-        pipe.cli_setup()
 
     def report(stage, frac):
         print(f"[{frac * 100:5.1f} %] {stage}", file=sys.stderr)
 
-    result = run_pipeline(pipe, logs, params, Progress(report))
+    opened = pipe.uses_grid_cache and open_grid_cache is not None
+    token = GRID_CACHE.set(open_grid_cache()) if opened else None  # for this run only
+    try:
+        result = run_pipeline(pipe, logs, params, Progress(report))
+    finally:
+        if token is not None:
+            GRID_CACHE.reset(token)
     for p in write_result(result, out):
         print(p)
     return 0

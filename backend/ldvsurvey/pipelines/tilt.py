@@ -6,11 +6,22 @@ import numpy as np
 from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
+from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.nav.attitude import euler_from_c_bn
-from ldvsurvey.nav.turntable import oscillation_per_cycle
-from ldvsurvey.pipelines.base import LogFacts, Params, Pipeline, PipelineResult, Reason, output_rate, rate_within_imu
-from ldvsurvey.pipelines.inputs import c_bs_of, gnss_aid, ldv_aid, nav_inputs, navigate
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.nav.filter import NavSolution
+from ldvsurvey.nav.turntable import TiltEstimate, oscillation_per_cycle
+from ldvsurvey.pipelines.base import (
+    LogFacts,
+    Params,
+    Pipeline,
+    PipelineResult,
+    Progress,
+    Reason,
+    output_rate,
+    rate_within_imu,
+)
+from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, gnss_aid, ldv_aid, nav_inputs, run_navigation_filter
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
 
@@ -47,30 +58,51 @@ def applicable(logs: list[LogFacts], params: TiltParams) -> list[Reason]:
     ] + rate_within_imu(logs, params)
 
 
-def compensated_attitude(inp, est, params, progress, frac=0.4):
-    """Navigation with LDV aiding (a log without an LDV: GNSS aiding, if any) and the tilt applied;
-    returns (solution, C_s^n, C_b^n, raw C_b^n)."""
+def compensated_attitude(
+    inp: NavInputs, est: TiltEstimate, params: TiltParams, progress: Progress, frac: float = 0.4
+) -> tuple[NavSolution, np.ndarray, np.ndarray, np.ndarray]:
+    """Navigation with LDV aiding (a log without an LDV: GNSS aiding, if any) and the tilt applied.
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log of a rotating IMU.
+    est : TiltEstimate
+        The base tilt α, β (rad).
+    params : TiltParams
+        The LDV mounting (deg) and scale for the aiding (None: the manifest's nominal).
+    progress : Progress
+        Stage reporter; ``frac`` the fraction reported.
+
+    Returns
+    -------
+    sol : NavSolution
+        The navigation.
+    c_sn, c_bn, raw : ndarray
+        (N, 3, 3) C_s^n, C_b^n with the tilt compensated, and C_b^n with α = β = 0.
+    """
     cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
     progress("navigation with the tilt compensated", frac)
     if not inp.has_ldv:
-        sol = navigate(inp, cbs=cbs, gnss=gnss_aid(inp.log))
+        sol = run_navigation_filter(inp, cbs=cbs, gnss=gnss_aid(inp.log))
     else:
         aid = ldv_aid(
             inp,
-            scale=params.get("ldv_scale"),
-            pitch_rad=None if params.get("ldv_pitch_deg") is None else params["ldv_pitch_deg"] * RAD,
-            heading_rad=None if params.get("ldv_heading_deg") is None else params["ldv_heading_deg"] * RAD,
+            scale=params.ldv_scale,
+            pitch_rad=None if params.ldv_pitch_deg is None else params.ldv_pitch_deg * RAD,
+            heading_rad=None if params.ldv_heading_deg is None else params.ldv_heading_deg * RAD,
         )
-        sol = navigate(inp, cbs=cbs, ldv=aid)
+        sol = run_navigation_filter(inp, cbs=cbs, ldv=aid)
     c_bn = sol.c_bn()
     c_sn = c_bn @ np.swapaxes(cbs, -1, -2)
     raw = c_sn @ c_bs_of(inp, 0.0, 0.0)
     return sol, c_sn, c_bn, raw
 
 
-def oscillation(inp, c_bn, raw):
-    """Mean per-cycle peak-to-peak pitch and roll (rad), before and after compensation, over the
-    static period (else every still interval); None when no full turntable cycle lies in one."""
+def oscillation(inp: NavInputs, c_bn: np.ndarray, raw: np.ndarray) -> dict | None:
+    """Mean per-cycle peak-to-peak pitch and roll (rad), before (``raw`` C_b^n) and after (``c_bn``)
+    compensation, over the static period (else every still interval), as ``{"before": (pitch, roll,
+    cycles), "after": ...}``; None when no full turntable cycle lies in one."""
     for still in ([(inp.t_s[0] - 1.0, inp.static_end_s)], inp.still):
         out = {}
         for name, c in (("before", raw), ("after", c_bn)):
@@ -84,8 +116,26 @@ def oscillation(inp, c_bn, raw):
     return None
 
 
-def run(logs, params, progress) -> PipelineResult:
-    params = params.model_dump()  # transitional: typed access comes with issue 30
+def run(logs: list[DriveLog], params: TiltParams, progress: Progress) -> PipelineResult:
+    """Estimate the base tilt of a rotating IMU's turntable axis and navigate with it compensated.
+
+    Parameters
+    ----------
+    logs : list of DriveLog
+        One parsed bundle of a rotating IMU.
+    params : TiltParams
+        Output rate (Hz) and the LDV mounting (deg) and scale for the aiding.
+    progress : Progress
+        Stage reporter and cancellation.
+
+    Returns
+    -------
+    PipelineResult
+        ``attitude.csv`` at ``output_rate_hz``: t_s, turntable_deg, pitch/roll_raw_deg (α = β = 0),
+        pitch/roll/heading_deg (compensated). Summary: ``alpha_rad``, ``beta_rad`` and their
+        ``_sigma``, ``tilt_observable``, ``n_pairs``, ``n_still_intervals``, ``turntable_diversity``,
+        ``rms_residual_rad``, ``pitch/roll_oscillation_before/after_rad``, ``n_cycles``, ``aiding``.
+    """
     log = logs[0]
     progress("preparing", 0.02)
     inp = nav_inputs(log)
@@ -113,7 +163,7 @@ def run(logs, params, progress) -> PipelineResult:
             "before and after compensation is not reported"
         )
     progress("writing", 0.9)
-    step = max(1, int(round(1.0 / (params["output_rate_hz"] * np.median(np.diff(inp.t_s))))))
+    step = max(1, int(round(1.0 / (params.output_rate_hz * np.median(np.diff(inp.t_s))))))
     sl = slice(step - 1, None, step)
     p0, r0, _ = euler_from_c_bn(raw[sl])
     p1, r1, h1 = euler_from_c_bn(c_bn[sl])

@@ -61,9 +61,11 @@ class WarmupReport:
 
     @property
     def covered(self) -> set[str]:
+        """The pipelines that ran at least once without error."""
         return {r.pipeline for r in self.runs if r.ok}
 
     def as_dict(self) -> dict:
+        """The report as JSON-ready values (elapsed times in s)."""
         return {
             "cache_dir": self.cache_dir,
             "compiled": self.compiled,

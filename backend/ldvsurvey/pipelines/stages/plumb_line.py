@@ -18,8 +18,8 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.gdf import parse_gdf
 from ldvsurvey.nav.dovgrid import ARCSEC, DovGrid, area_for_track, egm_grid
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.pipelines.base import Params, Paths, Text
-from ldvsurvey.pipelines.inputs import NavInputs
+from ldvsurvey.pipelines.base import Params, Paths, Progress, Text
+from ldvsurvey.pipelines.stages.aids import NavInputs
 
 EGM_STEP_ARCMIN = 1.0
 EGM_DEGREE = 2190
@@ -48,7 +48,19 @@ class DovParams(Params):
 
 
 def load_grids(paths) -> DovGrid:
-    """ξ, η (and Δg) grids from two (three) ``.gdf`` files on the same nodes."""
+    """ξ, η (and Δg) grids from two (three) ``.gdf`` files on the same nodes.
+
+    Parameters
+    ----------
+    paths : list of str
+        ``xi.gdf, eta.gdf[, dg.gdf]``: ξ, η in arcsec, Δg in mGal (ICGEM grid files, server paths).
+
+    Returns
+    -------
+    DovGrid
+        The grids on their nodes (deg), named after the files; a ParameterError naming the file
+        that is missing, malformed or on other nodes.
+    """
     if len(paths) not in (2, 3):
         raise ParameterError("give two or three .gdf files: dov_grid=xi.gdf,eta.gdf[,dg.gdf]", field="dov_grid")
     parsed = []
@@ -74,7 +86,7 @@ def load_grids(paths) -> DovGrid:
 
 
 def _uploaded(grid_id: str) -> DovGrid:
-    from ldvsurvey.pipelines.gridctx import GRID_CACHE
+    from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE
 
     cache = GRID_CACHE.get()
     if cache is None:
@@ -89,7 +101,7 @@ def _uploaded(grid_id: str) -> DovGrid:
 
 def _egm(lat_deg, lon_deg, progress, h_m: float = 0.0) -> DovGrid:
     """The EGM2008 grid over the track at the ellipsoidal height ``h_m`` (m), memoized and cached."""
-    from ldvsurvey.pipelines.gridctx import GRID_CACHE
+    from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE
 
     area = area_for_track(lat_deg, lon_deg, EGM_STEP_ARCMIN)
     h_m = float(round(h_m))  # to the metre: δg changes by ~µGal per metre of height at these wavelengths
@@ -121,16 +133,34 @@ def _track(inp: NavInputs):
     )
 
 
-def apply_dov(inp: NavInputs, params: dict, progress) -> tuple[dict, list[str]]:
+def apply_dov(inp: NavInputs, params: DovParams, progress: Progress) -> tuple[dict, list[str]]:
     """Set ``inp.gravity`` from the chosen source; return the summary block and warnings.
 
     The block states the source, max/RMS of ξ, η (arcsec) and Δg (mGal) along the track, and the
     first-order height difference the levelling makes: δh(t) = ∫ (ξ v_N + η v_E) dt (the height
     an INS levelled to the plumb line gains, the geoid change along the track with opposite sign),
     with v from the GNSS track.
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log; its ``gravity`` is set to (ξ rad, η rad, Δg m/s²) per IMU sample.
+    params : DovParams
+        ``dov`` (none, egm2008, grid) and the grids for ``dov=grid`` (``dov_grid`` files or an
+        uploaded ``dov_grid_id``).
+    progress : Progress
+        Stage reporter.
+
+    Returns
+    -------
+    info : dict
+        The summary block (``source``, ``xi_arcsec_max``/``_rms``, ``eta_arcsec_*``, ``dg_mgal_*``,
+        ``dg_used``, ``height_effect_max_m``).
+    warnings : list of str
+        What had to be assumed (no GNSS track: the deflection at the start position throughout).
     """
-    mode = params.get("dov") or "none"
-    paths = params.get("dov_grid") or params.get("dov_grid_id")
+    mode = params.dov
+    paths = params.dov_grid or params.dov_grid_id
     if mode == "none":
         if paths:
             raise ParameterError("dov_grid is given but dov=none; set dov=grid to use it", field="dov")
@@ -142,9 +172,9 @@ def apply_dov(inp: NavInputs, params: dict, progress) -> tuple[dict, list[str]]:
             raise ParameterError(
                 "dov=grid needs dov_grid=xi.gdf,eta.gdf[,dg.gdf] (or dov_grid_id of an upload)", field="dov_grid"
             )
-        if params.get("dov_grid") and params.get("dov_grid_id"):
+        if params.dov_grid and params.dov_grid_id:
             raise ParameterError("give dov_grid or dov_grid_id, not both", field="dov_grid_id")
-        grid = load_grids(paths) if params.get("dov_grid") else _uploaded(params["dov_grid_id"])
+        grid = load_grids(params.dov_grid) if params.dov_grid else _uploaded(params.dov_grid_id)
     else:
         if paths:
             raise ParameterError("dov_grid is given but dov=egm2008; set dov=grid to use it", field="dov")

@@ -11,11 +11,11 @@ from pydantic import Field, field_validator
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.nav.filter import forward_accel_mps2
+from ldvsurvey.nav.filter import LdvAid, forward_accel_mps2
 from ldvsurvey.nav.innovations import variance_inflation
 from ldvsurvey.nav.turntable import TiltEstimate
-from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Reason, window_inside
-from ldvsurvey.pipelines.inputs import (
+from ldvsurvey.pipelines.base import Floats, LogFacts, Params, Progress, Reason, window_inside
+from ldvsurvey.pipelines.stages.aids import (
     NAV_FIXES,
     NavInputs,
     attitude_at,
@@ -23,10 +23,10 @@ from ldvsurvey.pipelines.inputs import (
     gnss_aid,
     ldv_aid,
     local_metres,
-    navigate,
     pipeline_cfg,
+    run_navigation_filter,
 )
-from ldvsurvey.pipelines.tiltfit import tilt_stage
+from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 from ldvsurvey.units import RAD_PER_DEG as RAD
 
@@ -60,7 +60,22 @@ GOOD_FIXES = ((4,), (4, 5, 2))
 
 def choose_window(inp: NavInputs, window=None, min_distance_m: float = 500.0) -> tuple[float, float]:
     """The calibration stretch: given, or the longest RTK-fixed (fix 4) moving stretch, else the
-    longest one of fix 4, 5 or 2."""
+    longest one of fix 4, 5 or 2.
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log (GNSS needed).
+    window : (float, float) or None
+        A given ``t0, t1`` (s), checked to lie inside the log and hold 10 good fixes.
+    min_distance_m : float
+        The shortest stretch (m) accepted when none is given.
+
+    Returns
+    -------
+    (float, float)
+        ``t0, t1`` (s) of the stretch.
+    """
     return _choose_window(inp, window, min_distance_m)[0]
 
 
@@ -107,14 +122,50 @@ def _choose_window(inp: NavInputs, window=None, min_distance_m: float = 500.0):
     )
 
 
-def ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up=1.0, pitch_k=0.0, accel_fwd=None):
-    """V^b (m/s, (N, 3)) = C_d^b(η_L + k_η a_f, φ_L) [0, ν_f/K, ν_u/K_u] (ν_u = 0 for a 1-D LDV)."""
-    nu_f = np.asarray(nu_f, float)
+def ldv_body_velocity(
+    nu_f_mps, nu_u_mps, scale, pitch_rad, heading_rad, scale_up=1.0, pitch_k_rad_per_mps2=0.0, accel_fwd_mps2=None
+):
+    """The LDV velocity in the body frame: V^b = C_d^b(η_L + k_η a_f, φ_L) [0, ν_f/K, ν_u/K_u].
+
+    Parameters
+    ----------
+    nu_f_mps, nu_u_mps : ndarray
+        Measured speeds (m/s) along the head's forward and up axes (``nu_u_mps`` None: a 1-D LDV, ν_u = 0).
+    scale, scale_up : float
+        Scale factors K, K_u (dimensionless).
+    pitch_rad, heading_rad : float
+        Mounting pitch η_L and heading φ_L of the travel direction the LDV sees (rad).
+    pitch_k_rad_per_mps2 : float
+        Pitch compliance k_η (rad per m/s² of forward acceleration).
+    accel_fwd_mps2 : ndarray or None
+        Forward acceleration along the travel (m/s²) per sample, with the compliance.
+
+    Returns
+    -------
+    ndarray
+        (N, 3) body-frame velocity (m/s, right-forward-up).
+    """
+    nu_f = np.asarray(nu_f_mps, float)
     vd1 = nu_f / scale
-    vd2 = np.asarray(nu_u, float) / scale_up if nu_u is not None else np.zeros_like(nu_f)
-    eta = pitch + (pitch_k * np.asarray(accel_fwd, float) if accel_fwd is not None and pitch_k else 0.0)
-    ce, se, cp, sp = np.cos(eta), np.sin(eta), np.cos(heading), np.sin(heading)
+    vd2 = np.asarray(nu_u_mps, float) / scale_up if nu_u_mps is not None else np.zeros_like(nu_f)
+    pitch_k = pitch_k_rad_per_mps2
+    eta = pitch_rad + (pitch_k * np.asarray(accel_fwd_mps2, float) if accel_fwd_mps2 is not None and pitch_k else 0.0)
+    ce, se, cp, sp = np.cos(eta), np.sin(eta), np.cos(heading_rad), np.sin(heading_rad)
     return np.column_stack([-sp * ce * vd1 + sp * se * vd2, cp * ce * vd1 - cp * se * vd2, se * vd1 + ce * vd2])
+
+
+def aid_body_velocity(aid: LdvAid) -> np.ndarray:
+    """:func:`ldv_body_velocity` of an aid's samples through its mounting, compliance and scales (m/s, (N, 3))."""
+    return ldv_body_velocity(
+        aid.nu_f_mps,
+        aid.nu_u_mps,
+        aid.scale,
+        aid.pitch_rad,
+        aid.heading_rad,
+        aid.scale_up,
+        aid.pitch_k_rad_per_mps2,
+        aid.accel_fwd_mps2,
+    )
 
 
 def accel_fwd(inp: NavInputs) -> np.ndarray:
@@ -124,14 +175,14 @@ def accel_fwd(inp: NavInputs) -> np.ndarray:
     return inp.cache["accel_fwd"]
 
 
-def _dead_reckon(t, c_bn, nu_f, nu_u, ok, scale, pitch, heading, scale_up, pitch_k=0.0, a_f=None):
-    """ENU positions (m) from LDV velocities through the attitude (trapezoid)."""
-    v_n = np.einsum("kij,kj->ki", c_bn, ldv_body_velocity(nu_f, nu_u, scale, pitch, heading, scale_up, pitch_k, a_f))
-    v_n[~ok] = np.nan
+def _dead_reckon(t_s: np.ndarray, c_bn: np.ndarray, ldv: LdvAid) -> np.ndarray:
+    """ENU positions (m) from the LDV velocities through the attitude (trapezoid; unusable samples bridged)."""
+    v_n = np.einsum("kij,kj->ki", c_bn, aid_body_velocity(ldv))
+    v_n[~ldv.ok] = np.nan
     good = np.isfinite(v_n[:, 0])
     for i in range(3):  # bridge unusable LDV samples
-        v_n[:, i] = np.interp(t, t[good], v_n[good, i])
-    dt = np.diff(t)
+        v_n[:, i] = np.interp(t_s, t_s[good], v_n[good, i])
+    dt = np.diff(t_s)
     return np.vstack([np.zeros(3), np.cumsum(0.5 * (v_n[1:] + v_n[:-1]) * dt[:, None], axis=0)])
 
 
@@ -151,55 +202,58 @@ def _epochs_fixed_by(epoch_t_s: np.ndarray, gnss, fixes, aided=NAV_FIXES) -> np.
     return out
 
 
-def calibration_stage(
-    inp: NavInputs, cbs, window=None, progress=None, joint: bool = False, specific_force: bool = True
-) -> Calibration:
-    """The Kalman estimate of the travel direction the LDV sees (η_L, φ_L, pitch compliance k_η)
-    and the scale K, with the closed-form dead-reckoning comparison beside.
+@dataclass(frozen=True)
+class _Windows:
+    """The calibration's stretches: the closed form's (``a_s``, ``b_s`` with its fix qualities) and
+    the filter's GNSS window (``kf_win_s``, ``kf_fixes``)."""
 
-    One navigation: the filter with the LDV states augmented, LDV everywhere and GNSS (fix 4, else
-    4/5/2) in the window; its attitude also serves the closed form (no separate GNSS/INS run).
+    a_s: float
+    b_s: float
+    fixes: tuple
+    kf_fixes: tuple
+    kf_win_s: tuple[float, float]
 
-    ``joint`` (no ``window``): the navigation of ``navigate`` with ``aiding=ldv+gnss``, i.e. every
-    fix the navigation takes (:func:`~ldvsurvey.pipelines.inputs.gnss_aid`'s qualities, the
-    single-point ones included, each with its quality's σ), kept whole in ``Calibration.solution``:
-    the LDV calibration estimated together with the navigation in one filter and smoother, instead
-    of a second run with the estimate held fixed (``specific_force``: whether that navigation keeps
-    the up specific force per sample, as gravity needs).
-    """
-    if joint and window is not None:
-        raise ValueError("a joint calibration takes every fix of the log: no window")
-    log = inp.log
+
+def _windows(inp: NavInputs, window, joint: bool) -> _Windows:
+    """The closed form's window and the filter's: a given window, else every good fix of the log
+    (RTK fixed, float and differential, each weighted by its quality's σ; joint: every fix the
+    navigation takes) — all starts, stops and both directions of travel."""
     (a, b), fixes = _choose_window(inp, window)
-    # the filter: a given window, else every good fix of the log (RTK fixed, float and differential,
-    # each weighted by its quality's σ) — all starts, stops and both directions of travel
+    g = inp.log.gnss
     if joint or window is None:
         kf_fixes = NAV_FIXES if joint else CAL_FIXES
-        g_ok = np.isin(log.gnss.fix, kf_fixes) & np.isfinite(log.gnss.lat_deg)
-        kf_win = (float(log.gnss.t_s[g_ok][0]), float(log.gnss.t_s[g_ok][-1]))
+        g_ok = np.isin(g.fix, kf_fixes) & np.isfinite(g.lat_deg)
+        kf_win = (float(g.t_s[g_ok][0]), float(g.t_s[g_ok][-1]))
     else:
         kf_fixes, kf_win = fixes, (a, b)
+    return _Windows(a, b, fixes, kf_fixes, kf_win)
+
+
+def _kalman_calibration(
+    inp: NavInputs, cbs, win: _Windows, joint: bool, specific_force: bool
+) -> tuple[Calibration, object]:
+    """The filter with the LDV states augmented (LDV everywhere, GNSS in the filter's window): the
+    mounting, compliance and scale with their 1-σ inflated for time-correlated GNSS residuals
+    (``closed_form`` holding only its notes, ``track`` empty), and the navigation solution."""
+    log = inp.log
     nom = log.manifest.ldv.nominal
     up = inp.nu_u_mps is not None
     a_f = accel_fwd(inp)
-    # 1) the filter with the LDV states augmented, GNSS only in the window
-    if progress:
-        progress("calibration: Kalman filter with LDV states", 0.1)
     # the up-axis scale is observable only when the LDV up channel carries motion
     moving = inp.ldv_ok & (np.abs(inp.nu_f_mps) > 1.0)
     up_obs = up and moving.any() and float(np.sqrt(np.mean(inp.nu_u_mps[moving] ** 2))) > 0.05
-    win = (inp.t_s >= kf_win[0]) & (inp.t_s <= kf_win[1])
+    in_win = (inp.t_s >= win.kf_win_s[0]) & (inp.t_s <= win.kf_win_s[1])
     # the compliance is observable when the window holds accelerations (≥ 0.3 m/s² for ≥ 10 s)
-    k_obs = float(np.count_nonzero(win & inp.ldv_ok & (np.abs(a_f) > 0.3))) * np.median(np.diff(inp.t_s)) >= 10.0
+    k_obs = float(np.count_nonzero(in_win & inp.ldv_ok & (np.abs(a_f) > 0.3))) * np.median(np.diff(inp.t_s)) >= 10.0
     aug = ("scale", "pitch", "heading") + (("scale_up",) if up_obs else ()) + (("pitch_k",) if k_obs else ())
     cfg = pipeline_cfg(ldv_aug=aug)
     aid = ldv_aid(inp, scale_up=nom.scale)  # the up scale starts from (unobservable: stays at) the nominal
     aid.accel_fwd_mps2 = a_f
-    sol = navigate(
+    sol = run_navigation_filter(
         inp,
         cbs=cbs,
         ldv=aid,
-        gnss=gnss_aid(log, fixes=kf_fixes, window=kf_win),
+        gnss=gnss_aid(log, fixes=win.kf_fixes, window=win.kf_win_s),
         cfg=cfg,
         attitude_only=not joint,
         specific_force=specific_force,
@@ -211,7 +265,7 @@ def calibration_stage(
     # innovations (nav/innovations.py); horizontal residuals carry heading and scale, vertical pitch
     inn = sol.normalized_innovations[:, 6:9]
     if joint:  # the 1-σ speak for the calibration's own fixes (4, 5, 2), as in a calibration alone
-        inn = np.where(_epochs_fixed_by(sol.epoch_t_s, log.gnss, CAL_FIXES, kf_fixes)[:, None], inn, np.nan)
+        inn = np.where(_epochs_fixed_by(sol.epoch_t_s, log.gnss, CAL_FIXES, win.kf_fixes)[:, None], inn, np.nan)
     infl = [variance_inflation(inn[:, i], gate=cfg.gate_sigma or np.inf) for i in range(3)]
     f_h = np.sqrt(max(infl[0]["factor"], infl[1]["factor"]))
     f_v = np.sqrt(infl[2]["factor"])
@@ -228,34 +282,76 @@ def calibration_stage(
             "pitch_k": None if spk is None else spk * f_v,
         },
         closed_form={},
-        window_s=kf_win,
+        window_s=win.kf_win_s,
         track={},
         pitch_k_rad_per_mps2=pk,
-        fixes=kf_fixes,
+        fixes=win.kf_fixes,
         sigma_inflation={"horizontal": float(f_h), "vertical": float(f_v), "gnss_innovations": dict(zip("enu", infl))},
         solution=sol if joint else None,
     )
-    # 2) closed form over the window with the filter's attitude: similarity fit of the horizontal
-    # tracks, slope of the height residual (no compliance: it shows what a constant mounting gives)
-    if progress:
-        progress("calibration: closed form", 0.8)
-    k = (inp.t_s >= a) & (inp.t_s <= b)
-    c_bn = sol.c_bn(k)  # over the window only
-    t = inp.t_s[k]
-    g = log.gnss
-    gk = np.isin(g.fix, fixes) & (g.t_s >= a) & (g.t_s <= b) & np.isfinite(g.lat_deg)
-    lev = np.asarray(log.manifest.gnss.lever_arm_m, float)
+    if up and not up_obs:
+        cal.closed_form["note"] = (
+            "up-axis scale not estimated: the LDV up channel shows no motion "
+            "(rms < 0.05 m/s) in the window; the nominal scale is used"
+        )
+    if not k_obs:
+        cal.closed_form["note_compliance"] = (
+            "pitch compliance not estimated: the window holds less than 10 s "
+            "of acceleration above 0.3 m/s²; none is applied"
+        )
+    return cal, sol
+
+
+@dataclass(frozen=True)
+class _WindowSamples:
+    """The closed form's window: IMU samples (mask ``k``, times, the filter's C_b^n), its GNSS fixes
+    (mask ``gk``) with the lever arm in ENU (m) at each and their latitude, longitude (rad)."""
+
+    k: np.ndarray
+    t_s: np.ndarray
+    c_bn: np.ndarray
+    gk: np.ndarray
+    lev_n_m: np.ndarray
+    lat_rad: np.ndarray
+    lon_rad: np.ndarray
+
+
+def _window_samples(inp: NavInputs, sol, win: _Windows) -> _WindowSamples:
+    """The samples and fixes of the closed form's window, with the filter's attitude."""
+    k = (inp.t_s >= win.a_s) & (inp.t_s <= win.b_s)
+    g = inp.log.gnss
+    gk = np.isin(g.fix, win.fixes) & (g.t_s >= win.a_s) & (g.t_s <= win.b_s) & np.isfinite(g.lat_deg)
+    lev = np.asarray(inp.log.manifest.gnss.lever_arm_m, float)
     c_fix = attitude_at(sol, g.t_s[gk])
-    lev_n = c_fix @ lev
-    lat_r, lon_r = g.lat_deg[gk] * RAD, g.lon_deg[gk] * RAD
-    e, n = local_metres(lat_r[0], lon_r[0], lat_r, lon_r)
-    gpos = np.column_stack([e - lev_n[:, 0], n - lev_n[:, 1], g.h_m[gk] - lev_n[:, 2]])
+    return _WindowSamples(
+        k=k,
+        t_s=inp.t_s[k],
+        c_bn=sol.c_bn(k),  # over the window only
+        gk=gk,
+        lev_n_m=c_fix @ lev,
+        lat_rad=g.lat_deg[gk] * RAD,
+        lon_rad=g.lon_deg[gk] * RAD,
+    )
+
+
+def _closed_form(inp: NavInputs, w: _WindowSamples) -> dict:
+    """Closed form over the window with the filter's attitude: similarity fit of the horizontal
+    dead-reckoned track to the GNSS track (heading, scale), slope of the height residual (pitch); no
+    compliance: it shows what a constant mounting gives. Values in deg and dimensionless, with 1-σ."""
+    g = inp.log.gnss
+    nom = inp.log.manifest.ldv.nominal
+    lev_n = w.lev_n_m
+    e, n = local_metres(w.lat_rad[0], w.lon_rad[0], w.lat_rad, w.lon_rad)
+    gpos = np.column_stack([e - lev_n[:, 0], n - lev_n[:, 1], g.h_m[w.gk] - lev_n[:, 2]])
     gpos -= gpos[0]
     pitch, heading, scale = nom.pitch_deg * RAD, nom.heading_deg * RAD, nom.scale
-    nu_u = inp.nu_u_mps[k] if up else None
+    nu_u = inp.nu_u_mps[w.k] if inp.nu_u_mps is not None else None
     for _ in range(3):
-        dr = _dead_reckon(t, c_bn, inp.nu_f_mps[k], nu_u, inp.ldv_ok[k], scale, pitch, heading, 1.0)
-        drg = np.column_stack([np.interp(g.t_s[gk], t, dr[:, i]) for i in range(3)])
+        aid = LdvAid(
+            inp.ldv_ok[w.k], inp.nu_f_mps[w.k], nu_u, scale=scale, pitch_rad=pitch, heading_rad=heading, scale_up=1.0
+        )
+        dr = _dead_reckon(w.t_s, w.c_bn, aid)
+        drg = np.column_stack([np.interp(g.t_s[w.gk], w.t_s, dr[:, i]) for i in range(3)])
         drg -= drg[0]
         d2 = drg[:, :2]
         g2 = gpos[:, :2]
@@ -272,7 +368,7 @@ def calibration_stage(
     rms_h = float(np.sqrt(np.mean(res2**2)))
     span = float(np.sqrt(np.sum(d2**2)))
     resid_v = res_h - np.polyval(np.polyfit(dist, res_h, 1), dist)
-    cal.closed_form = {
+    return {
         "ldv_pitch_deg": pitch / RAD,
         "ldv_heading_deg": heading / RAD,
         "ldv_scale": scale,
@@ -281,43 +377,93 @@ def calibration_stage(
         "ldv_scale_sigma": rms_h / span * scale,
         "n_fixes": int(len(dist)),
     }
-    if up and not up_obs:
-        cal.closed_form["note"] = (
-            "up-axis scale not estimated: the LDV up channel shows no motion "
-            "(rms < 0.05 m/s) in the window; the nominal scale is used"
-        )
-    if not k_obs:
-        cal.closed_form["note_compliance"] = (
-            "pitch compliance not estimated: the window holds less than 10 s "
-            "of acceleration above 0.3 m/s²; none is applied"
-        )
-    # 3) the calibrated dead-reckoning track over the window, from the first fix
-    dr = _dead_reckon(
-        t,
-        c_bn,
-        inp.nu_f_mps[k],
-        nu_u,
+
+
+def _calibrated_track(inp: NavInputs, w: _WindowSamples, cal: Calibration) -> dict:
+    """The calibrated dead-reckoning track over the window from the first fix, at 10 Hz: the
+    ``calibration_track`` columns (t_s, lat_deg, lon_deg, h_m of the IMU centre)."""
+    g = inp.log.gnss
+    k = w.k
+    t = w.t_s
+    aid = LdvAid(
         inp.ldv_ok[k],
-        cal.scale,
-        cal.pitch_rad,
-        cal.heading_rad,
-        cal.scale_up,
-        cal.pitch_k_rad_per_mps2,
-        a_f[k],
+        inp.nu_f_mps[k],
+        inp.nu_u_mps[k] if inp.nu_u_mps is not None else None,
+        scale=cal.scale,
+        pitch_rad=cal.pitch_rad,
+        heading_rad=cal.heading_rad,
+        scale_up=cal.scale_up,
+        accel_fwd_mps2=accel_fwd(inp)[k],
+        pitch_k_rad_per_mps2=cal.pitch_k_rad_per_mps2,
     )
-    t_first = g.t_s[gk][0]
+    dr = _dead_reckon(t, w.c_bn, aid)
+    t_first = g.t_s[w.gk][0]
     dr -= np.column_stack([np.interp(t_first, t, dr[:, i]) for i in range(3)])
+    lat_r, lon_r, lev_n = w.lat_rad, w.lon_rad, w.lev_n_m
     rm, rn = radii(lat_r[0])
     lat = lat_r[0] - lev_n[0, 1] / rm + dr[:, 1] / rm
     lon = lon_r[0] - lev_n[0, 0] / (rn * np.cos(lat_r[0])) + dr[:, 0] / (rn * np.cos(lat_r[0]))
-    h = g.h_m[gk][0] - lev_n[0, 2] + dr[:, 2]
+    h = g.h_m[w.gk][0] - lev_n[0, 2] + dr[:, 2]
     step = max(1, int(round(0.1 / np.median(np.diff(t)))))  # 10 Hz
-    cal.track = {
+    return {
         "t_s": t[::step],
         "lat_deg": np.degrees(lat[::step]),
         "lon_deg": np.degrees(lon[::step]),
         "h_m": h[::step],
     }
+
+
+def calibration_stage(
+    inp: NavInputs,
+    cbs: np.ndarray | None,
+    window: tuple[float, float] | list[float] | None = None,
+    progress: Progress | None = None,
+    joint: bool = False,
+    specific_force: bool = True,
+) -> Calibration:
+    """The Kalman estimate of the travel direction the LDV sees (η_L, φ_L, pitch compliance k_η)
+    and the scale K, with the closed-form dead-reckoning comparison beside.
+
+    One navigation: the filter with the LDV states augmented, LDV everywhere and GNSS (fix 4, else
+    4/5/2) in the window; its attitude also serves the closed form (no separate GNSS/INS run).
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log (with GNSS and a usable LDV).
+    cbs : ndarray or None
+        C_b^s per sample of a rotating IMU (tilt applied), None for a fixed one.
+    window : (float, float) or None
+        ``t0, t1`` (s) of the stretch to calibrate on; None: every good fix of the log for the
+        filter, the longest good-GNSS moving stretch for the closed form.
+    progress : Progress or None
+        Stage reporter.
+    joint : bool
+        No ``window``: the navigation of the ``navigate`` pipeline with ``aiding=ldv+gnss``, i.e.
+        every fix the navigation takes (:func:`~ldvsurvey.pipelines.stages.aids.gnss_aid`'s
+        qualities, the single-point ones included, each with its quality's σ), kept whole in
+        ``Calibration.solution``: the LDV calibration estimated together with the navigation in one
+        filter and smoother, instead of a second run with the estimate held fixed.
+    specific_force : bool
+        Whether that joint navigation keeps the up specific force per sample (as gravity needs).
+
+    Returns
+    -------
+    Calibration
+        Mounting pitch and heading (rad), compliance (rad per m/s²), scales, their 1-σ, the closed
+        form (deg) and the calibrated track over the window.
+    """
+    if joint and window is not None:
+        raise ValueError("a joint calibration takes every fix of the log: no window")
+    win = _windows(inp, window, joint)
+    if progress:
+        progress("calibration: Kalman filter with LDV states", 0.1)
+    cal, sol = _kalman_calibration(inp, cbs, win, joint, specific_force)
+    if progress:
+        progress("calibration: closed form", 0.8)
+    w = _window_samples(inp, sol, win)
+    cal.closed_form = {**_closed_form(inp, w), **cal.closed_form}
+    cal.track = _calibrated_track(inp, w, cal)
     return cal
 
 
@@ -354,6 +500,23 @@ class CalibrationParams(Params):
     def _window(cls, v):
         return time_window(v)
 
+    @property
+    def given_ldv(self) -> dict[str, float]:
+        """The ``ldv_*`` values given (deg, dimensionless, rad per m/s²) by name, in declaration order:
+        each wins over a calibration."""
+        values = {
+            "ldv_pitch_deg": self.ldv_pitch_deg,
+            "ldv_heading_deg": self.ldv_heading_deg,
+            "ldv_scale": self.ldv_scale,
+            "ldv_pitch_k_rad_per_mps2": self.ldv_pitch_k_rad_per_mps2,
+        }
+        return {k: v for k, v in values.items() if v is not None}
+
+    @property
+    def mounting_given(self) -> bool:
+        """Pitch, heading and scale are all given: nothing is left for a calibration to estimate."""
+        return None not in (self.ldv_pitch_deg, self.ldv_heading_deg, self.ldv_scale)
+
 
 def time_window(v):
     """A ``t0,t1`` window in s: two finite numbers, t1 > t0."""
@@ -362,7 +525,7 @@ def time_window(v):
     return v
 
 
-def calibration_applicable(logs: list[LogFacts], params) -> list[Reason]:
+def calibration_applicable(logs: list[LogFacts], params: CalibrationParams) -> list[Reason]:
     """The calibration window, when given, lies inside the log."""
     return window_inside(logs, params.calibration_window, "calibration_window")
 
@@ -385,13 +548,54 @@ class LdvSetup:
     solution: object = None
 
 
-def ldv_setup(inp: NavInputs, params: dict, progress, joint: bool = False, specific_force: bool = True) -> LdvSetup:
+def _calibration_info(cal: Calibration, joint: bool) -> dict:
+    """The summary block of an automatic calibration: its window (s), fix qualities, 1-σ (deg,
+    dimensionless, rad per m/s²) and their inflation."""
+    info = {
+        "source": "calibrate",
+        "segment_t_s": list(cal.window_s),
+        "fix_qualities": list(cal.fixes),
+        "sigma": {
+            "ldv_pitch_deg": cal.sigma["pitch"] / RAD,
+            "ldv_heading_deg": cal.sigma["heading"] / RAD,
+            "ldv_scale": cal.sigma["scale"],
+            "ldv_pitch_k_rad_per_mps2": cal.sigma["pitch_k"],
+        },
+        "sigma_inflation": cal.sigma_inflation,
+    }
+    if joint:
+        info["estimated_with_navigation"] = True
+    return info
+
+
+def ldv_setup(
+    inp: NavInputs, params: CalibrationParams, progress: Progress, joint: bool = False, specific_force: bool = True
+) -> LdvSetup:
     """Base tilt (if the IMU rotates), then the LDV calibration: given, automatic or nominal.
 
-    ``joint`` (for a smoothed LDV+GNSS navigation): when the calibration is automatic over the whole
-    log and no ldv_* value is given, estimate it together with that navigation, in one filter with
-    the LDV states augmented, and hand the navigation back in ``LdvSetup.solution``; otherwise (a
-    calibration window, a given value, nominal) the calibration, if any, runs alone as without."""
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log.
+    params : CalibrationParams
+        ``calibration`` (auto, nominal), ``calibration_window`` (s) and the given ``ldv_*`` values,
+        which always win.
+    progress : Progress
+        Stage reporter.
+    joint : bool
+        For a smoothed LDV+GNSS navigation: when the calibration is automatic over the whole log and
+        no ldv_* value is given, estimate it together with that navigation, in one filter with the
+        LDV states augmented, and hand the navigation back in ``LdvSetup.solution``; otherwise (a
+        calibration window, a given value, nominal) the calibration, if any, runs alone as without.
+    specific_force : bool
+        Whether that joint navigation keeps the up specific force per sample.
+
+    Returns
+    -------
+    LdvSetup
+        C_b^s and the tilt (rotating IMU), the mounting (rad), compliance (rad per m/s²) and scales
+        used, the summary block ``info`` (deg) and the warnings.
+    """
     log = inp.log
     m = log.manifest
     warnings = list(inp.warnings)
@@ -402,8 +606,7 @@ def ldv_setup(inp: NavInputs, params: dict, progress, joint: bool = False, speci
         est, _ = tilt_stage(inp)
         warnings += est.warnings
         cbs = c_bs_of(inp, est.alpha_rad, est.beta_rad)
-    keys = ("ldv_pitch_deg", "ldv_heading_deg", "ldv_scale", "ldv_pitch_k_rad_per_mps2")
-    given = {k: params[k] for k in keys if params.get(k) is not None}
+    given = params.given_ldv
     info = {"source": "nominal"}
     pitch, heading, scale, scale_up = (
         m.ldv.nominal.pitch_deg * RAD,
@@ -412,31 +615,18 @@ def ldv_setup(inp: NavInputs, params: dict, progress, joint: bool = False, speci
         1.0,
     )
     pitch_k = 0.0
-    if params.get("calibration", "auto") == "auto" and not all(k in given for k in keys[:3]):
+    if params.calibration == "auto" and not params.mounting_given:
         if log.gnss is None:
             warnings.append("no GNSS: the LDV is used with its nominal mounting (no calibration)")
         else:
-            window = params.get("calibration_window")
+            window = params.calibration_window
             joint = joint and window is None and not given
             stage = "LDV calibration and navigation (ldv+gnss), one filter" if joint else "LDV calibration against GNSS"
             progress(stage, 0.15)
             cal = calibration_stage(inp, cbs, window, joint=joint, specific_force=specific_force)
             pitch, heading, scale, scale_up = cal.pitch_rad, cal.heading_rad, cal.scale, cal.scale_up
             pitch_k = cal.pitch_k_rad_per_mps2
-            info = {
-                "source": "calibrate",
-                "segment_t_s": list(cal.window_s),
-                "fix_qualities": list(cal.fixes),
-                "sigma": {
-                    "ldv_pitch_deg": cal.sigma["pitch"] / RAD,
-                    "ldv_heading_deg": cal.sigma["heading"] / RAD,
-                    "ldv_scale": cal.sigma["scale"],
-                    "ldv_pitch_k_rad_per_mps2": cal.sigma["pitch_k"],
-                },
-                "sigma_inflation": cal.sigma_inflation,
-            }
-            if joint:
-                info["estimated_with_navigation"] = True
+            info = _calibration_info(cal, joint)
     if "ldv_pitch_deg" in given:
         pitch = given["ldv_pitch_deg"] * RAD
     if "ldv_heading_deg" in given:
@@ -460,21 +650,22 @@ def ldv_setup(inp: NavInputs, params: dict, progress, joint: bool = False, speci
         info["ldv_scale_up"] = scale_up
     solution = cal.solution if info["source"] == "calibrate" else None
     return LdvSetup(
-        cbs,
-        est,
-        pitch,
-        heading,
-        scale,
-        scale_up,
-        info,
-        warnings,
-        pitch_k,
-        accel_fwd(inp) if pitch_k else None,
-        solution,
+        cbs=cbs,
+        tilt=est,
+        pitch_rad=pitch,
+        heading_rad=heading,
+        scale=scale,
+        scale_up=scale_up,
+        info=info,
+        warnings=warnings,
+        pitch_k_rad_per_mps2=pitch_k,
+        accel_fwd_mps2=accel_fwd(inp) if pitch_k else None,
+        solution=solution,
     )
 
 
-def ldv_aid_of(inp: NavInputs, setup: LdvSetup):
+def ldv_aid_of(inp: NavInputs, setup: LdvSetup) -> LdvAid:
+    """The filter's LDV aid at the IMU samples through the mounting, compliance and scales of ``setup``."""
     aid = ldv_aid(
         inp, scale=setup.scale, pitch_rad=setup.pitch_rad, heading_rad=setup.heading_rad, scale_up=setup.scale_up
     )

@@ -18,7 +18,7 @@ from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, ldv_spikes, run_filter
 from ldvsurvey.pipelines.base import warn
-from ldvsurvey.pipelines.start import (
+from ldvsurvey.pipelines.stages.start import (
     _body_signals,
     _still_intervals,
     detect_static_start,
@@ -126,7 +126,20 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     """Prepare the navigation inputs of a bundle (detects still periods, finds the start position).
 
     The stops are where the LDV (or, on a log without an LDV, the GNSS track) shows no speed and the
-    IMU neither accelerates nor turns."""
+    IMU neither accelerates nor turns.
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle.
+
+    Returns
+    -------
+    NavInputs
+        The IMU increments (rad, m/s), the LDV speeds at the IMU samples (m/s) and where usable, the
+        still intervals and the end of the static period (s), the start position (rad, m), the IMU
+        noise, and for a log that starts on the move the start attitude and velocity (m/s).
+    """
     imu = log.imu
     check_no_long_gaps(imu.long_gaps)  # never integrate across a gap
     t = imu.t_s
@@ -235,7 +248,23 @@ NAV_FIXES = (4, 2, 5, 1)
 
 
 def gnss_aid(log: DriveLog, fixes=NAV_FIXES, window=None) -> GnssAid | None:
-    """GNSS antenna fixes of the accepted qualities (optionally within a time window)."""
+    """GNSS antenna fixes of the accepted qualities for the filter.
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle.
+    fixes : tuple of int
+        The fix qualities taken (default: RTK fixed, differential, RTK float, single point).
+    window : (float, float) or None
+        ``t0, t1`` (s): only the fixes within it.
+
+    Returns
+    -------
+    GnssAid or None
+        Times (s), latitude, longitude (rad), ellipsoidal height (m), 1-σ horizontal and vertical
+        (m) by quality (:data:`GNSS_SIGMA`) and the antenna lever arm (m, body RFU); None without a fix.
+    """
     g = log.gnss
     if g is None:
         return None
@@ -257,7 +286,24 @@ def gnss_aid(log: DriveLog, fixes=NAV_FIXES, window=None) -> GnssAid | None:
 
 
 def ldv_aid(inp: NavInputs, scale=None, pitch_rad=None, heading_rad=None, scale_up=1.0) -> LdvAid:
-    """LDV aid with the given (or the manifest's nominal) mounting and scale."""
+    """The filter's LDV aid at the IMU samples with the given (or the manifest's nominal) mounting and scale.
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log.
+    scale : float or None
+        Scale factor K (dimensionless; None: nominal).
+    pitch_rad, heading_rad : float or None
+        Mounting pitch η_L and heading φ_L (rad; None: nominal).
+    scale_up : float
+        Scale of the up channel K_u (dimensionless).
+
+    Returns
+    -------
+    LdvAid
+        The usable flags, speeds (m/s), mounting, scales and the LDV lever arm (m, body RFU).
+    """
     nom = inp.log.manifest.ldv.nominal
     return LdvAid(
         inp.ldv_ok,
@@ -299,7 +345,7 @@ def pipeline_cfg(**kw) -> FilterConfig:
     return FilterConfig(**base)
 
 
-def navigate(
+def run_navigation_filter(
     inp: NavInputs,
     *,
     cbs=None,
@@ -311,8 +357,30 @@ def navigate(
     attitude_only: bool = False,
     specific_force: bool = True,
 ) -> NavSolution:
-    """Coarse alignment then the filter (ZUPT in still periods) with the given aids (``attitude_only``,
-    ``specific_force``: see :func:`ldvsurvey.nav.filter.run_filter`)."""
+    """Coarse alignment (or the alignment on the move) then the filter and smoother on a loaded log.
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log (its ``gravity``, when set, enters the mechanization).
+    cbs : ndarray or None
+        (N, 3, 3) C_b^s of a rotating IMU, None for a fixed one.
+    ldv, gnss : LdvAid, GnssAid or None
+        The aids.
+    cfg : FilterConfig or None
+        The filter configuration (default: :func:`pipeline_cfg`).
+    smooth : bool
+        Run the RTS smoother after the forward filter.
+    zupt : bool
+        Zero-velocity updates in the still intervals.
+    attitude_only, specific_force : bool
+        What the solution keeps (see :func:`ldvsurvey.nav.filter.run_filter`).
+
+    Returns
+    -------
+    NavSolution
+        Attitude, velocity (m/s), position (rad, m), sensor biases and their 1-σ per sample.
+    """
     c0 = initial_attitude(inp, cbs)
     if inp.gravity is not None and inp.v0_n is None:  # a static alignment levels to the plumb line
         from ldvsurvey.nav.attitude import skew
@@ -353,7 +421,7 @@ def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:
     """The GNSS-aided INS (every fix weighted by its quality, no LDV), computed once per run."""
     key = ("gnss_ins", None if cbs is None else id(cbs))
     if key not in inp.cache:
-        inp.cache[key] = navigate(inp, cbs=cbs, gnss=gnss_aid(inp.log))
+        inp.cache[key] = run_navigation_filter(inp, cbs=cbs, gnss=gnss_aid(inp.log))
     return inp.cache[key]
 
 
@@ -366,8 +434,23 @@ def antenna_to_imu_h(log: DriveLog, c_bn_at_fix: np.ndarray) -> np.ndarray:
 def attitude_at(sol: NavSolution, t_s: np.ndarray, c_bn_all: np.ndarray | None = None) -> np.ndarray:
     """C_b^n at arbitrary times: the quaternions of the two samples around each time (the second
     one's sign made continuous with the first) interpolated linearly, then normalised (times
-    outside the solution take its first or last sample). ``c_bn_all``: the solution's C_b^n at
-    every sample when already at hand (else computed at the neighbouring samples only)."""
+    outside the solution take its first or last sample).
+
+    Parameters
+    ----------
+    sol : NavSolution
+        The navigation.
+    t_s : ndarray
+        (M,) times (s).
+    c_bn_all : ndarray or None
+        The solution's C_b^n at every sample when already at hand (else computed at the
+        neighbouring samples only).
+
+    Returns
+    -------
+    ndarray
+        (M, 3, 3) C_b^n at ``t_s``.
+    """
     t = sol.t_s
     ts = np.asarray(t_s, float)
     k = np.clip(np.searchsorted(t, ts, side="right") - 1, 0, len(t) - 2)

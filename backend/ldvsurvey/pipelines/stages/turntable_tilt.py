@@ -7,7 +7,7 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.turntable import TiltEstimate, estimate_tilt, find_stops
 from ldvsurvey.pipelines.base import warn
-from ldvsurvey.pipelines.inputs import NavInputs, c_bs_of, gnss_aid, ldv_aid, navigate, pipeline_cfg
+from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, gnss_aid, ldv_aid, pipeline_cfg, run_navigation_filter
 
 
 def static_part(inp: NavInputs) -> NavInputs:
@@ -48,6 +48,18 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     LDV aiding) and every later still interval with turntable motion is used. When nothing makes
     the tilt observable, α = β = 0 is returned with ``observable`` False and a warning in
     ``warnings``: the caller goes on (the attitude then keeps an oscillation of the tilt's size).
+
+    Parameters
+    ----------
+    inp : NavInputs
+        The loaded log of a rotating IMU (the estimate is kept in ``inp.cache``).
+
+    Returns
+    -------
+    est : TiltEstimate
+        α, β (rad) with their 1-σ, whether they were observable, the pairs and intervals used.
+    stops : list
+        The turntable stops found (:func:`ldvsurvey.nav.turntable.find_stops`) in the span used.
     """
     if inp.eta_rad is None:
         raise ParameterError(
@@ -62,13 +74,13 @@ def tilt_stage(inp: NavInputs) -> tuple[TiltEstimate, list]:
     stops = find_stops(st.t_s, st.eta_rad)
     est = None
     if len(st.t_s) >= 100:
-        sol = navigate(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True, attitude_only=True)
+        sol = run_navigation_filter(st, cbs=c_bs_of(st), cfg=pipeline_cfg(), smooth=True, attitude_only=True)
         est = _tilt_from(st, sol, st.still, stops)
     later = [(a, b) for a, b in inp.still if a >= inp.static_end_s - 1e-6]
     if (est is None or not est.observable) and later:
         stops_all = find_stops(inp.t_s, inp.eta_rad)
         has_ldv = inp.has_ldv  # without a (usable) LDV: the GNSS fixes aid the whole-log navigation
-        sol = navigate(
+        sol = run_navigation_filter(
             inp,
             cbs=c_bs_of(inp),
             ldv=ldv_aid(inp) if has_ldv else None,

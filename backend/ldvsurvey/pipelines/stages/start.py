@@ -1,7 +1,7 @@
 """How a log starts and where it stands still: still intervals, the static period at the start,
 the start position, and the coarse alignment on the move when the log has no static start.
 
-Shared by the pipelines through :func:`ldvsurvey.pipelines.inputs.nav_inputs`.
+Shared by the pipelines through :func:`ldvsurvey.pipelines.stages.aids.nav_inputs`.
 """
 
 from __future__ import annotations
@@ -87,7 +87,25 @@ def _still_intervals(t, speed, ok, min_len_s=3.0, thresh=STILL_SPEED_MPS, f_b=No
 
 def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0) -> float:
     """End (s) of the static period at the start of the log: the IMU stays at its initial specific
-    force and turn rate, and the usable LDV shows no speed for ``min_moving_s`` in a row."""
+    force and turn rate, and the usable LDV shows no speed for ``min_moving_s`` in a row.
+
+    Parameters
+    ----------
+    t : ndarray
+        (N,) IMU times (s).
+    f_b, w_z : ndarray
+        (N, 3) 1-s mean body specific force (m/s²) and (N,) turn rate about the turntable axis
+        (rad/s), from :func:`_body_signals`.
+    speed, ok : ndarray
+        (N,) speed (m/s, LDV or GNSS) and where it is usable.
+    min_moving_s : float
+        How long (s) a speed must last to count as moving off.
+
+    Returns
+    -------
+    float
+        The end of the static period (s), 2 s before the first motion.
+    """
     n0 = max(10, int(round(2.0 / np.median(np.diff(t)))))
     quiet = _quiet(f_b, w_z, np.arange(min(n0, len(t))))
     k_imu = int(np.argmin(quiet)) if not quiet.all() else len(t)
@@ -114,8 +132,27 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
     order), averaged, brought from the antenna to the IMU centre through the lever arm
     (``gnss.lever_arm_m``, body RFU) and the coarse-aligned attitude of the static period.
     Without a fix in the static period, the first fix of the best quality in the log is used with
-    a warning (the vehicle may have moved by then). ``moving``: the start state of
-    :func:`moving_start` (a log that begins on the move), whose position is used.
+    a warning (the vehicle may have moved by then).
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle.
+    t : ndarray
+        (N,) IMU times (s).
+    static_end : float
+        End of the static period at the start (s).
+    eta : ndarray or None
+        (N,) unwrapped turntable angle (rad) of a rotating IMU.
+    warnings : list or None
+        Receives what had to be assumed.
+    moving : tuple or None
+        The start state of :func:`moving_start` (a log that begins on the move), whose position is used.
+
+    Returns
+    -------
+    ndarray
+        Latitude, longitude (rad) and ellipsoidal height (m) of the IMU centre at the start.
     """
     m = log.manifest
     if m.initial.lat_deg is not None and m.initial.lon_deg is not None and m.initial.h_m is not None:
@@ -164,6 +201,61 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
 COURSE_BASELINE_S = {4: 1.0, 5: 2.0, 2: 3.0, 1: 5.0}
 
 
+def _course_fixes(g, t0_s: float, what: str) -> tuple[int, int]:
+    """The indices of the two GNSS fixes the course at the start comes from: of the best quality
+    present in the first 30 s after ``t0_s`` (4, 5, 2, then 1), :data:`COURSE_BASELINE_S` apart;
+    a ParameterError starting with ``what`` when there are none."""
+    early = np.isfinite(g.lat_deg) & (g.t_s >= t0_s - 0.5) & (g.t_s <= t0_s + 30.0)
+    for q in (4, 5, 2, 1):
+        idx = np.flatnonzero(early & (g.fix == q))
+        for i in idx:
+            later = idx[
+                (g.t_s[idx] >= g.t_s[i] + COURSE_BASELINE_S[q] - 0.01)
+                & (g.t_s[idx] <= g.t_s[i] + COURSE_BASELINE_S[q] + 1.01)
+            ]
+            if len(later):
+                return int(i), int(later[0])
+    raise ParameterError(
+        what + "two GNSS fixes of one quality a few seconds apart within the first 30 s",
+        file="gnss.nmea",
+        field="fix_quality",
+    )
+
+
+def _course_over_ground(g, k: np.ndarray, what: str) -> float:
+    """The course over ground (rad from north) between the two fixes ``k``; a ParameterError
+    starting with ``what`` when the vehicle is slower than 2 m/s there."""
+    lat, lon, h = np.radians(g.lat_deg[k]), np.radians(g.lon_deg[k]), g.h_m[k]
+    rm, rn = radii(lat[0])
+    de = (lon[1] - lon[0]) * (rn + h[0]) * np.cos(lat[0])
+    dn = (lat[1] - lat[0]) * (rm + h[0])
+    dt_g = g.t_s[k[1]] - g.t_s[k[0]]
+    if np.hypot(de, dn) / dt_g < 2.0:
+        raise ParameterError(
+            what + "the vehicle to move faster than 2 m/s at the first GNSS fixes (for the course over ground)",
+            file="gnss.nmea",
+            field="initial.static_s",
+        )
+    return float(np.arctan2(de, dn))
+
+
+def _back_to_start(log: DriveLog, k: np.ndarray, c_bn: np.ndarray, v_n: np.ndarray, t0_s: float) -> np.ndarray:
+    """The IMU-centre position (lat, lon rad, h m) at ``t0_s``: the first course fix less the lever
+    arm and the distance driven since the start (straight line at the start velocity ``v_n``, m/s)."""
+    g = log.gnss
+    lat, lon, h = np.radians(g.lat_deg[k]), np.radians(g.lon_deg[k]), g.h_m[k]
+    rm, rn = radii(lat[0])
+    lev_n = c_bn @ np.asarray(log.manifest.gnss.lever_arm_m, float)
+    back = v_n * (g.t_s[k[0]] - t0_s)  # driven from the start to the first fix (straight line)
+    return np.array(
+        [
+            lat[0] - (lev_n[1] + back[1]) / (rm + h[0]),
+            lon[0] - (lev_n[0] + back[0]) / ((rn + h[0]) * np.cos(lat[0])),
+            h[0] - lev_n[2] - back[2],
+        ]
+    )
+
+
 def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     """Start state of a log that begins on the move: C_b^n, v^n (m/s) and the IMU-centre position
     (lat, lon rad, h m) at the first IMU sample, or a ParameterError naming what is missing.
@@ -175,6 +267,30 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     :func:`ldvsurvey.nav.align.align_in_motion`); velocity from the LDV speed through the nominal
     mounting; position from the first of those fixes less the lever arm and the distance driven
     since the start (straight line at the start velocity).
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle (GNSS needed).
+    t : ndarray
+        (N,) IMU times (s).
+    eta : ndarray or None
+        (N,) unwrapped turntable angle (rad) of a rotating IMU.
+    nu_f : ndarray
+        (N,) forward speed (m/s) at the IMU samples: the LDV's, or the GNSS ground speed without one.
+    ok : ndarray
+        (N,) where ``nu_f`` is usable.
+    window_s : float
+        The span (s) at the start the level and the velocity come from.
+
+    Returns
+    -------
+    c_bn : ndarray
+        (3, 3) C_b^n at the first IMU sample.
+    v_n : ndarray
+        (3,) velocity (m/s, ENU) there.
+    pos0 : ndarray
+        IMU-centre latitude, longitude (rad) and ellipsoidal height (m) there.
     """
     from ldvsurvey.nav.align import align_in_motion
     from ldvsurvey.nav.errmodel import c_db
@@ -187,39 +303,8 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     )
     if g is None:
         raise ParameterError(what + "GNSS fixes (no gnss.nmea)", file="gnss.nmea", field="initial.static_s")
-    early = np.isfinite(g.lat_deg) & (g.t_s >= t[0] - 0.5) & (g.t_s <= t[0] + 30.0)
-    pair = None
-    for q in (4, 5, 2, 1):
-        idx = np.flatnonzero(early & (g.fix == q))
-        for i in idx:
-            later = idx[
-                (g.t_s[idx] >= g.t_s[i] + COURSE_BASELINE_S[q] - 0.01)
-                & (g.t_s[idx] <= g.t_s[i] + COURSE_BASELINE_S[q] + 1.01)
-            ]
-            if len(later):
-                pair = (int(i), int(later[0]))
-                break
-        if pair:
-            break
-    if pair is None:
-        raise ParameterError(
-            what + "two GNSS fixes of one quality a few seconds apart within the first 30 s",
-            file="gnss.nmea",
-            field="fix_quality",
-        )
-    k = np.array(pair)
-    lat, lon, h = np.radians(g.lat_deg[k]), np.radians(g.lon_deg[k]), g.h_m[k]
-    rm, rn = radii(lat[0])
-    de = (lon[1] - lon[0]) * (rn + h[0]) * np.cos(lat[0])
-    dn = (lat[1] - lat[0]) * (rm + h[0])
-    dt_g = g.t_s[k[1]] - g.t_s[k[0]]
-    if np.hypot(de, dn) / dt_g < 2.0:
-        raise ParameterError(
-            what + "the vehicle to move faster than 2 m/s at the first GNSS fixes (for the course over ground)",
-            file="gnss.nmea",
-            field="initial.static_s",
-        )
-    course = float(np.arctan2(de, dn))
+    k = np.array(_course_fixes(g, float(t[0]), what))
+    course = _course_over_ground(g, k, what)
     kw = t <= t[0] + window_s
     use = kw & ok
     if np.count_nonzero(use) < 0.5 * np.count_nonzero(kw) or np.count_nonzero(use) < 10:
@@ -259,13 +344,4 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     turn = float(np.sum(dth_z)) * np.cos(p0) * np.cos(r0)  # about the up axis, over (t0, t_mid]
     c_bn = c_bn_from_euler(p0, r0, h_mid + turn)
     v_n = c_bn @ (cdb @ np.array([0.0, v0, 0.0]))
-    lev_n = c_bn @ np.asarray(m.gnss.lever_arm_m, float)
-    back = v_n * (g.t_s[k[0]] - t[0])  # driven from the start to the first fix (straight line)
-    pos0 = np.array(
-        [
-            lat[0] - (lev_n[1] + back[1]) / (rm + h[0]),
-            lon[0] - (lev_n[0] + back[0]) / ((rn + h[0]) * np.cos(lat[0])),
-            h[0] - lev_n[2] - back[2],
-        ]
-    )
-    return c_bn, v_n, pos0
+    return c_bn, v_n, _back_to_start(log, k, c_bn, v_n, t[0])
