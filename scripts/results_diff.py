@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import pathlib
 import pickle
+import re
 import sys
 import time
 
@@ -89,7 +90,9 @@ def _flat(x, path=""):
         yield path, np.asarray(x, float)
     elif isinstance(x, (list, tuple)):
         yield path, np.asarray(x, float)
-    elif isinstance(x, (bool, str, type(None), np.ndarray)) or isinstance(x, np.bool_):
+    elif isinstance(x, str):
+        yield path, re.sub(r"/ldv-matrix-[^/]+/", "/ldv-matrix-TMP/", x)  # a temporary folder's name
+    elif isinstance(x, (bool, type(None), np.ndarray)) or isinstance(x, np.bool_):
         yield path, x if not isinstance(x, np.ndarray) else x.tolist()
     elif isinstance(x, (int, float, np.integer, np.floating)):
         yield path, np.asarray([float(x)])
