@@ -37,15 +37,11 @@ FRONTEND_DIR = Path(__file__).resolve().parents[3] / "frontend"
 def _say_how_to_log_in(url: str, settings: Settings) -> None:
     import logging
 
-    from sqlalchemy import func, select
-
     from ldvsurvey.store.db import session_scope
-    from ldvsurvey.store.models import User
+    from ldvsurvey.store.users import count_admins
 
     with session_scope(url) as s:
-        admins = s.scalar(
-            select(func.count()).select_from(User).where(User.is_admin.is_(True), User.disabled.is_(False))
-        )
+        admins = count_admins(s)
     if not admins and not settings.demo_mode:
         logging.getLogger("ldvsurvey").warning(
             "no admin yet: create one with `ldv-survey user add NAME --admin`, or start with "

@@ -16,7 +16,6 @@ from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException, Request, Response
 from pydantic import BaseModel, Field
-from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api import models as m
@@ -24,6 +23,8 @@ from ldvsurvey.api.deps import SessionDep, SettingsDep
 from ldvsurvey.api.throttle import client_address
 from ldvsurvey.settings import Settings
 from ldvsurvey.store import users as ustore
+from ldvsurvey.store.jobs import count_active
+from ldvsurvey.store.logs import get_log
 from ldvsurvey.store.models import Job, Log, User
 
 COOKIE = "ldvs_session"
@@ -61,7 +62,7 @@ def principal(request: Request, session: SessionDep, st: SettingsDep) -> Princip
             user, csrf = found
             via_cookie = True
     if user is None and st.demo_mode:
-        user = session.scalar(select(User).where(User.is_demo.is_(True)))
+        user = ustore.demo_user(session)
     if user is None:
         if request.method in UNSAFE:
             raise HTTPException(401, "log in (session cookie) or send an API token (Authorization: Bearer …)")
@@ -77,7 +78,7 @@ CurrentUser = Annotated[Principal, Depends(principal)]
 
 def visible_log(session: Session, who: Principal, log_id: int) -> Log:
     """The log if it exists and the principal may see it; 404 otherwise (no existence leak)."""
-    row = session.get(Log, log_id)
+    row = get_log(session, log_id)
     if row is None or not who.can_see(row):
         raise HTTPException(404, f"log {log_id} not found")
     return row
@@ -88,7 +89,7 @@ def visible_job(session: Session, who: Principal, job_id: int) -> Job:
     if j is None:
         raise HTTPException(404, f"job {job_id} not found")
     for lid in j.log_ids:
-        row = session.get(Log, lid)
+        row = get_log(session, lid)
         if row is not None and not who.can_see(row):
             raise HTTPException(404, f"job {job_id} not found")
     return j
@@ -162,9 +163,7 @@ def check_job_quota(session: Session, who: Principal, st: Settings) -> None:
     if who.user is None:
         return
     ustore.lock_user(session, who.user.id)
-    active = session.scalar(
-        select(func.count()).select_from(Job).where(Job.user_id == who.user.id, Job.status.in_(("queued", "running")))
-    )
+    active = count_active(session, who.user.id)
     if active >= st.max_active_jobs_per_user:
         raise HTTPException(
             429,
@@ -244,9 +243,9 @@ def bootstrap_users(database_url: str, settings) -> None:
 
     with session_scope(database_url) as s:
         if settings.admin_user and settings.admin_password:
-            if s.scalar(select(User).where(User.username == settings.admin_user)) is None:
+            if ustore.user_named(s, settings.admin_user) is None:
                 ustore.create_user(s, settings.admin_user, settings.admin_password, is_admin=True)
-        if settings.demo_mode and s.scalar(select(User).where(User.is_demo.is_(True))) is None:
+        if settings.demo_mode and ustore.demo_user(s) is None:
             import secrets
 
             ustore.create_user(s, "demo", secrets.token_urlsafe(16), is_demo=True, project="Demo survey")

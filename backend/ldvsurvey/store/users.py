@@ -87,8 +87,24 @@ def create_user(
     return u
 
 
+def user_named(s: Session, username: str) -> User | None:
+    """The user of that name, or None."""
+    return s.scalar(select(User).where(User.username == username))
+
+
+def demo_user(s: Session) -> User | None:
+    """The demo account (made in demo mode), or None."""
+    return s.scalar(select(User).where(User.is_demo.is_(True)))
+
+
+def count_admins(s: Session) -> int:
+    """How many admins may log in (not disabled)."""
+    return s.scalar(select(func.count()).select_from(User).where(User.is_admin.is_(True), User.disabled.is_(False)))
+
+
 def find_user(s: Session, username: str) -> User:
-    u = s.scalar(select(User).where(User.username == username))
+    """The user of that name; :class:`AccountError` naming it when there is none."""
+    u = user_named(s, username)
     if u is None:
         raise AccountError(f"no user '{username}'", field="username")
     return u
