@@ -7,7 +7,6 @@ stores the bundle with the original files kept byte for byte beside it (named ``
 
 from __future__ import annotations
 
-import hashlib
 import json
 
 from fastapi import APIRouter, File, Form, Request, Response, UploadFile
@@ -140,7 +139,6 @@ def create_import(
     from ldvsurvey.io.drivelog import parse_files
     from ldvsurvey.io.quality import quality_report
     from ldvsurvey.store import logs as store
-    from ldvsurvey.store.models import LogFile
 
     check_upload_rate(request, who, st)
     project_id = target_project(session, who, project_id)
@@ -153,16 +151,7 @@ def create_import(
     quality["warnings"] = list(quality["warnings"]) + [w for w in result.warnings if w not in quality["warnings"]]
     row, created = store.store_log(session, log, quality, project_id)
     if created:
-        for name, content in sorted(originals.items()):
-            session.add(
-                LogFile(
-                    log_id=row.id,
-                    name=ORIGINAL_PREFIX + name,
-                    sha256=hashlib.sha256(content).hexdigest(),
-                    size_bytes=len(content),
-                    content=content,
-                )
-            )
+        store.add_files(session, row.id, {ORIGINAL_PREFIX + name: content for name, content in originals.items()})
     session.commit()
     if not created:
         response.status_code = 200

@@ -6,6 +6,7 @@ small files and databases without a folder (in-memory SQLite) keep them in the r
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 
 import numpy as np
@@ -175,7 +176,16 @@ def facts_of(session: Session, row: Log) -> dict:
 
 
 def get_log(session: Session, log_id: int) -> Log | None:
+    """The log of that id, or None."""
     return session.get(Log, log_id)
+
+
+def add_files(session: Session, log_id: int, files: dict[str, bytes]) -> None:
+    """Keep further files with a stored log (an import's original recordings), each with its SHA-256
+    and size, under their names (not committed)."""
+    for name, content in sorted(files.items()):
+        sha256 = hashlib.sha256(content).hexdigest()
+        session.add(LogFile(log_id=log_id, name=name, sha256=sha256, size_bytes=len(content), content=content))
 
 
 def list_files(session: Session, log_id: int) -> list[tuple[str, str, int]]:
@@ -187,6 +197,7 @@ def list_files(session: Session, log_id: int) -> list[tuple[str, str, int]]:
 
 
 def get_file(session: Session, log_id: int, name: str) -> LogFile | None:
+    """The stored file ``name`` of a log, or None."""
     return session.scalar(select(LogFile).where(LogFile.log_id == log_id, LogFile.name == name))
 
 
