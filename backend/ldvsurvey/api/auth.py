@@ -34,11 +34,15 @@ router = APIRouter(tags=["auth"])
 
 @dataclass
 class Principal:
+    """Who sends a request: the user (None with authentication off), the projects they may see (None: every one) and the
+    CSRF token of their session."""
+
     user: User | None  # None: authentication disabled
     projects: list[int] | None  # None: every project
     csrf: str | None = None
 
     def can_see(self, log: Log) -> bool:
+        """Whether the log is in one of the principal's projects (every log when ``projects`` is None)."""
         return self.projects is None or log.project_id in self.projects
 
 
@@ -85,6 +89,7 @@ def visible_log(session: Session, who: Principal, log_id: int) -> Log:
 
 
 def visible_job(session: Session, who: Principal, job_id: int) -> Job:
+    """The job if it exists and the principal may see every log it read; 404 otherwise (no existence leak)."""
     j = session.get(Job, job_id)
     if j is None:
         raise HTTPException(404, f"job {job_id} not found")
@@ -118,6 +123,22 @@ class RateLimiter:
         self._lock = threading.Lock()
 
     def allow(self, key, limit: int, window_s: float = 60.0) -> bool:
+        """Count one hit of ``key`` unless it already had ``limit`` hits within the last ``window_s``.
+
+        Parameters
+        ----------
+        key : hashable
+            What is counted (e.g. ``("upload", user id)``).
+        limit : int
+            Hits allowed per window.
+        window_s : float
+            The sliding window, s.
+
+        Returns
+        -------
+        bool
+            True when the hit is allowed (and counted), False when refused (not counted).
+        """
         now = time.monotonic()
         with self._lock:
             q = self._hits[key]
@@ -139,6 +160,8 @@ class RateLimiter:
 
 
 def check_upload_rate(request: Request, who: Principal, st: Settings) -> None:
+    """Refuse (429 with ``Retry-After``, s) an upload past ``uploads_per_minute`` for the user, or for the client's
+    address with authentication off."""
     key = who.user.id if who.user is not None else client_address(request, st)
     limiter = request.app.state.rate_limiter
     if not limiter.allow(("upload", key), st.uploads_per_minute):
@@ -173,6 +196,8 @@ def check_job_quota(session: Session, who: Principal, st: Settings) -> None:
 
 
 class Login(BaseModel):
+    """A login: user name and password."""
+
     username: str = Field(..., max_length=200)
     password: str = Field(..., max_length=1000)
 
@@ -186,6 +211,10 @@ class Login(BaseModel):
     },
 )
 def login(body: Login, request: Request, response: Response, session: SessionDep, st: SettingsDep) -> m.LoginOut:
+    """Start a session: sets the HttpOnly session cookie and answers the user name and the CSRF token
+    that page writes send as ``X-CSRF-Token``. 401 for a wrong user name or password (or a disabled
+    user), 429 with ``Retry-After`` after too many failed logins for the account or the client.
+    """
     throttle = request.app.state.login_throttle
     client = client_address(request, st)
     refused, ticket = throttle.attempt(body.username, client)  # counted as a failure until proven right
@@ -207,6 +236,7 @@ def login(body: Login, request: Request, response: Response, session: SessionDep
 
 @router.post("/api/logout", summary="End the session")
 def logout(request: Request, response: Response, session: SessionDep) -> m.Ok:
+    """End the session of the cookie (if any) and clear the cookie. Always answers ok."""
     if request.cookies.get(COOKIE):
         ustore.end_session(session, request.cookies[COOKIE])
         session.commit()
@@ -216,6 +246,10 @@ def logout(request: Request, response: Response, session: SessionDep) -> m.Ok:
 
 @router.get("/api/me", summary="Who am I (user, projects, CSRF token for page writes)")
 def me(who: CurrentUser, session: SessionDep) -> m.Me:
+    """Who the caller is: user name, whether authentication is on, the CSRF token for page writes,
+    the demo and admin flags, the ids of the projects they may see (null: every one) and those
+    projects. 401 without a login when authentication is on (and no demo mode).
+    """
     if who.user is None:
         return {
             "user": None,

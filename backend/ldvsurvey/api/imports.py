@@ -102,6 +102,12 @@ def preview_import(
     who: CurrentUser,
     st: SettingsDep,
 ) -> m.ImportPreview:
+    """Convert foreign recordings into a bundle without storing anything, and say what was found: the
+    files with their detected format and role, time span (s), rates (Hz), GNSS track, survey date,
+    IMU axes, static tilt (deg), the import's checks and warnings. 422 naming the file
+    and field when a format is not recognised or a recording or the partial manifest is malformed;
+    429 past the upload rate.
+    """
     check_upload_rate(request, who, st)  # a preview converts everything: it counts as an upload
     sources, partial, _ = _read_parts(files, manifest, formats)
     partial = _with_axes(partial, axes)

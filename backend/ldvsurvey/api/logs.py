@@ -110,6 +110,8 @@ def list_logs(
     session: SessionDep,
     who: CurrentUser,
 ) -> list[m.LogSummary]:
+    """The drive logs the caller may see, newest first; each given filter (project, platform, survey dates inclusive)
+    narrows. 401 without a login when authentication is on."""
     rows = store.list_logs(
         session, project_id=project_id, platform=platform or None, date_from=date_from, date_to=date_to
     )
@@ -118,6 +120,8 @@ def list_logs(
 
 @router.get("/{log_id}", summary="One log: manifest, quality report, files")
 def get_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> m.LogDetail:
+    """One log: its summary, manifest, quality report and original files (name, SHA-256, size in bytes). 404 for a log
+    the caller cannot see."""
     row = visible_log(session, who, log_id)
     return {
         **log_summary(row),
@@ -143,6 +147,8 @@ def get_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> m.LogDetail
     },
 )
 def get_file(log_id: LogId, name: str, session: SessionDep, who: CurrentUser) -> Response:
+    """An original file of a log byte for byte, as an attachment with its SHA-256 in ``X-Content-SHA256`` (large files
+    streamed). 404 for a log the caller cannot see or a file it does not have."""
     visible_log(session, who, log_id)
     f = store.get_file(session, log_id, name)
     if f is None:
@@ -162,6 +168,8 @@ def get_file(log_id: LogId, name: str, session: SessionDep, who: CurrentUser) ->
 
 @router.delete("/{log_id}", status_code=204, summary="Delete a log with all its files and arrays")
 def delete_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> Response:
+    """Delete a log with its files, arrays and every job computed from it; answers once it is gone (204). 404 for a log
+    the caller cannot see, 403 for the demo account."""
     visible_log(session, who, log_id)
     refuse_demo(who, "delete logs")  # logs do not record their uploader: none is the demo's to delete
     store.delete_log(session, log_id)

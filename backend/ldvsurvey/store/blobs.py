@@ -284,6 +284,8 @@ class Writer:
         return key
 
     def done(self) -> None:
+        """Wait until every file handed to the writer's threads is written (re-raising their first error) and stop the
+        threads."""
         try:
             for f in self._pending:
                 f.result()
@@ -426,6 +428,7 @@ class DbWriter:
         return key
 
     def done(self) -> None:
+        """Nothing to wait for: the chunks were written through the session's connection."""
         pass
 
 
@@ -449,15 +452,20 @@ class DbBlobReader(io.RawIOBase):
         self._range = text("SELECT seq, data FROM blob_chunks WHERE key = :k AND seq >= :a AND seq <= :b ORDER BY seq")
 
     def readable(self) -> bool:
+        """Always True."""
         return True
 
     def seekable(self) -> bool:
+        """Always True."""
         return True
 
     def tell(self) -> int:
+        """The position, bytes from the start."""
         return self.pos
 
     def seek(self, offset: int, whence: int = 0) -> int:
+        """Move to ``offset`` bytes from the start (``whence`` 0), the position (1) or the end (2); returns the new
+        position (never below 0)."""
         base = {0: 0, 1: self.pos, 2: self.size}[whence]
         self.pos = max(0, base + offset)
         return self.pos
@@ -472,6 +480,7 @@ class DbBlobReader(io.RawIOBase):
         return [bytes(r[1]) for r in rows]
 
     def read(self, n: int = -1) -> bytes:
+        """Up to ``n`` bytes from the position (all the rest for ``n`` < 0 or None); empty at the end."""
         with self._lock:
             end = self.size if n is None or n < 0 else min(self.size, self.pos + n)
             if end <= self.pos:
@@ -483,9 +492,11 @@ class DbBlobReader(io.RawIOBase):
             return out
 
     def readall(self) -> bytes:
+        """All bytes from the position to the end."""
         return self.read(-1)
 
     def readinto(self, buf) -> int:
+        """Read up to ``len(buf)`` bytes into ``buf``; returns how many."""
         data = self.read(len(buf))
         memoryview(buf).cast("B")[: len(data)] = data
         return len(data)

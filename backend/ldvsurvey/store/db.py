@@ -82,6 +82,7 @@ def upgrade_head(url: str) -> None:
 
 
 def session_factory(url: str) -> sessionmaker[Session]:
+    """The session maker of the database at ``url`` (one engine per URL; objects stay readable after commit)."""
     return sessionmaker(bind=get_engine(url), expire_on_commit=False)
 
 

@@ -89,6 +89,7 @@ class Leftovers:
     paths: list[str] = field(default_factory=list, repr=False)
 
     def message(self, verb: str = "removed") -> str:
+        """One line for the log: ``verb`` (e.g. removed) with the counts and the size in MB."""
         extra = (
             f", {self.unreferenced_blobs} blob{'s' * (self.unreferenced_blobs != 1)} no row names"
             if self.unreferenced_blobs
@@ -101,6 +102,7 @@ class Leftovers:
         )
 
     def as_dict(self) -> dict:
+        """The counts and bytes as a dict (without the paths)."""
         d = asdict(self)
         d.pop("paths")
         return d
@@ -183,6 +185,7 @@ class Report:
         self.last_at: float | None = None
 
     def add(self, gone: Leftovers) -> None:
+        """Add what one clean-up removed to the totals and note when (Unix s)."""
         with self._lock:
             self.total.staging_folders += gone.staging_folders
             self.total.part_blobs += gone.part_blobs

@@ -62,6 +62,7 @@ def _arrays(log: DriveLog) -> dict[str, dict[str, np.ndarray]]:
 
 
 def find_by_sha(session: Session, sha256: str, project_id: int | None = None) -> Log | None:
+    """The log of the project (None: no project) whose bundle has this SHA-256, or None."""
     return session.scalar(
         select(Log).where(
             Log.sha256 == sha256, Log.project_id.is_(project_id) if project_id is None else Log.project_id == project_id
