@@ -122,7 +122,7 @@ class RateLimiter:
         self._hits: dict = defaultdict(deque)
         self._lock = threading.Lock()
 
-    def allow(self, key, limit: int, window_s: float = 60.0) -> bool:
+    def allow(self, key, limit: int, *, window_s: float = 60.0) -> bool:
         """Count one hit of ``key`` unless it already had ``limit`` hits within the last ``window_s``.
 
         Parameters
@@ -149,7 +149,7 @@ class RateLimiter:
             q.append(now)
             return True
 
-    def wait_s(self, key, limit: int, window_s: float = 60.0) -> int:
+    def wait_s(self, key, limit: int, *, window_s: float = 60.0) -> int:
         """Whole seconds until ``key`` is allowed again (``Retry-After``; at least 1)."""
         now = time.monotonic()
         with self._lock:

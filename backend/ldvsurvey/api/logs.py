@@ -161,7 +161,7 @@ def get_file(log_id: LogId, name: str, session: SessionDep, who: CurrentUser) ->
         return Response(content=f.inline, media_type=ctype, headers=headers)
     # a large one is sent from the blob folder or the database, a piece at a time (an 8-h imu.csv
     # is close to 1 GB); opened here, so a deletion committed meanwhile cannot cut the download short
-    pieces, size = blobs.download(f, f.blob, DOWNLOAD_CHUNK_BYTES)
+    pieces, size = blobs.download(f, f.blob, piece_bytes=DOWNLOAD_CHUNK_BYTES)
     headers["Content-Length"] = str(size)
     return StreamingResponse(pieces, media_type=ctype, headers=headers)
 

@@ -83,7 +83,7 @@ def create_token(body: TokenRequest, who: CurrentUser, session: SessionDep) -> m
     """Create an API token for the caller; the answer holds its secret, shown this once. 403 for the demo account, 400
     with authentication off, 422 for a bad name or expiry."""
     refuse_demo(who, "hold API tokens")  # shared by every visitor, who needs none
-    token = ustore.new_api_token(session, _me(who), body.name, body.expires_days)
+    token = ustore.new_api_token(session, _me(who), body.name, expires_days=body.expires_days)
     session.commit()
     row = ustore.list_tokens(session, who.user)[-1]
     return {**row, "token": token}

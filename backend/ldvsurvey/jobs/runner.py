@@ -208,7 +208,7 @@ class JobRunner:
         """Hand a job to the queue (its row in ``jobs`` is already there)."""
         self._task(job_id)
 
-    def reap(self, stale_s: float | None = None) -> list[int]:
+    def reap(self, *, stale_s: float | None = None) -> list[int]:
         """Re-queue running jobs whose heartbeat is older than ``stale_s`` (their worker died)."""
         limit = now() - dt.timedelta(seconds=self.stale_s if stale_s is None else stale_s)
         with session_scope(self.database_url) as s:
@@ -323,6 +323,7 @@ class Consumer:
     def __init__(
         self,
         runner: JobRunner,
+        *,
         workers: int = 2,
         reap_every_s: float = 30.0,
         consume: bool = True,

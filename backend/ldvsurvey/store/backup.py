@@ -76,7 +76,7 @@ def _prepare_dir(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
 
 
-def backup(database_url: str, out: Path, say: Callable[[str], None] = print) -> dict:
+def backup(database_url: str, out: Path, *, say: Callable[[str], None] = print) -> dict:
     """Write a backup of the database at ``database_url`` (and its blobs) into the new folder ``out``.
     Returns the manifest written to ``out/backup.json``."""
     out = Path(out)
@@ -277,7 +277,7 @@ def verify(src: Path) -> dict:
     return m
 
 
-def restore(database_url: str, src: Path, force: bool = False, say: Callable[[str], None] = print) -> dict:
+def restore(database_url: str, src: Path, *, force: bool = False, say: Callable[[str], None] = print) -> dict:
     """Restore the backup in ``src`` into the database at ``database_url`` (verified first; an
     existing database with data is replaced only with ``force``). Stop the server first."""
     src = Path(src)

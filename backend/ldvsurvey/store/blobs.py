@@ -524,7 +524,7 @@ class StoredBlob:
         return f"StoredBlob({self.key!r}, {self.size_bytes})"
 
 
-def download(row, key: str, piece_bytes: int = CHUNK_BYTES) -> tuple[Iterator[bytes], int]:
+def download(row, key: str, *, piece_bytes: int = CHUNK_BYTES) -> tuple[Iterator[bytes], int]:
     """(pieces of at most ``piece_bytes``, size) of a blob for an HTTP answer streamed after the
     route returned: a folder's file is opened now, a database blob is read in a transaction of its
     own begun now (REPEATABLE READ), so a deletion committed meanwhile cannot cut the download short."""
@@ -583,7 +583,7 @@ def delete_from_database(session: Session, keys: list[str]) -> None:
         session.execute(delete(BlobChunk).where(BlobChunk.key.in_(db_keys[a : a + 500])))
 
 
-def migrate_to_database(database_url: str, folder: Path, log=print) -> tuple[int, int]:
+def migrate_to_database(database_url: str, folder: Path, *, log=print) -> tuple[int, int]:
     """Move every blob of the folder named by a row into the database (PostgreSQL), one log per
     transaction: the chunks are written and the row renamed together, an original's SHA-256 checked
     against its row on the way; the file is removed once that is committed. Returns (blobs, bytes).

@@ -61,7 +61,7 @@ def _arrays(log: DriveLog) -> dict[str, dict[str, np.ndarray]]:
     return out
 
 
-def find_by_sha(session: Session, sha256: str, project_id: int | None = None) -> Log | None:
+def find_by_sha(session: Session, sha256: str, *, project_id: int | None = None) -> Log | None:
     """The log of the project (None: no project) whose bundle has this SHA-256, or None."""
     return session.scalar(
         select(Log).where(
@@ -78,7 +78,7 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
     (Log, created) : the row and whether it was created now (False: duplicate upload).
     """
     sha = log.sha256
-    existing = find_by_sha(session, sha, project_id)
+    existing = find_by_sha(session, sha, project_id=project_id)
     if existing is not None:
         return existing, False
     m = log.manifest
@@ -127,7 +127,7 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
         session.flush()
     except IntegrityError:  # a concurrent upload of the same bundle won the race
         session.rollback()
-        existing = find_by_sha(session, sha, project_id)
+        existing = find_by_sha(session, sha, project_id=project_id)
         if existing is None:
             raise
         return existing, False

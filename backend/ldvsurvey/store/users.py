@@ -324,7 +324,7 @@ def end_session(s: Session, token: str) -> None:
     s.execute(delete(SessionRow).where(SessionRow.token_hash == _h(token)))
 
 
-def new_api_token(s: Session, user: User, name: str, expires_days: float | None = None) -> str:
+def new_api_token(s: Session, user: User, name: str, *, expires_days: float | None = None) -> str:
     """A bearer token (returned once; only its hash is kept), expiring after ``expires_days`` (None: never)."""
     name = (name or "").strip()
     check_name(name, "name", "token name")
