@@ -66,7 +66,20 @@ async def _lifespan(app: FastAPI) -> AsyncIterator[None]:
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    """Build the app; runs the database migrations (``upgrade head``) first."""
+    """Build the app on the settings' database, migrated to the newest schema (``upgrade head``) first.
+
+    Parameters
+    ----------
+    settings : Settings, optional
+        The app's settings (default: :func:`ldvsurvey.settings.get_settings`, from the environment);
+        routes read them through ``SettingsDep``.
+
+    Returns
+    -------
+    FastAPI
+        The app, holding its database URL, runner, job consumer and rate limiters in ``app.state``
+        (the consumer starts and stops with the server).
+    """
     settings = settings or get_settings()
     url = settings.resolved_database_url()
     upgrade_head(url)

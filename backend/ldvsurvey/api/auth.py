@@ -47,7 +47,29 @@ class Principal:
 
 
 def principal(request: Request, session: SessionDep, st: SettingsDep) -> Principal:
-    """Who sends the request (bearer token, session cookie, or the demo account); 401/403 otherwise."""
+    """Who sends the request: the user of a bearer token, of a session cookie, or the demo account.
+
+    Parameters
+    ----------
+    request : Request
+        Its ``Authorization`` header or session cookie, and for a write through the cookie its
+        ``X-CSRF-Token`` header.
+    session : Session
+        The request's session.
+    st : Settings
+        ``auth_enabled`` (off: everyone may see everything) and ``demo_mode``.
+
+    Returns
+    -------
+    Principal
+        The user with the projects they may see (None for an admin: every one).
+
+    Raises
+    ------
+    HTTPException
+        401 without a valid login, for an invalid or expired token (saying when it expired); 403
+        for a cookie write without the session's CSRF token.
+    """
     if not st.auth_enabled:
         return Principal(None, None)
     user, csrf, via_cookie = None, None, False

@@ -65,7 +65,30 @@ def _stats(x: np.ndarray) -> dict:
 
 
 def compare_jobs(session: Session, who: Principal, ids: list[int]) -> dict:
-    """Common points and differences against the first job, line by line, with statistics."""
+    """The gravity lines of jobs compared with the first job's at their common points.
+
+    Parameters
+    ----------
+    session : Session
+        The request's session.
+    who : Principal
+        The caller (every job must be visible to them).
+    ids : list of int
+        The jobs, the first the reference.
+
+    Returns
+    -------
+    dict
+        ``reference_job``, ``jobs``, ``statistics`` of the differences (mGal) per job and line and
+        over all lines, and ``points``: (job, line, distance along the line in m, δg of the
+        reference and of the job and their difference in mGal).
+
+    Raises
+    ------
+    HTTPException
+        404 for a job the caller cannot see or without line results, 409 for a job not succeeded,
+        422 for a job other than a gravity job.
+    """
     jobs = []
     for i in ids:
         j = visible_job(session, who, i)

@@ -291,7 +291,30 @@ class _Attempt:
 
 def check_applicable(database_url: str, pipe, log_ids: list[int], params: dict) -> dict:
     """The submit-time check again, in the worker: :meth:`Pipeline.check` on the stored logs' facts.
-    Raises the same :class:`~ldvsurvey.errors.ParameterError` the submit would (the job fails with it)."""
+
+    Parameters
+    ----------
+    database_url : str
+        The database holding the logs.
+    pipe : Pipeline
+        The job's pipeline.
+    log_ids : list of int
+        The job's logs.
+    params : dict
+        The parameters as given at the submit.
+
+    Returns
+    -------
+    dict
+        The validated parameters, defaults filled in.
+
+    Raises
+    ------
+    ParameterError
+        The same the submit would raise now (the job fails with its message).
+    InputError
+        When a log of the job was deleted (naming ``log_ids``).
+    """
     from ldvsurvey.store.models import Log
 
     with session_scope(database_url) as s:

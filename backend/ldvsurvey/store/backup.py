@@ -278,8 +278,33 @@ def verify(src: Path) -> dict:
 
 
 def restore(database_url: str, src: Path, *, force: bool = False, say: Callable[[str], None] = print) -> dict:
-    """Restore the backup in ``src`` into the database at ``database_url`` (verified first; an
-    existing database with data is replaced only with ``force``). Stop the server first."""
+    """Restore the backup in ``src`` into the database at ``database_url``; stop the server first.
+
+    Every file is verified by size and SHA-256 first; the schema is brought to this version's
+    (``upgrade head``) and jobs that were queued or running at backup time are marked failed.
+
+    Parameters
+    ----------
+    database_url : str
+        The target database (of the same engine as the backup's).
+    src : Path
+        The backup folder (``backup.json`` with the files it names).
+    force : bool
+        Replace a database that already holds data (refused otherwise).
+    say : callable
+        Receives one line per step (default: print).
+
+    Returns
+    -------
+    dict
+        The backup's manifest.
+
+    Raises
+    ------
+    BackupError
+        Naming the file: a file missing or differing, another engine, a target holding data without
+        ``force``.
+    """
     src = Path(src)
     m = verify(src)
     engine = make_url(database_url).get_backend_name()

@@ -525,9 +525,27 @@ class StoredBlob:
 
 
 def download(row, key: str, *, piece_bytes: int = CHUNK_BYTES) -> tuple[Iterator[bytes], int]:
-    """(pieces of at most ``piece_bytes``, size) of a blob for an HTTP answer streamed after the
-    route returned: a folder's file is opened now, a database blob is read in a transaction of its
-    own begun now (REPEATABLE READ), so a deletion committed meanwhile cannot cut the download short."""
+    """A blob as pieces for an HTTP answer streamed after the route returned.
+
+    A folder's file is opened now; a database blob is read in a transaction of its own begun now
+    (REPEATABLE READ), so a deletion committed meanwhile cannot cut the download short.
+
+    Parameters
+    ----------
+    row : LogFile
+        The row naming the blob (its session tells where blobs live).
+    key : str
+        The blob's key.
+    piece_bytes : int
+        Largest piece, bytes.
+
+    Returns
+    -------
+    Iterator[bytes]
+        The pieces, in order.
+    int
+        The blob's size, bytes (the ``Content-Length``).
+    """
     if not key.startswith(DB_PREFIX):
         fh = blob_path(row, key).open("rb")
         return _file_pieces(fh, piece_bytes), os.fstat(fh.fileno()).st_size

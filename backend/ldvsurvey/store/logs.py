@@ -73,9 +73,27 @@ def find_by_sha(session: Session, sha256: str, *, project_id: int | None = None)
 def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | None = None) -> tuple[Log, bool]:
     """Store a parsed bundle (originals, Parquet arrays, quality) unless already stored.
 
+    Large originals and the arrays go to blobs (the folder beside a SQLite file, ``blob_chunks``
+    with PostgreSQL), small ones into their rows; every blob is written before a row names it.
+
+    Parameters
+    ----------
+    session : Session
+        The caller's session (flushed here, committed by the caller).
+    log : DriveLog
+        The parsed bundle.
+    quality : dict
+        Its quality report (:func:`ldvsurvey.io.quality.quality_report`).
+    project_id : int, optional
+        The project it belongs to (None: none, with authentication off).
+
     Returns
     -------
-    (Log, created) : the row and whether it was created now (False: duplicate upload).
+    Log
+        The stored row, or the existing one of the same bundle SHA-256 in that project.
+    bool
+        Whether it was created now (False: a duplicate upload, also when a concurrent upload of the
+        same bundle won the race).
     """
     sha = log.sha256
     existing = find_by_sha(session, sha, project_id=project_id)
@@ -254,6 +272,19 @@ def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
     The arrays are read row group by row group into their final arrays; the originals are not read
     (``files`` holds the path of a file in the blob folder, or the bytes of a small one kept in its
     row; ``file_sha256`` the stored hashes).
+
+    Parameters
+    ----------
+    session : Session
+        An open session (blobs kept in the database are read through it).
+    log_id : int
+        The log's id.
+
+    Returns
+    -------
+    DriveLog or None
+        The log with its samples as parsed (units in the field names: ``t_s``, ``dtheta_rad``, …), or
+        None when there is no such log.
     """
     row = session.get(Log, log_id)
     if row is None:

@@ -72,7 +72,36 @@ def create_user(
     project: str | None = None,
     own_project: bool = True,
 ) -> User:
-    """A user and (unless ``own_project`` is false) a project, by default one of their own, they are a member of."""
+    """A new user (flushed), member of a project unless ``own_project`` is false and no ``project`` is named.
+
+    Parameters
+    ----------
+    s : Session
+        The caller's session (committed by the caller).
+    username : str
+        1 to 100 characters without spaces (surrounding blanks stripped).
+    password : str
+        Stored as its argon2 hash (its length is checked by the callers, :func:`check_password`).
+    is_admin, is_demo : bool
+        The user's flags.
+    project : str, optional
+        The project they join (created when missing); default a project of their own,
+        ``"<username>'s project"``.
+    own_project : bool
+        Whether a user without ``project`` gets a project of their own.
+
+    Returns
+    -------
+    User
+        The new row.
+
+    Raises
+    ------
+    AccountError
+        For a bad name (422, naming ``username``).
+    Conflict
+        When the name is taken (409).
+    """
     username = username.strip()
     check_name(username, "username", "user name")
     if not username or len(username) > 100 or any(c.isspace() for c in username):
@@ -325,7 +354,29 @@ def end_session(s: Session, token: str) -> None:
 
 
 def new_api_token(s: Session, user: User, name: str, *, expires_days: float | None = None) -> str:
-    """A bearer token (returned once; only its hash is kept), expiring after ``expires_days`` (None: never)."""
+    """A new bearer token of the user (flushed); only its SHA-256 is kept.
+
+    Parameters
+    ----------
+    s : Session
+        The caller's session (committed by the caller).
+    user : User
+        Whose token it is.
+    name : str
+        1 to 100 characters, to tell the user's tokens apart.
+    expires_days : float, optional
+        Days until it stops working (more than 0, at most 3660); None: never.
+
+    Returns
+    -------
+    str
+        The token (``ldvs_…``), shown to the user this once.
+
+    Raises
+    ------
+    AccountError
+        For a bad name or expiry, naming the field.
+    """
     name = (name or "").strip()
     check_name(name, "name", "token name")
     if not name or len(name) > 100:
