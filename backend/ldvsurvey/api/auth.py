@@ -122,6 +122,24 @@ def visible_job(session: Session, who: Principal, job_id: int) -> Job:
     return j
 
 
+def visible_jobs(session: Session, who: Principal, jobs: list[Job]) -> list[Job]:
+    """Those of ``jobs`` whose every log exists and the principal may see (each log looked up once)."""
+    if who.projects is None:
+        return jobs
+    seen: dict[int, bool] = {}
+
+    def ok(j: Job) -> bool:
+        for i in j.log_ids:
+            if i not in seen:
+                row = get_log(session, i)
+                seen[i] = row is not None and who.can_see(row)
+            if not seen[i]:
+                return False
+        return True
+
+    return [j for j in jobs if ok(j)]
+
+
 def refuse_demo(who: Principal, what: str) -> None:
     """403 when the principal is the demo account, which every visitor of a demo shares: it is
     read-only for data it did not create. ``what`` completes "the demo account cannot …"."""

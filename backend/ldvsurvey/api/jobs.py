@@ -9,7 +9,15 @@ from pydantic import BaseModel, Field
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api import models as m
-from ldvsurvey.api.auth import CurrentUser, check_job_owner, check_job_quota, principal, visible_job, visible_log
+from ldvsurvey.api.auth import (
+    CurrentUser,
+    check_job_owner,
+    check_job_quota,
+    principal,
+    visible_job,
+    visible_jobs,
+    visible_log,
+)
 from ldvsurvey.api.deps import BodyId, JobId, LogId, RunnerDep, SessionDep, SettingsDep
 from ldvsurvey.api.headlines import headlines, labels
 from ldvsurvey.api.tables import JobTables, job_file
@@ -217,20 +225,7 @@ def list_jobs(
 ) -> list[m.Job]:
     """The jobs the caller may see (every log they read is in one of the caller's projects), newest
     first; with ``log_id`` only those that read that log. 401 without a login when authentication is on."""
-    jobs = jstore.list_jobs(session, log_id=log_id)
-    if who.projects is not None:
-        seen = {}
-
-        def ok(j):
-            for i in j.log_ids:
-                if i not in seen:
-                    row = get_log(session, i)
-                    seen[i] = row is not None and who.can_see(row)
-                if not seen[i]:
-                    return False
-            return True
-
-        jobs = [j for j in jobs if ok(j)]
+    jobs = visible_jobs(session, who, jstore.list_jobs(session, log_id=log_id))
     return [job_dict(j) for j in jobs]
 
 

@@ -148,7 +148,7 @@ def admin_change_user(user_id: PathId, body: UserChange, who: AdminUser, session
     if body.disabled is not None:
         ustore.set_disabled(session, u, body.disabled)
     if body.is_admin is not None:
-        u.is_admin = body.is_admin
+        ustore.set_admin(session, u, body.is_admin)
     if body.password is not None:
         ustore.set_password(session, u, body.password)
     session.commit()

@@ -178,6 +178,11 @@ def set_disabled(s: Session, user: User, disabled: bool) -> None:
         s.execute(delete(SessionRow).where(SessionRow.user_id == user.id))
 
 
+def set_admin(s: Session, user: User, is_admin: bool) -> None:
+    """Grant or drop the admin right (an admin sees every project and manages users and projects)."""
+    user.is_admin = is_admin
+
+
 def remove_member(s: Session, user_id: int, project_id: int) -> None:
     """End the user's membership of the project (nothing when not a member)."""
     s.execute(delete(Membership).where(Membership.user_id == user_id, Membership.project_id == project_id))
