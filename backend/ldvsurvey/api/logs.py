@@ -85,8 +85,13 @@ def upload_log(
     who: CurrentUser,
     st: SettingsDep,
 ) -> m.Uploaded:
-    """Validate, parse and store a bundle in a project. The same bundle uploaded again to the same
-    project is not stored twice (200 with ``duplicate: true`` and the existing log)."""
+    """Validate, parse and store a bundle in a project; answers the log with its quality report (201).
+
+    The same bundle uploaded again to the same project is not stored twice (200 with ``duplicate:
+    true`` and the existing log). Errors: 422 naming the file, line and field for a bad bundle; 413
+    for an archive or file over the limits; 404 for a project the caller may not write to, 403 when
+    they are a member of none; 429 past the upload rate.
+    """
     check_upload_rate(request, who, st)
     project_id = target_project(session, who, project_id)
     members = read_upload(files, st)
