@@ -140,7 +140,10 @@ def create_import(
     who: CurrentUser,
     st: SettingsDep,
 ) -> m.Imported:
-    """Answers like ``POST /api/logs`` (201 with the log; 200 with ``duplicate: true``)."""
+    """Convert foreign recordings into a bundle, validate and store it in a project, keeping the
+    originals with it. Answers like ``POST /api/logs`` (201 with the log; 200 with ``duplicate:
+    true``) plus what the import found. Errors as ``POST /api/logs`` and ``/api/imports/preview``
+    (422 naming the file and field, 413, 404 or 403 for the project, 429)."""
     from ldvsurvey.api.logs import log_summary, target_project
     from ldvsurvey.io.drivelog import parse_files
     from ldvsurvey.io.quality import quality_report
