@@ -65,6 +65,47 @@ async def _lifespan(app: FastAPI) -> AsyncIterator[None]:
     app.state.consumer.stop()
 
 
+def _add_plotly_bundle(app: FastAPI) -> None:
+    """``GET /vendor/plotly.min.js``: the installed plotly package's bundle, gzip-compressed once per process."""
+    import plotly
+
+    plotly_js = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+
+    gz_cache: dict = {}
+
+    @app.get("/vendor/plotly.min.js", include_in_schema=False)
+    def plotly_bundle(request: Request):
+        import gzip
+
+        from fastapi.responses import FileResponse, Response
+
+        # the bundle changes only with the installed plotly package: let browsers keep it (and V8 its code cache)
+        cache = {"Cache-Control": "public, max-age=86400", "Vary": "Accept-Encoding"}
+        if "gzip" not in request.headers.get("accept-encoding", ""):
+            return FileResponse(plotly_js, media_type="text/javascript", headers=cache)
+        if "gz" not in gz_cache:  # compressed once per process, not on every request
+            gz_cache["gz"] = gzip.compress(plotly_js.read_bytes(), compresslevel=6)
+        return Response(gz_cache["gz"], media_type="text/javascript", headers={**cache, "Content-Encoding": "gzip"})
+
+
+def _add_job_runner(app: FastAPI, settings: Settings, leftovers) -> None:
+    """The app's job runner (``app.state.runner``) and its consumer (``app.state.consumer``), which also
+    cleans what stopped uploads left every ``settings.clean_every_s`` into the ``leftovers`` report."""
+    from ldvsurvey.jobs.runner import Consumer, JobRunner
+    from ldvsurvey.store.leftovers import clean_leftovers
+
+    url = app.state.database_url
+    app.state.runner = JobRunner(url, settings)  # routes queue jobs through it (ldvsurvey.api.deps.RunnerDep)
+    app.state.consumer = Consumer(  # started and stopped with the server (_lifespan)
+        app.state.runner,
+        workers=settings.workers,
+        reap_every_s=settings.reap_every_s,
+        consume=settings.run_consumer,
+        housekeeping=lambda: clean_leftovers(settings, leftovers),
+        housekeeping_every_s=settings.clean_every_s,
+    )
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the app on the settings' database, migrated to the newest schema (``upgrade head``) first.
 
@@ -129,37 +170,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(storage_router)
     app.include_router(reports_router)
 
-    import plotly
-
-    plotly_js = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
-
-    gz_cache: dict = {}
-
-    @app.get("/vendor/plotly.min.js", include_in_schema=False)
-    def plotly_bundle(request: Request):
-        import gzip
-
-        from fastapi.responses import FileResponse, Response
-
-        # the bundle changes only with the installed plotly package: let browsers keep it (and V8 its code cache)
-        cache = {"Cache-Control": "public, max-age=86400", "Vary": "Accept-Encoding"}
-        if "gzip" not in request.headers.get("accept-encoding", ""):
-            return FileResponse(plotly_js, media_type="text/javascript", headers=cache)
-        if "gz" not in gz_cache:  # compressed once per process, not on every request
-            gz_cache["gz"] = gzip.compress(plotly_js.read_bytes(), compresslevel=6)
-        return Response(gz_cache["gz"], media_type="text/javascript", headers={**cache, "Content-Encoding": "gzip"})
-
-    from ldvsurvey.jobs.runner import Consumer, JobRunner
-
-    app.state.runner = JobRunner(url, settings)  # routes queue jobs through it (ldvsurvey.api.deps.RunnerDep)
-    app.state.consumer = Consumer(  # started and stopped with the server (_lifespan)
-        app.state.runner,
-        workers=settings.workers,
-        reap_every_s=settings.reap_every_s,
-        consume=settings.run_consumer,
-        housekeeping=lambda: clean_leftovers(settings, leftovers),
-        housekeeping_every_s=settings.clean_every_s,
-    )
+    _add_plotly_bundle(app)
+    _add_job_runner(app, settings, leftovers)
 
     if FRONTEND_DIR.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")
