@@ -52,7 +52,7 @@ def run(url: str, label: str, log) -> None:
     def download():
         with session_scope(url) as s:
             f = get_file(s, log_id, "imu.csv")
-            pieces, size = blobs.download(f, f.blob, 256 * 1024)
+            pieces, size = blobs.download(f, f.blob, piece_bytes=256 * 1024)
             n = sum(len(p) for p in pieces)
             assert n == size
             return n

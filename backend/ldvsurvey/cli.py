@@ -439,11 +439,8 @@ def _cmd_ties(args) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="ldv-survey", description=__doc__.splitlines()[0])
-    p.add_argument("--version", action="version", version=f"ldv-survey {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
-
+def _add_bundle_commands(sub) -> None:
+    """The sub-commands on bundles: ``validate``, ``run``, ``demo`` and ``import``."""
     v = sub.add_parser("validate", help="check a bundle (.zip or folder); exit 0 if valid, else 2")
     v.add_argument("bundle")
     v.add_argument("--json", action="store_true", help="print the quality report as JSON")
@@ -494,6 +491,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     im.set_defaults(func=_cmd_import)
 
+
+def _add_install_commands(sub) -> None:
+    """The sub-commands that prepare an installation: ``warmup``, ``migrate`` and ``clean``."""
     w = sub.add_parser(
         "warmup",
         help="compile the numerical core into the on-disk cache by running every "
@@ -514,6 +514,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     cl.set_defaults(func=_cmd_clean)
 
+
+def _add_storage_commands(sub) -> None:
+    """The sub-commands on stored data: ``blobs migrate``, ``backup`` and ``restore``."""
     bl = sub.add_parser("blobs", help="where the large files of stored logs live")
     ba = bl.add_subparsers(dest="action", required=True)
     x = ba.add_parser(
@@ -539,6 +542,9 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--force", action="store_true", help="replace a database that already holds data")
     x.set_defaults(func=_cmd_restore)
 
+
+def _add_user_commands(sub) -> None:
+    """The ``user`` sub-command: ``add``, ``list``, ``disable``, ``enable``, ``delete`` and ``password``."""
     u = sub.add_parser("user", help="manage users (in LDVSURVEY_DATABASE_URL / LDVSURVEY_DATA_DIR)")
     ua = u.add_subparsers(dest="action", required=True)
     x = ua.add_parser("add", help="create a user (asks for the password unless --password-env)")
@@ -564,6 +570,9 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--password-env", metavar="VAR")
     u.set_defaults(func=_cmd_user)
 
+
+def _add_project_commands(sub) -> None:
+    """The ``project`` sub-command: ``add``, ``list``, ``delete`` and ``member``."""
     pr = sub.add_parser("project", help="manage projects and their members")
     pa = pr.add_subparsers(dest="action", required=True)
     x = pa.add_parser("add", help="create a project")
@@ -594,15 +603,51 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("tie", help="station name or id")
     ti.set_defaults(func=_cmd_ties)
 
+
+def _add_serve_command(sub) -> None:
+    """The ``serve`` sub-command (the dashboard)."""
     s = sub.add_parser("serve", help="run the dashboard")
     s.add_argument("--host", default="127.0.0.1")
     s.add_argument("--port", type=int, default=8000)
     s.add_argument("--demo", action="store_true", help="load (and process) the built-in demo survey first")
     s.set_defaults(func=_cmd_serve)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``ldv-survey`` argument parser: one sub-command per task, each with its handler as ``func``.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser; ``parse_args`` gives a namespace whose ``func(args)`` runs the sub-command and
+        returns its exit code.
+    """
+    p = argparse.ArgumentParser(prog="ldv-survey", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"ldv-survey {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+    _add_bundle_commands(sub)
+    _add_install_commands(sub)
+    _add_storage_commands(sub)
+    _add_user_commands(sub)
+    _add_project_commands(sub)
+    _add_serve_command(sub)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the ``ldv-survey`` command line.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after the program name (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code: 0 success, 2 invalid input or parameters (the message names file, line,
+        field), 130 interrupted, 1 internal error (the trace is printed).
+    """
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

@@ -47,7 +47,7 @@ def test_store_read_download_delete(db_store, tmp_path):
         for f in s.scalars(select(LogFile).where(LogFile.log_id == row.id)):
             assert f.blob.startswith(blobs.DB_PREFIX)
             assert f.content == files[f.name]
-            pieces, size = blobs.download(f, f.blob, 300)
+            pieces, size = blobs.download(f, f.blob, piece_bytes=300)
             got = list(pieces)
             assert size == len(files[f.name]) and b"".join(got) == files[f.name]
             assert max(map(len, got)) <= 300

@@ -30,7 +30,7 @@ from ldvsurvey.api.throttle import LoginThrottle
 from ldvsurvey.api.ties import router as ties_router
 from ldvsurvey.errors import InputError
 from ldvsurvey.settings import Settings, get_settings
-from ldvsurvey.store.db import get_engine, upgrade_head
+from ldvsurvey.store.db import ping, upgrade_head
 
 FRONTEND_DIR = Path(__file__).resolve().parents[3] / "frontend"
 
@@ -38,15 +38,11 @@ FRONTEND_DIR = Path(__file__).resolve().parents[3] / "frontend"
 def _say_how_to_log_in(url: str, settings: Settings) -> None:
     import logging
 
-    from sqlalchemy import func, select
-
     from ldvsurvey.store.db import session_scope
-    from ldvsurvey.store.models import User
+    from ldvsurvey.store.users import count_admins
 
     with session_scope(url) as s:
-        admins = s.scalar(
-            select(func.count()).select_from(User).where(User.is_admin.is_(True), User.disabled.is_(False))
-        )
+        admins = count_admins(s)
     if not admins and not settings.demo_mode:
         logging.getLogger("ldvsurvey").warning(
             "no admin yet: create one with `ldv-survey user add NAME --admin`, or start with "
@@ -70,8 +66,62 @@ async def _lifespan(app: FastAPI) -> AsyncIterator[None]:
     app.state.consumer.stop()
 
 
+def _add_plotly_bundle(app: FastAPI) -> None:
+    """``GET /vendor/plotly.min.js``: the installed plotly package's bundle, gzip-compressed once per process."""
+    import plotly
+
+    plotly_js = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+
+    gz_cache: dict = {}
+
+    @app.get("/vendor/plotly.min.js", include_in_schema=False)
+    def plotly_bundle(request: Request):
+        import gzip
+
+        from fastapi.responses import FileResponse, Response
+
+        # the bundle changes only with the installed plotly package: let browsers keep it (and V8 its code cache)
+        cache = {"Cache-Control": "public, max-age=86400", "Vary": "Accept-Encoding"}
+        if "gzip" not in request.headers.get("accept-encoding", ""):
+            return FileResponse(plotly_js, media_type="text/javascript", headers=cache)
+        if "gz" not in gz_cache:  # compressed once per process, not on every request
+            gz_cache["gz"] = gzip.compress(plotly_js.read_bytes(), compresslevel=6)
+        return Response(gz_cache["gz"], media_type="text/javascript", headers={**cache, "Content-Encoding": "gzip"})
+
+
+def _add_job_runner(app: FastAPI, settings: Settings, leftovers) -> None:
+    """The app's job runner (``app.state.runner``) and its consumer (``app.state.consumer``), which also
+    cleans what stopped uploads left every ``settings.clean_every_s`` into the ``leftovers`` report."""
+    from ldvsurvey.jobs.runner import Consumer, JobRunner
+    from ldvsurvey.store.leftovers import clean_leftovers
+
+    url = app.state.database_url
+    app.state.runner = JobRunner(url, settings)  # routes queue jobs through it (ldvsurvey.api.deps.RunnerDep)
+    app.state.consumer = Consumer(  # started and stopped with the server (_lifespan)
+        app.state.runner,
+        workers=settings.workers,
+        reap_every_s=settings.reap_every_s,
+        consume=settings.run_consumer,
+        housekeeping=lambda: clean_leftovers(settings, leftovers),
+        housekeeping_every_s=settings.clean_every_s,
+    )
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
-    """Build the app; runs the database migrations (``upgrade head``) first."""
+    """Build the app on the settings' database, migrated to the newest schema (``upgrade head``) first.
+
+    Parameters
+    ----------
+    settings : Settings, optional
+        The app's settings (default: :func:`ldvsurvey.settings.get_settings`, from the environment);
+        routes read them through ``SettingsDep``.
+
+    Returns
+    -------
+    FastAPI
+        The app, holding its database URL, runner, job consumer and rate limiters in ``app.state``
+        (the consumer starts and stops with the server).
+    """
     settings = settings or get_settings()
     url = settings.resolved_database_url()
     upgrade_head(url)
@@ -106,10 +156,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @app.get("/api/health", tags=["meta"], summary="Liveness and database reachability")
     def health() -> Health:
-        with get_engine(url).connect() as conn:
-            conn.exec_driver_sql("SELECT 1")
-            dialect = conn.dialect.name
-        return {"status": "ok", "version": __version__, "database": dialect}
+        """The server's version and its database's dialect once a ``SELECT 1`` went through; 500 when
+        the database cannot be reached."""
+        return {"status": "ok", "version": __version__, "database": ping(url)}
 
     app.include_router(auth_router)
     app.include_router(people_router)
@@ -123,37 +172,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(reports_router)
     app.include_router(ties_router)
 
-    import plotly
-
-    plotly_js = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
-
-    gz_cache: dict = {}
-
-    @app.get("/vendor/plotly.min.js", include_in_schema=False)
-    def plotly_bundle(request: Request):
-        import gzip
-
-        from fastapi.responses import FileResponse, Response
-
-        # the bundle changes only with the installed plotly package: let browsers keep it (and V8 its code cache)
-        cache = {"Cache-Control": "public, max-age=86400", "Vary": "Accept-Encoding"}
-        if "gzip" not in request.headers.get("accept-encoding", ""):
-            return FileResponse(plotly_js, media_type="text/javascript", headers=cache)
-        if "gz" not in gz_cache:  # compressed once per process, not on every request
-            gz_cache["gz"] = gzip.compress(plotly_js.read_bytes(), compresslevel=6)
-        return Response(gz_cache["gz"], media_type="text/javascript", headers={**cache, "Content-Encoding": "gzip"})
-
-    from ldvsurvey.jobs.runner import Consumer, JobRunner
-
-    app.state.runner = JobRunner(url, settings)  # routes queue jobs through it (ldvsurvey.api.deps.RunnerDep)
-    app.state.consumer = Consumer(  # started and stopped with the server (_lifespan)
-        app.state.runner,
-        workers=settings.workers,
-        reap_every_s=settings.reap_every_s,
-        consume=settings.run_consumer,
-        housekeeping=lambda: clean_leftovers(settings, leftovers),
-        housekeeping_every_s=settings.clean_every_s,
-    )
+    _add_plotly_bundle(app)
+    _add_job_runner(app, settings, leftovers)
 
     if FRONTEND_DIR.is_dir():
         app.mount("/", StaticFiles(directory=FRONTEND_DIR, html=True), name="frontend")

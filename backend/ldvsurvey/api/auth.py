@@ -16,7 +16,6 @@ from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException, Request, Response
 from pydantic import BaseModel, Field
-from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api import models as m
@@ -24,6 +23,8 @@ from ldvsurvey.api.deps import SessionDep, SettingsDep
 from ldvsurvey.api.throttle import client_address
 from ldvsurvey.settings import Settings
 from ldvsurvey.store import users as ustore
+from ldvsurvey.store.jobs import count_active
+from ldvsurvey.store.logs import get_log
 from ldvsurvey.store.models import Job, Log, User
 
 COOKIE = "ldvs_session"
@@ -33,16 +34,42 @@ router = APIRouter(tags=["auth"])
 
 @dataclass
 class Principal:
+    """Who sends a request: the user (None with authentication off), the projects they may see (None: every one) and the
+    CSRF token of their session."""
+
     user: User | None  # None: authentication disabled
     projects: list[int] | None  # None: every project
     csrf: str | None = None
 
     def can_see(self, log: Log) -> bool:
+        """Whether the log is in one of the principal's projects (every log when ``projects`` is None)."""
         return self.projects is None or log.project_id in self.projects
 
 
 def principal(request: Request, session: SessionDep, st: SettingsDep) -> Principal:
-    """Who sends the request (bearer token, session cookie, or the demo account); 401/403 otherwise."""
+    """Who sends the request: the user of a bearer token, of a session cookie, or the demo account.
+
+    Parameters
+    ----------
+    request : Request
+        Its ``Authorization`` header or session cookie, and for a write through the cookie its
+        ``X-CSRF-Token`` header.
+    session : Session
+        The request's session.
+    st : Settings
+        ``auth_enabled`` (off: everyone may see everything) and ``demo_mode``.
+
+    Returns
+    -------
+    Principal
+        The user with the projects they may see (None for an admin: every one).
+
+    Raises
+    ------
+    HTTPException
+        401 without a valid login, for an invalid or expired token (saying when it expired); 403
+        for a cookie write without the session's CSRF token.
+    """
     if not st.auth_enabled:
         return Principal(None, None)
     user, csrf, via_cookie = None, None, False
@@ -61,7 +88,7 @@ def principal(request: Request, session: SessionDep, st: SettingsDep) -> Princip
             user, csrf = found
             via_cookie = True
     if user is None and st.demo_mode:
-        user = session.scalar(select(User).where(User.is_demo.is_(True)))
+        user = ustore.demo_user(session)
     if user is None:
         if request.method in UNSAFE:
             raise HTTPException(401, "log in (session cookie) or send an API token (Authorization: Bearer …)")
@@ -77,21 +104,40 @@ CurrentUser = Annotated[Principal, Depends(principal)]
 
 def visible_log(session: Session, who: Principal, log_id: int) -> Log:
     """The log if it exists and the principal may see it; 404 otherwise (no existence leak)."""
-    row = session.get(Log, log_id)
+    row = get_log(session, log_id)
     if row is None or not who.can_see(row):
         raise HTTPException(404, f"log {log_id} not found")
     return row
 
 
 def visible_job(session: Session, who: Principal, job_id: int) -> Job:
+    """The job if it exists and the principal may see every log it read; 404 otherwise (no existence leak)."""
     j = session.get(Job, job_id)
     if j is None:
         raise HTTPException(404, f"job {job_id} not found")
     for lid in j.log_ids:
-        row = session.get(Log, lid)
+        row = get_log(session, lid)
         if row is not None and not who.can_see(row):
             raise HTTPException(404, f"job {job_id} not found")
     return j
+
+
+def visible_jobs(session: Session, who: Principal, jobs: list[Job]) -> list[Job]:
+    """Those of ``jobs`` whose every log exists and the principal may see (each log looked up once)."""
+    if who.projects is None:
+        return jobs
+    seen: dict[int, bool] = {}
+
+    def ok(j: Job) -> bool:
+        for i in j.log_ids:
+            if i not in seen:
+                row = get_log(session, i)
+                seen[i] = row is not None and who.can_see(row)
+            if not seen[i]:
+                return False
+        return True
+
+    return [j for j in jobs if ok(j)]
 
 
 def refuse_demo(who: Principal, what: str) -> None:
@@ -116,7 +162,23 @@ class RateLimiter:
         self._hits: dict = defaultdict(deque)
         self._lock = threading.Lock()
 
-    def allow(self, key, limit: int, window_s: float = 60.0) -> bool:
+    def allow(self, key, limit: int, *, window_s: float = 60.0) -> bool:
+        """Count one hit of ``key`` unless it already had ``limit`` hits within the last ``window_s``.
+
+        Parameters
+        ----------
+        key : hashable
+            What is counted (e.g. ``("upload", user id)``).
+        limit : int
+            Hits allowed per window.
+        window_s : float
+            The sliding window, s.
+
+        Returns
+        -------
+        bool
+            True when the hit is allowed (and counted), False when refused (not counted).
+        """
         now = time.monotonic()
         with self._lock:
             q = self._hits[key]
@@ -127,7 +189,7 @@ class RateLimiter:
             q.append(now)
             return True
 
-    def wait_s(self, key, limit: int, window_s: float = 60.0) -> int:
+    def wait_s(self, key, limit: int, *, window_s: float = 60.0) -> int:
         """Whole seconds until ``key`` is allowed again (``Retry-After``; at least 1)."""
         now = time.monotonic()
         with self._lock:
@@ -138,6 +200,8 @@ class RateLimiter:
 
 
 def check_upload_rate(request: Request, who: Principal, st: Settings) -> None:
+    """Refuse (429 with ``Retry-After``, s) an upload past ``uploads_per_minute`` for the user, or for the client's
+    address with authentication off."""
     key = who.user.id if who.user is not None else client_address(request, st)
     limiter = request.app.state.rate_limiter
     if not limiter.allow(("upload", key), st.uploads_per_minute):
@@ -162,9 +226,7 @@ def check_job_quota(session: Session, who: Principal, st: Settings) -> None:
     if who.user is None:
         return
     ustore.lock_user(session, who.user.id)
-    active = session.scalar(
-        select(func.count()).select_from(Job).where(Job.user_id == who.user.id, Job.status.in_(("queued", "running")))
-    )
+    active = count_active(session, who.user.id)
     if active >= st.max_active_jobs_per_user:
         raise HTTPException(
             429,
@@ -174,6 +236,8 @@ def check_job_quota(session: Session, who: Principal, st: Settings) -> None:
 
 
 class Login(BaseModel):
+    """A login: user name and password."""
+
     username: str = Field(..., max_length=200)
     password: str = Field(..., max_length=1000)
 
@@ -187,6 +251,10 @@ class Login(BaseModel):
     },
 )
 def login(body: Login, request: Request, response: Response, session: SessionDep, st: SettingsDep) -> m.LoginOut:
+    """Start a session: sets the HttpOnly session cookie and answers the user name and the CSRF token
+    that page writes send as ``X-CSRF-Token``. 401 for a wrong user name or password (or a disabled
+    user), 429 with ``Retry-After`` after too many failed logins for the account or the client.
+    """
     throttle = request.app.state.login_throttle
     client = client_address(request, st)
     refused, ticket = throttle.attempt(body.username, client)  # counted as a failure until proven right
@@ -208,6 +276,7 @@ def login(body: Login, request: Request, response: Response, session: SessionDep
 
 @router.post("/api/logout", summary="End the session")
 def logout(request: Request, response: Response, session: SessionDep) -> m.Ok:
+    """End the session of the cookie (if any) and clear the cookie. Always answers ok."""
     if request.cookies.get(COOKIE):
         ustore.end_session(session, request.cookies[COOKIE])
         session.commit()
@@ -217,6 +286,10 @@ def logout(request: Request, response: Response, session: SessionDep) -> m.Ok:
 
 @router.get("/api/me", summary="Who am I (user, projects, CSRF token for page writes)")
 def me(who: CurrentUser, session: SessionDep) -> m.Me:
+    """Who the caller is: user name, whether authentication is on, the CSRF token for page writes,
+    the demo and admin flags, the ids of the projects they may see (null: every one) and those
+    projects. 401 without a login when authentication is on (and no demo mode).
+    """
     if who.user is None:
         return {
             "user": None,
@@ -244,9 +317,9 @@ def bootstrap_users(database_url: str, settings) -> None:
 
     with session_scope(database_url) as s:
         if settings.admin_user and settings.admin_password:
-            if s.scalar(select(User).where(User.username == settings.admin_user)) is None:
+            if ustore.user_named(s, settings.admin_user) is None:
                 ustore.create_user(s, settings.admin_user, settings.admin_password, is_admin=True)
-        if settings.demo_mode and s.scalar(select(User).where(User.is_demo.is_(True))) is None:
+        if settings.demo_mode and ustore.demo_user(s) is None:
             import secrets
 
             ustore.create_user(s, "demo", secrets.token_urlsafe(16), is_demo=True, project="Demo survey")

@@ -65,7 +65,30 @@ def _stats(x: np.ndarray) -> dict:
 
 
 def compare_jobs(session: Session, who: Principal, ids: list[int]) -> dict:
-    """Common points and differences against the first job, line by line, with statistics."""
+    """The gravity lines of jobs compared with the first job's at their common points.
+
+    Parameters
+    ----------
+    session : Session
+        The request's session.
+    who : Principal
+        The caller (every job must be visible to them).
+    ids : list of int
+        The jobs, the first the reference.
+
+    Returns
+    -------
+    dict
+        ``reference_job``, ``jobs``, ``statistics`` of the differences (mGal) per job and line and
+        over all lines, and ``points``: (job, line, distance along the line in m, δg of the
+        reference and of the job and their difference in mGal).
+
+    Raises
+    ------
+    HTTPException
+        404 for a job the caller cannot see or without line results, 409 for a job not succeeded,
+        422 for a job other than a gravity job.
+    """
     jobs = []
     for i in ids:
         j = visible_job(session, who, i)
@@ -109,6 +132,11 @@ def compare_jobs(session: Session, who: Principal, ids: list[int]) -> dict:
     response_model_exclude_unset=True,
 )
 def compare(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m.Comparison:
+    """Statistics (mGal) of the differences of the gravity disturbance δg of jobs to the first job's,
+    at common points along the lines, per line and over all. 404 for a job the caller cannot see or
+    without line results; 409 for a job not succeeded; 422 for malformed ids (1 to 20 distinct ones)
+    or a job other than a gravity job.
+    """
     out = compare_jobs(session, who, _ids(jobs))
     out.pop("points")
     return out
@@ -121,6 +149,8 @@ def compare(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m.Comp
     responses={200: {"content": {"text/csv": {}}, "description": "CSV table"}},
 )
 def compare_csv(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> Response:
+    """The common points of the compared jobs as a CSV attachment: job, line, distance along the line (m), δg of the
+    reference and of the job and their difference (mGal). Errors as ``GET /api/compare``."""
     out = compare_jobs(session, who, _ids(jobs))
     buf = io.StringIO()
     buf.write("job,line,distance_m,dg_reference_mgal,dg_job_mgal,diff_mgal\n")
@@ -134,6 +164,8 @@ def compare_csv(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> Re
 
 @router.get("/api/compare/view", summary="Plotly figure: δg of every job and the differences to the reference")
 def compare_view(session: SessionDep, who: CurrentUser, jobs: str = JOBS_Q) -> m.Figure:
+    """A Plotly figure of the compared jobs: every job's δg along the lines above, the differences to the reference
+    below (mGal against distance, m). Errors as ``GET /api/compare``."""
     ids = _ids(jobs)
     out = compare_jobs(session, who, ids)
     return compare_figure(ids, out, {i: _lines(session, visible_job(session, who, i)) for i in ids})

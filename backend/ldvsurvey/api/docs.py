@@ -23,6 +23,7 @@ INIT = """window.ui = SwaggerUIBundle({url: "/openapi.json", dom_id: "#swagger-u
 
 
 def swagger_dir() -> Path:
+    """The folder of the Swagger UI assets shipped by the ``swagger_ui_bundle`` package."""
     import swagger_ui_bundle
 
     return Path(swagger_ui_bundle.swagger_ui_path)

@@ -46,6 +46,12 @@ def upload_grids(
     st: SettingsDep,
     url: DatabaseUrlDep,
 ) -> m.GridUploaded:
+    """Store uploaded ``.gdf`` grids of the deflection of the vertical (ξ, η, arcsec; optionally the
+    gravity disturbance Δg, mGal) on one set of nodes, for jobs run with ``dov=grid``. Answers the
+    grid's id, its extent (deg), node spacing (arcmin) and the parameters that use it. 422 naming the
+    file and field for a missing or malformed grid or nodes that differ between grids; 429 past the
+    upload rate.
+    """
     check_upload_rate(request, who, st)
     parts = [(f, _read(up, f, f != "dg")) for f, up in (("xi", xi), ("eta", eta), ("dg", dg))]
     parts = [(f, p) for f, p in parts if p is not None]
@@ -72,6 +78,8 @@ def upload_grids(
 
 @router.get("/{grid_id}", summary="An uploaded grid's extent")
 def grid_info(grid_id: str, who: CurrentUser, url: DatabaseUrlDep) -> m.GridInfo:
+    """An uploaded grid's source, extent (deg), node spacing (arcmin) and whether it holds Δg. 404 when there is no such
+    grid."""
     from ldvsurvey.store.gridcache import DbGridCache
 
     g = DbGridCache(url).get(KEY_PREFIX + grid_id) if grid_id.isalnum() else None

@@ -7,7 +7,6 @@ stores the bundle with the original files kept byte for byte beside it (named ``
 
 from __future__ import annotations
 
-import hashlib
 import json
 
 from fastapi import APIRouter, File, Form, Request, Response, UploadFile
@@ -103,6 +102,12 @@ def preview_import(
     who: CurrentUser,
     st: SettingsDep,
 ) -> m.ImportPreview:
+    """Convert foreign recordings into a bundle without storing anything, and say what was found: the
+    files with their detected format and role, time span (s), rates (Hz), GNSS track, survey date,
+    IMU axes, static tilt (deg), the import's checks and warnings. 422 naming the file
+    and field when a format is not recognised or a recording or the partial manifest is malformed;
+    429 past the upload rate.
+    """
     check_upload_rate(request, who, st)  # a preview converts everything: it counts as an upload
     sources, partial, _ = _read_parts(files, manifest, formats)
     partial = _with_axes(partial, axes)
@@ -135,12 +140,14 @@ def create_import(
     who: CurrentUser,
     st: SettingsDep,
 ) -> m.Imported:
-    """Answers like ``POST /api/logs`` (201 with the log; 200 with ``duplicate: true``)."""
+    """Convert foreign recordings into a bundle, validate and store it in a project, keeping the
+    originals with it. Answers like ``POST /api/logs`` (201 with the log; 200 with ``duplicate:
+    true``) plus what the import found. Errors as ``POST /api/logs`` and ``/api/imports/preview``
+    (422 naming the file and field, 413, 404 or 403 for the project, 429)."""
     from ldvsurvey.api.logs import log_summary, target_project
     from ldvsurvey.io.drivelog import parse_files
     from ldvsurvey.io.quality import quality_report
     from ldvsurvey.store import logs as store
-    from ldvsurvey.store.models import LogFile
 
     check_upload_rate(request, who, st)
     project_id = target_project(session, who, project_id)
@@ -153,16 +160,7 @@ def create_import(
     quality["warnings"] = list(quality["warnings"]) + [w for w in result.warnings if w not in quality["warnings"]]
     row, created = store.store_log(session, log, quality, project_id)
     if created:
-        for name, content in sorted(originals.items()):
-            session.add(
-                LogFile(
-                    log_id=row.id,
-                    name=ORIGINAL_PREFIX + name,
-                    sha256=hashlib.sha256(content).hexdigest(),
-                    size_bytes=len(content),
-                    content=content,
-                )
-            )
+        store.add_files(session, row.id, {ORIGINAL_PREFIX + name: content for name, content in originals.items()})
     session.commit()
     if not created:
         response.status_code = 200

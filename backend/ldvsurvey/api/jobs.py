@@ -6,11 +6,18 @@ import datetime as dt
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response
 from pydantic import BaseModel, Field
-from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ldvsurvey.api import models as m
-from ldvsurvey.api.auth import CurrentUser, check_job_owner, check_job_quota, principal, visible_job, visible_log
+from ldvsurvey.api.auth import (
+    CurrentUser,
+    check_job_owner,
+    check_job_quota,
+    principal,
+    visible_job,
+    visible_jobs,
+    visible_log,
+)
 from ldvsurvey.api.deps import BodyId, JobId, LogId, RunnerDep, SessionDep, SettingsDep
 from ldvsurvey.api.headlines import headlines, labels
 from ldvsurvey.api.tables import JobTables, job_file
@@ -18,7 +25,9 @@ from ldvsurvey.api.views import VIEWS, MissingResult, UnknownView, build_view, v
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.nmea import FIX_QUALITY_NAMES
 from ldvsurvey.jobs.runner import log_facts
-from ldvsurvey.store.models import Job, JobFile
+from ldvsurvey.store import jobs as jstore
+from ldvsurvey.store.logs import get_log
+from ldvsurvey.store.models import Job
 
 router = APIRouter(tags=["jobs"])
 #: parameters naming server-side files are not accepted from the network
@@ -26,6 +35,8 @@ SERVER_PATH_PARAMS = {"dov_grid", "imu_nodov", "external_grid"}
 
 
 class JobRequest(BaseModel):
+    """A job to start: the pipeline, its parameters (unknown keys refused) and further logs."""
+
     pipeline: str = Field(..., examples=["height"])
     parameters: dict[str, str | float | int | bool | list[float] | None] = Field(default_factory=dict)
     log_ids: list[BodyId] = Field(
@@ -34,6 +45,8 @@ class JobRequest(BaseModel):
 
 
 def job_dict(j: Job) -> dict:
+    """A job row as the API answers it (:class:`ldvsurvey.api.models.Job`; times in ISO 8601, UTC)."""
+
     def iso(x):
         return x.isoformat() if isinstance(x, dt.datetime) else None
 
@@ -60,11 +73,10 @@ def job_dict(j: Job) -> dict:
 def job_detail(session: Session, j: Job) -> dict:
     """:func:`job_dict` with the inputs (each log's files with their SHA-256) and the warnings."""
     from ldvsurvey.store.logs import list_files
-    from ldvsurvey.store.models import Log
 
     inputs = []
     for lid in j.log_ids:
-        row = session.get(Log, lid)
+        row = get_log(session, lid)
         if row is not None:
             inputs.append(
                 {
@@ -80,7 +92,7 @@ def job_detail(session: Session, j: Job) -> dict:
         warnings = [
             w
             for lid in j.log_ids
-            if (row := session.get(Log, lid)) is not None
+            if (row := get_log(session, lid)) is not None
             for w in (row.quality or {}).get("warnings", [])
         ]
     return {
@@ -113,6 +125,10 @@ def list_pipelines(
         None, ge=1, le=2**31 - 1, description="also say whether each pipeline applies to this log"
     ),
 ) -> list[m.PipelineInfo]:
+    """Every pipeline with its parameters (name, kind, default, help, label, unit, choices) and their JSON
+    schema; parameters naming files on the server are left out. With ``log_id``, also whether each
+    pipeline applies to that log with its default parameters, and why not (401 without a login when
+    authentication is on, 404 for a log the caller cannot see)."""
     from ldvsurvey.pipelines.labels import param_label
     from ldvsurvey.pipelines.registry import PIPELINES
 
@@ -152,6 +168,13 @@ def list_pipelines(
 def start_job(
     log_id: LogId, req: JobRequest, session: SessionDep, who: CurrentUser, st: SettingsDep, runner: RunnerDep
 ) -> m.JobStarted:
+    """Queue a pipeline run on the log (and, for a pipeline taking several, the further ``log_ids``).
+
+    Answers the queued job with its parameters resolved (defaults filled in). Errors: 404 for a log
+    the caller cannot see; 422 naming the field for an unknown pipeline, a parameter unknown, out of
+    bounds or naming a file on the server, or a pipeline that does not apply to the logs; 429 past
+    the user's limit of active jobs.
+    """
     from ldvsurvey.pipelines.registry import get
 
     ids = [log_id] + [i for i in req.log_ids if i != log_id]
@@ -165,16 +188,10 @@ def start_job(
     # types and bounds of every parameter, then whether the pipeline applies to these logs: 422 naming the field
     values = pipe.check([log_facts(r) for r in rows], {k: v for k, v in req.parameters.items() if v is not None})
     check_job_quota(session, who, st)
-    job = Job(
-        pipeline=pipe.name,
-        log_ids=ids,
-        parameters={k: v for k, v in req.parameters.items() if v is not None},
-        status="queued",
-        stage="queued",
-        progress=0.0,
-        user_id=who.user.id if who.user else None,
+    given = {k: v for k, v in req.parameters.items() if v is not None}
+    job = jstore.add_job(
+        session, pipeline=pipe.name, log_ids=ids, parameters=given, user_id=who.user.id if who.user else None
     )
-    session.add(job)
     session.commit()
     runner.enqueue(job.id)
     out = job_dict(job)
@@ -186,16 +203,19 @@ def start_job(
 def list_views(
     pipeline: str | None = Query(None, max_length=100, description="only this pipeline's views"),
 ) -> list[m.ViewInfo]:
+    """The registry of views: each one's name, pipeline, title, units and the result files it reads."""
     return [v.info() for v in VIEWS.values() if pipeline is None or v.pipeline == pipeline]
 
 
 @router.get("/api/names", summary="Names shared by the API and the dashboard: GNSS fix qualities")
 def names() -> m.Names:
+    """Names the dashboard shows for codes in the results: the GNSS fix qualities by their NMEA code."""
     return {"fix_quality": {str(k): v for k, v in FIX_QUALITY_NAMES.items()}}
 
 
 @router.get("/api/basemap", summary="The basemap of the maps (LDVSURVEY_BASEMAP_TILE_URL), if one is set")
 def basemap(settings: SettingsDep) -> m.Basemap:
+    """The tile URL template and attribution of the maps' basemap (both null when none is set)."""
     return {"tile_url": settings.basemap_tile_url, "attribution": settings.basemap_attribution}
 
 
@@ -203,48 +223,38 @@ def basemap(settings: SettingsDep) -> m.Basemap:
 def list_jobs(
     session: SessionDep, who: CurrentUser, log_id: int | None = Query(None, ge=1, le=2**31 - 1)
 ) -> list[m.Job]:
-    from ldvsurvey.store.models import Log
-
-    jobs = list(session.scalars(select(Job).order_by(Job.id.desc())))
-    if log_id is not None:
-        jobs = [j for j in jobs if log_id in j.log_ids]
-    if who.projects is not None:
-        seen = {}
-
-        def ok(j):
-            for i in j.log_ids:
-                if i not in seen:
-                    row = session.get(Log, i)
-                    seen[i] = row is not None and who.can_see(row)
-                if not seen[i]:
-                    return False
-            return True
-
-        jobs = [j for j in jobs if ok(j)]
+    """The jobs the caller may see (every log they read is in one of the caller's projects), newest
+    first; with ``log_id`` only those that read that log. 401 without a login when authentication is on."""
+    jobs = visible_jobs(session, who, jstore.list_jobs(session, log_id=log_id))
     return [job_dict(j) for j in jobs]
 
 
 @router.get("/api/jobs/{job_id}", summary="One job: status, stage, progress, error, summary")
 def get_job(job_id: JobId, session: SessionDep, who: CurrentUser) -> m.JobDetail:
+    """One job with its inputs (each log's files and their SHA-256), warnings, views, headline figures
+    and labels. 404 when there is no such job or the caller cannot see one of its logs."""
     return job_detail(session, visible_job(session, who, job_id))
 
 
 @router.post("/api/jobs/{job_id}/cancel", summary="Ask a job to stop (between stages)")
 def cancel_job(job_id: JobId, session: SessionDep, who: CurrentUser) -> m.Job:
+    """Ask the job to stop: a queued job is cancelled at once, a running one at its pipeline's next
+    check. Answers the job. 404 for a job the caller cannot see, 409 when it has already ended, 403
+    for the demo account on a job it did not start."""
     j = visible_job(session, who, job_id)
     check_job_owner(who, j, "cancel")
-    if j.status in ("succeeded", "failed", "cancelled"):
+    if j.status in jstore.FINISHED:
         raise HTTPException(409, f"job {job_id} already {j.status}")
-    j.cancel_requested = True
-    if j.status == "queued":
-        j.status, j.stage = "cancelled", "cancelled"
-        j.finished_at = dt.datetime.now(dt.UTC)
+    jstore.request_cancel(j)
     session.commit()
     return job_dict(j)
 
 
 @router.post("/api/jobs/{job_id}/retry", summary="Run a failed or cancelled job again")
 def retry_job(job_id: JobId, session: SessionDep, who: CurrentUser, st: SettingsDep, runner: RunnerDep) -> m.Job:
+    """Queue a failed or cancelled job again, with the same logs and parameters. Answers the job. 404 for
+    a job the caller cannot see, 409 when it has not failed or been cancelled, 429 past the user's limit
+    of active jobs, 403 for the demo account on a job it did not start."""
     j = visible_job(session, who, job_id)
     check_job_owner(who, j, "retry")
     if j.status not in ("failed", "cancelled"):
@@ -253,8 +263,7 @@ def retry_job(job_id: JobId, session: SessionDep, who: CurrentUser, st: Settings
     session.refresh(j)  # as it is under the lock (another request may have retried it meanwhile)
     if j.status not in ("failed", "cancelled"):
         raise HTTPException(409, f"only failed or cancelled jobs can be retried (job {job_id} is {j.status})")
-    j.status, j.stage, j.progress, j.error, j.cancel_requested = "queued", "queued", 0.0, None, False
-    j.finished_at = None
+    jstore.requeue(j)
     session.commit()
     runner.enqueue(j.id)
     return job_dict(j)
@@ -262,11 +271,10 @@ def retry_job(job_id: JobId, session: SessionDep, who: CurrentUser, st: Settings
 
 @router.get("/api/jobs/{job_id}/files", summary="Result files of a job")
 def list_job_files(job_id: JobId, session: SessionDep, who: CurrentUser) -> list[m.ResultFile]:
+    """The result files of a job (name, size in bytes), by name; empty until it succeeded. 404 for a
+    job the caller cannot see."""
     visible_job(session, who, job_id)
-    rows = session.execute(
-        select(JobFile.name, JobFile.size_bytes).where(JobFile.job_id == job_id).order_by(JobFile.name)
-    )
-    return [{"name": n, "size_bytes": s} for n, s in rows]
+    return [{"name": n, "size_bytes": s} for n, s in jstore.list_result_files(session, job_id)]
 
 
 @router.get(
@@ -293,6 +301,9 @@ def get_job_file(
     who: CurrentUser,
     format: str = Query("csv", pattern="^(csv|geojson|kml)$"),
 ) -> Response:
+    """A result file as an attachment: CSV, JSON or netCDF as stored, or with ``format`` a table with
+    positions as GeoJSON (RFC 7946) or KML 2.2. 404 for a job the caller cannot see or a file it does
+    not have; 422 when a table cannot be turned into that format."""
     j = visible_job(session, who, job_id)
     if format != "csv":  # a table with positions as GeoJSON (RFC 7946) or KML 2.2, with the summary's provenance
         from ldvsurvey.api.imports import job_geo_file
@@ -315,6 +326,9 @@ def get_view(
     x1: float | None = None,
     points: int = Query(2000, ge=100, le=20000),
 ) -> m.Figure:
+    """A view of a succeeded job as a Plotly figure, each trace thinned to about ``points`` points in
+    ``[x0, x1]`` (the x axis's unit; the whole range by default). 404 for a job the caller cannot see,
+    an unknown view or a missing result file; 409 when the job has not succeeded."""
     j = visible_job(session, who, job_id)
     if j.status != "succeeded":
         what = {

@@ -85,8 +85,13 @@ def upload_log(
     who: CurrentUser,
     st: SettingsDep,
 ) -> m.Uploaded:
-    """Validate, parse and store a bundle in a project. The same bundle uploaded again to the same
-    project is not stored twice (200 with ``duplicate: true`` and the existing log)."""
+    """Validate, parse and store a bundle in a project; answers the log with its quality report (201).
+
+    The same bundle uploaded again to the same project is not stored twice (200 with ``duplicate:
+    true`` and the existing log). Errors: 422 naming the file, line and field for a bad bundle; 413
+    for an archive or file over the limits; 404 for a project the caller may not write to, 403 when
+    they are a member of none; 429 past the upload rate.
+    """
     check_upload_rate(request, who, st)
     project_id = target_project(session, who, project_id)
     members = read_upload(files, st)
@@ -110,6 +115,8 @@ def list_logs(
     session: SessionDep,
     who: CurrentUser,
 ) -> list[m.LogSummary]:
+    """The drive logs the caller may see, newest first; each given filter (project, platform, survey dates inclusive)
+    narrows. 401 without a login when authentication is on."""
     rows = store.list_logs(
         session, project_id=project_id, platform=platform or None, date_from=date_from, date_to=date_to
     )
@@ -118,6 +125,8 @@ def list_logs(
 
 @router.get("/{log_id}", summary="One log: manifest, quality report, files")
 def get_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> m.LogDetail:
+    """One log: its summary, manifest, quality report and original files (name, SHA-256, size in bytes). 404 for a log
+    the caller cannot see."""
     row = visible_log(session, who, log_id)
     return {
         **log_summary(row),
@@ -143,6 +152,8 @@ def get_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> m.LogDetail
     },
 )
 def get_file(log_id: LogId, name: str, session: SessionDep, who: CurrentUser) -> Response:
+    """An original file of a log byte for byte, as an attachment with its SHA-256 in ``X-Content-SHA256`` (large files
+    streamed). 404 for a log the caller cannot see or a file it does not have."""
     visible_log(session, who, log_id)
     f = store.get_file(session, log_id, name)
     if f is None:
@@ -155,13 +166,15 @@ def get_file(log_id: LogId, name: str, session: SessionDep, who: CurrentUser) ->
         return Response(content=f.inline, media_type=ctype, headers=headers)
     # a large one is sent from the blob folder or the database, a piece at a time (an 8-h imu.csv
     # is close to 1 GB); opened here, so a deletion committed meanwhile cannot cut the download short
-    pieces, size = blobs.download(f, f.blob, DOWNLOAD_CHUNK_BYTES)
+    pieces, size = blobs.download(f, f.blob, piece_bytes=DOWNLOAD_CHUNK_BYTES)
     headers["Content-Length"] = str(size)
     return StreamingResponse(pieces, media_type=ctype, headers=headers)
 
 
 @router.delete("/{log_id}", status_code=204, summary="Delete a log with all its files and arrays")
 def delete_log(log_id: LogId, session: SessionDep, who: CurrentUser) -> Response:
+    """Delete a log with its files, arrays and every job computed from it; answers once it is gone (204). 404 for a log
+    the caller cannot see, 403 for the demo account."""
     visible_log(session, who, log_id)
     refuse_demo(who, "delete logs")  # logs do not record their uploader: none is the demo's to delete
     store.delete_log(session, log_id)

@@ -118,6 +118,7 @@ class ReportJob:
 
 
 def esc(x) -> str:
+    """``x`` as text escaped for HTML (quotes included)."""
     return html.escape(str(x), quote=True)
 
 

@@ -11,7 +11,6 @@ import datetime as dt
 import re
 
 from fastapi import APIRouter, HTTPException, Response
-from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ldvsurvey import __version__
@@ -19,6 +18,8 @@ from ldvsurvey.api.auth import CurrentUser, visible_job
 from ldvsurvey.api.deps import JobId, PathId, SessionDep
 from ldvsurvey.api.report import ReportJob, job_report, project_report
 from ldvsurvey.api.tables import JobTables
+from ldvsurvey.store.jobs import newest_runs
+from ldvsurvey.store.logs import get_log, list_logs
 from ldvsurvey.store.models import Job, Log, Project
 
 router = APIRouter(tags=["reports"])
@@ -38,7 +39,7 @@ def _log_info(row: Log) -> dict:
 
 
 def _report_job(session: Session, j: Job, project: str | None) -> ReportJob:
-    logs = [_log_info(r) for lid in j.log_ids if (r := session.get(Log, lid)) is not None]
+    logs = [_log_info(r) for lid in j.log_ids if (r := get_log(session, lid)) is not None]
     fin = j.finished_at.isoformat(timespec="seconds") if j.finished_at else None
     return ReportJob(j.id, j.pipeline, j.status, j.summary or {}, JobTables(session, j), logs, fin, project)
 
@@ -59,10 +60,13 @@ def _download(text: str, name: str) -> Response:
     responses=HTML,
 )
 def get_job_report(job_id: JobId, session: SessionDep, who: CurrentUser) -> Response:
+    """The report of a succeeded job as an HTML attachment: its figures, tables, parameters and
+    provenance (logs with their SHA-256, software version). 404 for a job the caller cannot see, 409
+    when the job has not succeeded."""
     j = visible_job(session, who, job_id)
     if j.status != "succeeded":
         raise HTTPException(409, f"job {job_id} is {j.status}: only a succeeded job has a report")
-    first = session.get(Log, j.log_ids[0]) if j.log_ids else None
+    first = get_log(session, j.log_ids[0]) if j.log_ids else None
     proj = session.get(Project, first.project_id) if first is not None and first.project_id else None
     text = job_report(_report_job(session, j, proj.name if proj else None), f"ldv-survey {__version__}", _now())
     return _download(text, f"ldv-survey-job-{j.id}-{j.pipeline}-report.html")
@@ -75,16 +79,14 @@ def get_job_report(job_id: JobId, session: SessionDep, who: CurrentUser) -> Resp
     responses=HTML,
 )
 def get_project_report(project_id: PathId, session: SessionDep, who: CurrentUser) -> Response:
+    """The report of a project as an HTML attachment: its logs, a map, and the newest succeeded job of
+    each pipeline on each set of its logs (at most ``MAX_PROJECT_JOBS``, the newest). 404 for a
+    project the caller is not a member of."""
     p = session.get(Project, project_id)
     if p is None or (who.projects is not None and project_id not in who.projects):
         raise HTTPException(404, f"project {project_id} not found")
-    logs = list(session.scalars(select(Log).where(Log.project_id == project_id).order_by(Log.id)))
-    ids = {r.id for r in logs}
-    newest: dict = {}  # the newest succeeded run of each pipeline on each set of logs
-    for j in session.scalars(select(Job).where(Job.status == "succeeded").order_by(Job.id.desc())):
-        if j.log_ids and set(j.log_ids) <= ids:
-            newest.setdefault((j.pipeline, tuple(j.log_ids)), j)
-    jobs = sorted(newest.values(), key=lambda j: j.id)[-MAX_PROJECT_JOBS:]
+    logs = list_logs(session, project_id=project_id)[::-1]  # oldest first
+    jobs = newest_runs(session, {r.id for r in logs})[-MAX_PROJECT_JOBS:]
     text = project_report(
         p.name,
         [_report_job(session, j, p.name) for j in jobs],

@@ -14,6 +14,10 @@ router = APIRouter(tags=["people"])
 
 @router.get("/api/admin/storage", summary="Stored data, and leftovers of stopped uploads removed (admin)")
 def storage(request: Request, who: CurrentUser, settings: SettingsDep, url: DatabaseUrlDep) -> m.StorageOut:
+    """What the server stores (bytes of the stored logs' original files), the leftovers of stopped uploads this
+    process removed since it started and when it last cleaned, and those found now (in progress).
+    403 for a non-admin when authentication is on.
+    """
     if settings.auth_enabled and (who.user is None or not who.user.is_admin):
         raise HTTPException(403, "only an admin may do this")
     from ldvsurvey.store.leftovers import folders_of, scan, stored_bytes

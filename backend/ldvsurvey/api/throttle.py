@@ -111,6 +111,7 @@ class LoginThrottle:
 
     @staticmethod
     def keys(account: str, client: str) -> tuple[str, str]:
+        """The counter keys of a login: the account (case-folded) and the client's address."""
         return f"account:{account.strip().lower()}", f"client:{client}"
 
     def _times(self, key: str) -> list[float]:

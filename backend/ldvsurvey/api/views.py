@@ -73,11 +73,13 @@ class DictTables:
     arrays: dict[str, dict[str, np.ndarray]] | None = None
 
     def csv(self, name: str) -> dict[str, np.ndarray]:
+        """The columns of result file ``name``; :class:`MissingResult` when there is none."""
         if name not in self.tables:
             raise MissingResult(f"no result file '{name}'")
         return self.tables[name]
 
     def log_array(self, name: str) -> dict[str, np.ndarray] | None:
+        """A stored stream of the log (``gnss``, ``imu``, ``ldv``), or None."""
         return (self.arrays or {}).get(name)
 
 
@@ -108,6 +110,9 @@ class ViewInput:
 
 @dataclass(frozen=True)
 class View:
+    """A registered view: its name, pipeline, title, y units, the result files it reads, its builder and whether a job's
+    summary has something to show in it."""
+
     name: str
     pipeline: str
     title: str  #: what the figure shows
@@ -119,6 +124,7 @@ class View:
     shows: Callable[[dict], bool] | None = None
 
     def info(self) -> dict:
+        """The view as ``GET /api/views`` lists it: name, pipeline, title, units and files."""
         return {
             "name": self.name,
             "pipeline": self.pipeline,

@@ -6,6 +6,8 @@ from huey import RedisHuey, SqliteHuey
 
 
 def make_huey(settings):
+    """The job queue of these settings: a RedisHuey on ``settings.redis_url`` when set, else a SqliteHuey
+    in ``settings.data_dir/huey.db`` (the folder made if missing); results are not kept in the queue."""
     if settings.redis_url:
         from redis import ConnectionPool
 

@@ -76,7 +76,7 @@ def _prepare_dir(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
 
 
-def backup(database_url: str, out: Path, say: Callable[[str], None] = print) -> dict:
+def backup(database_url: str, out: Path, *, say: Callable[[str], None] = print) -> dict:
     """Write a backup of the database at ``database_url`` (and its blobs) into the new folder ``out``.
     Returns the manifest written to ``out/backup.json``."""
     out = Path(out)
@@ -277,9 +277,34 @@ def verify(src: Path) -> dict:
     return m
 
 
-def restore(database_url: str, src: Path, force: bool = False, say: Callable[[str], None] = print) -> dict:
-    """Restore the backup in ``src`` into the database at ``database_url`` (verified first; an
-    existing database with data is replaced only with ``force``). Stop the server first."""
+def restore(database_url: str, src: Path, *, force: bool = False, say: Callable[[str], None] = print) -> dict:
+    """Restore the backup in ``src`` into the database at ``database_url``; stop the server first.
+
+    Every file is verified by size and SHA-256 first; the schema is brought to this version's
+    (``upgrade head``) and jobs that were queued or running at backup time are marked failed.
+
+    Parameters
+    ----------
+    database_url : str
+        The target database (of the same engine as the backup's).
+    src : Path
+        The backup folder (``backup.json`` with the files it names).
+    force : bool
+        Replace a database that already holds data (refused otherwise).
+    say : callable
+        Receives one line per step (default: print).
+
+    Returns
+    -------
+    dict
+        The backup's manifest.
+
+    Raises
+    ------
+    BackupError
+        Naming the file: a file missing or differing, another engine, a target holding data without
+        ``force``.
+    """
     src = Path(src)
     m = verify(src)
     engine = make_url(database_url).get_backend_name()

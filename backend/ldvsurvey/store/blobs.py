@@ -284,6 +284,8 @@ class Writer:
         return key
 
     def done(self) -> None:
+        """Wait until every file handed to the writer's threads is written (re-raising their first error) and stop the
+        threads."""
         try:
             for f in self._pending:
                 f.result()
@@ -426,6 +428,7 @@ class DbWriter:
         return key
 
     def done(self) -> None:
+        """Nothing to wait for: the chunks were written through the session's connection."""
         pass
 
 
@@ -449,15 +452,20 @@ class DbBlobReader(io.RawIOBase):
         self._range = text("SELECT seq, data FROM blob_chunks WHERE key = :k AND seq >= :a AND seq <= :b ORDER BY seq")
 
     def readable(self) -> bool:
+        """Always True."""
         return True
 
     def seekable(self) -> bool:
+        """Always True."""
         return True
 
     def tell(self) -> int:
+        """The position, bytes from the start."""
         return self.pos
 
     def seek(self, offset: int, whence: int = 0) -> int:
+        """Move to ``offset`` bytes from the start (``whence`` 0), the position (1) or the end (2); returns the new
+        position (never below 0)."""
         base = {0: 0, 1: self.pos, 2: self.size}[whence]
         self.pos = max(0, base + offset)
         return self.pos
@@ -472,6 +480,7 @@ class DbBlobReader(io.RawIOBase):
         return [bytes(r[1]) for r in rows]
 
     def read(self, n: int = -1) -> bytes:
+        """Up to ``n`` bytes from the position (all the rest for ``n`` < 0 or None); empty at the end."""
         with self._lock:
             end = self.size if n is None or n < 0 else min(self.size, self.pos + n)
             if end <= self.pos:
@@ -483,9 +492,11 @@ class DbBlobReader(io.RawIOBase):
             return out
 
     def readall(self) -> bytes:
+        """All bytes from the position to the end."""
         return self.read(-1)
 
     def readinto(self, buf) -> int:
+        """Read up to ``len(buf)`` bytes into ``buf``; returns how many."""
         data = self.read(len(buf))
         memoryview(buf).cast("B")[: len(data)] = data
         return len(data)
@@ -513,10 +524,28 @@ class StoredBlob:
         return f"StoredBlob({self.key!r}, {self.size_bytes})"
 
 
-def download(row, key: str, piece_bytes: int = CHUNK_BYTES) -> tuple[Iterator[bytes], int]:
-    """(pieces of at most ``piece_bytes``, size) of a blob for an HTTP answer streamed after the
-    route returned: a folder's file is opened now, a database blob is read in a transaction of its
-    own begun now (REPEATABLE READ), so a deletion committed meanwhile cannot cut the download short."""
+def download(row, key: str, *, piece_bytes: int = CHUNK_BYTES) -> tuple[Iterator[bytes], int]:
+    """A blob as pieces for an HTTP answer streamed after the route returned.
+
+    A folder's file is opened now; a database blob is read in a transaction of its own begun now
+    (REPEATABLE READ), so a deletion committed meanwhile cannot cut the download short.
+
+    Parameters
+    ----------
+    row : LogFile
+        The row naming the blob (its session tells where blobs live).
+    key : str
+        The blob's key.
+    piece_bytes : int
+        Largest piece, bytes.
+
+    Returns
+    -------
+    Iterator[bytes]
+        The pieces, in order.
+    int
+        The blob's size, bytes (the ``Content-Length``).
+    """
     if not key.startswith(DB_PREFIX):
         fh = blob_path(row, key).open("rb")
         return _file_pieces(fh, piece_bytes), os.fstat(fh.fileno()).st_size
@@ -572,7 +601,7 @@ def delete_from_database(session: Session, keys: list[str]) -> None:
         session.execute(delete(BlobChunk).where(BlobChunk.key.in_(db_keys[a : a + 500])))
 
 
-def migrate_to_database(database_url: str, folder: Path, log=print) -> tuple[int, int]:
+def migrate_to_database(database_url: str, folder: Path, *, log=print) -> tuple[int, int]:
     """Move every blob of the folder named by a row into the database (PostgreSQL), one log per
     transaction: the chunks are written and the row renamed together, an original's SHA-256 checked
     against its row on the way; the file is removed once that is committed. Returns (blobs, bytes).

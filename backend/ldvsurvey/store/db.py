@@ -38,6 +38,13 @@ def get_engine(url: str) -> Engine:
         return eng
 
 
+def ping(url: str) -> str:
+    """Run ``SELECT 1`` on the database at ``url``; returns its dialect name (``sqlite``, ``postgresql``)."""
+    with get_engine(url).connect() as conn:
+        conn.exec_driver_sql("SELECT 1")
+        return conn.dialect.name
+
+
 def dispose_engines() -> None:
     """Close every pooled connection (tests, forks)."""
     with _lock:
@@ -82,6 +89,7 @@ def upgrade_head(url: str) -> None:
 
 
 def session_factory(url: str) -> sessionmaker[Session]:
+    """The session maker of the database at ``url`` (one engine per URL; objects stay readable after commit)."""
     return sessionmaker(bind=get_engine(url), expire_on_commit=False)
 
 

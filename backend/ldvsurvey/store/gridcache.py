@@ -19,6 +19,7 @@ class DbGridCache:
         self.url = database_url
 
     def get(self, key: str) -> DovGrid | None:
+        """The grid stored under ``key`` (nodes in deg, ξ and η in arcsec, Δg in mGal), or None."""
         with session_scope(self.url) as s:
             row = s.scalar(select(DovGridRow).where(DovGridRow.key == key))
             if row is None:
@@ -37,6 +38,7 @@ class DbGridCache:
         )
 
     def put(self, key: str, grid: DovGrid) -> None:
+        """Store ``grid`` under ``key`` (as Parquet columns); a grid stored concurrently under the same key is kept."""
         gl, go = np.meshgrid(grid.lat_deg, grid.lon_deg, indexing="ij")
         cols = {
             "lat_deg": gl.ravel(),

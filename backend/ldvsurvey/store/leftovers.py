@@ -89,6 +89,7 @@ class Leftovers:
     paths: list[str] = field(default_factory=list, repr=False)
 
     def message(self, verb: str = "removed") -> str:
+        """One line for the log: ``verb`` (e.g. removed) with the counts and the size in MB."""
         extra = (
             f", {self.unreferenced_blobs} blob{'s' * (self.unreferenced_blobs != 1)} no row names"
             if self.unreferenced_blobs
@@ -101,6 +102,7 @@ class Leftovers:
         )
 
     def as_dict(self) -> dict:
+        """The counts and bytes as a dict (without the paths)."""
         d = asdict(self)
         d.pop("paths")
         return d
@@ -121,8 +123,27 @@ def _orphan(path: Path, lock: Path, now: float, grace_s: float, free_lock_suffic
 
 
 def scan(tmp_dir: Path | None, blob_root: Path | None, remove: bool) -> tuple[Leftovers, Leftovers]:
-    """(leftovers, in progress) under the staging folder ``tmp_dir`` and the blob folder; leftovers
-    removed when ``remove``."""
+    """What stopped uploads left under the staging folder and the blob folder, and what is in progress.
+
+    A staging folder or ``.part`` blob is a leftover when no process holds its lock and it is older
+    than its grace period.
+
+    Parameters
+    ----------
+    tmp_dir : Path or None
+        The staging folder (``<data_dir>/tmp``).
+    blob_root : Path or None
+        The blob folder (None with blobs in the database).
+    remove : bool
+        Remove the leftovers (else only count them).
+
+    Returns
+    -------
+    Leftovers
+        The leftovers (removed when ``remove``), with their bytes and paths.
+    Leftovers
+        Those in progress (locked by a live process or within their grace period).
+    """
     now = time.time()
     gone, busy = Leftovers(), Leftovers()
     if tmp_dir is not None and tmp_dir.is_dir():
@@ -183,6 +204,7 @@ class Report:
         self.last_at: float | None = None
 
     def add(self, gone: Leftovers) -> None:
+        """Add what one clean-up removed to the totals and note when (Unix s)."""
         with self._lock:
             self.total.staging_folders += gone.staging_folders
             self.total.part_blobs += gone.part_blobs

@@ -6,6 +6,7 @@ small files and databases without a folder (in-memory SQLite) keep them in the r
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +61,8 @@ def _arrays(log: DriveLog) -> dict[str, dict[str, np.ndarray]]:
     return out
 
 
-def find_by_sha(session: Session, sha256: str, project_id: int | None = None) -> Log | None:
+def find_by_sha(session: Session, sha256: str, *, project_id: int | None = None) -> Log | None:
+    """The log of the project (None: no project) whose bundle has this SHA-256, or None."""
     return session.scalar(
         select(Log).where(
             Log.sha256 == sha256, Log.project_id.is_(project_id) if project_id is None else Log.project_id == project_id
@@ -71,12 +73,30 @@ def find_by_sha(session: Session, sha256: str, project_id: int | None = None) ->
 def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | None = None) -> tuple[Log, bool]:
     """Store a parsed bundle (originals, Parquet arrays, quality) unless already stored.
 
+    Large originals and the arrays go to blobs (the folder beside a SQLite file, ``blob_chunks``
+    with PostgreSQL), small ones into their rows; every blob is written before a row names it.
+
+    Parameters
+    ----------
+    session : Session
+        The caller's session (flushed here, committed by the caller).
+    log : DriveLog
+        The parsed bundle.
+    quality : dict
+        Its quality report (:func:`ldvsurvey.io.quality.quality_report`).
+    project_id : int, optional
+        The project it belongs to (None: none, with authentication off).
+
     Returns
     -------
-    (Log, created) : the row and whether it was created now (False: duplicate upload).
+    Log
+        The stored row, or the existing one of the same bundle SHA-256 in that project.
+    bool
+        Whether it was created now (False: a duplicate upload, also when a concurrent upload of the
+        same bundle won the race).
     """
     sha = log.sha256
-    existing = find_by_sha(session, sha, project_id)
+    existing = find_by_sha(session, sha, project_id=project_id)
     if existing is not None:
         return existing, False
     m = log.manifest
@@ -125,7 +145,7 @@ def store_log(session: Session, log: DriveLog, quality: dict, project_id: int | 
         session.flush()
     except IntegrityError:  # a concurrent upload of the same bundle won the race
         session.rollback()
-        existing = find_by_sha(session, sha, project_id)
+        existing = find_by_sha(session, sha, project_id=project_id)
         if existing is None:
             raise
         return existing, False
@@ -175,7 +195,16 @@ def facts_of(session: Session, row: Log) -> dict:
 
 
 def get_log(session: Session, log_id: int) -> Log | None:
+    """The log of that id, or None."""
     return session.get(Log, log_id)
+
+
+def add_files(session: Session, log_id: int, files: dict[str, bytes]) -> None:
+    """Keep further files with a stored log (an import's original recordings), each with its SHA-256
+    and size, under their names (not committed)."""
+    for name, content in sorted(files.items()):
+        sha256 = hashlib.sha256(content).hexdigest()
+        session.add(LogFile(log_id=log_id, name=name, sha256=sha256, size_bytes=len(content), content=content))
 
 
 def list_files(session: Session, log_id: int) -> list[tuple[str, str, int]]:
@@ -187,6 +216,7 @@ def list_files(session: Session, log_id: int) -> list[tuple[str, str, int]]:
 
 
 def get_file(session: Session, log_id: int, name: str) -> LogFile | None:
+    """The stored file ``name`` of a log, or None."""
     return session.scalar(select(LogFile).where(LogFile.log_id == log_id, LogFile.name == name))
 
 
@@ -242,6 +272,19 @@ def load_drivelog(session: Session, log_id: int) -> DriveLog | None:
     The arrays are read row group by row group into their final arrays; the originals are not read
     (``files`` holds the path of a file in the blob folder, or the bytes of a small one kept in its
     row; ``file_sha256`` the stored hashes).
+
+    Parameters
+    ----------
+    session : Session
+        An open session (blobs kept in the database are read through it).
+    log_id : int
+        The log's id.
+
+    Returns
+    -------
+    DriveLog or None
+        The log with its samples as parsed (units in the field names: ``t_s``, ``dtheta_rad``, …), or
+        None when there is no such log.
     """
     row = session.get(Log, log_id)
     if row is None:

@@ -21,6 +21,7 @@ from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
 
 
 def utcnow() -> dt.datetime:
+    """The current time, timezone-aware in UTC (the columns' default)."""
     return dt.datetime.now(dt.UTC)
 
 

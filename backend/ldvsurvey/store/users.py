@@ -57,6 +57,7 @@ def check_name(name: str, field: str, what: str) -> None:
 
 
 def check_password(password: str) -> None:
+    """Refuse (:class:`AccountError` naming ``password``) a password shorter than ``MIN_PASSWORD`` characters."""
     if len(password) < MIN_PASSWORD:
         raise AccountError(f"a password needs at least {MIN_PASSWORD} characters", field="password")
 
@@ -71,7 +72,36 @@ def create_user(
     project: str | None = None,
     own_project: bool = True,
 ) -> User:
-    """A user and (unless ``own_project`` is false) a project, by default one of their own, they are a member of."""
+    """A new user (flushed), member of a project unless ``own_project`` is false and no ``project`` is named.
+
+    Parameters
+    ----------
+    s : Session
+        The caller's session (committed by the caller).
+    username : str
+        1 to 100 characters without spaces (surrounding blanks stripped).
+    password : str
+        Stored as its argon2 hash (its length is checked by the callers, :func:`check_password`).
+    is_admin, is_demo : bool
+        The user's flags.
+    project : str, optional
+        The project they join (created when missing); default a project of their own,
+        ``"<username>'s project"``.
+    own_project : bool
+        Whether a user without ``project`` gets a project of their own.
+
+    Returns
+    -------
+    User
+        The new row.
+
+    Raises
+    ------
+    AccountError
+        For a bad name (422, naming ``username``).
+    Conflict
+        When the name is taken (409).
+    """
     username = username.strip()
     check_name(username, "username", "user name")
     if not username or len(username) > 100 or any(c.isspace() for c in username):
@@ -87,14 +117,31 @@ def create_user(
     return u
 
 
+def user_named(s: Session, username: str) -> User | None:
+    """The user of that name, or None."""
+    return s.scalar(select(User).where(User.username == username))
+
+
+def demo_user(s: Session) -> User | None:
+    """The demo account (made in demo mode), or None."""
+    return s.scalar(select(User).where(User.is_demo.is_(True)))
+
+
+def count_admins(s: Session) -> int:
+    """How many admins may log in (not disabled)."""
+    return s.scalar(select(func.count()).select_from(User).where(User.is_admin.is_(True), User.disabled.is_(False)))
+
+
 def find_user(s: Session, username: str) -> User:
-    u = s.scalar(select(User).where(User.username == username))
+    """The user of that name; :class:`AccountError` naming it when there is none."""
+    u = user_named(s, username)
     if u is None:
         raise AccountError(f"no user '{username}'", field="username")
     return u
 
 
 def find_project(s: Session, name_or_id: str | int) -> Project:
+    """The project of that id (digits) or name; :class:`AccountError` naming ``project`` when there is none."""
     p = s.get(Project, int(name_or_id)) if str(name_or_id).isdigit() else None
     p = p or s.scalar(select(Project).where(Project.name == str(name_or_id)))
     if p is None:
@@ -103,6 +150,8 @@ def find_project(s: Session, name_or_id: str | int) -> Project:
 
 
 def create_project(s: Session, name: str) -> Project:
+    """A new project of that name (flushed); :class:`AccountError` for a bad name, :class:`Conflict` for a name
+    taken."""
     name = name.strip()
     check_name(name, "name", "project name")
     if not name or len(name) > 200:
@@ -129,7 +178,13 @@ def set_disabled(s: Session, user: User, disabled: bool) -> None:
         s.execute(delete(SessionRow).where(SessionRow.user_id == user.id))
 
 
+def set_admin(s: Session, user: User, is_admin: bool) -> None:
+    """Grant or drop the admin right (an admin sees every project and manages users and projects)."""
+    user.is_admin = is_admin
+
+
 def remove_member(s: Session, user_id: int, project_id: int) -> None:
+    """End the user's membership of the project (nothing when not a member)."""
     s.execute(delete(Membership).where(Membership.user_id == user_id, Membership.project_id == project_id))
 
 
@@ -146,6 +201,7 @@ def default_project(s: Session, user: User) -> int:
 
 
 def list_users(s: Session) -> list[dict]:
+    """Every user by name: id, flags, creation time (ISO 8601) and projects (id, name)."""
     names = dict(s.execute(select(Project.id, Project.name)).all())
     members: dict[int, list] = {}
     for uid, pid in s.execute(select(Membership.user_id, Membership.project_id)):
@@ -233,6 +289,7 @@ def delete_project(s: Session, project: Project) -> dict:
 
 
 def get_or_create_project(s: Session, name: str) -> Project:
+    """The project of that name, created (and flushed) when missing."""
     p = s.scalar(select(Project).where(Project.name == name))
     if p is None:
         p = Project(name=name)
@@ -242,13 +299,16 @@ def get_or_create_project(s: Session, name: str) -> Project:
 
 
 def add_member(s: Session, user_id: int, project_id: int) -> None:
+    """Make the user a member of the project (nothing when already one)."""
     if s.get(Membership, (user_id, project_id)) is None:
         s.add(Membership(user_id=user_id, project_id=project_id))
         s.flush()
 
 
 def verify(s: Session, username: str, password: str) -> User | None:
-    u = s.scalar(select(User).where(User.username == username))
+    """The user when the name and password match and the user is not disabled, else None (the same hashing work either
+    way)."""
+    u = user_named(s, username)
     if u is None or u.disabled:
         _ph.hash(password)  # same work whether or not the user exists
         return None
@@ -260,6 +320,7 @@ def verify(s: Session, username: str, password: str) -> User | None:
 
 
 def project_ids(s: Session, user: User) -> list[int]:
+    """The ids of the projects the user may see: every one for an admin, else their memberships."""
     if user.is_admin:
         return list(s.scalars(select(Project.id)))
     return list(s.scalars(select(Membership.project_id).where(Membership.user_id == user.id)))
@@ -280,6 +341,8 @@ def new_session(s: Session, user: User, hours: float) -> tuple[str, str]:
 
 
 def session_user(s: Session, token: str) -> tuple[User, str] | None:
+    """(user, CSRF token) of a live session cookie token, or None (an expired session is deleted; a disabled user has
+    none)."""
     row = s.get(SessionRow, _h(token))
     if row is None:
         return None
@@ -292,11 +355,34 @@ def session_user(s: Session, token: str) -> tuple[User, str] | None:
 
 
 def end_session(s: Session, token: str) -> None:
+    """Delete the session of that cookie token."""
     s.execute(delete(SessionRow).where(SessionRow.token_hash == _h(token)))
 
 
-def new_api_token(s: Session, user: User, name: str, expires_days: float | None = None) -> str:
-    """A bearer token (returned once; only its hash is kept), expiring after ``expires_days`` (None: never)."""
+def new_api_token(s: Session, user: User, name: str, *, expires_days: float | None = None) -> str:
+    """A new bearer token of the user (flushed); only its SHA-256 is kept.
+
+    Parameters
+    ----------
+    s : Session
+        The caller's session (committed by the caller).
+    user : User
+        Whose token it is.
+    name : str
+        1 to 100 characters, to tell the user's tokens apart.
+    expires_days : float, optional
+        Days until it stops working (more than 0, at most 3660); None: never.
+
+    Returns
+    -------
+    str
+        The token (``ldvs_…``), shown to the user this once.
+
+    Raises
+    ------
+    AccountError
+        For a bad name or expiry, naming the field.
+    """
     name = (name or "").strip()
     check_name(name, "name", "token name")
     if not name or len(name) > 100:
@@ -311,6 +397,8 @@ def new_api_token(s: Session, user: User, name: str, expires_days: float | None 
 
 
 def list_tokens(s: Session, user: User) -> list[dict]:
+    """The user's API tokens by id: name, creation, expiry and last use (ISO 8601, UTC) and whether expired."""
+
     def iso(t):
         return None if t is None else _aware(t).isoformat()
 
@@ -335,6 +423,7 @@ def revoke_token(s: Session, user: User, token_id: int) -> bool:
 
 
 def token_user(s: Session, token: str) -> User | None:
+    """The user of a valid, unexpired API token (not disabled), or None; notes its last use (at most every 5 min)."""
     row = s.scalar(select(ApiToken).where(ApiToken.token_hash == _h(token)))
     if row is None or (row.expires_at is not None and _aware(row.expires_at) <= _now()):
         return None
@@ -363,10 +452,12 @@ def record_login_failure(s: Session, keys: list[str]) -> list[int]:
 
 
 def forget_login_failure_ids(s: Session, ids: list[int]) -> None:
+    """Delete the login failures of these row ids."""
     s.execute(delete(LoginFailure).where(LoginFailure.id.in_(ids)))
 
 
 def login_failures(s: Session, key: str, window_s: float) -> int:
+    """How many failed logins ``key`` had within the last ``window_s`` seconds."""
     since = _now() - dt.timedelta(seconds=window_s)
     return s.scalar(
         select(func.count()).select_from(LoginFailure).where(LoginFailure.key == key[:300], LoginFailure.at >= since)
@@ -400,8 +491,10 @@ def login_failure_times(s: Session, key: str, window_s: float) -> list[float]:
 
 
 def forget_login_failures(s: Session, keys: list[str]) -> None:
+    """Delete every login failure of these keys."""
     s.execute(delete(LoginFailure).where(LoginFailure.key.in_([k[:300] for k in keys])))
 
 
 def prune_login_failures(s: Session, older_than_s: float) -> None:
+    """Delete the login failures older than ``older_than_s`` seconds."""
     s.execute(delete(LoginFailure).where(LoginFailure.at < _now() - dt.timedelta(seconds=older_than_s)))
