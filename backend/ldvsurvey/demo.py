@@ -28,7 +28,10 @@ def write_demo(
         kw["minutes"] = duration_s / 60.0
     if scenario in REALISTIC:
         kw["seed"] = seed
-    sc = by_name(scenario, **kw)
+    try:
+        sc = by_name(scenario, **kw)
+    except ValueError as e:  # a length the scenario cannot be driven in
+        raise ParameterError(str(e), field="--duration-s") from None
     return write_scenario(sc, directory, seed=seed)
 
 
