@@ -191,7 +191,7 @@ def test_a_disturbed_stretch_is_flagged_on_its_line_only():
     """3 mGal over ~1 km of one line (a bad LDV stretch, a passing truck): the robust adjustment flags it on
     that line only; plain least squares (robust_k=None, as first written) smears it into the line's log
     (its line bias, and through the biases' zero sum the log's other line) and flags the good line too."""
-    from ldvsurvey.pipelines.gravity_network import _residuals
+    from ldvsurvey.pipelines.gravity.network import _residuals
 
     def flags(robust_k):
         lines, ties = survey(7)

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-import ldvsurvey.pipelines.gravity_chains as gc
+import ldvsurvey.pipelines.gravity.chains as gc
 from ldvsurvey.nav.attitude import c_bs, c_from_q
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.gravity import bridge_velocity
@@ -227,7 +227,7 @@ def test_shared_filtered_mask_and_line_bisection_equal_the_plain_computation():
     """zero_phase_lowpass with a den_cache equals it without; evaluate's lines (found by bisection of the
     chain times) hold exactly the samples the masks over the whole log select."""
     from ldvsurvey.nav.gravity import trim_line, zero_phase_lowpass
-    from ldvsurvey.pipelines.gravity_report import evaluate
+    from ldvsurvey.pipelines.gravity.report import evaluate
 
     rng = np.random.default_rng(7)
     fs, n = 10.0, 20000

@@ -15,8 +15,8 @@ import pytest
 
 from ldvsurvey.nav.earth import MGAL, normal_gravity
 from ldvsurvey.nav.gravity import zero_phase_lowpass
-from ldvsurvey.pipelines.gravity_chains import gnss_chain
-from ldvsurvey.pipelines.gravity_report import edge_gain_max, evaluate
+from ldvsurvey.pipelines.gravity.chains import gnss_chain
+from ldvsurvey.pipelines.gravity.report import edge_gain_max, evaluate
 
 FS_HZ = 20.0
 FIR_S = 150.0
@@ -116,7 +116,7 @@ def test_values_next_to_a_break_are_withheld_not_smeared():
 def test_frame_tilt_recovered_from_the_chain_difference():
     """SINS/GNSS holds ξ·a_N + η·a_E (navigation levelled to the plumb line, heights ellipsoidal),
     SINS/LDV does not: the fit of their filtered difference on the horizontal accelerations gives ξ, η."""
-    from ldvsurvey.pipelines.gravity_report import frame_tilt
+    from ldvsurvey.pipelines.gravity.report import frame_tilt
 
     rng = np.random.default_rng(2)
     fs = 1.0

@@ -13,10 +13,10 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.gravity import navigation_log
-from ldvsurvey.pipelines.gravity_chains import ldv_chain
-from ldvsurvey.pipelines.gravity_drift import drift_correction
-from ldvsurvey.pipelines.gravity_report import evaluate
+from ldvsurvey.pipelines.gravity.chains import ldv_chain
+from ldvsurvey.pipelines.gravity.drift import drift_correction
+from ldvsurvey.pipelines.gravity.pipeline import navigation_log
+from ldvsurvey.pipelines.gravity.report import evaluate
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog

@@ -11,7 +11,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
+from ldvsurvey.pipelines.gravity.floor import combine, drift_floor
 
 G0 = 9.80665
 
@@ -58,7 +58,7 @@ def test_no_instability_in_the_manifest_gives_no_drift_term():
 
 
 def test_linear_leveling_removes_the_lines_differing_drift_and_keeps_what_they_share():
-    from ldvsurvey.pipelines.gravity_report import leveling_fit
+    from ldvsurvey.pipelines.gravity.report import leveling_fit
 
     rng = np.random.default_rng(4)
     s = np.arange(0.0, 11000.0, 10.0)

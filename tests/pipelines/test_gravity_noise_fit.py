@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ldvsurvey.nav.gravity import G0, noise_floor_mgal
-from ldvsurvey.pipelines.gravity_report import fit_height_noise, height_wander_floor_mgal, static_accel_noise_ug_rthz
+from ldvsurvey.pipelines.gravity.report import fit_height_noise, height_wander_floor_mgal, static_accel_noise_ug_rthz
 
 FIR_S = 150.0
 

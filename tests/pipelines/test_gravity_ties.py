@@ -10,7 +10,7 @@ from ldvsurvey.cli import main
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.earth import MGAL, normal_gravity
 from ldvsurvey.nav.gravity import G0
-from ldvsurvey.pipelines.gravity_network import observed_ties, parse_ties
+from ldvsurvey.pipelines.gravity.network import observed_ties, parse_ties
 from ldvsurvey.pipelines.registry import get
 
 
@@ -111,7 +111,7 @@ def test_external_check_against_a_user_grid(tmp_path):
     """A user's δg grid holding the very field the table carries: per-line differences vanish; EGM2008's
     omission error is not claimed for a user grid; a grid not covering the survey is refused."""
     from ldvsurvey.io.gdf import write_gdf
-    from ldvsurvey.pipelines.gravity_network import _external_check
+    from ldvsurvey.pipelines.gravity.network import _external_check
 
     glat, glon = np.arange(28.40, 28.60, 0.005), np.arange(112.95, 113.15, 0.005)
 
@@ -151,7 +151,7 @@ def test_external_check_synthesizes_egm2008_at_the_tracks_height():
     In the Alps at 2500 m the two heights differ by tens of mGal; the difference of the normal from the
     radial direction leaves ~0.3 mGal."""
     from ldvsurvey.nav.gravmodel import ZERO_DEGREE_M, height_anomaly_m
-    from ldvsurvey.pipelines.gravity_network import _external_check
+    from ldvsurvey.pipelines.gravity.network import _external_check
 
     lat = np.array([46.5, 46.5 + 1 / 60, 46.5 + 2 / 60])
     lon = np.array([8.0, 8.0 + 1 / 60, 8.0 + 3 / 60])
@@ -174,7 +174,7 @@ def test_dg_sigma_carries_the_navigated_height_error_and_g_does_not():
     """R3: δg and Δg = f − γ(h_nav) move by 0.3086 mGal/m · δh (normal gravity's free-air gradient);
     absolute g = δg + γ(h_nav) does not. The table's δg 1-σ adds 0.3086·σ_h in quadrature to the
     adjustment's; the absolute g's 1-σ is the adjustment's alone."""
-    from ldvsurvey.pipelines.gravity_network import _adjusted_table
+    from ldvsurvey.pipelines.gravity.network import _adjusted_table
     from tests.nav.test_network import FIR_S, network, survey
 
     lines, ties = survey(7)

@@ -37,7 +37,7 @@ from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, in
 REPEAT_MAX_OFFSET_M = 50.0
 #: … over at least this share of the shorter line
 REPEAT_MIN_SHARE = 0.3
-#: crossings at a smaller angle are repeats, not crossovers (as gravity_report)
+#: crossings at a smaller angle are repeats, not crossovers (as pipelines/gravity/report.py)
 CROSSING_MIN_ANGLE_DEG = 20.0
 #: a line's sample farther than this from a crossing point is not taken there (m)
 CROSSING_MAX_DISTANCE_M = 50.0

@@ -21,7 +21,7 @@ The navigation levels its frame to the plumb line (the SINS/LDV filter cannot te
 the vertical from a tilt), GNSS heights are along the ellipsoidal normal: f_U then holds
 ξ·a_N + η·a_E beyond the ellipsoidal vertical acceleration. The SINS/LDV chain differentiates the
 LDV velocity in the same tilted frame and the term cancels; the SINS/GNSS chain keeps it (mGal on a
-winding road with a DOV of tens of arcseconds). :func:`gravity_report.frame_tilt` estimates it.
+winding road with a DOV of tens of arcseconds). :func:`report.frame_tilt` estimates it.
 """
 
 from __future__ import annotations

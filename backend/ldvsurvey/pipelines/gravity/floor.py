@@ -23,8 +23,8 @@ from scipy.signal import lfilter
 from ldvsurvey.nav.coincidence import common_points, internal_coincidence
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.nav.gravity import G0, zero_phase_lowpass
-from ldvsurvey.pipelines.gravity_drift import estimate_drift, stop_means
-from ldvsurvey.pipelines.gravity_report import leveling_fit
+from ldvsurvey.pipelines.gravity.drift import estimate_drift, stop_means
+from ldvsurvey.pipelines.gravity.report import leveling_fit
 
 #: Monte Carlo realisations (the spread of the estimate is ~1/√(2·N) relative: ~8 % at 80)
 N_REALISATIONS = 80
@@ -53,7 +53,7 @@ def drift_floor(
 ) -> dict:
     """Expected coincidence (mGal) of the manifest's accelerometer bias instability after the processing.
 
-    ``chain``: the SINS/LDV chain (times, stops); ``res``: :func:`gravity_report.evaluate`'s result
+    ``chain``: the SINS/LDV chain (times, stops); ``res``: :func:`report.evaluate`'s result
     (the lines and their samples); ``tie_applied``: whether the stop tie was subtracted.
     Returns a dict with ``drift_mgal`` (None when the manifest gives no bias instability) and how
     it was computed.

@@ -1,6 +1,6 @@
 """The survey network of the ``gravity`` pipeline: base ties, repeated lines and crossovers across logs.
 
-Takes what :func:`gravity_report.evaluate` left (every line's filtered δg on its trimmed samples) and
+Takes what :func:`report.evaluate` left (every line's filtered δg on its trimmed samples) and
 the stops of every log, ties the stops near a base station (``base_ties``) to the station's absolute
 g, and adjusts all lines of all logs together (:mod:`ldvsurvey.nav.network`): a bias (and, where
 ties at the start and end support it, a linear drift) per log, a bias per line, weights from each
@@ -19,7 +19,7 @@ from ldvsurvey.nav import network as net
 from ldvsurvey.nav.earth import MGAL, normal_gravity
 from ldvsurvey.nav.gravity import G0
 from ldvsurvey.nav.gravmodel import free_air_anomaly_mgal, height_anomaly_grid, omission_mgal
-from ldvsurvey.pipelines.gravity_drift import stop_means
+from ldvsurvey.pipelines.gravity.drift import stop_means
 from ldvsurvey.pipelines.inputs import local_metres
 
 #: a tie's absolute g must be a plausible value on the Earth's surface (mGal)
@@ -92,7 +92,7 @@ def network_lines(chains, res, floors, origin) -> tuple[list[net.Line], list]:
 def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], list[dict]]:
     """Every stop of every log within ``radius_m`` of a tie: its mean δg (drift removed as on the lines).
 
-    A stop's 1-σ is the data's own (the scatter of its 1-s means, :func:`gravity_drift.stop_sigma`,
+    A stop's 1-σ is the data's own (the scatter of its 1-s means, :func:`drift.stop_sigma`,
     lost IMU rows included); only where a stop is too short for that, the white accelerometer noise the
     manifest states over its duration. A log without a static chain (no LDV) cannot observe a tie."""
     out, unused = [], []
@@ -268,7 +268,7 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
     tables = {"gravity_adjusted": table, "network_residuals": residuals}
     files = {}
     if params["map_grid"]:
-        from ldvsurvey.pipelines.gravity_map import survey_grid
+        from ldvsurvey.pipelines.gravity.map import survey_grid
 
         res_m = float(np.median([pl["resolution_m"] for pl in per_line]))
         data, summary["map"] = survey_grid(table["lat_deg"], table["lon_deg"], table["dg_mgal"], res_m)

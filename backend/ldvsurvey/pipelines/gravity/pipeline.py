@@ -1,9 +1,9 @@
 """``gravity``: strapdown gravity from SINS/2-D LDV, repeated-line internal coincidence, SINS/GNSS beside.
 
-The raw chains are in :mod:`ldvsurvey.pipelines.gravity_chains` (f_U from the navigation's own
+The raw chains are in :mod:`ldvsurvey.pipelines.gravity.chains` (f_U from the navigation's own
 mechanization step, LDV and GNSS gaps bridged so they cost only their own samples). Rows missing
 from imu.csv are bridged (or refused) when the log is read; the summary reports them. Drift ties
-at repeated stops: :mod:`gravity_drift`. Filtering and statistics (:mod:`gravity_report`): the
+at repeated stops: :mod:`drift`. Filtering and statistics (:mod:`report`): the
 zero-phase Blackman FIR, the lines trimmed at their ends (the FIR would otherwise mix the
 turnaround and the acceleration into them), the coincidence on common along-track points with
 per-line statistics, crossovers, and the white-noise floor of the coincidence from the sensors'
@@ -35,11 +35,11 @@ from ldvsurvey.pipelines.base import (
     window_inside,
 )
 from ldvsurvey.pipelines.calibration import CalibrationParams, calibration_applicable, ldv_aid_of
-from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
-from ldvsurvey.pipelines.gravity_drift import drift_correction
-from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
-from ldvsurvey.pipelines.gravity_network import parse_ties, survey_network
-from ldvsurvey.pipelines.gravity_report import (
+from ldvsurvey.pipelines.gravity.chains import gnss_chain, ldv_chain
+from ldvsurvey.pipelines.gravity.drift import drift_correction
+from ldvsurvey.pipelines.gravity.floor import combine, drift_floor
+from ldvsurvey.pipelines.gravity.network import parse_ties, survey_network
+from ldvsurvey.pipelines.gravity.report import (
     block,
     chain_difference,
     edge_gain_max,
@@ -323,7 +323,7 @@ def run(logs, params, progress) -> PipelineResult:
                 gch = gnss_chain(log, inp, sol, fir_s, fixes)
                 gch["still"] = inp.still
                 fl = floor_of(log, gch, fir_s)
-                if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
+                if fl.get("gnss_height_mgal"):  # see report.break_edges
                     gch["edge_gain_max"] = edge_gain_max(fl)
             except ValueError as exc:
                 gskip = f"SINS/GNSS chain skipped for bundle {i + 1}: {exc}"
@@ -498,7 +498,7 @@ def gnss_primary_chain(log, params, fixes, fir_s, progress, i: int, n_logs: int)
         raise ParameterError(f"no SINS/GNSS chain for bundle {i + 1}: {exc}", field="gnss_fixes") from None
     ch["still"] = inp.still  # before the floor: its accelerometer density may come from the static start
     fl = floor_of(log, ch, fir_s)
-    if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
+    if fl.get("gnss_height_mgal"):  # see report.break_edges
         ch["edge_gain_max"] = edge_gain_max(fl)
     return ch
 

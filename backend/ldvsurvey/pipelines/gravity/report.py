@@ -60,7 +60,7 @@ def break_edges(ch, fir_s):
 def imu_bridge_sigma_mgal(ch, fir_s, t_s):
     """σ (mGal) that the lost IMU rows' bridges leave in the chain's filtered δg at the times ``t_s``.
 
-    Each bridge leaves a velocity error of σ_g (m/s, :func:`gravity_chains.lost_increment_sigmas`) in
+    Each bridge leaves a velocity error of σ_g (m/s, :func:`chains.lost_increment_sigmas`) in
     f_U·Δt: an impulse of that area in δg, which the zero-phase FIR (kernel h⋆h, unit sum, over the
     chain's sampling interval Δt) turns into σ_g·(h⋆h)(t − t_g)/Δt. Independent bridges add in
     variance. A bridge without a measured σ (too little clean data next to it) counts as NaN."""
@@ -144,7 +144,7 @@ def leveling_fit(vals, grid_m, mode):
 def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="none"):
     """Filter each chain, cut and trim the lines, put them on common points, compute the statistics.
 
-    ``chains``: raw chains (see :mod:`gravity_chains`), ``lines``: [(name, chain index, t0, t1)].
+    ``chains``: raw chains (see :mod:`chains`), ``lines``: [(name, chain index, t0, t1)].
     ``strict``: a line without data is an error (the main chain); otherwise (a comparison chain,
     e.g. GNSS blocked on a whole line) the line is reported without figures.
     ``leveling`` "bias": every line is shifted by its mean residual about the mean line (line
