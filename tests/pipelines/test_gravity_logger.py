@@ -185,7 +185,7 @@ def test_bridge_cost_is_the_filtered_impulse():
     normalisation) applied to it must give, at every time, |filtered| = the predicted σ for σ = A,
     and two independent bridges add in variance."""
     from ldvsurvey.nav.earth import MGAL
-    from ldvsurvey.nav.gravity import zero_phase_lowpass
+    from ldvsurvey.nav.gravity import Lowpass, zero_phase_lowpass
     from ldvsurvey.pipelines.gravity.report import imu_bridge_sigma_mgal
 
     fs, fir, n = 10.0, 100.0, 20000
@@ -198,7 +198,7 @@ def test_bridge_cost_is_the_filtered_impulse():
     x[i2] = a2 * fs
     y2 = zero_phase_lowpass(x, fir, fs)
     ch = {"fs": fs, "imu_bridges": [(t[i1], 0.03, a1), (t[i2], 0.02, a2)]}
-    got = imu_bridge_sigma_mgal(ch, fir, t[5000:12000])
+    got = imu_bridge_sigma_mgal(ch, Lowpass(fir), t[5000:12000])
     want = np.sqrt(y1[5000:12000] ** 2 + y2[5000:12000] ** 2) / MGAL
     np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-9)
     assert got.max() > 1.0  # a 3 mm/s bridge error is ~1 mGal at its peak through a 100-s FIR
