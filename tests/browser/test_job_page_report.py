@@ -3,7 +3,7 @@ the first screen, pass/fail against the user's specification, the full summary f
 human labels (no snake_case key, no word broken mid-word), parameters with their labels and units.
 
 The gravity job is stored directly (tests/api/helpers.py) with a summary shaped as the gravity
-pipeline writes it for a six-line drive (pipelines/gravity_report.py: block), so the page is laid
+pipeline writes it for a six-line drive (pipelines/gravity/report.py: block), so the page is laid
 out against a full-size summary without running the pipeline.
 """
 

@@ -200,7 +200,7 @@ def test_per_line_mean_and_std_about_the_mean_line():
 def test_second_difference_noise_gain_matches_monte_carlo():
     """The σ a break leaves in the filtered second difference of white noise, against the same
     noise through the same NaN-aware FIR (300 realisations): 1 in the interior, hundreds at a break."""
-    from ldvsurvey.nav.gravity import second_difference_noise_gain
+    from ldvsurvey.nav.gravity import Lowpass, second_difference_noise_gain
 
     rng = np.random.default_rng(1)
     n, length_s = 1800, 100.0
@@ -211,8 +211,26 @@ def test_second_difference_noise_gain_matches_monte_carlo():
         e = rng.normal(0.0, 1.0, n + 2)
         out.append(zero_phase_lowpass(np.where(valid, e[2:] - 2 * e[1:-1] + e[:-2], np.nan), length_s, 1.0))
     emp = np.sqrt(np.mean(np.square(out), axis=0))
-    gain = second_difference_noise_gain(valid, length_s, 1.0)
+    gain = second_difference_noise_gain(valid, Lowpass(length_s, 1.0))
     inner = np.median(emp[200:500])
     for i in (300, 650, 690, 910, 950, 1000, 1300):
         assert gain[i] == pytest.approx(emp[i] / inner, rel=0.2)
     assert gain[910] > 100 and gain[300] == pytest.approx(1.0, abs=0.01)
+
+
+def test_lowpass_response_and_noise_gain_against_scipy():
+    """The filter value's response is that of its taps (scipy's freqz, squared for forward and back) and
+    its noise gain the variance of filtered unit-density white noise (simulated, 3 %)."""
+    from scipy.signal import freqz
+
+    from ldvsurvey.nav.gravity import Lowpass
+
+    lp = Lowpass(120.0).at(2.0)
+    f = np.array([0.0, 0.002, 1.0 / 120.0, 0.012, 0.02])
+    _, h = freqz(lp.taps, worN=f, fs=2.0)
+    np.testing.assert_allclose(lp.response(f), np.abs(h) ** 2, atol=1e-9)
+    assert lp.at(2.0) is lp and lp.at(4.0).length_s == 120.0
+    x = np.random.default_rng(2).normal(0.0, np.sqrt(2.0), 400_000)  # density 1 /√Hz at 2 Hz
+    assert np.var(lp.apply(x)[2000:-2000]) == pytest.approx(lp.noise_gain, rel=0.03)
+    with pytest.raises(ValueError, match="not bound"):
+        Lowpass(120.0).apply(x)

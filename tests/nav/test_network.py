@@ -5,11 +5,12 @@ import numpy as np
 import pytest
 
 from ldvsurvey.nav import network as net
-from ldvsurvey.nav.gravity import G0, noise_floor_mgal, zero_phase_lowpass
+from ldvsurvey.nav.gravity import G0, Lowpass, noise_floor_mgal, zero_phase_lowpass
 from ldvsurvey.nav.gravmodel import TR_A_MGAL2, TR_B, TR_S, omission_mgal
 from ldvsurvey.units import MPS2_PER_MGAL as MGAL
 
 FIR_S = 200.0
+LOWPASS = Lowpass(FIR_S)
 NOISE_UG = 5.0  #: white accelerometer, µg/√Hz
 SPEED = 15.0
 
@@ -65,11 +66,11 @@ def survey(seed, ties=True):
 
 def network(lines, ties, **kw):
     groups = net.repeat_groups(lines)
-    corr = net.correlation_time_s(FIR_S)
+    corr = LOWPASS.correlation_time_s
     clusters = []
     for gi, g in enumerate(groups):
         clusters += net.repeat_clusters(lines, g, gi, 10.0, corr)
-    clusters += net.crossing_clusters(lines, groups, fir_s=FIR_S)
+    clusters += net.crossing_clusters(lines, groups, lowpass=LOWPASS)
     return groups, clusters, net.adjust(lines, clusters, ties, 3, **kw)
 
 
@@ -162,19 +163,20 @@ def test_correlation_time_is_the_white_noise_equivalent():
     fs = 2.0
     x = rng.normal(0, np.sqrt(fs), 2_000_000)  # density 1 /√Hz
     y = zero_phase_lowpass(x, FIR_S, fs)[5000:-5000]
-    tau = net.correlation_time_s(FIR_S)
+    tau = LOWPASS.correlation_time_s
     assert np.var(y) == pytest.approx(1.0 / tau, rel=0.03)
 
 
 def test_resolution_from_the_filter_response():
     """At the half-amplitude frequency a sinusoid through the applied filter keeps half its amplitude."""
-    f = net.half_amplitude_hz(FIR_S)
+    f = LOWPASS.half_amplitude_hz
     fs = 2.0
     t = np.arange(0, 20000, 1 / fs)
     y = zero_phase_lowpass(np.sin(2 * np.pi * f * t), FIR_S, fs)[2000:-2000]
     assert np.max(np.abs(y)) == pytest.approx(0.5, abs=0.01)
-    assert net.resolution_m(SPEED, FIR_S) == pytest.approx(SPEED / (2 * f))
-    assert net.resolution_m(SPEED, FIR_S) > SPEED * FIR_S / 2  # coarser than the nominal v·L/2
+    assert LOWPASS.half_wavelength_m(SPEED) == pytest.approx(SPEED / (2 * f))
+    assert LOWPASS.half_wavelength_m(SPEED) > LOWPASS.nominal_half_wavelength_m(SPEED) == SPEED * FIR_S / 2
+    assert LOWPASS.response([f])[0] == pytest.approx(0.5, abs=1e-3)  # the DTFT of the taps agrees
 
 
 def test_omission_from_tscherning_rapp():
@@ -191,7 +193,7 @@ def test_a_disturbed_stretch_is_flagged_on_its_line_only():
     """3 mGal over ~1 km of one line (a bad LDV stretch, a passing truck): the robust adjustment flags it on
     that line only; plain least squares (robust_k=None, as first written) smears it into the line's log
     (its line bias, and through the biases' zero sum the log's other line) and flags the good line too."""
-    from ldvsurvey.pipelines.gravity_network import _residuals
+    from ldvsurvey.pipelines.gravity.network import _residuals
 
     def flags(robust_k):
         lines, ties = survey(7)
@@ -231,10 +233,10 @@ def make_weaving_line(name, log, forward, t0, bias, rng, length_m=7000.0, amp_m=
 def test_noise_autocorrelation_integrates_to_the_correlation_time():
     """ρ(0) = 1, ρ even, and ∫ρ dτ = τ_c = 1/∫|H|⁴df (two independent routes: taps in time, response in frequency)."""
     lags = np.arange(-2000, 2001) * 0.5
-    rho = net.noise_autocorrelation(FIR_S, lags)
-    assert net.noise_autocorrelation(FIR_S, [0.0])[0] == pytest.approx(1.0)
+    rho = net.noise_autocorrelation(LOWPASS, lags)
+    assert net.noise_autocorrelation(LOWPASS, [0.0])[0] == pytest.approx(1.0)
     np.testing.assert_allclose(rho, rho[::-1], atol=1e-12)
-    assert np.sum(rho) * 0.5 == pytest.approx(net.correlation_time_s(FIR_S), rel=3e-3)
+    assert np.sum(rho) * 0.5 == pytest.approx(LOWPASS.correlation_time_s, rel=3e-3)
 
 
 def test_a_log_levelled_through_many_crossings_states_an_honest_sigma():

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-import ldvsurvey.pipelines.gravity_chains as gc
+import ldvsurvey.pipelines.gravity.chains as gc
 from ldvsurvey.nav.attitude import c_bs, c_from_q
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
 from ldvsurvey.nav.gravity import bridge_velocity
@@ -226,8 +226,8 @@ def test_bridge_equals_its_previous_implementation(edge_fit, seed):
 def test_shared_filtered_mask_and_line_bisection_equal_the_plain_computation():
     """zero_phase_lowpass with a den_cache equals it without; evaluate's lines (found by bisection of the
     chain times) hold exactly the samples the masks over the whole log select."""
-    from ldvsurvey.nav.gravity import trim_line, zero_phase_lowpass
-    from ldvsurvey.pipelines.gravity_report import evaluate
+    from ldvsurvey.nav.gravity import Lowpass, trim_line, zero_phase_lowpass
+    from ldvsurvey.pipelines.gravity.report import evaluate
 
     rng = np.random.default_rng(7)
     fs, n = 10.0, 20000
@@ -258,11 +258,17 @@ def test_shared_filtered_mask_and_line_bisection_equal_the_plain_computation():
         "kind": "ldv",
     }
     lines = [("L1", 0, 100.0, 900.0), ("L2", 0, 1100.0, 1900.0)]
-    res = evaluate([ch], lines, 60.0, 10.0, 30.0)
-    for (_name, _ci, k, *_rest, info), (_, _, a, b) in zip(res["per_line"], lines):
+    before = {k: v.copy() for k, v in ch.items() if isinstance(v, np.ndarray)}
+    res = evaluate([ch], lines, Lowpass(60.0), 10.0, 30.0, leveling="linear")
+    for ln, (_, _, a, b) in zip(res.lines, lines):
         whole = (t >= a) & (t <= b)
-        np.testing.assert_array_equal(k, np.flatnonzero(trim_line(t, a, b, 30.0) & np.isfinite(res["filtered"][0])))
+        k, info = ln.samples, ln.info()
+        np.testing.assert_array_equal(k, np.flatnonzero(trim_line(t, a, b, 30.0) & np.isfinite(res.filtered[0])))
         assert info["bridged_s"] == np.sum(ch["bridged"][whole]) / fs
         assert info["bridged_share"] == np.mean(ch["bridged"][whole]) > 0
-        assert info["unsupported_s"] == np.sum(ch["unsupported"][whole]) / fs
-    assert res["coincidence"].total < 0.5  # the same δg twice: the lines agree to their noise
+        assert info["unsupported_s"] == np.sum(res.unsupported[0][whole]) / fs
+    assert res.coincidence.total < 0.5
+    assert res.line_offsets_mgal is not None  # the lines were levelled in the result's own series …
+    for k, v in before.items():  # … and nothing passed in was changed
+        np.testing.assert_array_equal(ch[k], v)
+    assert set(ch) == set(before) | {"fs", "kind"}  # the same δg twice: the lines agree to their noise

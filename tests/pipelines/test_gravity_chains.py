@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from ldvsurvey.nav.earth import MGAL, normal_gravity
-from ldvsurvey.nav.gravity import zero_phase_lowpass
-from ldvsurvey.pipelines.gravity_chains import gnss_chain
-from ldvsurvey.pipelines.gravity_report import edge_gain_max, evaluate
+from ldvsurvey.nav.gravity import Lowpass, zero_phase_lowpass
+from ldvsurvey.pipelines.gravity.chains import gnss_chain
+from ldvsurvey.pipelines.gravity.report import edge_gain_max, evaluate
 
 FS_HZ = 20.0
 FIR_S = 150.0
@@ -80,7 +80,7 @@ def test_outage_bridge_unbiased_when_the_double_integral_drifts():
     ±20 000-mGal spikes that leaked mGal through the FIR (seen on the realistic drive after a
     screened multipath window: 8 mGal)."""
     log, inp, sol, tm, dg = synthetic(gaps=[(1500.0, 1540.0)])
-    ch = gnss_chain(log, inp, sol, FIR_S)
+    ch = gnss_chain(log, inp, sol, Lowpass(FIR_S))
     e, inner = filtered_error_mgal(ch, tm, dg)
     near = inner & (np.abs(ch["t_s"] - 1520.0) < 300.0)
     # measured: 0.06 mGal RMS without the outage (the white 1.5-cm heights), the former tie 0.65 (max 1.8)
@@ -101,14 +101,15 @@ def test_values_next_to_a_break_are_withheld_not_smeared():
     worst, withheld = [], []
     for seed in range(4):
         log, inp, sol, tm, dg = synthetic(duration_s=2600.0, v0_mps=0.0, gaps=[(1000.0, 1400.0)], seed=seed)
-        ch = gnss_chain(log, inp, sol, FIR_S)
+        ch = gnss_chain(log, inp, sol, Lowpass(FIR_S))
         ch["edge_gain_max"] = edge_gain_max(fl)  # as the pipeline sets it
-        res = evaluate([ch], [("L1", 0, 300.0, 2300.0), ("L2", 0, 300.0, 2300.0)], FIR_S, 10.0, 0.0, strict=False)
+        lines = [("L1", 0, 300.0, 2300.0), ("L2", 0, 300.0, 2300.0)]
+        res = evaluate([ch], lines, Lowpass(FIR_S), 10.0, 0.0, strict=False)
         truth = np.interp(ch["t_s"], tm, zero_phase_lowpass(dg, FIR_S, FS_HZ))
-        e = (res["filtered"][0] - truth) / MGAL
-        k = res["per_line"][0][2]
+        e = (res.filtered[0] - truth) / MGAL
+        k = res.lines[0].samples
         worst.append(np.nanmax(np.abs(e[k])))
-        withheld.append(res["per_line"][0][7]["unsupported_s"])
+        withheld.append(res.lines[0].unsupported_s)
     assert max(worst) < 1.0, worst
     assert min(withheld) > 400.0 + 2 * 60.0  # the outage and at least a minute on either side
 
@@ -116,7 +117,7 @@ def test_values_next_to_a_break_are_withheld_not_smeared():
 def test_frame_tilt_recovered_from_the_chain_difference():
     """SINS/GNSS holds ξ·a_N + η·a_E (navigation levelled to the plumb line, heights ellipsoidal),
     SINS/LDV does not: the fit of their filtered difference on the horizontal accelerations gives ξ, η."""
-    from ldvsurvey.pipelines.gravity_report import frame_tilt
+    from ldvsurvey.pipelines.gravity.report import frame_tilt
 
     rng = np.random.default_rng(2)
     fs = 1.0
@@ -145,9 +146,9 @@ def test_frame_tilt_recovered_from_the_chain_difference():
         "kind": "gnss",
     }
     lines = [("L1", 0, 200.0, 2900.0), ("L2", 0, 3100.0, 5800.0)]
-    ra = evaluate([ldv], lines, FIR_S, 10.0, 75.0, strict=False)
-    rb = evaluate([gnss], lines, FIR_S, 10.0, 75.0, strict=False)
-    tilt = frame_tilt(ra, [ldv], rb, [gnss], FIR_S)
+    ra = evaluate([ldv], lines, Lowpass(FIR_S), 10.0, 75.0, strict=False)
+    rb = evaluate([gnss], lines, Lowpass(FIR_S), 10.0, 75.0, strict=False)
+    tilt = frame_tilt(ra, [ldv], rb, [gnss], Lowpass(FIR_S))
     assert tilt["xi_rad"] == pytest.approx(xi, abs=max(3 * tilt["xi_sigma_rad"], 1e-6))
     assert tilt["eta_rad"] == pytest.approx(eta, abs=max(3 * tilt["eta_sigma_rad"], 1e-6))
     assert tilt["xi_sigma_rad"] < 1e-5 and tilt["eta_sigma_rad"] < 1e-5
@@ -180,11 +181,11 @@ def test_a_comparison_line_without_any_value_is_reported_not_a_crash():
         "kind": "gnss",
     }
     lines = [("L1", 0, 50.0, 650.0), ("L2", 0, 1450.0, 2050.0), ("L3", 0, 2750.0 + 100.0, 3350.0)]
-    res = evaluate([ch], lines, FIR_S, 10.0, 75.0, strict=False)
-    by = {p[0]: p for p in res["per_line"]}
-    assert by["L2"][7].get("no_data") and not len(by["L2"][3])
-    assert len(by["L1"][3]) and len(by["L3"][3])
-    assert res["coincidence"].names == ["L1", "L3"]
+    res = evaluate([ch], lines, Lowpass(FIR_S), 10.0, 75.0, strict=False)
+    by = {ln.name: ln for ln in res.lines}
+    assert by["L2"].no_data and by["L2"].info()["no_data"] and not by["L2"].has_data
+    assert by["L1"].has_data and by["L3"].has_data
+    assert res.coincidence.names == ["L1", "L3"]
 
 
 def test_break_threshold_doubles_the_white_variance():

@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 
 from ldvsurvey.io.drivelog import parse_files
+from ldvsurvey.nav.gravity import Lowpass
 from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.gravity import navigation_log
-from ldvsurvey.pipelines.gravity_chains import ldv_chain
-from ldvsurvey.pipelines.gravity_drift import drift_correction
-from ldvsurvey.pipelines.gravity_report import evaluate
+from ldvsurvey.pipelines.gravity.chains import ldv_chain
+from ldvsurvey.pipelines.gravity.drift import drift_correction
+from ldvsurvey.pipelines.gravity.pipeline import navigation_log
+from ldvsurvey.pipelines.gravity.report import evaluate
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
@@ -49,5 +50,5 @@ def test_drift_floor_matches_the_true_drift(seed):
     if b is not None and s["drift_correction"]["method"] == "repeated stops":
         ch["dg"] = ch["dg"] - b
     lines = [(n, 0, a, b_) for n, a, b_ in sim.scenario.lines]
-    true_drift = evaluate([ch], lines, FIR_S, 10.0, FIR_S / 2)["coincidence"].total
+    true_drift = evaluate([ch], lines, Lowpass(FIR_S), 10.0, FIR_S / 2).coincidence.total
     assert abs(true_drift - drift) <= 3 * spread, (true_drift, drift, spread)

@@ -11,7 +11,9 @@ from types import SimpleNamespace
 import numpy as np
 
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
+from ldvsurvey.nav.gravity import Lowpass
+from ldvsurvey.pipelines.gravity.floor import combine, drift_floor
+from ldvsurvey.pipelines.gravity.report import Evaluation, LineResult
 
 G0 = 9.80665
 
@@ -23,18 +25,19 @@ def _setup(sigma_ug, tau_s, gap_s, line_s=120.0, speed=10.0):
     for i, (a, b) in enumerate(lines):
         k = (t >= a) & (t <= b)
         s = speed * (t[k] - a) if i == 0 else speed * (b - t[k])  # the second pass runs back
-        per_line.append((f"L{i + 1}", 0, k, s, None, None, None, {}))
+        empty = np.zeros(0)
+        per_line.append(LineResult(f"L{i + 1}", 0, k, s, empty, empty, empty, 0.0, 0.0, 0.0, b - a, b - a))
     imu = SimpleNamespace(accel_bias_instability_ug=sigma_ug, bias_correlation_s=tau_s, accel_noise_ug_per_rthz=0.0)
     log = SimpleNamespace(manifest=SimpleNamespace(imu=imu))
     chain = {"t_s": t, "still": []}
-    return log, chain, {"per_line": per_line}
+    return log, chain, Evaluation([], [], per_line)
 
 
 def test_two_lines_match_the_gauss_markov_correlation():
     sigma_ug, tau = 5.0, 2000.0
     for gap in (200.0, 2000.0, 20000.0):
         log, chain, res = _setup(sigma_ug, tau, gap)
-        out = drift_floor(log, chain, res, fir_s=20.0, spacing_m=10.0, tie_applied=False, n_real=400, seed=1)
+        out = drift_floor(log, chain, res, Lowpass(20.0), spacing_m=10.0, tie_applied=False, n_real=400, seed=1)
         lag = gap + 120.0  # the lines' centres
         expect = sigma_ug * 1e-6 * G0 / MGAL * np.sqrt(1 - np.exp(-lag / tau))
         # lines of 120 s against τ = 2000 s: a few % of within-line wander; 400 realisations: ~4 %
@@ -43,14 +46,15 @@ def test_two_lines_match_the_gauss_markov_correlation():
 
 def test_leveling_leaves_only_the_drift_within_a_line():
     log, chain, res = _setup(5.0, 2000.0, 20000.0)
-    raw = drift_floor(log, chain, res, 20.0, 10.0, False, "none", n_real=200)["drift_mgal"]
-    lev = drift_floor(log, chain, res, 20.0, 10.0, False, "bias", n_real=200)["drift_mgal"]
+    raw = drift_floor(log, chain, res, Lowpass(20.0), 10.0, tie_applied=False, leveling="none", n_real=200)
+    lev = drift_floor(log, chain, res, Lowpass(20.0), 10.0, tie_applied=False, leveling="bias", n_real=200)
+    raw, lev = raw["drift_mgal"], lev["drift_mgal"]
     assert lev < 0.2 * raw
 
 
 def test_no_instability_in_the_manifest_gives_no_drift_term():
     log, chain, res = _setup(None, None, 200.0)
-    out = combine({"total_mgal": 0.4}, drift_floor(log, chain, res, 20.0, 10.0, False))
+    out = combine({"total_mgal": 0.4}, drift_floor(log, chain, res, Lowpass(20.0), 10.0, tie_applied=False))
     assert out["drift_mgal"] is None and out["combined_mgal"] == 0.4
     log, chain, res = _setup(5.0, 2000.0, 200.0)
     out = combine({"total_mgal": 0.3}, {"drift_mgal": 0.4})
@@ -58,7 +62,7 @@ def test_no_instability_in_the_manifest_gives_no_drift_term():
 
 
 def test_linear_leveling_removes_the_lines_differing_drift_and_keeps_what_they_share():
-    from ldvsurvey.pipelines.gravity_report import leveling_fit
+    from ldvsurvey.pipelines.gravity.report import leveling_fit
 
     rng = np.random.default_rng(4)
     s = np.arange(0.0, 11000.0, 10.0)

@@ -113,8 +113,8 @@ def test_the_measured_bridge_sigma_covers_the_true_error(pair):
     (the simulator's true increments of the dropped rows minus the bridged ones, up component):
     over the runs the normalised errors scatter like a unit normal (their RMS within 0.5-2)."""
     (_, _, _), (sim, log, _) = pair
-    from ldvsurvey.pipelines.gravity import navigation_log
-    from ldvsurvey.pipelines.gravity_chains import lost_increment_sigmas
+    from ldvsurvey.pipelines.gravity.chains import lost_increment_sigmas
+    from ldvsurvey.pipelines.gravity.pipeline import navigation_log
     from ldvsurvey.pipelines.navigate import run_navigation
 
     params = get("gravity").resolve({"fir_length_s": FIR_S})
@@ -140,7 +140,7 @@ def test_stop_tie_sigma_is_the_scatter_of_drift_free_ties():
     means drawn about their spots' Δg with known σ). Over 400 surveys of 13 stops at two spots the
     normalised drifts have unit variance and the χ² its degrees of freedom; a linear drift of 3 mGal
     over the survey (stops σ 0.1-0.4 mGal) is found (p < 1e-3)."""
-    from ldvsurvey.pipelines.gravity_drift import estimate_drift
+    from ldvsurvey.pipelines.gravity.drift import estimate_drift
 
     rng = np.random.default_rng(29)
     spots = [0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0]
@@ -159,7 +159,7 @@ def test_stop_tie_sigma_is_the_scatter_of_drift_free_ties():
     assert dof == len(spots) - 2
     assert np.mean(z2) == pytest.approx(1.0, abs=0.1)
     assert np.mean(chi2) == pytest.approx(dof, abs=3 * np.sqrt(2 * dof / 400))
-    from ldvsurvey.pipelines.gravity_drift import drift_correction
+    from ldvsurvey.pipelines.gravity.drift import drift_correction
 
     c = 300.0 + 600.0 * np.arange(len(spots))  # the stops' centres, s
     t = np.arange(0.0, 600.0 * len(spots), 1.0)
@@ -185,8 +185,8 @@ def test_bridge_cost_is_the_filtered_impulse():
     normalisation) applied to it must give, at every time, |filtered| = the predicted σ for σ = A,
     and two independent bridges add in variance."""
     from ldvsurvey.nav.earth import MGAL
-    from ldvsurvey.nav.gravity import zero_phase_lowpass
-    from ldvsurvey.pipelines.gravity_report import imu_bridge_sigma_mgal
+    from ldvsurvey.nav.gravity import Lowpass, zero_phase_lowpass
+    from ldvsurvey.pipelines.gravity.report import imu_bridge_sigma_mgal
 
     fs, fir, n = 10.0, 100.0, 20000
     t = np.arange(n) / fs
@@ -198,7 +198,7 @@ def test_bridge_cost_is_the_filtered_impulse():
     x[i2] = a2 * fs
     y2 = zero_phase_lowpass(x, fir, fs)
     ch = {"fs": fs, "imu_bridges": [(t[i1], 0.03, a1), (t[i2], 0.02, a2)]}
-    got = imu_bridge_sigma_mgal(ch, fir, t[5000:12000])
+    got = imu_bridge_sigma_mgal(ch, Lowpass(fir), t[5000:12000])
     want = np.sqrt(y1[5000:12000] ** 2 + y2[5000:12000] ** 2) / MGAL
     np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-9)
     assert got.max() > 1.0  # a 3 mm/s bridge error is ~1 mGal at its peak through a 100-s FIR

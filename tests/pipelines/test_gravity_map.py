@@ -1,4 +1,4 @@
-"""The gridded map (pipelines/gravity_map.py): a known field sampled along a grid of crossing roads."""
+"""The gridded map (pipelines/gravity/map.py): a known field sampled along a grid of crossing roads."""
 
 import io
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.pipelines.gravity_map import survey_grid
+from ldvsurvey.pipelines.gravity.map import survey_grid
 
 LAT0, LON0 = 28.5, 113.0
 

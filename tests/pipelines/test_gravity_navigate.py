@@ -7,7 +7,7 @@ from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL, enu_offset_m
 from ldvsurvey.nav.gravity import zero_phase_lowpass
 from ldvsurvey.pipelines.base import Progress, run_pipeline
-from ldvsurvey.pipelines.gravity import ldv_chain
+from ldvsurvey.pipelines.gravity.chains import ldv_chain
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim.fields import ConstantField

@@ -13,11 +13,11 @@ import pytest
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL, normal_gravity
 from ldvsurvey.nav.gravmodel import height_anomaly_m
-from ldvsurvey.pipelines import gravity
 from ldvsurvey.pipelines.base import run_pipeline
-from ldvsurvey.pipelines.gravity_network import survey_network
-from ldvsurvey.pipelines.gravity_report import floor_of
-from ldvsurvey.pipelines.gravity_tieheight import TIE_HEIGHT_WARN_M, check_tie_heights
+from ldvsurvey.pipelines.gravity import pipeline as gravity
+from ldvsurvey.pipelines.gravity.network import survey_network
+from ldvsurvey.pipelines.gravity.report import floor_of
+from ldvsurvey.pipelines.gravity.tieheight import TIE_HEIGHT_WARN_M, check_tie_heights
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import survey
 from ldvsurvey.sim.effects import Effects, ImuErrorSpec
@@ -66,9 +66,10 @@ def weighted_run():
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(gravity, "network_floors", spy)
         result = run_pipeline(get("gravity"), logs, params)
-    net_logs, chains, res, p = seen["args"][:4]
-    white = [floor_of(lg, ch, p["fir_length_s"])["total_mgal"] for lg, ch in zip(net_logs, chains)]
-    white_net, white_tables, _, _ = survey_network(net_logs, chains, res, p, white)
+    rs, cs, res = seen["args"][:3]
+    chains = cs.main
+    white = [floor_of(lg, ch, rs.lowpass)["total_mgal"] for lg, ch in zip(rs.logs, chains)]
+    white_net, white_tables, _, _ = survey_network(rs.logs, chains, res, rs.params, rs.lowpass, white)
     return sims, logs, chains, ties, result, (white_net, white_tables)
 
 

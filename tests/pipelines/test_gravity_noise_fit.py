@@ -9,10 +9,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from ldvsurvey.nav.gravity import G0, noise_floor_mgal
-from ldvsurvey.pipelines.gravity_report import fit_height_noise, height_wander_floor_mgal, static_accel_noise_ug_rthz
+from ldvsurvey.nav.gravity import G0, Lowpass, noise_floor_mgal
+from ldvsurvey.pipelines.gravity.report import fit_height_noise, height_wander_floor_mgal, static_accel_noise_ug_rthz
 
 FIR_S = 150.0
+LOWPASS = Lowpass(FIR_S)
 
 
 def _chain(n_s, white_m, q_m2_per_s, accel_ug_rthz, seed, nan_at=()):
@@ -32,7 +33,7 @@ def test_height_noise_fit_recovers_white_and_wander(seed):
     chain (the stretches between them are used): σ_w within 5 %, q within 20 % (the fit's own scatter
     is about 8 % on 6 h: 30 % on 24 min, measured over 30 simulated realizations)."""
     white, q = 0.015, 2 * 0.026**2 / 300.0
-    fit = fit_height_noise(_chain(6 * 3600, white, q, 2.0, seed, nan_at=(5000, 12000)), FIR_S, 2.0)
+    fit = fit_height_noise(_chain(6 * 3600, white, q, 2.0, seed, nan_at=(5000, 12000)), LOWPASS, 2.0)
     assert fit is not None
     w_fit, q_fit, n_seg = fit
     assert n_seg > 100
@@ -42,15 +43,15 @@ def test_height_noise_fit_recovers_white_and_wander(seed):
 def test_height_noise_fit_without_wander_finds_none():
     """White heights only: the fitted wander is a small fraction of an RTK receiver's, and its floor
     term below the white part's."""
-    w_fit, q_fit, _ = fit_height_noise(_chain(6 * 3600, 0.02, 0.0, 2.0, 3), FIR_S, 2.0)
+    w_fit, q_fit, _ = fit_height_noise(_chain(6 * 3600, 0.02, 0.0, 2.0, 3), LOWPASS, 2.0)
     assert w_fit == pytest.approx(0.02, rel=0.05)
     white_floor = noise_floor_mgal(FIR_S, height_noise_m=w_fit, gnss_rate_hz=1.0)["gnss_height_mgal"]
     assert q_fit < 0.1 * 2 * 0.026**2 / 300.0
-    assert height_wander_floor_mgal(FIR_S, q_fit) < white_floor
+    assert height_wander_floor_mgal(LOWPASS, q_fit) < white_floor
 
 
 def test_too_short_a_chain_gives_no_fit():
-    assert fit_height_noise(_chain(300, 0.015, 1e-6, 2.0, 4), FIR_S) is None
+    assert fit_height_noise(_chain(300, 0.015, 1e-6, 2.0, 4), LOWPASS) is None
 
 
 def test_wander_floor_is_the_long_gauss_markov_limit():
@@ -58,7 +59,7 @@ def test_wander_floor_is_the_long_gauss_markov_limit():
     tau = 1e5
     sig = np.sqrt(4.5e-6 * tau / 2)
     gm = noise_floor_mgal(FIR_S, height_correlated_m=sig, height_correlation_s=tau)["gnss_height_correlated_mgal"]
-    assert height_wander_floor_mgal(FIR_S, 4.5e-6) == pytest.approx(gm, rel=0.01)
+    assert height_wander_floor_mgal(LOWPASS, 4.5e-6) == pytest.approx(gm, rel=0.01)
 
 
 def test_static_start_gives_the_accelerometer_density():

@@ -175,7 +175,7 @@ def test_views_show_floor_and_chain_difference(with_dropouts):
 
 def test_bad_gravity_parameters_are_named():
     from ldvsurvey.errors import ParameterError
-    from ldvsurvey.pipelines.gravity import parse_fixes
+    from ldvsurvey.pipelines.gravity.pipeline import parse_fixes
 
     assert parse_fixes("4,5") == (4, 5)
     for bad in ("x", "3", ""):

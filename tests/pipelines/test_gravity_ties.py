@@ -9,8 +9,8 @@ import pytest
 from ldvsurvey.cli import main
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.earth import MGAL, normal_gravity
-from ldvsurvey.nav.gravity import G0
-from ldvsurvey.pipelines.gravity_network import observed_ties, parse_ties
+from ldvsurvey.nav.gravity import G0, Lowpass
+from ldvsurvey.pipelines.gravity.network import observed_ties, parse_ties
 from ldvsurvey.pipelines.registry import get
 
 
@@ -111,7 +111,7 @@ def test_external_check_against_a_user_grid(tmp_path):
     """A user's δg grid holding the very field the table carries: per-line differences vanish; EGM2008's
     omission error is not claimed for a user grid; a grid not covering the survey is refused."""
     from ldvsurvey.io.gdf import write_gdf
-    from ldvsurvey.pipelines.gravity_network import _external_check
+    from ldvsurvey.pipelines.gravity.network import _external_check
 
     glat, glon = np.arange(28.40, 28.60, 0.005), np.arange(112.95, 113.15, 0.005)
 
@@ -131,15 +131,14 @@ def test_external_check_against_a_user_grid(tmp_path):
         "line": np.array(["L1"] * 100 + ["L2"] * 100, dtype=object),
     }
     per_line = [{"name": "L1", "resolution_m": 2000.0}, {"name": "L2", "resolution_m": 2000.0}]
-    params = {"external_model": "grid", "external_grid": [str(path)], "external_grid_id": None}
-    out = _external_check(table, per_line, params, None, 200.0, [])
+    out = _external_check(table, per_line, "grid", grid_paths=[str(path)])
     assert out["model"] == "dg.gdf" and "omission_note" not in out
     for ln in out["lines"]:
         assert abs(ln["mean_mgal"]) < 0.05 and ln["std_mgal"] < 0.05  # bilinear on a 0.005° grid
     assert np.allclose(table["dg_external_mgal"], table["dg_mgal"], atol=0.1)
     table["lat_deg"] = la + 1.0
     with pytest.raises(ParameterError, match="does not cover") as exc:
-        _external_check(table, per_line, params, None, 200.0, [])
+        _external_check(table, per_line, "grid", grid_paths=[str(path)])
     assert exc.value.field == "external_grid"
 
 
@@ -151,13 +150,13 @@ def test_external_check_synthesizes_egm2008_at_the_tracks_height():
     In the Alps at 2500 m the two heights differ by tens of mGal; the difference of the normal from the
     radial direction leaves ~0.3 mGal."""
     from ldvsurvey.nav.gravmodel import ZERO_DEGREE_M, height_anomaly_m
-    from ldvsurvey.pipelines.gravity_network import _external_check
+    from ldvsurvey.pipelines.gravity.network import _external_check
 
     lat = np.array([46.5, 46.5 + 1 / 60, 46.5 + 2 / 60])
     lon = np.array([8.0, 8.0 + 1 / 60, 8.0 + 3 / 60])
     h = np.array([2400.0, 2500.0, 2600.0])  # mean 2500 m
     table = {"lat_deg": lat, "lon_deg": lon, "h_m": h, "dg_mgal": np.zeros(3), "line": ["L1"] * 3}
-    out = _external_check(table, [{"name": "L1", "resolution_m": 2000.0}], {"external_model": "egm2008"}, None, 200, [])
+    out = _external_check(table, [{"name": "L1", "resolution_m": 2000.0}], "egm2008")
     assert out["synthesis_height_m"] == 2500.0
     assert "commission" in out["commission_note"]
 
@@ -174,7 +173,7 @@ def test_dg_sigma_carries_the_navigated_height_error_and_g_does_not():
     """R3: δg and Δg = f − γ(h_nav) move by 0.3086 mGal/m · δh (normal gravity's free-air gradient);
     absolute g = δg + γ(h_nav) does not. The table's δg 1-σ adds 0.3086·σ_h in quadrature to the
     adjustment's; the absolute g's 1-σ is the adjustment's alone."""
-    from ldvsurvey.pipelines.gravity_network import _adjusted_table
+    from ldvsurvey.pipelines.gravity.network import _adjusted_table
     from tests.nav.test_network import FIR_S, network, survey
 
     lines, ties = survey(7)
@@ -199,7 +198,7 @@ def test_dg_sigma_carries_the_navigated_height_error_and_g_does_not():
             src.append((None, np.arange(at, at + len(ln.t_s))))
             at += len(ln.t_s)
     assert [ln.log for ln in lines] == sorted(ln.log for ln in lines)  # src follows lines' order
-    table, per_line = _adjusted_table(lines, src, chains, adj, FIR_S)
+    table, per_line = _adjusted_table(lines, src, chains, adj, Lowpass(FIR_S))
     sig_adj = np.concatenate(
         [np.sqrt(ln.sigma_mgal**2 + adj.correction_sigma(ln.log, i, ln.t_s) ** 2) for i, ln in enumerate(lines)]
     )

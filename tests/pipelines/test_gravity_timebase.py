@@ -10,7 +10,7 @@ simulator); the SINS/GNSS chain integrates f_U·Δt_k, so the mean of Δv/Δt0 m
 import numpy as np
 
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.pipelines.gravity_chains import nominal_interval_s, per_nominal_interval
+from ldvsurvey.pipelines.gravity.chains import nominal_interval_s, per_nominal_interval
 
 
 def _jittered(seed, n=360_000, dt=0.01):

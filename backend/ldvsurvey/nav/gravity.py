@@ -10,6 +10,9 @@ All inputs in SI units; outputs in m/s² unless the name says mGal.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import cached_property
+
 import numpy as np
 from scipy.signal import firwin, oaconvolve
 
@@ -44,44 +47,164 @@ def fir_taps(length_s: float, fs_hz: float) -> np.ndarray:
     return firwin(n, 1.0 / length_s, window="blackman", fs=fs_hz)
 
 
-def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5, weights=None, den_cache=None):
-    """Forward-backward FIR (as filtfilt) of a regularly sampled series; NaN samples are gaps.
+#: sampling rate (per filter length) of the grid the filter's continuous response is computed on
+RESPONSE_RATE_PER_LENGTH = 50.0
+#: points of that grid's FFT
+RESPONSE_N_F = 1 << 16
 
-    The filter is applied to the data and to the valid-sample mask and the two are divided,
-    so gaps are bridged by the neighbours (normalized convolution). Optional ``weights``
-    (e.g. 1/σ²) let better samples dominate; they are scaled to a maximum of 1. Output is NaN
-    where the valid weight under the (doubled) filter is below ``min_weight``.
-    ``den_cache``: a dict the caller keeps while it filters several series of one length; the
-    filtered mask of a series without gaps or weights (the same for all of them) is computed once.
+
+@dataclass(frozen=True)
+class Lowpass:
+    """The gravity low-pass: a Blackman-window FIR of length L (cut-off 1/L Hz), applied forward and back.
+
+    A value: built once per run from ``fir_length_s`` and handed to every stage, which binds it to its
+    series' sampling rate with :meth:`at`. The taps and the applied kernel h ⋆ h of a bound filter are
+    computed once.
+
+    Parameters
+    ----------
+    length_s : float
+        Filter length L, s (one pass has 2·L·f_s (+1, odd) taps).
+    rate_hz : float or None
+        Sampling rate the filter is bound to, Hz; None for the filter as a design (its response and
+        noise gain do not depend on the rate).
     """
-    x = np.asarray(x, dtype=float)
-    h = fir_taps(length_s, fs_hz)
-    h2 = oaconvolve(h, h[::-1])  # forward then backward = one zero-phase pass with h ⋆ h
-    ok = np.isfinite(x)
-    w = ok.astype(float)
-    if weights is not None:
-        w = w * np.nan_to_num(np.asarray(weights, float))
-        w = w / max(float(w.max()), 1e-300)
-    num = oaconvolve(np.where(ok, x, 0.0) * w, h2, mode="same")
-    key = (len(x), float(length_s), float(fs_hz))
-    if den_cache is not None and weights is None and key in den_cache and ok.all():
-        den = den_cache[key]
-    else:
-        den = oaconvolve(w, h2, mode="same")
-        if den_cache is not None and weights is None and ok.all():
-            den_cache[key] = den
-    with np.errstate(invalid="ignore", divide="ignore"):
-        y = num / den
-    y[den < min_weight] = np.nan
-    return y
+
+    length_s: float
+    rate_hz: float | None = None
+
+    def at(self, rate_hz: float) -> Lowpass:
+        """The same filter bound to the sampling rate ``rate_hz`` (Hz)."""
+        if self.rate_hz is not None and float(rate_hz) == self.rate_hz:
+            return self
+        return Lowpass(self.length_s, float(rate_hz))
+
+    def _rate(self) -> float:
+        if self.rate_hz is None:
+            raise ValueError("the low-pass is not bound to a sampling rate: use Lowpass.at(rate_hz)")
+        return self.rate_hz
+
+    @cached_property
+    def taps(self) -> np.ndarray:
+        """One pass's taps at the bound rate (:func:`fir_taps`), unit sum."""
+        return fir_taps(self.length_s, self._rate())
+
+    @cached_property
+    def kernel(self) -> np.ndarray:
+        """The applied zero-phase kernel h ⋆ h (forward then backward = one pass with it), unit sum."""
+        h = self.taps
+        return oaconvolve(h, h[::-1])
+
+    def apply(self, x, min_weight: float = 0.5, weights=None, den_cache=None) -> np.ndarray:
+        """Forward-backward FIR (as filtfilt) of a series at the bound rate; NaN samples are gaps.
+
+        The filter is applied to the data and to the valid-sample mask and the two are divided,
+        so gaps are bridged by the neighbours (normalized convolution).
+
+        Parameters
+        ----------
+        x : array_like
+            Series sampled at ``rate_hz`` (any unit; the output has the same).
+        min_weight : float
+            Output is NaN where the valid weight under the (doubled) filter is below this (0-1).
+        weights : array_like or None
+            Optional per-sample weights (e.g. 1/σ²) so better samples dominate; scaled to a maximum of 1.
+        den_cache : dict or None
+            A dict the caller keeps while it filters several series of one length; the filtered mask of
+            a series without gaps or weights (the same for all of them) is computed once.
+
+        Returns
+        -------
+        numpy.ndarray
+            The filtered series, same length and unit as ``x``.
+        """
+        x = np.asarray(x, dtype=float)
+        h2 = self.kernel
+        ok = np.isfinite(x)
+        w = ok.astype(float)
+        if weights is not None:
+            w = w * np.nan_to_num(np.asarray(weights, float))
+            w = w / max(float(w.max()), 1e-300)
+        num = oaconvolve(np.where(ok, x, 0.0) * w, h2, mode="same")
+        key = (len(x), float(self.length_s), float(self._rate()))
+        if den_cache is not None and weights is None and key in den_cache and ok.all():
+            den = den_cache[key]
+        else:
+            den = oaconvolve(w, h2, mode="same")
+            if den_cache is not None and weights is None and ok.all():
+                den_cache[key] = den
+        with np.errstate(invalid="ignore", divide="ignore"):
+            y = num / den
+        y[den < min_weight] = np.nan
+        return y
+
+    @cached_property
+    def fine_response4(self) -> tuple[np.ndarray, np.ndarray]:
+        """Frequencies (Hz) and |H(f)|⁴ of the applied filter on a fine grid (:func:`_response4`)."""
+        return _response4(self.length_s)
+
+    def response(self, freq_hz) -> np.ndarray:
+        """Amplitude response |H(f)|² of the applied (forward and back) filter at ``freq_hz`` (Hz); 1 at 0 Hz.
+
+        Of the taps at the bound rate; unbound, at a rate of 50 samples per filter length (the continuous
+        response below that rate's Nyquist frequency)."""
+        fs = self.rate_hz or RESPONSE_RATE_PER_LENGTH / self.length_s
+        h = self.taps if self.rate_hz else fir_taps(self.length_s, fs)
+        k = np.arange(len(h)) - (len(h) - 1) / 2
+        f = np.atleast_1d(np.asarray(freq_hz, float))
+        hf = np.exp(-2j * np.pi * np.outer(f, k) / fs) @ h
+        return np.abs(hf) ** 2 / np.sum(h) ** 2
+
+    def noise_integral(self, power: int = 0) -> float:
+        """2 ∫₀^∞ (2πf)^p |H(f)|⁴ df (two-sided): the filtered variance of noise of unit two-sided PSD
+        differenced p/2 times (p = 0 white acceleration, 2 white velocity, 4 white height), in Hz^(p+1)."""
+        f, h4 = self.fine_response4
+        w = 2 * np.pi * f
+        return 2.0 * np.sum(w**power * h4) * (f[1] - f[0])
+
+    @property
+    def noise_gain(self) -> float:
+        """∫|H|⁴ df over all frequencies (Hz): white noise of density N (unit/√Hz) comes out with variance
+        N²·noise_gain; its inverse is the correlation time τ_c (s)."""
+        f, h4 = self.fine_response4
+        return 2.0 * np.sum(h4) * (f[1] - f[0])
+
+    @property
+    def correlation_time_s(self) -> float:
+        """τ_c = 1/∫|H|⁴df (s): a mean over T ≫ L of filtered white noise has the variance of T/τ_c samples."""
+        return float(1.0 / self.noise_gain)
+
+    @cached_property
+    def half_amplitude_hz(self) -> float:
+        """Frequency (Hz) where the applied filter passes half the amplitude (−6 dB; the single pass's
+        nominal cut-off 1/L passes a quarter after both passes)."""
+        f, h4 = self.fine_response4
+        amp = np.sqrt(h4 / h4[0])
+        k = int(np.argmax(amp < 0.5))
+        return float(np.interp(0.5, [amp[k], amp[k - 1]], [f[k], f[k - 1]]))
+
+    def half_wavelength_m(self, speed_mps: float) -> float:
+        """Half-wavelength resolution (m) at ``speed_mps`` (m/s): v / (2 f½), f½ = :attr:`half_amplitude_hz`."""
+        return float(speed_mps / (2.0 * self.half_amplitude_hz))
+
+    def nominal_half_wavelength_m(self, speed_mps: float) -> float:
+        """Half-wavelength (m) at the single pass's cut-off 1/L: v·L/2 (``speed_mps`` in m/s)."""
+        return half_wavelength_resolution_m(speed_mps, self.length_s)
 
 
-def second_difference_noise_gain(valid, length_s: float, fs_hz: float) -> np.ndarray:
-    """σ of :func:`zero_phase_lowpass` of a second difference of white noise, relative to the interior.
+def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5, weights=None, den_cache=None):
+    """:meth:`Lowpass.apply` of a filter of length ``length_s`` (s) at ``fs_hz`` (Hz): a series' zero-phase
+    low-pass, NaN samples as gaps (see there for the parameters)."""
+    return Lowpass(length_s, float(fs_hz)).apply(x, min_weight, weights, den_cache)
 
-    ``valid``: the samples of the double-differenced series (e.g. δg from GNSS heights) the filter
-    uses (False: a break). Far from breaks the filter's kernel is smooth and the second differences
-    of white height noise cancel into the small interior σ; next to a break the truncated kernel
+
+def second_difference_noise_gain(valid, lowpass: Lowpass) -> np.ndarray:
+    """σ of the low-pass of a second difference of white noise, relative to the interior.
+
+    ``lowpass``: the filter bound to the series' rate (:meth:`Lowpass.at`). ``valid``: the samples of
+    the double-differenced series (e.g. δg from GNSS heights) the filter uses (False: a break). Far
+    from breaks the filter's kernel is smooth and the second differences of white height noise cancel
+    into the small interior σ; next to a break the truncated kernel
     keeps one edge velocity error (σ_h·√2/Δt, centimetres per second) almost unweighted, which is
     tens of mGal. Exact propagation: the filtered value is Σ_k c_k Δ²e_k, c_k = h2(t−k)·valid_k/den,
     so its variance is σ²·Σ_j (Δ²ᵀc)_j² = σ²·[6 S₀ − 4 (S₁ + S₋₁) + S₂ + S₋₂]/den² with
@@ -89,8 +212,7 @@ def second_difference_noise_gain(valid, length_s: float, fs_hz: float) -> np.nda
     valid (1 in the interior; NaN where the filter gives no value).
     """
     g = np.asarray(valid, bool).astype(float)
-    h = fir_taps(length_s, fs_hz)
-    h2 = oaconvolve(h, h[::-1])
+    h2 = lowpass.kernel
     m = len(h2) // 2
     n = len(g)
 
@@ -121,6 +243,7 @@ def half_wavelength_resolution_m(speed_mps: float, length_s: float) -> float:
 
 
 def to_mgal(x):
+    """m/s² to mGal."""
     return np.asarray(x) / MGAL
 
 
@@ -184,9 +307,9 @@ def bridge_velocity(v_mps, ok, v_ref_mps, edge_n: int = 1, edge_fit: str = "mean
 # white-noise floor of a repeated-line coincidence
 
 
-def _response4(length_s: float, n_f: int = 1 << 16):
+def _response4(length_s: float, n_f: int = RESPONSE_N_F):
     """Frequencies (Hz) and |H(f)|⁴ of the zero-phase (forward-backward) FIR, on a fine grid."""
-    fs = 50.0 / length_s  # any rate well above the cut-off 1/L gives the same continuous response
+    fs = RESPONSE_RATE_PER_LENGTH / length_s  # any rate well above the cut-off 1/L gives the same response
     h = fir_taps(length_s, fs)
     hf = np.fft.rfft(h, n_f)
     f = np.fft.rfftfreq(n_f, 1.0 / fs)
@@ -194,7 +317,7 @@ def _response4(length_s: float, n_f: int = 1 << 16):
 
 
 def noise_floor_mgal(
-    length_s: float,
+    lowpass: Lowpass | float,
     accel_noise_ug_rthz: float | None = None,
     ldv_noise_mps: float | None = None,
     ldv_rate_hz: float | None = None,
@@ -217,14 +340,31 @@ def noise_floor_mgal(
       σ² = ∫(2πf)⁴ S(f) |H|⁴ df (receivers' RTK heights wander by centimetres over minutes).
 
     Integrals run over all (two-sided) frequencies; |H|⁴ because the FIR runs forward and back.
-    Returns a dict of the components given and their root-sum-square ``total_mgal``.
+
+    Parameters
+    ----------
+    lowpass : Lowpass or float
+        The filter (or its length L in s).
+    accel_noise_ug_rthz : float or None
+        Accelerometer white-noise density N, µg/√Hz.
+    ldv_noise_mps, ldv_rate_hz : float or None
+        LDV vertical velocity white σ per sample (m/s) and its rate (Hz).
+    height_noise_m, gnss_rate_hz : float or None
+        GNSS height white σ per epoch (m) and the epoch rate (Hz).
+    height_correlated_m, height_correlation_s : float or None
+        Stationary σ (m) and correlation time (s) of the heights' Gauss-Markov wander.
+
+    Returns
+    -------
+    dict
+        The components given (``accel_mgal``, ``ldv_mgal``, ``gnss_height_mgal``,
+        ``gnss_height_correlated_mgal``) and their root-sum-square ``total_mgal``, mGal.
     """
-    f, h4 = _response4(length_s)
+    lowpass = lowpass if isinstance(lowpass, Lowpass) else Lowpass(lowpass)
+    f, h4 = lowpass.fine_response4
     df = f[1] - f[0]
     w = 2 * np.pi * f
-
-    def integral(p):
-        return 2.0 * np.sum(w**p * h4) * df
+    integral = lowpass.noise_integral
 
     out = {}
     if accel_noise_ug_rthz:

@@ -32,12 +32,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
+from ldvsurvey.nav.gravity import Lowpass
 
 #: two lines repeat each other when the median distance of one's samples from the other is below this (m) …
 REPEAT_MAX_OFFSET_M = 50.0
 #: … over at least this share of the shorter line
 REPEAT_MIN_SHARE = 0.3
-#: crossings at a smaller angle are repeats, not crossovers (as gravity_report)
+#: crossings at a smaller angle are repeats, not crossovers (as pipelines/gravity/report.py)
 CROSSING_MIN_ANGLE_DEG = 20.0
 #: a line's sample farther than this from a crossing point is not taken there (m)
 CROSSING_MAX_DISTANCE_M = 50.0
@@ -125,31 +126,6 @@ class Adjustment:
         return a
 
 
-def correlation_time_s(length_s: float, n_f: int = 1 << 16) -> float:
-    """τ_c = 1/∫|H|⁴df (two-sided) of the zero-phase FIR of length L: white noise of density N has the
-    filtered variance N²/τ_c, and its mean over T ≫ L the variance N²/T."""
-    from ldvsurvey.nav.gravity import _response4
-
-    f, h4 = _response4(length_s, n_f)
-    return float(1.0 / (2.0 * np.sum(h4) * (f[1] - f[0])))
-
-
-def half_amplitude_hz(length_s: float, n_f: int = 1 << 16) -> float:
-    """Frequency (Hz) where the applied zero-phase FIR (forward and back: amplitude |H|²) passes half the
-    amplitude (−6 dB). The single pass's nominal cut-off 1/L passes a quarter after both passes."""
-    from ldvsurvey.nav.gravity import _response4
-
-    f, h4 = _response4(length_s, n_f)
-    amp = np.sqrt(h4 / h4[0])
-    k = int(np.argmax(amp < 0.5))
-    return float(np.interp(0.5, [amp[k], amp[k - 1]], [f[k], f[k - 1]]))
-
-
-def resolution_m(speed_mps: float, length_s: float) -> float:
-    """Half-wavelength resolution (m) at ``speed_mps``: v / (2 f½), f½ from :func:`half_amplitude_hz`."""
-    return float(speed_mps / (2.0 * half_amplitude_hz(length_s)))
-
-
 # ---------------------------------------------------------------------------------------------
 # the network's points
 
@@ -230,13 +206,12 @@ def _sorted(s, v):
     return s[o], v[o]
 
 
-def noise_autocorrelation(length_s: float, lags_s) -> np.ndarray:
-    """ρ(τ) of white noise through the applied (forward and backward) FIR of length L: the normalized
-    autocorrelation of its impulse response; ∫ρ dτ = τ_c (:func:`correlation_time_s`)."""
-    from ldvsurvey.nav.gravity import fir_taps
-
-    fs = 200.0 / length_s  # 200 samples per filter length: ρ is smooth at 1/L
-    h = fir_taps(length_s, fs)
+def noise_autocorrelation(lowpass: Lowpass, lags_s) -> np.ndarray:
+    """ρ(τ) of white noise through the applied (forward and backward) gravity filter at the lags ``lags_s``
+    (s): the normalized autocorrelation of its impulse response; ∫ρ dτ = τ_c
+    (:attr:`Lowpass.correlation_time_s`)."""
+    fs = 200.0 / lowpass.length_s  # 200 samples per filter length: ρ is smooth at 1/L
+    h = lowpass.at(fs).taps
     g = np.convolve(h, h[::-1])  # the applied filter's impulse response
     r = np.convolve(g, g[::-1])
     r = r / r[(len(r) - 1) // 2]
@@ -244,7 +219,7 @@ def noise_autocorrelation(length_s: float, lags_s) -> np.ndarray:
     return np.interp(np.abs(np.asarray(lags_s, float)), lag, r, right=0.0)
 
 
-def _crossing_inflation(lines: list[Line], clusters: list[Cluster], fir_s: float) -> None:
+def _crossing_inflation(lines: list[Line], clusters: list[Cluster], lowpass: Lowpass) -> None:
     """Set each crossing sample's variance scale from its line's along-track noise correlation.
 
     A line's samples at its crossings are values of one filtered noise, correlated over v·τ_c: the mean of
@@ -259,7 +234,7 @@ def _crossing_inflation(lines: list[Line], clusters: list[Cluster], fir_s: float
     scales = [np.ones(len(cl.lines)) for cl in clusters]
     for items in per_line.values():
         t = np.array([x[2] for x in items])
-        rho = noise_autocorrelation(fir_s, t[:, None] - t[None, :])
+        rho = noise_autocorrelation(lowpass, t[:, None] - t[None, :])
         f = max(1.0, float(np.sum(rho)) / len(t))
         for ci, j, _ in items:
             scales[ci][j] = f
@@ -268,12 +243,12 @@ def _crossing_inflation(lines: list[Line], clusters: list[Cluster], fir_s: float
 
 
 def crossing_clusters(
-    lines: list[Line], groups: list[list[int]], min_angle_deg=CROSSING_MIN_ANGLE_DEG, fir_s: float | None = None
+    lines: list[Line], groups: list[list[int]], min_angle_deg=CROSSING_MIN_ANGLE_DEG, lowpass: Lowpass | None = None
 ) -> list[Cluster]:
     """One point per crossing of two groups' tracks: every line of both groups there (when it passes within
     CROSSING_MAX_DISTANCE_M), its value interpolated at its sample nearest the crossing.
 
-    ``fir_s``: the filter length; with it each sample's variance is inflated by its line's crossings'
+    ``lowpass``: the gravity filter; with it each sample's variance is inflated by its line's crossings'
     noise correlation (:func:`_crossing_inflation`); without it the crossings count as independent."""
     out = []
     for a in range(len(groups)):
@@ -300,8 +275,8 @@ def crossing_clusters(
                 in_a = [i in groups[a] for i in idx]
                 if any(in_a) and not all(in_a):
                     out.append(Cluster("crossing", (a, b), e, n, np.array(idx), np.array(vals), np.array(ts), 1.0))
-    if fir_s:
-        _crossing_inflation(lines, out, fir_s)
+    if lowpass is not None:
+        _crossing_inflation(lines, out, lowpass)
     return out
 
 
@@ -320,23 +295,29 @@ def _at_point(ln: Line, k: int, e: float, n: float) -> float:
 # the adjustment
 
 
-def adjust(
-    lines: list[Line],
-    clusters: list[Cluster],
-    ties: list[Tie],
-    n_logs: int,
-    drift: str = "auto",
-    line_bias: bool = True,
-    min_drift_span_s: float = 600.0,
-    robust_k: float | None = ROBUST_K,
-) -> Adjustment:
-    """Weighted least squares of the network (see the module text).
+@dataclass(frozen=True, eq=False)
+class _Design:
+    """The adjustment's parameters: names, their columns, each log's reference time (s)."""
 
-    ``drift``: "linear" estimates d_L for every log; "auto" for the logs whose ties span at least
-    ``min_drift_span_s`` (start and end ties); "none" for none. ``robust_k``: line samples whose residual
-    exceeds this many marginal σ are down-weighted (Huber, ROBUST_ITERATIONS passes; None: plain least
-    squares). Raises ValueError naming what is not determined (a log without ties or a common point
-    with another log)."""
+    names: list
+    index: dict
+    t_ref: np.ndarray
+    line_bias: bool
+
+    def row(self, lg: int, li: int | None, t: float) -> np.ndarray:
+        """Design row of a sample of line ``li`` (None: a tie) of log ``lg`` at time ``t`` (s)."""
+        a = np.zeros(len(self.names))
+        a[self.index[f"bias:{lg}"]] = 1.0
+        if f"drift:{lg}" in self.index:
+            a[self.index[f"drift:{lg}"]] = (t - self.t_ref[lg]) / 3600.0
+        if li is not None and self.line_bias:
+            a[self.index[f"line:{li}"]] = 1.0
+        return a
+
+
+def drift_logs_of(lines: list[Line], ties: list[Tie], n_logs: int, drift: str, min_drift_span_s: float):
+    """Each log's reference time t_L (its first tie or line sample, s), the logs that get a linear drift,
+    and the logs seen (with a line or a tie)."""
     logs_seen = sorted({ln.log for ln in lines} | {t.log for t in ties})
     t_ref = np.zeros(n_logs)
     for lg in range(n_logs):
@@ -352,14 +333,17 @@ def adjust(
                 drift_logs.append(lg)
     else:
         drift_logs = []
-    names = [f"bias:{lg}" for lg in range(n_logs)] + [f"drift:{lg}" for lg in drift_logs]
-    if line_bias:
-        names += [f"line:{i}" for i in range(len(lines))]
-    index = {nm: k for k, nm in enumerate(names)}
-    npar = len(names)
-    # constraints C x = 0: line biases of a log sum to zero; without ties Σ b_L = 0 (free datum)
+    return t_ref, drift_logs, logs_seen
+
+
+def constraint_basis(lines: list[Line], design: _Design, n_logs: int, logs_seen: list, tied: bool):
+    """Basis Z of the parameters allowed by the constraints C x = 0 (x = Z ξ), and the datum's description.
+
+    The line biases of a log sum to zero; without ties Σ b_L = 0 (free datum); a log without any line
+    or tie has its bias fixed at zero (not part of the network)."""
+    npar, index = len(design.names), design.index
     cons = []
-    if line_bias:
+    if design.line_bias:
         for lg in range(n_logs):
             row = np.zeros(npar)
             for i, ln in enumerate(lines):
@@ -368,53 +352,52 @@ def adjust(
             if row.any():
                 cons.append(row)
     datum = "ties"
-    if not ties:
+    if not tied:
         row = np.zeros(npar)
         row[[index[f"bias:{lg}"] for lg in range(n_logs)]] = 1.0
         cons.append(row)
         datum = "free (the logs' biases sum to zero: the survey keeps the mean level of its logs)"
-    # logs without any line or tie: their bias is fixed at zero (not part of the network)
     for lg in range(n_logs):
         if lg not in logs_seen:
             row = np.zeros(npar)
             row[index[f"bias:{lg}"]] = 1.0
             cons.append(row)
-    if cons:
-        c = np.array(cons)
-        _, sv, vt = np.linalg.svd(c)
-        rank = int(np.sum(sv > 1e-10 * sv[0]))
-        z = vt[rank:].T  # basis of the null space: x = Z ξ
-    else:
-        z = np.eye(npar)
+    if not cons:
+        return np.eye(npar), datum
+    c = np.array(cons)
+    _, sv, vt = np.linalg.svd(c)
+    rank = int(np.sum(sv > 1e-10 * sv[0]))
+    return vt[rank:].T, datum  # basis of the null space
 
-    def row_of(lg, li, t):
-        a = np.zeros(npar)
-        a[index[f"bias:{lg}"]] = 1.0
-        if f"drift:{lg}" in index:
-            a[index[f"drift:{lg}"]] = (t - t_ref[lg]) / 3600.0
-        if li is not None and line_bias:
-            a[index[f"line:{li}"]] = 1.0
-        return a
 
-    # per cluster: design rows, values, weights (1/σ² with the along-track inflation), marginal σ
+def observation_blocks(lines: list[Line], clusters: list[Cluster], ties: list[Tie], design: _Design) -> list:
+    """Per cluster, then per tie: (design rows, values mGal, weights 1/σ² with the along-track inflation,
+    marginal σ of the samples in mGal, or None for a tie: no point to eliminate)."""
     blocks = []
     for cl in clusters:
         vs = np.broadcast_to(np.asarray(cl.var_scale, float), (len(cl.lines),))
         w = np.array([1.0 / (lines[i].sigma_mgal ** 2 * f) for i, f in zip(cl.lines, vs)])
-        a = np.array([row_of(lines[i].log, i, t) for i, t in zip(cl.lines, cl.t_s)])
+        a = np.array([design.row(lines[i].log, i, t) for i, t in zip(cl.lines, cl.t_s)])
         sm = np.array([lines[i].sigma_mgal for i in cl.lines])
         blocks.append((a, np.asarray(cl.values, float), w, sm))
     for tie in ties:
         blocks.append(
             (
-                row_of(tie.log, None, tie.t_s)[None, :],
+                design.row(tie.log, None, tie.t_s)[None, :],
                 np.array([tie.measured_mgal - tie.tie_mgal]),
                 np.array([1.0 / tie.sigma_mgal**2]),
                 None,  # no point to eliminate: the tie's value is known
             )
         )
-    if not blocks:
-        raise ValueError("no common point between lines and no base tie: nothing to adjust")
+    return blocks
+
+
+def robust_solve(blocks: list, z: np.ndarray, robust_k: float | None, undetermined):
+    """Weighted least squares of the blocks with each point's G eliminated, Huber-reweighted.
+
+    Returns (ξ, its covariance, the robust weight factors per block, the centred design A·Z, the centred
+    values, √weights). ``undetermined()`` gives the message of the ValueError raised when the normal
+    matrix is singular."""
     mult = [np.ones(len(b[1])) for b in blocks]
     for _ in range(ROBUST_ITERATIONS + 1):
         rows, obs, wts, std = [], [], [], []
@@ -437,7 +420,7 @@ def adjust(
         n_mat = aw.T @ aw
         ev = np.linalg.eigvalsh(n_mat)
         if ev[0] <= 1e-9 * max(ev[-1], 1e-300):
-            raise ValueError(_undetermined(lines, ties, clusters, n_logs, drift_logs))
+            raise ValueError(undetermined())
         cov_z = np.linalg.inv(n_mat)
         xi = cov_z @ (aw.T @ (y_all * sw))
         # Huber down-weighting of residuals beyond robust_k marginal σ: one bad stretch is not smeared over
@@ -448,6 +431,64 @@ def adjust(
         new = np.where(u > robust_k, robust_k / np.maximum(u, 1e-12), 1.0)
         parts = np.split(new, np.cumsum([len(b[1]) for b in blocks])[:-1])
         mult = [p if b[3] is not None else np.ones(1) for p, b in zip(parts, blocks)]  # ties keep their weight
+    return xi, cov_z, mult, a_all, y_all, sw
+
+
+def adjust(
+    lines: list[Line],
+    clusters: list[Cluster],
+    ties: list[Tie],
+    n_logs: int,
+    drift: str = "auto",
+    line_bias: bool = True,
+    min_drift_span_s: float = 600.0,
+    robust_k: float | None = ROBUST_K,
+) -> Adjustment:
+    """Weighted least squares of the network (see the module text).
+
+    Parameters
+    ----------
+    lines : list of Line
+        The lines (filtered δg in mGal, their white-noise floor σ_l).
+    clusters : list of Cluster
+        The network's points (repeats and crossings).
+    ties : list of Tie
+        Base ties observed by the logs.
+    n_logs : int
+        Number of logs (each gets a bias b_L).
+    drift : {"auto", "linear", "none"}
+        "linear" estimates d_L (mGal/h) for every log; "auto" for the logs whose ties span at least
+        ``min_drift_span_s`` (start and end ties); "none" for none.
+    line_bias : bool
+        A bias c_l per line (summing to zero per log).
+    min_drift_span_s : float
+        Span of a log's ties (s) that supports a drift under "auto".
+    robust_k : float or None
+        Line samples whose residual exceeds this many marginal σ are down-weighted (Huber,
+        ROBUST_ITERATIONS passes; None: plain least squares).
+
+    Returns
+    -------
+    Adjustment
+        The parameters (mGal, mGal/h), their covariance, σ0 and the robust weights.
+
+    Raises
+    ------
+    ValueError
+        Naming what is not determined (a log without ties or a common point with another log).
+    """
+    t_ref, drift_logs, logs_seen = drift_logs_of(lines, ties, n_logs, drift, min_drift_span_s)
+    names = [f"bias:{lg}" for lg in range(n_logs)] + [f"drift:{lg}" for lg in drift_logs]
+    if line_bias:
+        names += [f"line:{i}" for i in range(len(lines))]
+    design = _Design(names, {nm: k for k, nm in enumerate(names)}, t_ref, line_bias)
+    z, datum = constraint_basis(lines, design, n_logs, logs_seen, bool(ties))
+    blocks = observation_blocks(lines, clusters, ties, design)
+    if not blocks:
+        raise ValueError("no common point between lines and no base tie: nothing to adjust")
+    xi, cov_z, mult, a_all, y_all, sw = robust_solve(
+        blocks, z, robust_k, lambda: _undetermined(lines, ties, clusters, n_logs, drift_logs)
+    )
     # σ0 from the residuals against their marginal variances (the along-track inflation only spreads a
     # line's information over its correlated samples; it is not a larger error of each)
     infl = np.concatenate(
@@ -461,7 +502,7 @@ def adjust(
     scale = max(1.0, sigma0**2) if np.isfinite(sigma0) else 1.0
     x = z @ xi
     cov = z @ cov_z @ z.T * scale
-    adj = Adjustment(names, x, cov, sigma0, dof, t_ref, drift_logs, line_bias, datum, index)
+    adj = Adjustment(names, x, cov, sigma0, dof, t_ref, drift_logs, line_bias, datum, design.index)
     adj.weights = mult[: len(clusters)]
     return adj
 

@@ -117,9 +117,6 @@ def run_navigation(
     sol : NavSolution
         The navigation solution.
     """
-    if isinstance(params, dict):  # transitional: gravity hands its parameters as a dict until the grav branch
-        aiding, smooth = params.get("aiding", "auto"), params.get("smooth", True)
-        params = CalibrationParams(**{k: v for k, v in params.items() if k in CalibrationParams.model_fields})
     inp = nav_inputs(log)
     aiding = resolve_aiding(aiding, inp.has_ldv)
     if "ldv" in aiding:

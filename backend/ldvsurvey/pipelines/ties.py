@@ -1,7 +1,7 @@
 """A project's base stations (absolute gravity ties): checking one, and the ``base_ties`` text of a list.
 
 A tie is checked by the very parser of the gravity pipeline's ``base_ties`` parameter
-(:func:`ldvsurvey.pipelines.gravity_network.parse_ties`), so a station the project keeps is one the
+(:func:`ldvsurvey.pipelines.gravity.network.parse_ties`), so a station the project keeps is one the
 pipeline takes; its refusals are turned to name the station's own field (``lat_deg``, ``g_mgal``, …).
 """
 
@@ -11,7 +11,7 @@ import math
 import unicodedata
 
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.pipelines.gravity_network import parse_ties
+from ldvsurvey.pipelines.gravity.network import parse_ties
 
 #: the 1-σ of a station's absolute g must lie in (0, SIGMA_MAX_MGAL] mGal
 SIGMA_MAX_MGAL = 100.0

@@ -22,9 +22,9 @@ from scipy.signal import lfilter
 
 from ldvsurvey.nav.coincidence import common_points, internal_coincidence
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.nav.gravity import G0, zero_phase_lowpass
-from ldvsurvey.pipelines.gravity_drift import estimate_drift, stop_means
-from ldvsurvey.pipelines.gravity_report import leveling_fit
+from ldvsurvey.nav.gravity import G0, Lowpass
+from ldvsurvey.pipelines.gravity.drift import estimate_drift, stop_means
+from ldvsurvey.pipelines.gravity.report import leveling_fit
 
 #: Monte Carlo realisations (the spread of the estimate is ~1/√(2·N) relative: ~8 % at 80)
 N_REALISATIONS = 80
@@ -44,8 +44,9 @@ def drift_floor(
     log,
     chain,
     res,
-    fir_s: float,
+    lowpass: Lowpass,
     spacing_m: float,
+    *,
     tie_applied: bool,
     leveling: str = "none",
     n_real: int = N_REALISATIONS,
@@ -54,11 +55,35 @@ def drift_floor(
 ) -> dict:
     """Expected coincidence (mGal) of the manifest's accelerometer bias instability after the processing.
 
-    ``chain``: the SINS/LDV chain (times, stops); ``res``: :func:`gravity_report.evaluate`'s result
-    (the lines and their samples); ``tie_applied``: whether the stop tie was subtracted; ``bundle``: the
-    index of ``log`` among the run's logs (its lines are those of ``res`` with that bundle index).
-    Returns a dict with ``drift_mgal`` (None when the manifest gives no bias instability) and how
-    it was computed.
+    Parameters
+    ----------
+    log : DriveLog
+        The log (its manifest's ``imu.accel_bias_instability_ug``, ``imu.bias_correlation_s`` and
+        ``imu.accel_noise_ug_per_rthz``).
+    chain : dict
+        The SINS/LDV chain (times, stops).
+    res : report.Evaluation
+        :func:`report.evaluate`'s result (the lines and their samples).
+    lowpass : Lowpass
+        The gravity filter.
+    spacing_m : float
+        Spacing of the common along-track points, m.
+    tie_applied : bool
+        Whether the stop tie was subtracted.
+    leveling : {"none", "bias", "linear"}
+        The line levelling applied.
+    n_real : int
+        Monte Carlo realisations.
+    seed : int
+        Seed of their generator.
+    bundle : int
+        Index of ``log`` among the run's logs: its lines are those of ``res`` on that chain.
+
+    Returns
+    -------
+    dict
+        ``drift_mgal`` (None when the manifest gives no bias instability), its spread over the
+        realisations and how it was computed.
     """
     imu = log.manifest.imu
     sig_ug = getattr(imu, "accel_bias_instability_ug", None)
@@ -72,7 +97,7 @@ def drift_floor(
     sigma = float(sig_ug) * 1e-6 * G0
     t = chain["t_s"]
     tg = np.arange(t[0], t[-1], 1.0 / MC_RATE_HZ)
-    used = [p for p in res["per_line"] if len(p[3]) and p[1] == bundle]
+    used = [ln for ln in res.lines if ln.has_data and ln.chain == bundle]
     if len(used) < 2:
         return {
             "drift_mgal": None,
@@ -80,10 +105,11 @@ def drift_floor(
         }
     # the filtered drift is smooth at 1/L: the lines' samples thinned to ~the Monte Carlo rate
     step = max(1, int(round(chain.get("fs", 1.0 / float(np.median(np.diff(t[:1000])))) / MC_RATE_HZ)))
-    line_t = [(t[p[2]][::step], p[3][::step]) for p in used]
+    line_t = [(t[ln.samples][::step], ln.along_m[::step]) for ln in used]
     stops = stop_means(chain, chain["still"]) if tie_applied else []
     noise = (imu.accel_noise_ug_per_rthz or 0.0) * 1e-6 * G0
     rng = np.random.default_rng(seed)
+    lp = lowpass.at(MC_RATE_HZ)
     tot = []
     for _ in range(n_real):
         b = gauss_markov_1hz(len(tg), sigma, float(tau), 1.0 / MC_RATE_HZ, rng)
@@ -99,7 +125,7 @@ def drift_floor(
             est = estimate_drift(y)
             if est is not None:
                 r = b - np.interp(tg, est["t_s"], est["drift"])
-        f = zero_phase_lowpass(r, fir_s, MC_RATE_HZ)
+        f = lp.apply(r)
         try:
             grid, vals = common_points([(s, np.interp(tt, tg, f) / MGAL) for tt, s in line_t], spacing_m)
         except ValueError:

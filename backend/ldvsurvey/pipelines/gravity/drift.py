@@ -37,7 +37,7 @@ def stop_sigma(t_s, x, duration_s, bridges=()):
     The means over :data:`STOP_BLOCK_S` blocks scatter about the stop's mean; their standard deviation
     over √(number of blocks) is the σ of the mean whatever the noise's colour below the block length.
     Each lost IMU run bridged inside the stop (σ_g of its up velocity, m/s; see
-    :func:`gravity_chains.lost_increment_sigmas`) adds σ_g/T to the mean over T seconds."""
+    :func:`chains.lost_increment_sigmas`) adds σ_g/T to the mean over T seconds."""
     nb = int(np.floor(duration_s / STOP_BLOCK_S))
     if nb < 4:
         return float("nan")

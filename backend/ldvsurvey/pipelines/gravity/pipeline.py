@@ -1,9 +1,9 @@
 """``gravity``: strapdown gravity from SINS/2-D LDV, repeated-line internal coincidence, SINS/GNSS beside.
 
-The raw chains are in :mod:`ldvsurvey.pipelines.gravity_chains` (f_U from the navigation's own
+The raw chains are in :mod:`ldvsurvey.pipelines.gravity.chains` (f_U from the navigation's own
 mechanization step, LDV and GNSS gaps bridged so they cost only their own samples). Rows missing
 from imu.csv are bridged (or refused) when the log is read; the summary reports them. Drift ties
-at repeated stops: :mod:`gravity_drift`. Filtering and statistics (:mod:`gravity_report`): the
+at repeated stops: :mod:`drift`. Filtering and statistics (:mod:`report`): the
 zero-phase Blackman FIR, the lines trimmed at their ends (the FIR would otherwise mix the
 turnaround and the acceleration into them), the coincidence on common along-track points with
 per-line statistics, crossovers, and the white-noise floor of the coincidence from the sensors'
@@ -13,6 +13,7 @@ noise and the FIR's noise gain, printed beside the measured figure.
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -20,7 +21,7 @@ from pydantic import Field, field_validator
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.earth import ARCSEC
-from ldvsurvey.nav.gravity import MGAL
+from ldvsurvey.nav.gravity import MGAL, Lowpass
 from ldvsurvey.pipelines.base import (
     LogFacts,
     Paths,
@@ -34,12 +35,13 @@ from ldvsurvey.pipelines.base import (
     rate_within_imu,
     window_inside,
 )
-from ldvsurvey.pipelines.gravity_chains import gnss_chain, ldv_chain
-from ldvsurvey.pipelines.gravity_drift import drift_correction
-from ldvsurvey.pipelines.gravity_floor import combine, drift_floor
-from ldvsurvey.pipelines.gravity_netfloor import network_floors
-from ldvsurvey.pipelines.gravity_network import parse_ties, survey_network
-from ldvsurvey.pipelines.gravity_report import (
+from ldvsurvey.pipelines.gravity.chains import gnss_chain, ldv_chain
+from ldvsurvey.pipelines.gravity.drift import drift_correction
+from ldvsurvey.pipelines.gravity.floor import combine, drift_floor
+from ldvsurvey.pipelines.gravity.netfloor import network_floors
+from ldvsurvey.pipelines.gravity.network import parse_ties, survey_network
+from ldvsurvey.pipelines.gravity.report import (
+    Evaluation,
     block,
     chain_difference,
     edge_gain_max,
@@ -283,16 +285,42 @@ def navigation_log(log):
     return nav
 
 
-def run(logs, params, progress) -> PipelineResult:
-    params = params.model_dump()  # transitional: typed access comes with issue 30
-    fir_s = params["fir_length_s"]
+@dataclass(frozen=True)
+class RunSetup:
+    """What every stage of one gravity run shares: the logs, the parameters and what follows from them."""
+
+    logs: list
+    params: GravityParams
+    lowpass: Lowpass  #: the gravity filter, built once from ``fir_length_s``
+    trim_s: float  #: trimmed at both ends of every line, s
+    fixes: tuple  #: GNSS fix qualities the SINS/GNSS chains use
+    primary: str  #: the main chain: "ldv", or "gnss" for logs without an LDV
+    network: bool  #: the lines of all logs adjusted as one network
+
+
+@dataclass
+class ChainSet:
+    """The raw chains of every log (:mod:`chains`) and the survey lines on them."""
+
+    main: list = field(default_factory=list)  #: per log, the main chain
+    gnss: list = field(default_factory=list)  #: per log, the SINS/GNSS comparison chain (None: not run)
+    aided: list = field(default_factory=list)  #: per log, the LDV chain on the LDV+GNSS navigation (gnss_aided)
+    lines: list = field(default_factory=list)  #: (name, log index, t0 s, t1 s)
+    warnings: list = field(default_factory=list)
+    drift_reports: list = field(default_factory=list)  #: per log, the stop-tie drift correction's report
+    first_drift: dict | None = None  #: the first log's drift floor (:func:`floor.drift_floor`)
+
+
+def setup_run(logs, params: GravityParams) -> RunSetup:
+    """The run's shared values; a ParameterError for a combination of parameters and logs that cannot run."""
+    fir_s = params.fir_length_s
     if not fir_s > 0:
         raise ParameterError("must be positive", field="fir_length_s")
-    trim_s = fir_s / 2 if params["line_end_trim_s"] is None else params["line_end_trim_s"]
+    trim_s = fir_s / 2 if params.line_end_trim_s is None else params.line_end_trim_s
     if not trim_s >= 0:
         raise ParameterError("must be zero or positive", field="line_end_trim_s")
-    fixes = parse_fixes(params["gnss_fixes"])
-    if params["network"] == "auto" and (params["base_ties"] or len(logs) > 1) and params["line_leveling"] != "none":
+    network = params.network == "auto" and bool(params.base_ties or len(logs) > 1)
+    if network and params.line_leveling != "none":
         # levelling moves each log's turn-on bias into its lines, the ties (read at the unlevelled stops)
         # would then put it back: wrong absolute values without a word
         raise ParameterError(
@@ -300,187 +328,259 @@ def run(logs, params, progress) -> PipelineResult:
             "line's bias itself (give line_leveling=none, or network=none)",
             field="line_leveling",
         )
-    chains, gchains, achains, lines, warnings = [], [], [], [], []
-    nav_params = {**params, "aiding": "ldv", "smooth": True}
     primary = "ldv" if logs[0].ldv is not None else "gnss"
     if any((log.ldv is not None) != (primary == "ldv") for log in logs):
         raise ParameterError("some logs have an LDV and some have none: give logs of one kind", field="log_ids")
-    for i, log in enumerate(logs):
-        if primary == "gnss":  # no LDV: the SINS/GNSS chain is the result (same lines, floor, coincidence)
-            chains.append(gnss_primary_chain(log, params, fixes, fir_s, progress, i, len(logs)))
-            gchains.append(None)
-            lines += _lines_of(log, chains[-1], params, i, len(logs))
-            continue
-        progress(f"bundle {i + 1}/{len(logs)}: SINS/LDV navigation", 0.05 + 0.6 * i / len(logs))
-        inp, setup, sol = run_navigation(navigation_log(log), nav_params, progress)
-        warnings += setup.warnings
-        has_gnss = log.gnss is not None and np.count_nonzero(np.isin(log.gnss.fix, fixes)) > 100
-        gch = gskip = None
-        if params["gnss_comparison"] and has_gnss:
-            # before the SINS/LDV chain: its few per-sample temporaries then never meet that chain's columns
-            progress(f"bundle {i + 1}/{len(logs)}: SINS/GNSS chain", 0.05 + 0.6 * (i + 0.3) / len(logs))
-            try:
-                # f_U, attitude and the Eötvös velocity of the SINS/LDV navigation: the chains then differ
-                # only in the vertical acceleration (LDV vs GNSS heights), and no third filter runs
-                gch = gnss_chain(log, inp, sol, fir_s, fixes)
-                gch["still"] = inp.still
-                fl = floor_of(log, gch, fir_s)
-                if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
-                    gch["edge_gain_max"] = edge_gain_max(fl)
-            except ValueError as exc:
-                gskip = f"SINS/GNSS chain skipped for bundle {i + 1}: {exc}"
-        ch = ldv_chain(inp, sol, setup)
-        ch["still"] = inp.still
-        if ch["screened"]:
-            warnings.append(f"{ch['screened']} LDV sample(s) far off the navigation velocity treated as gaps")
-        chains.append(ch)
-        gchains.append(gch)
-        if gskip:
-            warnings.append(gskip)
-        if params["gnss_aided"]:
-            if log.gnss is None:
-                raise ParameterError("gnss_aided needs GNSS: the bundle has no gnss.nmea", field="gnss_aided")
-            progress(f"bundle {i + 1}/{len(logs)}: LDV+GNSS navigation", 0.05 + 0.6 * (i + 0.6) / len(logs))
-            sol_a = navigate(inp, cbs=setup.cbs, ldv=ldv_aid_of(inp, setup), gnss=gnss_aid(log), smooth=True)
-            achains.append(ldv_chain(inp, sol_a, setup))
-            del sol_a
-        # the chains hold what follows needs: the navigation's per-sample result goes before the statistics
-        # (and before the next bundle's navigation)
-        del inp, setup, sol
-        lines += _lines_of(log, chains[-1], params, i, len(logs))
-    if len(lines) < 2:
+    return RunSetup(logs, params, Lowpass(fir_s), trim_s, parse_fixes(params.gnss_fixes), primary, network)
+
+
+def ldv_log_chains(rs: RunSetup, i: int, out: ChainSet, progress) -> None:
+    """Navigate log ``i`` with its LDV and add its chains to ``out``: SINS/LDV, the SINS/GNSS comparison on
+    the same navigation (where asked and fixes allow), the LDV chain on an LDV+GNSS navigation (gnss_aided)."""
+    log, n, params = rs.logs[i], len(rs.logs), rs.params
+    progress(f"bundle {i + 1}/{n}: SINS/LDV navigation", 0.05 + 0.6 * i / n)
+    inp, setup, sol = run_navigation(navigation_log(log), params, progress, aiding="ldv", smooth=True)
+    out.warnings += setup.warnings
+    has_gnss = log.gnss is not None and np.count_nonzero(np.isin(log.gnss.fix, rs.fixes)) > 100
+    gch = gskip = None
+    if params.gnss_comparison and has_gnss:
+        # before the SINS/LDV chain: its few per-sample temporaries then never meet that chain's columns
+        progress(f"bundle {i + 1}/{n}: SINS/GNSS chain", 0.05 + 0.6 * (i + 0.3) / n)
+        try:
+            # f_U, attitude and the Eötvös velocity of the SINS/LDV navigation: the chains then differ
+            # only in the vertical acceleration (LDV vs GNSS heights), and no third filter runs
+            gch = gnss_chain(log, inp, sol, rs.lowpass, rs.fixes)
+            gch["still"] = inp.still
+            fl = floor_of(log, gch, rs.lowpass)
+            if fl.get("gnss_height_mgal"):  # see report.break_edges
+                gch["edge_gain_max"] = edge_gain_max(fl)
+        except ValueError as exc:
+            gskip = f"SINS/GNSS chain skipped for bundle {i + 1}: {exc}"
+    ch = ldv_chain(inp, sol, setup)
+    ch["still"] = inp.still
+    if ch["screened"]:
+        out.warnings.append(f"{ch['screened']} LDV sample(s) far off the navigation velocity treated as gaps")
+    out.main.append(ch)
+    out.gnss.append(gch)
+    if gskip:
+        out.warnings.append(gskip)
+    if params.gnss_aided:
+        if log.gnss is None:
+            raise ParameterError("gnss_aided needs GNSS: the bundle has no gnss.nmea", field="gnss_aided")
+        progress(f"bundle {i + 1}/{n}: LDV+GNSS navigation", 0.05 + 0.6 * (i + 0.6) / n)
+        sol_a = navigate(inp, cbs=setup.cbs, ldv=ldv_aid_of(inp, setup), gnss=gnss_aid(log), smooth=True)
+        out.aided.append(ldv_chain(inp, sol_a, setup))
+        del sol_a
+    # the chains hold what follows needs: the navigation's per-sample result goes before the statistics
+    # (and before the next bundle's navigation)
+    del inp, setup, sol
+
+
+def all_chains(rs: RunSetup, progress) -> ChainSet:
+    """Every log's chains and the survey lines on them (at least two)."""
+    out = ChainSet()
+    for i, log in enumerate(rs.logs):
+        if rs.primary == "gnss":  # no LDV: the SINS/GNSS chain is the result (same lines, floor, coincidence)
+            out.main.append(gnss_primary_chain(rs, i, progress))
+            out.gnss.append(None)
+        else:
+            ldv_log_chains(rs, i, out, progress)
+        out.lines += _lines_of(log, out.main[-1], rs.params, i, len(rs.logs))
+    if len(out.lines) < 2:
         raise ParameterError(
             "fewer than two survey lines: give manifest lines or --set lines=t0-t1,t0-t1", field="lines"
         )
-    progress("drift, filtering and coincidence", 0.75)
-    drift_reports = []
-    for i, ch in enumerate(chains):
+    return out
+
+
+def remove_drift(rs: RunSetup, cs: ChainSet) -> list[dict]:
+    """The accelerometer drift tied at repeated stops, removed from every chain of the log it was found in
+    (the same accelerometer); the chains are replaced, not changed. Returns the drift report per log."""
+    mode = rs.params.drift_correction
+    reports = []
+    for i, ch in enumerate(cs.main):
         rep = {"method": "none", "reason": "drift_correction=none"}
-        if params["drift_correction"] != "none" and "dg_static" not in ch:
+        if mode != "none" and "dg_static" not in ch:
             rep = {"method": "none", "reason": "the stop ties use the SINS/LDV chain's δg at stops: no LDV"}
-        elif params["drift_correction"] != "none":
-            b, rep = drift_correction(
-                ch, ch["still"], logs[i].manifest.imu.accel_noise_ug_per_rthz, params["drift_correction"]
-            )
+        elif mode != "none":
+            b, rep = drift_correction(ch, ch["still"], rs.logs[i].manifest.imu.accel_noise_ug_per_rthz, mode)
             if b is not None:
-                ch["dg"] = ch["dg"] - b
-                ch["drift_mps2"] = b  # the network's ties read the stops with the same drift removed
-                for other in (gchains[i], achains[i] if achains else None):
-                    if other is not None:  # the same accelerometer: the same drift
-                        other["dg"] = other["dg"] - np.interp(other["t_s"], ch["t_s"], b)
+                # the network's ties read the stops with the same drift removed (drift_mps2)
+                cs.main[i] = {**ch, "dg": ch["dg"] - b, "drift_mps2": b}
+                for others in (cs.gnss, cs.aided):
+                    if i < len(others) and others[i] is not None:  # the same accelerometer: the same drift
+                        o = others[i]
+                        others[i] = {**o, "dg": o["dg"] - np.interp(o["t_s"], ch["t_s"], b)}
             elif "not applied" not in rep.get("reason", ""):
-                warnings.append(f"bundle {i + 1}: no accelerometer drift correction ({rep['reason']})")
-        drift_reports.append(rep)
-    res = evaluate(chains, lines, fir_s, params["spacing_m"], trim_s, leveling=params["line_leveling"])
+                cs.warnings.append(f"bundle {i + 1}: no accelerometer drift correction ({rep['reason']})")
+        reports.append(rep)
+    return reports
+
+
+def main_summary(rs: RunSetup, cs: ChainSet, res: Evaluation, drift_reports: list) -> dict:
+    """The summary of the main chain: its block with the floor (white, drift, lost IMU rows), what was
+    screened or bridged, the IMU gaps and the drift ties."""
+    params, lowpass = rs.params, rs.lowpass
     drift = drift_floor(
-        logs[0],
-        chains[0],
+        rs.logs[0],
+        cs.main[0],
         res,
-        fir_s,
-        params["spacing_m"],
-        drift_reports[0].get("method") == "repeated stops",
-        params["line_leveling"],
+        lowpass,
+        params.spacing_m,
+        tie_applied=drift_reports[0].get("method") == "repeated stops",
+        leveling=params.line_leveling,
     )
-    summary = block(
-        res, fir_s, trim_s, primary, with_imu_bridges(combine(floor_of(logs[0], chains[0], fir_s), drift), res)
-    )
-    if primary == "ldv":
-        warnings += ldv_gap_warnings(res)
-        summary["ldv_screened_samples"] = int(sum(c["screened"] for c in chains))
+    cs.drift_reports, cs.first_drift = drift_reports, drift
+    floor = with_imu_bridges(combine(floor_of(rs.logs[0], cs.main[0], lowpass), drift), res)
+    summary = block(res, lowpass, rs.trim_s, rs.primary, floor)
+    if rs.primary == "ldv":
+        cs.warnings += ldv_gap_warnings(res)
+        summary["ldv_screened_samples"] = int(sum(c["screened"] for c in cs.main))
     else:
-        summary["gnss_fixes"] = list(fixes)
-        summary["screened_fixes"] = int(sum(c["screened"] for c in chains))
+        summary["gnss_fixes"] = list(rs.fixes)
+        summary["screened_fixes"] = int(sum(c["screened"] for c in cs.main))
         summary["chain"] = (
             "SINS/GNSS: the log has no LDV; δg from the GNSS-aided navigation's specific force less the "
             "vertical acceleration of the GNSS heights"
         )
-    summary["imu_gaps"] = imu_gap_report(logs)
+    summary["imu_gaps"] = imu_gap_report(rs.logs)
     summary["drift_correction"] = drift_reports[0] if len(drift_reports) == 1 else drift_reports
-    gres = ares = None
-    if params["gnss_comparison"] and all(g is not None for g in gchains):
-        try:
-            gres = evaluate(
-                gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False, leveling=params["line_leveling"]
-            )
-            tilt = frame_tilt(res, chains, gres, gchains, fir_s)
-            if tilt is not None:  # the navigation frame's DOV: removed from the SINS/GNSS chain
-                for g in gchains:
-                    g["dg"] = g["dg"] - (tilt["xi_rad"] * g["a_n"] + tilt["eta_rad"] * g["a_e"])
-                gres = evaluate(
-                    gchains, lines, fir_s, params["spacing_m"], trim_s, strict=False, leveling=params["line_leveling"]
-                )
-            summary["gnss_comparison"] = block(
-                gres, fir_s, trim_s, "gnss", with_imu_bridges(floor_of(logs[0], gchains[0], fir_s), gres)
-            )
-            summary["gnss_comparison"]["frame_tilt"] = frame_tilt_report(tilt)
-            summary["gnss_comparison"]["gnss_fixes"] = list(fixes)
-            summary["gnss_comparison"]["screened_fixes"] = int(sum(g["screened"] for g in gchains))
-            summary["gnss_comparison"]["ldv_minus_gnss"] = chain_difference(res, chains, gres, gchains)
-        except (ValueError, ParameterError) as exc:  # e.g. no common stretch with usable GNSS
-            warnings.append(f"SINS/GNSS comparison skipped: {exc}")
-            gres = None
-    if achains:
-        ares = evaluate(
-            achains, lines, fir_s, params["spacing_m"], trim_s, strict=False, leveling=params["line_leveling"]
+    return summary
+
+
+def gnss_comparison(rs: RunSetup, cs: ChainSet, res: Evaluation, summary: dict) -> Evaluation | None:
+    """The SINS/GNSS chain beside the main one: the navigation frame's tilt fitted to their difference
+    and removed from the SINS/GNSS chains (replaced in ``cs``), its block as ``summary["gnss_comparison"]``.
+    Returns its evaluation (None when not run or skipped, with a warning saying why)."""
+    params, lowpass = rs.params, rs.lowpass
+    if not (params.gnss_comparison and all(g is not None for g in cs.gnss)):
+        return None
+    kw = {"strict": False, "leveling": params.line_leveling}
+    try:
+        gres = evaluate(cs.gnss, cs.lines, lowpass, params.spacing_m, rs.trim_s, **kw)
+        tilt = frame_tilt(res, cs.main, gres, cs.gnss, lowpass)
+        if tilt is not None:  # the navigation frame's DOV: removed from the SINS/GNSS chain
+            cs.gnss = [{**g, "dg": g["dg"] - (tilt["xi_rad"] * g["a_n"] + tilt["eta_rad"] * g["a_e"])} for g in cs.gnss]
+            gres = evaluate(cs.gnss, cs.lines, lowpass, params.spacing_m, rs.trim_s, **kw)
+        floor = with_imu_bridges(floor_of(rs.logs[0], cs.gnss[0], lowpass), gres)
+        out = block(gres, lowpass, rs.trim_s, "gnss", floor)
+        out["frame_tilt"] = frame_tilt_report(tilt)
+        out["gnss_fixes"] = list(rs.fixes)
+        out["screened_fixes"] = int(sum(g["screened"] for g in cs.gnss))
+        out["ldv_minus_gnss"] = chain_difference(res, cs.main, gres, cs.gnss)
+        summary["gnss_comparison"] = out
+    except (ValueError, ParameterError) as exc:  # e.g. no common stretch with usable GNSS
+        cs.warnings.append(f"SINS/GNSS comparison skipped: {exc}")
+        return None
+    return gres
+
+
+def gnss_aided_block(rs: RunSetup, cs: ChainSet, res: Evaluation, summary: dict) -> Evaluation | None:
+    """The LDV chain on the LDV+GNSS navigation (gnss_aided): its block as ``summary["gnss_aided"]`` and its
+    evaluation (None without it)."""
+    if not cs.aided:
+        return None
+    params, lowpass = rs.params, rs.lowpass
+    ares = evaluate(
+        cs.aided, cs.lines, lowpass, params.spacing_m, rs.trim_s, strict=False, leveling=params.line_leveling
+    )
+    summary["gnss_aided"] = block(ares, lowpass, rs.trim_s, "ldv+gnss", floor_of(rs.logs[0], cs.aided[0], lowpass))
+    summary["gnss_aided"]["ldv_minus_gnss_aided"] = chain_difference(res, cs.main, ares, cs.aided)
+    return ares
+
+
+def network_stage(rs: RunSetup, cs: ChainSet, res: Evaluation, summary: dict, progress) -> tuple[dict, dict]:
+    """The survey network (base ties or several logs): ``summary["network"]``, the network's resolution as
+    the summary's, and its tables and files; ({}, {}) without a network or when logs share no point."""
+    if not rs.network:
+        return {}, {}
+    progress("network adjustment", 0.8)
+    floors, floor_rows = network_floors(rs, cs, res)
+    try:
+        summary["network"], tables, files, warnings = survey_network(
+            rs.logs, cs.main, res, rs.params, rs.lowpass, floors, progress
         )
-        summary["gnss_aided"] = block(ares, fir_s, trim_s, "ldv+gnss", floor_of(logs[0], achains[0], fir_s))
-        summary["gnss_aided"]["ldv_minus_gnss_aided"] = chain_difference(res, chains, ares, achains)
-    network = params["network"] == "auto" and (params["base_ties"] or len(logs) > 1)
-    net_tables, net_files = {}, {}
-    if network:
-        progress("network adjustment", 0.8)
-        floors, floor_rows = network_floors(logs, chains, res, params, drift_reports, drift)
-        try:
-            summary["network"], net_tables, net_files, net_warn = survey_network(
-                logs, chains, res, params, floors, progress
-            )
-            warnings += net_warn
-            summary["network"]["log_floors"] = floor_rows  # the lines' weights: white and drift per log
-            # one resolution in the summary: the network's (where the applied filter passes half the
-            # amplitude, v/(2 f½)), the nominal v·L/2 kept under its own name
-            net_res = [ln["resolution_m"] for ln in summary["network"]["lines"] if ln.get("resolution_m")]
-            if net_res:
-                summary["resolution_nominal_m"] = summary["resolution_m"]
-                summary["resolution_m"] = float(np.median(net_res))
-                summary["resolution_definition"] = (
-                    "resolution_m: half-wavelength v/(2 f½) at the frequency f½ where the applied filter passes "
-                    "half the amplitude (median over the network's lines, as network.lines[].resolution_m); "
-                    "resolution_nominal_m: v·L/2 at the single pass's cut-off 1/L"
-                )
-        except ParameterError as exc:
-            if params["base_ties"]:  # asked for: a tie that cannot apply is the user's to fix
-                raise
-            # several logs without ties that share no point: each stays as it was (relative)
-            warnings.append(f"no network adjustment: {exc.message}")
-    progress("writing", 0.9)
-    tables = {
-        "gravity": gravity_table(
-            chains,
-            res,
-            params["output_rate_hz"],
-            {"dg_sins_gnss_mgal": (gchains, gres), "dg_gnss_aided_mgal": (achains, ares)},
+        summary["network"]["log_floors"] = floor_rows  # the lines' weights: white and drift per log
+    except ParameterError as exc:
+        if rs.params.base_ties:  # asked for: a tie that cannot apply is the user's to fix
+            raise
+        # several logs without ties that share no point: each stays as it was (relative)
+        cs.warnings.append(f"no network adjustment: {exc.message}")
+        return {}, {}
+    cs.warnings += warnings
+    # one resolution in the summary: the network's (where the applied filter passes half the
+    # amplitude, v/(2 f½)), the nominal v·L/2 kept under its own name
+    net_res = [ln["resolution_m"] for ln in summary["network"]["lines"] if ln.get("resolution_m")]
+    if net_res:
+        summary["resolution_nominal_m"] = summary["resolution_m"]
+        summary["resolution_m"] = float(np.median(net_res))
+        summary["resolution_definition"] = (
+            "resolution_m: half-wavelength v/(2 f½) at the frequency f½ where the applied filter passes "
+            "half the amplitude (median over the network's lines, as network.lines[].resolution_m); "
+            "resolution_nominal_m: v·L/2 at the single pass's cut-off 1/L"
         )
+    return tables, files
+
+
+def coincidence_table(res: Evaluation) -> dict | None:
+    """coincidence.csv: every compared line's filtered δg, the mean line and the residual (mGal) on the
+    common points (None without a coincidence)."""
+    co = res.coincidence
+    if co is None:
+        return None
+    n, m = co.values.shape
+    return {
+        "line": [nm for nm in co.names for _ in range(m)],
+        "distance_m": np.tile(co.distance_m, n),
+        "dg_mgal": co.values.ravel(),
+        "mean_mgal": np.tile(co.mean, n),
+        "residual_mgal": co.residual.ravel(),
     }
-    co = res.get("coincidence")
+
+
+def run(logs, params: GravityParams, progress) -> PipelineResult:
+    """Strapdown gravity of the logs: chains, drift ties, filter and lines, coincidence, network.
+
+    Parameters
+    ----------
+    logs : list of DriveLog
+        One or several logs of one kind (all with an LDV, or all without).
+    params : GravityParams
+        The validated parameters.
+    progress : callable
+        ``progress(message, fraction)``.
+
+    Returns
+    -------
+    PipelineResult
+        The summary (figures in mGal, m, s), the tables ``gravity`` and ``coincidence`` (and the network's),
+        warnings and the network's map file.
+    """
+    rs = setup_run(logs, params)
+    cs = all_chains(rs, progress)
+    progress("drift, filtering and coincidence", 0.75)
+    drift_reports = remove_drift(rs, cs)
+    res = evaluate(cs.main, cs.lines, rs.lowpass, params.spacing_m, rs.trim_s, leveling=params.line_leveling)
+    summary = main_summary(rs, cs, res, drift_reports)
+    gres = gnss_comparison(rs, cs, res, summary)
+    ares = gnss_aided_block(rs, cs, res, summary)
+    net_tables, net_files = network_stage(rs, cs, res, summary, progress)
+    progress("writing", 0.9)
+    extra = {"dg_sins_gnss_mgal": (cs.gnss, gres), "dg_gnss_aided_mgal": (cs.aided, ares)}
+    tables = {"gravity": gravity_table(cs.main, res, params.output_rate_hz, extra)}
+    co = coincidence_table(res)
     if co is not None:
-        n, m = co.values.shape
-        tables["coincidence"] = {
-            "line": [nm for nm in co.names for _ in range(m)],
-            "distance_m": np.tile(co.distance_m, n),
-            "dg_mgal": co.values.ravel(),
-            "mean_mgal": np.tile(co.mean, n),
-            "residual_mgal": co.residual.ravel(),
-        }
+        tables["coincidence"] = co
     tables.update(net_tables)
-    return PipelineResult(summary=summary, tables=tables, warnings=warnings, files=net_files)
+    return PipelineResult(summary=summary, tables=tables, warnings=cs.warnings, files=net_files)
 
 
-def _lines_of(log, chain, params, i: int, n_logs: int) -> list:
+def _lines_of(log, chain, params: GravityParams, i: int, n_logs: int) -> list:
     """The survey lines of bundle ``i`` as (name, bundle index, t0, t1): given, the manifest's, or
     the repeated passes detected in ``chain``."""
     prefix = f"B{i + 1}-" if n_logs > 1 else ""
-    if params["lines"]:
-        found = parse_lines(params["lines"])
+    if params.lines:
+        found = parse_lines(params.lines)
     elif log.manifest.lines:
         found = [(ln.name, ln.t_start, ln.t_end) for ln in log.manifest.lines]
     else:
@@ -488,34 +588,35 @@ def _lines_of(log, chain, params, i: int, n_logs: int) -> list:
     return [(prefix + nm, i, a, b) for nm, a, b in found]
 
 
-def gnss_primary_chain(log, params, fixes, fir_s, progress, i: int, n_logs: int) -> dict:
-    """The SINS/GNSS chain of a log without an LDV: the GNSS-aided navigation (forward filter and
+def gnss_primary_chain(rs: RunSetup, i: int, progress) -> dict:
+    """The SINS/GNSS chain of log ``i`` without an LDV: the GNSS-aided navigation (forward filter and
     RTS smoother, ZUPT at stops) and the chain of :func:`gnss_chain` on it; a ParameterError when
     the log has too few fixes of the chosen qualities."""
+    log, n_logs = rs.logs[i], len(rs.logs)
     progress(f"bundle {i + 1}/{n_logs}: SINS/GNSS navigation", 0.05 + 0.6 * i / n_logs)
-    inp, _, sol = run_navigation(navigation_log(log), {**params, "aiding": "gnss", "smooth": True}, progress)
+    inp, _, sol = run_navigation(navigation_log(log), rs.params, progress, aiding="gnss", smooth=True)
     progress(f"bundle {i + 1}/{n_logs}: SINS/GNSS chain", 0.05 + 0.6 * (i + 0.5) / n_logs)
     try:
-        ch = gnss_chain(log, inp, sol, fir_s, fixes)
+        ch = gnss_chain(log, inp, sol, rs.lowpass, rs.fixes)
     except ValueError as exc:
         raise ParameterError(f"no SINS/GNSS chain for bundle {i + 1}: {exc}", field="gnss_fixes") from None
     ch["still"] = inp.still  # before the floor: its accelerometer density may come from the static start
-    fl = floor_of(log, ch, fir_s)
-    if fl.get("gnss_height_mgal"):  # see gravity_report.break_edges
+    fl = floor_of(log, ch, rs.lowpass)
+    if fl.get("gnss_height_mgal"):  # see report.break_edges
         ch["edge_gain_max"] = edge_gain_max(fl)
     return ch
 
 
-def ldv_gap_warnings(res) -> list[str]:
+def ldv_gap_warnings(res: Evaluation) -> list[str]:
     """One warning naming, per line, the LDV data bridged through the navigation velocity (dropouts,
     low quality, screened values) and what was withheld as unsupported; none when nothing was bridged."""
     parts = []
-    for name, _ci, _k, _s, *_rest, info in res["per_line"]:
-        if info["bridged_s"] > 0:
-            share = info["bridged_s"] / info["duration_s"] if info["duration_s"] > 0 else 0.0
+    for ln in res.lines:
+        if ln.bridged_s > 0:
+            share = ln.bridged_s / ln.duration_s if ln.duration_s > 0 else 0.0
             parts.append(
-                f"{name} {info['bridged_s']:.1f} s ({100 * share:.1f} %"
-                + (f", {info['unsupported_s']:.0f} s withheld" if info["unsupported_s"] > 0 else "")
+                f"{ln.name} {ln.bridged_s:.1f} s ({100 * share:.1f} %"
+                + (f", {ln.unsupported_s:.0f} s withheld" if ln.unsupported_s > 0 else "")
                 + ")"
             )
     if not parts:
@@ -548,14 +649,15 @@ def frame_tilt_report(tilt):
     }
 
 
-def gravity_table(chains, res, rate_hz, extra):
-    """gravity.csv: the LDV chain at ``rate_hz`` (raw block means and filtered values), plus the
-    other chains' filtered δg at the same times in the ``extra`` columns (NaN where absent)."""
+def gravity_table(chains, res: Evaluation, rate_hz: float, extra: dict) -> dict:
+    """gravity.csv: the main chain at ``rate_hz`` (Hz; raw block means and filtered values, mGal), plus the
+    other chains' filtered δg at the same times in the ``extra`` columns ({column: (chains, Evaluation or
+    None)}; NaN where absent)."""
     cols = {k: [] for k in ("t_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal")}
     cols.update({k: [] for k, (ch, r) in extra.items() if r is not None})
     line_of = {}
-    for name, ci, k, s, *_ in res["per_line"]:
-        line_of.setdefault(ci, []).append((name, k, s))
+    for ln in res.lines:
+        line_of.setdefault(ln.chain, []).append((ln.name, ln.samples, ln.along_m))
     for ci, ch in enumerate(chains):
         step = max(1, int(round(ch["fs"] / rate_hz)))
         n = len(ch["t_s"]) // step * step
@@ -577,11 +679,11 @@ def gravity_table(chains, res, rate_hz, extra):
         cols["lon_deg"] += list(np.degrees(ch["lon"][idx]))
         cols["h_m"] += list(ch["h"][idx])
         cols["dg_raw_mgal"] += list(raw)
-        cols["dg_mgal"] += list(res["filtered"][ci][idx] / MGAL)
+        cols["dg_mgal"] += list(res.filtered[ci][idx] / MGAL)
         for key, (other, ores) in extra.items():
             if ores is None:
                 continue
-            f = ores["filtered"][ci]
+            f = ores.filtered[ci]
             tt = other[ci]["t_s"]
             v = np.interp(t, tt, f / MGAL)  # NaN (withheld) samples stay NaN
             v[(t < tt[0]) | (t > tt[-1])] = np.nan

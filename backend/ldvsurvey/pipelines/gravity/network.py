@@ -1,6 +1,6 @@
 """The survey network of the ``gravity`` pipeline: base ties, repeated lines and crossovers across logs.
 
-Takes what :func:`gravity_report.evaluate` left (every line's filtered δg on its trimmed samples) and
+Takes what :func:`report.evaluate` left (every line's filtered δg on its trimmed samples) and
 the stops of every log, ties the stops near a base station (``base_ties``) to the station's absolute
 g, and adjusts all lines of all logs together (:mod:`ldvsurvey.nav.network`): a bias (and, where
 ties at the start and end support it, a linear drift) per log, a bias per line, weights from each
@@ -17,10 +17,10 @@ import numpy as np
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav import network as net
 from ldvsurvey.nav.earth import MGAL, normal_gravity
-from ldvsurvey.nav.gravity import G0
+from ldvsurvey.nav.gravity import G0, Lowpass
 from ldvsurvey.nav.gravmodel import free_air_anomaly_mgal, height_anomaly_grid, omission_mgal
-from ldvsurvey.pipelines.gravity_drift import stop_means
-from ldvsurvey.pipelines.gravity_tieheight import check_tie_heights
+from ldvsurvey.pipelines.gravity.drift import stop_means
+from ldvsurvey.pipelines.gravity.tieheight import check_tie_heights
 from ldvsurvey.pipelines.stages.aids import local_metres
 
 #: a tie's absolute g must be a plausible value on the Earth's surface (mGal)
@@ -64,12 +64,11 @@ def parse_ties(text) -> list[tuple[float, float, float, float]]:
 
 
 def network_lines(chains, res, floors, origin) -> tuple[list[net.Line], list]:
-    """The lines with data as :class:`network.Line` (1 Hz), and the per_line entries they come from."""
+    """The lines with data as :class:`network.Line` (1 Hz; δg in mGal, local metres about ``origin``, lat/lon
+    in rad), and the (:class:`report.LineResult`, sample indices) they come from."""
     lines, src = [], []
-    for p in res["per_line"]:
-        name, ci, k = p[0], p[1], p[2]
-        if not len(p[3]):
-            continue
+    for p in res.used:
+        name, ci, k = p.name, p.chain, p.samples
         ch = chains[ci]
         step = max(1, int(round(ch["fs"] / NETWORK_RATE_HZ)))
         kk = k[::step]
@@ -81,7 +80,7 @@ def network_lines(chains, res, floors, origin) -> tuple[list[net.Line], list]:
                 np.asarray(ch["t_s"][kk], float),
                 np.asarray(e, float),
                 np.asarray(n, float),
-                res["filtered"][ci][kk] / MGAL,
+                res.filtered[ci][kk] / MGAL,
                 float(floors[ci]),
                 float(np.nanmedian(ch["speed"][kk])),
             )
@@ -93,7 +92,7 @@ def network_lines(chains, res, floors, origin) -> tuple[list[net.Line], list]:
 def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], list[dict]]:
     """Every stop of every log within ``radius_m`` of a tie: its mean δg (drift removed as on the lines).
 
-    A stop's 1-σ is the data's own (the scatter of its 1-s means, :func:`gravity_drift.stop_sigma`,
+    A stop's 1-σ is the data's own (the scatter of its 1-s means, :func:`drift.stop_sigma`,
     lost IMU rows included); only where a stop is too short for that, the white accelerometer noise the
     manifest states over its duration. A log without a static chain (no LDV) cannot observe a tie."""
     out, unused = [], []
@@ -133,65 +132,80 @@ def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], 
     return out, unused
 
 
-def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[dict, dict, dict, list[str]]:
-    """The network block of the summary, its tables, other files (the gridded map) and warnings.
-
-    ``floors``: per log, the 1-σ floor (mGal) of one filtered line value the lines are weighted by (the
-    pipeline gives the combined one, :func:`gravity_netfloor.network_floors`)."""
-    warnings = []
-    fir_s = params["fir_length_s"]
-    ties_given = parse_ties(params["base_ties"]) if params.get("base_ties") else []
-    first = next((p for p in res["per_line"] if len(p[3])), None)
+def network_origin(chains, res) -> tuple[float, float]:
+    """The survey's local origin (lat, lon in rad): the first kept sample of the first line with data."""
+    first = next((ln for ln in res.lines if ln.has_data), None)
     if first is None:
         raise ParameterError("no line holds data: nothing to adjust", field="lines")
-    ch0 = chains[first[1]]
-    origin = (float(ch0["lat"][first[2][0]]), float(ch0["lon"][first[2][0]]))
-    lines, src = network_lines(chains, res, floors, origin)
-    ties, unused = observed_ties(chains, logs, ties_given, params["tie_radius_m"], origin)
+    ch0 = chains[first.chain]
+    return float(ch0["lat"][first.samples[0]]), float(ch0["lon"][first.samples[0]])
+
+
+def tie_observations(chains, logs, params, origin, warnings: list) -> tuple[list[net.Tie], list]:
+    """The base ties the logs observe (:func:`observed_ties`) and the ties as given; a warning per tie
+    no stop observes, a ParameterError when ties are given and none is observed."""
+    ties_given = parse_ties(params.base_ties) if params.base_ties else []
+    ties, unused = observed_ties(chains, logs, ties_given, params.tie_radius_m, origin)
     if ties_given and not ties:
         raise ParameterError(
-            f"no log stands still within {params['tie_radius_m']:g} m of any tie: the ties cannot be "
+            f"no log stands still within {params.tie_radius_m:g} m of any tie: the ties cannot be "
             "applied (check the coordinates, or widen tie_radius_m)",
             field="base_ties",
         )
     for u in unused:
         warnings.append(
             f"base tie {u['tie']} ({u['lat_deg']:.6f}, {u['lon_deg']:.6f}): no stop within "
-            f"{params['tie_radius_m']:g} m, not used"
+            f"{params.tie_radius_m:g} m, not used"
         )
+    return ties, ties_given
+
+
+def network_points(lines, lowpass: Lowpass, spacing_m: float) -> tuple[list, list]:
+    """The repeat groups of the lines and the network's points: common along-track points of every
+    group (``spacing_m`` apart, m) and the crossings of the groups' tracks."""
     groups = net.repeat_groups(lines)
-    corr_s = net.correlation_time_s(fir_s)
     clusters = []
     for gi, grp in enumerate(groups):
-        clusters += net.repeat_clusters(lines, grp, gi, params["spacing_m"], corr_s)
-    clusters += net.crossing_clusters(lines, groups, fir_s=fir_s)
-    try:
-        adj = net.adjust(
-            lines, clusters, ties, len(logs), drift=params["network_drift"], line_bias=params["network_line_bias"]
-        )
-    except ValueError as exc:
-        raise ParameterError(str(exc), field="base_ties" if not ties else "network_drift") from None
+        clusters += net.repeat_clusters(lines, grp, gi, spacing_m, lowpass.correlation_time_s)
+    clusters += net.crossing_clusters(lines, groups, lowpass=lowpass)
+    return groups, clusters
 
-    def corr(i, t):
-        return adj.correction(lines[i].log, i, t)
+
+def fit_statistics(lines, clusters, groups, adj, loo) -> dict:
+    """Repeat and crossover RMS (mGal) before and after the adjustment and left out line by line, beside
+    the lines' white-noise floor (RMS over lines)."""
 
     def raw(cl):
         return cl.values
 
     def adjusted(cl):
-        return np.array([v - corr(i, t)[0] for i, v, t in zip(cl.lines, cl.values, cl.t_s)])
+        return np.array([v - adj.correction(lines[i].log, i, t)[0] for i, v, t in zip(cl.lines, cl.values, cl.t_s)])
 
     rep_before, rep_after = net.repeat_rms(clusters, raw), net.repeat_rms(clusters, adjusted)
-    x_before, d_before = net.crossover_rms(clusters, groups, raw)
-    x_after, d_after = net.crossover_rms(clusters, groups, adjusted)
+    x_before, _ = net.crossover_rms(clusters, groups, raw)
+    x_after, _ = net.crossover_rms(clusters, groups, adjusted)
     floor_rms = float(np.sqrt(np.mean([ln.sigma_mgal**2 for ln in lines])))
-    if progress:
-        progress("network: leave-one-line-out prediction", 0.8)
-    loo = net.leave_one_line_out(
-        lines, clusters, ties, len(logs), drift=params["network_drift"], line_bias=params["network_line_bias"]
-    )
-    residuals, flagged = _residuals(lines, clusters, ties, adj, params["outlier_sigma"], origin, ties_given)
-    # parameters with 1-σ
+
+    def ratio(x):
+        return x / floor_rms if x is not None else None
+
+    return {
+        "repeat_rms_before_mgal": rep_before,
+        "repeat_rms_after_mgal": rep_after,
+        "crossover_rms_before_mgal": x_before,
+        "crossover_rms_after_mgal": x_after,
+        "noise_floor_mgal": floor_rms,
+        "repeat_floor_ratio": ratio(rep_after),
+        "crossover_floor_ratio": ratio(x_after),
+        "repeat_loo_rms_mgal": loo["repeat"],
+        "crossover_loo_rms_mgal": loo["crossing"],
+        "repeat_loo_floor_ratio": ratio(loo["repeat"]),
+        "crossover_loo_floor_ratio": ratio(loo["crossing"]),
+    }
+
+
+def parameter_rows(adj, lines) -> list[dict]:
+    """The adjusted parameters with their 1-σ: log biases (mGal), log drifts (mGal/h), line biases (mGal)."""
     sig = np.sqrt(np.maximum(np.diag(adj.cov), 0.0))
     pars = []
     for nm, v, s in zip(adj.names, adj.x, sig):
@@ -203,13 +217,21 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
             pars.append({"parameter": "log drift", "log": f"B{idx + 1}", "value_mgal_per_h": v, "sigma_mgal_per_h": s})
         else:
             pars.append({"parameter": "line bias", "line": lines[idx].name, "value_mgal": v, "sigma_mgal": s})
-    # the datum: the mean correction over all line samples, its 1-σ
+    return pars
+
+
+def datum_sigma_mgal(adj, lines) -> float:
+    """1-σ (mGal) of the datum: of the mean correction over all line samples."""
     a_mean = np.mean(np.vstack([adj._row(ln.log, i, ln.t_s) for i, ln in enumerate(lines)]), axis=0)
-    datum_sigma = float(np.sqrt(max(a_mean @ adj.cov @ a_mean, 0.0)))
-    tie_rows = []
+    return float(np.sqrt(max(a_mean @ adj.cov @ a_mean, 0.0)))
+
+
+def tie_rows(ties, adj) -> list[dict]:
+    """Per observed tie: the stop's and the tie's δg and the residual after the adjustment (mGal)."""
+    rows = []
     for t in ties:
         pred = adj.correction(t.log, None, t.t_s)[0]
-        tie_rows.append(
+        rows.append(
             {
                 "tie": t.name,
                 "log": f"B{t.log + 1}",
@@ -221,60 +243,102 @@ def survey_network(logs, chains, res, params, floors, progress=None) -> tuple[di
                 "sigma_mgal": t.sigma_mgal,
             }
         )
-    # validated at the door (gravity's parse_fixes): 4,5 -> (4, 5)
-    fixes = tuple(int(x) for x in str(params.get("gnss_fixes") or "4").split(","))
-    warnings += check_tie_heights(tie_rows, ties_given, chains, logs, fixes)
+    return rows
+
+
+NETWORK_NOTE = (
+    "adjusted values = filtered δg − (log bias + log drift·(t − t_ref) + line bias); the floor is the "
+    "lines' combined floor, white noise and accelerometer drift (RMS over lines; per log: log_floors); "
+    "repeat RMS is the internal coincidence about each point's "
+    "mean, crossover RMS sqrt(Σd²/2N); both after the adjustment are residuals of the fit itself (it has "
+    "spent its degrees of freedom on them: they sit below the floor by construction). The honest figures "
+    "are the leave-one-line-out ones (*_loo_*): each line predicted from the other lines and the ties, "
+    "scaled to compare with the floor"
+)
+
+
+def survey_network(logs, chains, res, params, lowpass: Lowpass, floors, progress=None):
+    """Adjust all lines of all logs as one network: its summary block, tables, files and warnings.
+
+    Parameters
+    ----------
+    logs : list of DriveLog
+        The logs (their manifests' accelerometer noise weighs short stops at ties).
+    chains : list of dict
+        Per log, the main chain (:mod:`chains`), drift removed as on the lines.
+    res : report.Evaluation
+        :func:`report.evaluate` of the chains.
+    params : GravityParams
+        ``base_ties``, ``tie_radius_m``, ``spacing_m``, ``network_drift``, ``network_line_bias``,
+        ``outlier_sigma``, ``map_grid`` and the external check's fields.
+    lowpass : Lowpass
+        The gravity filter (the points' weights, each line's resolution).
+    floors : list of float
+        Per log, the 1-σ floor (mGal) of one filtered line value the lines are weighted by (the
+        pipeline gives the combined one, white noise and drift: :func:`netfloor.network_floors`).
+    progress : callable or None
+        ``progress(message, fraction)``.
+
+    Returns
+    -------
+    tuple
+        (summary block, tables ``gravity_adjusted`` and ``network_residuals``, files (the gridded map's
+        netCDF), warnings).
+    """
+    warnings = []
+    origin = network_origin(chains, res)
+    lines, src = network_lines(chains, res, floors, origin)
+    ties, ties_given = tie_observations(chains, logs, params, origin, warnings)
+    groups, clusters = network_points(lines, lowpass, params.spacing_m)
+    fit_kw = {"drift": params.network_drift, "line_bias": params.network_line_bias}
+    try:
+        adj = net.adjust(lines, clusters, ties, len(logs), **fit_kw)
+    except ValueError as exc:
+        raise ParameterError(str(exc), field="base_ties" if not ties else "network_drift") from None
+    if progress:
+        progress("network: leave-one-line-out prediction", 0.8)
+    loo = net.leave_one_line_out(lines, clusters, ties, len(logs), **fit_kw)
+    residuals, flagged = _residuals(lines, clusters, ties, adj, params.outlier_sigma, origin, ties_given)
     if progress:
         progress("network: absolute values, external check", 0.85)
-    table, per_line = _adjusted_table(lines, src, chains, adj, fir_s)
+    table, per_line = _adjusted_table(lines, src, chains, adj, lowpass)
     for pl, r in zip(per_line, loo["lines"]):
         pl["loo_rms_mgal"] = r
-    external = _external_check(table, per_line, params, res, fir_s, warnings)
+    external = _external_check(
+        table, per_line, params.external_model, grid_paths=params.external_grid, grid_id=params.external_grid_id
+    )
+    rows = tie_rows(ties, adj)
+    fixes = tuple(int(x) for x in str(params.gnss_fixes or "4").split(","))  # validated at the door: "4,5"
+    warnings += check_tie_heights(rows, ties_given, chains, logs, fixes)
     summary = {
         "datum": adj.datum,
-        "datum_sigma_mgal": datum_sigma,
-        "ties": tie_rows,
-        "tie_radius_m": params["tie_radius_m"],
+        "datum_sigma_mgal": datum_sigma_mgal(adj, lines),
+        "ties": rows,
+        "tie_radius_m": params.tie_radius_m,
         "n_logs": len(logs),
         "n_lines": len(lines),
         "repeat_groups": [[lines[i].name for i in g] for g in groups],
         "n_repeat_points": sum(1 for c in clusters if c.kind == "repeat"),
         "n_crossings": sum(1 for c in clusters if c.kind == "crossing"),
-        "repeat_rms_before_mgal": rep_before,
-        "repeat_rms_after_mgal": rep_after,
-        "crossover_rms_before_mgal": x_before,
-        "crossover_rms_after_mgal": x_after,
-        "noise_floor_mgal": floor_rms,
-        "repeat_floor_ratio": rep_after / floor_rms if rep_after is not None else None,
-        "crossover_floor_ratio": x_after / floor_rms if x_after is not None else None,
-        "repeat_loo_rms_mgal": loo["repeat"],
-        "crossover_loo_rms_mgal": loo["crossing"],
-        "repeat_loo_floor_ratio": loo["repeat"] / floor_rms if loo["repeat"] is not None else None,
-        "crossover_loo_floor_ratio": loo["crossing"] / floor_rms if loo["crossing"] is not None else None,
+        **fit_statistics(lines, clusters, groups, adj, loo),
         "sigma0": adj.sigma0,
         "dof": adj.dof,
         "drift_logs": [f"B{i + 1}" for i in adj.drift_logs],
         "line_bias": adj.line_bias,
-        "parameters": pars,
-        "correlation_time_s": corr_s,
+        "parameters": parameter_rows(adj, lines),
+        "correlation_time_s": lowpass.correlation_time_s,
         "n_downweighted": int(sum(np.count_nonzero(w < 1.0) for w in adj.weights)),
         "robust": f"Huber down-weighting beyond {net.ROBUST_K:g} σ ({net.ROBUST_ITERATIONS} passes)",
         "n_outliers": len(flagged),
         "outliers": flagged[:MAX_LISTED],
         "lines": per_line,
         "external_check": external,
-        "note": "adjusted values = filtered δg − (log bias + log drift·(t − t_ref) + line bias); the floor is the "
-        "lines' combined floor, white noise and accelerometer drift (RMS over lines; per log: log_floors); "
-        "repeat RMS is the internal coincidence about each point's "
-        "mean, crossover RMS sqrt(Σd²/2N); both after the adjustment are residuals of the fit itself (it has "
-        "spent its degrees of freedom on them: they sit below the floor by construction). The honest figures "
-        "are the leave-one-line-out ones (*_loo_*): each line predicted from the other lines and the ties, "
-        "scaled to compare with the floor",
+        "note": NETWORK_NOTE,
     }
     tables = {"gravity_adjusted": table, "network_residuals": residuals}
     files = {}
-    if params["map_grid"]:
-        from ldvsurvey.pipelines.gravity_map import survey_grid
+    if params.map_grid:
+        from ldvsurvey.pipelines.gravity.map import survey_grid
 
         res_m = float(np.median([pl["resolution_m"] for pl in per_line]))
         data, summary["map"] = survey_grid(table["lat_deg"], table["lon_deg"], table["dg_mgal"], res_m)
@@ -346,7 +410,7 @@ def _residuals(lines, clusters, ties, adj, k_sigma, origin, ties_given):
     return table, flagged
 
 
-def _adjusted_table(lines, src, chains, adj, fir_s):
+def _adjusted_table(lines, src, chains, adj, lowpass: Lowpass):
     """gravity_adjusted.csv (1 Hz on the lines' trimmed samples) and the per-line summary."""
     cols = {
         k: []
@@ -408,7 +472,7 @@ def _adjusted_table(lines, src, chains, adj, fir_s):
                 "name": ln.name,
                 "log": f"B{ln.log + 1}",
                 "speed_mps": ln.speed_mps,
-                "resolution_m": net.resolution_m(ln.speed_mps, fir_s),
+                "resolution_m": lowpass.half_wavelength_m(ln.speed_mps),
                 "noise_floor_mgal": ln.sigma_mgal,
                 "mean_correction_mgal": float(np.mean(c)),
                 "sigma_mgal": float(np.sqrt(np.mean(sigma**2))),
@@ -430,14 +494,16 @@ def height_sigma_m(ch, t_s) -> np.ndarray:
     return np.interp(t_s, ep[0], ep[1])
 
 
-def _external_check(table, per_line, params, res, fir_s, warnings):
-    """δg of the external model along the tracks, its difference from the adjusted δg per line."""
-    choice = params["external_model"]
+def _external_check(table, per_line, model: str, *, grid_paths=None, grid_id=None) -> dict:
+    """δg of the external model along the tracks (mGal, added to ``table`` as ``dg_external_mgal``), its
+    difference from the adjusted δg per line; ``model`` "egm2008", "grid" (``grid_paths`` or ``grid_id``)
+    or "none"."""
+    choice = model
     if choice == "none":
         return {"model": "none"}
     lat, lon = table["lat_deg"], table["lon_deg"]
     if choice == "grid":
-        grid = _user_grid(params)
+        grid = _user_grid(grid_paths, grid_id)
         problem = grid.missing_cover(lat, lon)
         if problem:
             raise ParameterError(f"the external grid does not cover the survey: {problem}", field="external_grid")
@@ -482,12 +548,12 @@ def _external_check(table, per_line, params, res, fir_s, warnings):
     return out
 
 
-def _user_grid(params):
+def _user_grid(paths, grid_id):
+    """The external grid: uploaded (``grid_id``), one ICGEM .gdf of δg, or ξ, η, δg grids (``paths``)."""
     from ldvsurvey.pipelines.stages.plumb_line import _uploaded, load_grids
 
-    if params.get("external_grid_id"):
-        return _uploaded(params["external_grid_id"])
-    paths = params.get("external_grid")
+    if grid_id:
+        return _uploaded(grid_id)
     if not paths:
         raise ParameterError("external_model=grid needs external_grid (or external_grid_id)", field="external_grid")
     if len(paths) == 1:

@@ -5,22 +5,20 @@ Every figure in mGal; every line's statistics beside what gaps and trimming remo
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field, replace
+
 import numpy as np
-from scipy.signal import oaconvolve
 
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence
+from ldvsurvey.nav.coincidence import Coincidence, along_track, common_points, crossovers, internal_coincidence
 from ldvsurvey.nav.gravity import (
     G0,
     MGAL,
-    _response4,
-    fir_taps,
-    half_wavelength_resolution_m,
+    Lowpass,
     noise_floor_mgal,
     runs,
     second_difference_noise_gain,
     trim_line,
-    zero_phase_lowpass,
 )
 from ldvsurvey.pipelines.stages.aids import local_metres
 
@@ -43,7 +41,7 @@ def edge_gain_max(floor: dict) -> float:
     return float(np.sqrt(1.0 + (floor["total_mgal"] / floor["gnss_height_mgal"]) ** 2))
 
 
-def break_edges(ch, fir_s):
+def break_edges(ch, lowpass: Lowpass):
     """Samples of a double-differenced chain (GNSS heights) withheld next to its breaks.
 
     Next to a break (NaN δg) the truncated FIR keeps an edge velocity error of the heights nearly
@@ -53,25 +51,39 @@ def break_edges(ch, fir_s):
     gmax = ch.get("edge_gain_max")
     if not gmax:
         return np.zeros(len(ch["dg"]), bool)
-    gain = second_difference_noise_gain(np.isfinite(ch["dg"]), fir_s, ch["fs"])
+    gain = second_difference_noise_gain(np.isfinite(ch["dg"]), lowpass.at(ch["fs"]))
     return ~(gain <= gmax)
 
 
-def imu_bridge_sigma_mgal(ch, fir_s, t_s):
+def imu_bridge_sigma_mgal(ch, lowpass: Lowpass, t_s):
     """σ (mGal) that the lost IMU rows' bridges leave in the chain's filtered δg at the times ``t_s``.
 
-    Each bridge leaves a velocity error of σ_g (m/s, :func:`gravity_chains.lost_increment_sigmas`) in
+    Each bridge leaves a velocity error of σ_g (m/s, :func:`chains.lost_increment_sigmas`) in
     f_U·Δt: an impulse of that area in δg, which the zero-phase FIR (kernel h⋆h, unit sum, over the
     chain's sampling interval Δt) turns into σ_g·(h⋆h)(t − t_g)/Δt. Independent bridges add in
-    variance. A bridge without a measured σ (too little clean data next to it) counts as NaN."""
+    variance. A bridge without a measured σ (too little clean data next to it) counts as NaN.
+
+    Parameters
+    ----------
+    ch : dict
+        A chain (:mod:`chains`) with ``fs`` (Hz) and ``imu_bridges`` [(t_s, duration s, σ_g m/s)].
+    lowpass : Lowpass
+        The gravity filter.
+    t_s : array_like
+        Times (s) at which the σ is wanted.
+
+    Returns
+    -------
+    numpy.ndarray
+        1-σ at ``t_s``, mGal.
+    """
     t_s = np.asarray(t_s, float)
     var = np.zeros(len(t_s))
     bridges = ch.get("imu_bridges") or []
     if not bridges or not len(t_s):
         return np.sqrt(var) / MGAL
     fs = ch["fs"]
-    h = fir_taps(fir_s, fs)
-    h2 = oaconvolve(h, h[::-1])
+    h2 = lowpass.at(fs).kernel
     c = len(h2) // 2
     lo, hi = float(t_s.min()) - c / fs, float(t_s.max()) + c / fs
     for t_g, _dur, sig in bridges:
@@ -84,14 +96,14 @@ def imu_bridge_sigma_mgal(ch, fir_s, t_s):
     return np.sqrt(var) / MGAL
 
 
-def with_imu_bridges(floor: dict, res) -> dict:
+def with_imu_bridges(floor: dict, res: Evaluation) -> dict:
     """The floor with the lost IMU rows' term: ``imu_bridge_mgal`` the RMS over the lines of their
     cost (the coincidence's expected square is the lines' mean variance), added in quadrature to
     ``combined_mgal`` (the white floor and the drift term, where present)."""
-    used = [p[7] for p in res["per_line"] if len(p[3]) and "imu_bridge_cost_mgal" in p[7]]
+    used = [ln for ln in res.lines if ln.has_data and ln.imu_bridges_recorded]
     if not used:
         return floor
-    costs = [p["imu_bridge_cost_mgal"] for p in used]
+    costs = [ln.imu_bridge_cost_mgal for ln in used]
     out = dict(floor)
     known = [c for c in costs if c is not None]
     term = float(np.sqrt(np.mean(np.square(known)))) if known else None
@@ -107,18 +119,17 @@ def with_imu_bridges(floor: dict, res) -> dict:
     return out
 
 
-def unsupported(bridged, fir_s, fs, den_cache=None):
+def unsupported(bridged, lowpass: Lowpass, den_cache=None):
     """Samples whose filtered value is mostly the bridge rather than data (see MAX_*_SHARE).
 
-    ``den_cache``: see :func:`zero_phase_lowpass` (both shares are series without gaps)."""
+    ``lowpass``: bound to the series' rate. ``den_cache``: see :meth:`Lowpass.apply` (both shares are
+    series without gaps)."""
     long = np.zeros(len(bridged), bool)
     for a, b in runs(bridged):
-        if (b - a) / fs > LONG_GAP_FIR_SHARE * fir_s:
+        if (b - a) / lowpass.rate_hz > LONG_GAP_FIR_SHARE * lowpass.length_s:
             long[a:b] = True
-    share = zero_phase_lowpass(bridged.astype(float), fir_s, fs, den_cache=den_cache)
-    share_long = (
-        zero_phase_lowpass(long.astype(float), fir_s, fs, den_cache=den_cache) if long.any() else np.zeros(len(bridged))
-    )
+    share = lowpass.apply(bridged.astype(float), den_cache=den_cache)
+    share_long = lowpass.apply(long.astype(float), den_cache=den_cache) if long.any() else np.zeros(len(bridged))
     return ~((share <= MAX_BRIDGED_SHARE) & (share_long <= MAX_LONG_GAP_SHARE))
 
 
@@ -141,62 +152,141 @@ def leveling_fit(vals, grid_m, mode):
     return out
 
 
-def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="none"):
-    """Filter each chain, cut and trim the lines, put them on common points, compute the statistics.
+@dataclass(frozen=True, eq=False)
+class LineResult:
+    """One survey line of one chain after filtering, cutting and trimming.
 
-    ``chains``: raw chains (see :mod:`gravity_chains`), ``lines``: [(name, chain index, t0, t1)].
-    ``strict``: a line without data is an error (the main chain); otherwise (a comparison chain,
-    e.g. GNSS blocked on a whole line) the line is reported without figures.
-    ``leveling`` "bias": every line is shifted by its mean residual about the mean line (line
-    leveling: removes each line's share of a drift the stops could not tie; the shifts sum to zero,
-    so the level of the survey stays), and the coincidence is that of the levelled lines.
-    Returns a dict; its ``per_line`` holds per line (name, chain index, the indices of the line's trimmed
-    samples with a filtered value, their along-track distance, lateral offset, east, north (m), info).
+    The arrays run over the line's trimmed samples that hold a filtered value (empty: no data); the
+    distances are in the local metres of the survey's first line.
     """
-    filtered = []
-    for ch in chains:
-        den_cache = {}  # δg without gaps and the bridged shares: one filtered mask for all of them
-        f = zero_phase_lowpass(ch["dg"], fir_s, ch["fs"], den_cache=den_cache)
-        ch["unsupported"] = unsupported(ch["bridged"], fir_s, ch["fs"], den_cache) | break_edges(ch, fir_s)
-        del den_cache
-        f[ch["unsupported"]] = np.nan
-        filtered.append(f)
-    ordered = [bool(np.all(ch["t_s"][1:] >= ch["t_s"][:-1])) for ch in chains]
-    ref = None
-    per_line = []
-    for name, ci, a, b in lines:
-        ch = chains[ci]
-        if ordered[ci]:  # the line's samples by bisection, not by masks over the whole log
-            t = ch["t_s"]
-            whole = slice(np.searchsorted(t, a, "left"), np.searchsorted(t, b, "right"))
-            j0, j1 = np.searchsorted(t, a + trim_s, "left"), np.searchsorted(t, b - trim_s, "right")
-            k = j0 + np.flatnonzero(np.isfinite(filtered[ci][j0 : max(j0, j1)]))
-        else:
-            whole = (ch["t_s"] >= a) & (ch["t_s"] <= b)
-            k = np.flatnonzero(trim_line(ch["t_s"], a, b, trim_s) & np.isfinite(filtered[ci]))
-        # (the line's samples as indices: a mask per line would be a byte per sample of the log, per line)
-        info = {
-            "bridged_s": float(np.sum(ch["bridged"][whole]) / ch["fs"]),
-            "bridged_share": float(np.mean(ch["bridged"][whole])) if ch["bridged"][whole].size else 0.0,
-            "unsupported_s": float(np.sum(ch["unsupported"][whole]) / ch["fs"]),
-            "duration_s": float(b - a),
-            "trimmed_duration_s": float(max(0.0, b - a - 2 * trim_s)),
+
+    name: str
+    chain: int  #: index of the chain (bundle) the line is in
+    samples: np.ndarray  #: indices of those samples in the chain (sorted)
+    along_m: np.ndarray  #: along-track distance on the reference line, m
+    lateral_m: np.ndarray  #: lateral offset from the reference line, m
+    east_m: np.ndarray  #: local east, m
+    north_m: np.ndarray  #: local north, m
+    bridged_s: float  #: LDV/GNSS data bridged on the whole line, s
+    bridged_share: float  #: that share of the line's samples
+    unsupported_s: float  #: filtered values withheld on the line, s
+    duration_s: float  #: the line as given, s
+    trimmed_duration_s: float  #: the line less its trimmed ends, s
+    imu_bridges_recorded: bool = False  #: the chain records lost IMU rows (the next two fields apply)
+    imu_bridged_s: float | None = None  #: lost IMU rows bridged on the line, s
+    imu_bridge_cost_mgal: float | None = None  #: their RMS σ on the line's values, mGal (None: not measured)
+    no_data: bool = False  #: no sample of the line holds a supported value
+
+    @property
+    def has_data(self) -> bool:
+        """Whether the line holds filtered values."""
+        return len(self.along_m) > 0
+
+    def info(self) -> dict:
+        """The line's entries of a summary block (durations in s, costs in mGal)."""
+        out = {
+            "bridged_s": self.bridged_s,
+            "bridged_share": self.bridged_share,
+            "unsupported_s": self.unsupported_s,
+            "duration_s": self.duration_s,
+            "trimmed_duration_s": self.trimmed_duration_s,
         }
-        if "imu_bridges" in ch:  # IMU rows lost on the line, bridged by prediction, and their cost
-            info["imu_bridged_s"] = float(sum(d for tg, d, _ in ch["imu_bridges"] if a <= tg <= b))
-            sig = imu_bridge_sigma_mgal(ch, fir_s, ch["t_s"][k]) if len(k) else np.zeros(0)
-            cost = float(np.sqrt(np.mean(sig**2))) if len(sig) else None
+        if self.imu_bridges_recorded:
+            out["imu_bridged_s"] = self.imu_bridged_s
+            out["imu_bridge_cost_mgal"] = self.imu_bridge_cost_mgal
+        if self.no_data:
+            out["no_data"] = True
+        return out
+
+
+@dataclass(eq=False)
+class Evaluation:
+    """The filtered chains, their lines and the statistics of one chain kind (:func:`evaluate`)."""
+
+    filtered: list  #: per chain, filtered δg in m/s² (NaN where withheld; levelled lines when chosen)
+    unsupported: list  #: per chain, mask of the samples whose filtered value is withheld
+    lines: list  #: :class:`LineResult` per line, in the order given
+    repeated: bool = False  #: every line runs along the first (median lateral offset below 50 m)
+    crossings: list = field(default_factory=list)  #: crossovers of the lines' tracks
+    crossover_mgal: float | None = None  #: crossover RMS, mGal
+    median_speed_mps: float | None = None  #: over the lines' samples, m/s
+    resolution_m: float | None = None  #: nominal half-wavelength v·L/2 at that speed, m
+    coincidence: Coincidence | None = None  #: internal coincidence on the common points
+    coincidence_note: str | None = None  #: why there is none (comparison chains)
+    line_offsets_mgal: dict | None = None  #: line levelling: each line's mean adjustment, mGal
+    line_slopes_mgal_per_km: dict | None = None  #: linear levelling: each line's slope, mGal/km
+
+    @property
+    def used(self) -> list:
+        """The lines that hold data."""
+        return [ln for ln in self.lines if ln.has_data]
+
+
+def filter_chain(ch, lowpass: Lowpass) -> tuple[np.ndarray, np.ndarray]:
+    """The chain's filtered δg (m/s², NaN where withheld) and the mask of withheld samples.
+
+    Withheld: values mostly made of bridged data (:func:`unsupported`) and, in a double-differenced
+    chain, the samples next to its breaks (:func:`break_edges`). The chain is not changed."""
+    lp = lowpass.at(ch["fs"])
+    den_cache = {}  # δg without gaps and the bridged shares: one filtered mask for all of them
+    f = lp.apply(ch["dg"], den_cache=den_cache)
+    withheld = unsupported(ch["bridged"], lp, den_cache) | break_edges(ch, lowpass)
+    del den_cache
+    f[withheld] = np.nan
+    return f, withheld
+
+
+def cut_line(ch, filtered, withheld, line, trim_s: float, lowpass: Lowpass) -> LineResult:
+    """The samples of ``line`` (name, chain index, t0 s, t1 s) kept after trimming ``trim_s`` (s) at both
+    ends, and what bridges, withheld values and lost IMU rows took from it (no geometry yet)."""
+    name, ci, a, b = line
+    t = ch["t_s"]
+    if bool(np.all(t[1:] >= t[:-1])):  # the line's samples by bisection, not by masks over the whole log
+        whole = slice(np.searchsorted(t, a, "left"), np.searchsorted(t, b, "right"))
+        j0, j1 = np.searchsorted(t, a + trim_s, "left"), np.searchsorted(t, b - trim_s, "right")
+        k = j0 + np.flatnonzero(np.isfinite(filtered[j0 : max(j0, j1)]))
+    else:
+        whole = (t >= a) & (t <= b)
+        k = np.flatnonzero(trim_line(t, a, b, trim_s) & np.isfinite(filtered))
+    # (the line's samples as indices: a mask per line would be a byte per sample of the log, per line)
+    imu = {}
+    if "imu_bridges" in ch:  # IMU rows lost on the line, bridged by prediction, and their cost
+        sig = imu_bridge_sigma_mgal(ch, lowpass, t[k]) if len(k) else np.zeros(0)
+        cost = float(np.sqrt(np.mean(sig**2))) if len(sig) else None
+        imu = {
+            "imu_bridges_recorded": True,
+            "imu_bridged_s": float(sum(d for tg, d, _ in ch["imu_bridges"] if a <= tg <= b)),
             # None where a bridge next to the line has no measured σ (too little clean data around it)
-            info["imu_bridge_cost_mgal"] = cost if cost is None or np.isfinite(cost) else None
-        if len(k) < 10:
-            if strict:
-                raise ParameterError(
-                    f"line {name} [{a}, {b}] s holds no data after trimming {trim_s:g} s at each end",
-                    field="lines" if trim_s == 0 else "line_end_trim_s",
-                )
-            empty = np.zeros(0)
-            per_line.append((name, ci, k, empty, empty, empty, empty, {**info, "no_data": True}))
+            "imu_bridge_cost_mgal": cost if cost is None or np.isfinite(cost) else None,
+        }
+    empty = np.zeros(0)
+    return LineResult(
+        name,
+        ci,
+        k,
+        empty,
+        empty,
+        empty,
+        empty,
+        bridged_s=float(np.sum(ch["bridged"][whole]) / ch["fs"]),
+        bridged_share=float(np.mean(ch["bridged"][whole])) if ch["bridged"][whole].size else 0.0,
+        unsupported_s=float(np.sum(withheld[whole]) / ch["fs"]),
+        duration_s=float(b - a),
+        trimmed_duration_s=float(max(0.0, b - a - 2 * trim_s)),
+        **imu,
+    )
+
+
+def place_lines(chains, cut: list) -> list:
+    """The lines with data placed along the first of them: along-track distance, lateral offset, east and
+    north (m) of every kept sample in the local metres of the first line's first sample."""
+    ref = None
+    out = []
+    for ln in cut:
+        if len(ln.samples) < 10:
+            out.append(ln)
             continue
+        ch, k = chains[ln.chain], ln.samples
         if ref is None:
             lat0, lon0 = ch["lat"][k][0], ch["lon"][k][0]
             e, n = local_metres(lat0, lon0, ch["lat"][k], ch["lon"][k])
@@ -204,61 +294,110 @@ def evaluate(chains, lines, fir_s, spacing_m, trim_s, strict=True, leveling="non
             ref = (lat0, lon0, e[::step], n[::step])
         e, n = local_metres(ref[0], ref[1], ch["lat"][k], ch["lon"][k])
         s, lateral = along_track(ref[2], ref[3], e, n)
-        per_line.append((name, ci, k, s, lateral, e, n, info))
-    used = [p for p in per_line if len(p[3])]
-    lines_t = {name: (a, b) for name, _, a, b in lines}
+        out.append(replace(ln, along_m=s, lateral_m=lateral, east_m=e, north_m=n))
+    return out
+
+
+def line_coincidence(chains, filtered, used, line_times, spacing_m: float, strict: bool, leveling: str) -> dict:
+    """The internal coincidence of repeated lines on their common points (mGal), with line levelling.
+
+    ``line_times``: {name: (t0, t1)}. With ``leveling`` "bias" or "linear" each line's fit about the mean
+    line (:func:`leveling_fit`) is removed from its filtered values in ``filtered`` (arrays this
+    evaluation owns) and the coincidence is that of the levelled lines. Returns the
+    :class:`Evaluation` fields it sets."""
+    out = {}
+    try:
+        grid, vals = common_points(
+            [(ln.along_m, filtered[ln.chain][ln.samples] / MGAL) for ln in used], spacing_m, allow_holes=not strict
+        )
+        co = internal_coincidence(vals, [ln.name for ln in used], grid)
+        if leveling in ("bias", "linear"):
+            fit = leveling_fit(vals, grid, leveling)
+            out["line_offsets_mgal"] = {nm: float(np.mean(o)) for nm, o in zip(co.names, fit)}
+            if leveling == "linear":
+                out["line_slopes_mgal_per_km"] = {
+                    nm: float((o[-1] - o[0]) / max(grid[-1] - grid[0], 1e-9) * 1e3) for nm, o in zip(co.names, fit)
+                }
+            for ln, o in zip(used, fit):
+                t = chains[ln.chain]["t_s"]
+                line_all = (t >= line_times[ln.name][0]) & (t <= line_times[ln.name][1])
+                # along the line at its own distances (constant beyond the common stretch)
+                s_all = np.interp(t[line_all], t[ln.samples], ln.along_m)
+                filtered[ln.chain][line_all] -= np.interp(s_all, grid, o) * MGAL
+            co = internal_coincidence(vals - fit, co.names, grid)
+        out["coincidence"] = co
+    except ValueError as exc:
+        if strict:
+            raise ParameterError(f"no coincidence: {exc}", field="lines") from None
+        out["coincidence_note"] = str(exc)
+    return out
+
+
+def evaluate(chains, lines, lowpass: Lowpass, spacing_m: float, trim_s: float, *, strict=True, leveling="none"):
+    """Filter each chain, cut and trim the lines, put them on common points, compute the statistics.
+
+    Nothing passed in is changed: the filtered series are the result's own.
+
+    Parameters
+    ----------
+    chains : list of dict
+        Raw chains (see :mod:`chains`): δg in m/s² at their rate ``fs`` (Hz).
+    lines : list of tuple
+        (name, chain index, t0 s, t1 s) per line.
+    lowpass : Lowpass
+        The gravity filter (bound to each chain's rate here).
+    spacing_m : float
+        Spacing of the common along-track points, m.
+    trim_s : float
+        Trimmed at both ends of every line, s.
+    strict : bool
+        A line without data is an error (the main chain); otherwise (a comparison chain, e.g. GNSS
+        blocked on a whole line) the line is reported without figures.
+    leveling : {"none", "bias", "linear"}
+        Every line shifted by its mean residual about the mean line (bias) or by its linear drift along
+        it (linear): removes each line's share of a drift the stops could not tie (the shifts sum to zero,
+        so the level of the survey stays); the coincidence is that of the levelled lines.
+
+    Returns
+    -------
+    Evaluation
+        Filtered chains, per-line results and statistics (mGal).
+    """
+    filtered, withheld = zip(*(filter_chain(ch, lowpass) for ch in chains)) if chains else ((), ())
+    filtered, withheld = list(filtered), list(withheld)
+    cut = [cut_line(chains[ln[1]], filtered[ln[1]], withheld[ln[1]], ln, trim_s, lowpass) for ln in lines]
+    for ln, (_, _, a, b) in zip(cut, lines):
+        if len(ln.samples) < 10 and strict:
+            raise ParameterError(
+                f"line {ln.name} [{a}, {b}] s holds no data after trimming {trim_s:g} s at each end",
+                field="lines" if trim_s == 0 else "line_end_trim_s",
+            )
+    per_line = [ln if len(ln.samples) >= 10 else replace(ln, no_data=True) for ln in place_lines(chains, cut)]
+    out = Evaluation(filtered, withheld, per_line)
+    used = out.used
     if not used:
         if strict:
             raise ValueError("no line holds data")
         # a comparison chain without a supported value on any line (e.g. RTK only in stretches shorter
         # than the FIR): every line reported as holding no data, nothing smeared over them
-        return {
-            "repeated": False,
-            "filtered": filtered,
-            "per_line": per_line,
-            "crossings": [],
-            "crossover_mgal": None,
-            "median_speed_mps": None,
-            "resolution_m": None,
-            "coincidence_note": "no line holds a supported value",
-        }
-    repeated = all(np.median(p[4]) < 50.0 for p in used)
-    result = {"repeated": repeated, "filtered": filtered, "per_line": per_line}
-    if repeated and len(used) >= 2:
-        try:
-            grid, vals = common_points(
-                [(p[3], filtered[p[1]][p[2]] / MGAL) for p in used], spacing_m, allow_holes=not strict
-            )
-            co = internal_coincidence(vals, [p[0] for p in used], grid)
-            if leveling in ("bias", "linear"):
-                fit = leveling_fit(vals, grid, leveling)
-                result["line_offsets_mgal"] = {nm: float(np.mean(o)) for nm, o in zip(co.names, fit)}
-                if leveling == "linear":
-                    result["line_slopes_mgal_per_km"] = {
-                        nm: float((o[-1] - o[0]) / max(grid[-1] - grid[0], 1e-9) * 1e3) for nm, o in zip(co.names, fit)
-                    }
-                for p, o in zip(used, fit):
-                    line_all = (chains[p[1]]["t_s"] >= lines_t[p[0]][0]) & (chains[p[1]]["t_s"] <= lines_t[p[0]][1])
-                    # along the line at its own distances (constant beyond the common stretch)
-                    s_all = np.interp(chains[p[1]]["t_s"][line_all], chains[p[1]]["t_s"][p[2]], p[3])
-                    filtered[p[1]][line_all] -= np.interp(s_all, grid, o) * MGAL
-                co = internal_coincidence(vals - fit, co.names, grid)
-            result["coincidence"] = co
-        except ValueError as exc:
-            if strict:
-                raise ParameterError(f"no coincidence: {exc}", field="lines") from None
-            result["coincidence_note"] = str(exc)
+        out.coincidence_note = "no line holds a supported value"
+        return out
+    out.repeated = all(np.median(ln.lateral_m) < 50.0 for ln in used)
+    if out.repeated and len(used) >= 2:
+        line_times = {name: (a, b) for name, _, a, b in lines}
+        for k, v in line_coincidence(chains, filtered, used, line_times, spacing_m, strict, leveling).items():
+            setattr(out, k, v)
     step = max(1, int(round(chains[0]["fs"] * 2.0)))  # ~2 s along the tracks
-    tracks = [(p[5][::step], p[6][::step], filtered[p[1]][p[2]][::step] / MGAL) for p in used]
-    result["crossings"], result["crossover_mgal"] = crossovers(tracks, CROSSOVER_MIN_ANGLE_DEG)
-    speeds = np.concatenate([chains[p[1]]["speed"][p[2]] for p in used])
-    result["median_speed_mps"] = float(np.nanmedian(speeds))
-    result["resolution_m"] = half_wavelength_resolution_m(result["median_speed_mps"], fir_s)
-    return result
+    tracks = [(ln.east_m[::step], ln.north_m[::step], filtered[ln.chain][ln.samples][::step] / MGAL) for ln in used]
+    out.crossings, out.crossover_mgal = crossovers(tracks, CROSSOVER_MIN_ANGLE_DEG)
+    speeds = np.concatenate([chains[ln.chain]["speed"][ln.samples] for ln in used])
+    out.median_speed_mps = float(np.nanmedian(speeds))
+    out.resolution_m = lowpass.nominal_half_wavelength_m(out.median_speed_mps)
+    return out
 
 
-def floor_of(log, chain, fir_s):
-    """White-noise floor of the coincidence for one chain, with where each noise figure came from.
+def floor_of(log, chain, lowpass: Lowpass):
+    """White-noise floor (mGal) of the coincidence for one chain, with where each noise figure came from.
 
     The manifest's ``imu.accel_noise_ug_per_rthz`` and ``gnss.height_noise`` are overrides; without
     them the figures are estimated from the log itself: the accelerometer density from the static
@@ -281,7 +420,7 @@ def floor_of(log, chain, fir_s):
         if not isinstance(ldv_sig, (int, float)) or not ldv_sig > 0:
             ldv_sig, src = chain.get("ldv_noise_mps"), "estimated from the data (second differences)"
         out.update(ldv_noise_mps=ldv_sig, ldv_noise_source=src, ldv_rate_hz=log.manifest.ldv.rate_hz)
-        out.update(noise_floor_mgal(fir_s, acc, ldv_sig, log.manifest.ldv.rate_hz))
+        out.update(noise_floor_mgal(lowpass, acc, ldv_sig, log.manifest.ldv.rate_hz))
         return out
     stated = _stated_height_noise(log, chain)
     if stated is not None:
@@ -294,7 +433,7 @@ def floor_of(log, chain, fir_s):
         )
         out.update(
             noise_floor_mgal(
-                fir_s,
+                lowpass,
                 acc,
                 height_noise_m=white,
                 gnss_rate_hz=chain["fs"],
@@ -303,20 +442,20 @@ def floor_of(log, chain, fir_s):
             )
         )
         return out
-    fit = fit_height_noise(chain, fir_s, acc)
+    fit = fit_height_noise(chain, lowpass, acc)
     if fit is None:
         out.update(gnss_height_sigma_m=chain["height_sigma_m"], gnss_height_sigma_source="fix quality")
-        out.update(noise_floor_mgal(fir_s, acc, height_noise_m=chain["height_sigma_m"], gnss_rate_hz=chain["fs"]))
+        out.update(noise_floor_mgal(lowpass, acc, height_noise_m=chain["height_sigma_m"], gnss_rate_hz=chain["fs"]))
         return out
     white, q, n_seg = fit
     out.update(
         gnss_height_sigma_m=white,
         gnss_height_random_walk_m2_per_s=q,
         gnss_height_sigma_source=f"fitted to the chain's raw δg ({n_seg} segments of {HEIGHT_FIT_SEGMENT_S:g} s, "
-        f"{2.0 / fir_s:.4f}–{0.5 * chain['fs']:.2f} Hz): white heights plus a random-walk wander",
+        f"{2.0 / lowpass.length_s:.4f}–{0.5 * chain['fs']:.2f} Hz): white heights plus a random-walk wander",
     )
-    out.update(noise_floor_mgal(fir_s, acc, height_noise_m=white, gnss_rate_hz=chain["fs"]))
-    out["gnss_height_correlated_mgal"] = height_wander_floor_mgal(fir_s, q)
+    out.update(noise_floor_mgal(lowpass, acc, height_noise_m=white, gnss_rate_hz=chain["fs"]))
+    out["gnss_height_correlated_mgal"] = height_wander_floor_mgal(lowpass, q)
     parts = [v for k, v in out.items() if k.endswith("_mgal") and k != "total_mgal" and v]
     out["total_mgal"] = float(np.sqrt(sum(v**2 for v in parts)))
     return out
@@ -358,7 +497,7 @@ def static_accel_noise_ug_rthz(log, still):
     return float(sig / np.sqrt(fs) / G0 * 1e6), (float(a), float(b))
 
 
-def fit_height_noise(chain, fir_s, accel_noise_ug_rthz=None):
+def fit_height_noise(chain, lowpass: Lowpass, accel_noise_ug_rthz=None):
     """(white σ m, random-walk intensity q m²/s, segments used) of the GNSS heights of a SINS/GNSS
     chain, fitted to the chain's raw δg; None when too little of it is continuous.
 
@@ -367,7 +506,7 @@ def fit_height_noise(chain, fir_s, accel_noise_ug_rthz=None):
     drive holds only the white part: its structure function is flat from 1 s to 300 s lags), so the
     residual hides exactly the part that dominates the floor. The raw δg (second differences of the
     GNSS heights less the twice-integrated specific force, before the FIR) sees no filter: above the
-    FIR's pass band (f ≥ :data:`HEIGHT_FIT_MIN_FIR_CYCLES`/``fir_s``) it holds the disturbance's
+    FIR's pass band (f ≥ :data:`HEIGHT_FIT_MIN_FIR_CYCLES`/L) it holds the disturbance's
     negligible tail and the noise only, with a two-sided PSD
 
         S(f) = N²g²  +  σ_w² f_s³ (2 sin πf/f_s)⁴  +  q f_s² (2 sin πf/f_s)²
@@ -380,7 +519,7 @@ def fit_height_noise(chain, fir_s, accel_noise_ug_rthz=None):
     counts as height noise: it is noise of the chain too. The fit's scatter on a 24-min log is about
     30 % in q and 2 % in σ_w (30 synthetic realizations). Only q reaches the floor in that regime (the correlation
     time of a wander slower than the FIR is not resolved by it, and taking it as a random walk bounds
-    the floor from above; by 1.4 % for τ = 2·``fir_s``, 5 % for τ = ``fir_s``).
+    the floor from above; by 1.4 % for τ = 2·L, 5 % for τ = L; L = ``lowpass.length_s``).
     """
     from scipy.optimize import minimize
 
@@ -396,7 +535,7 @@ def fit_height_noise(chain, fir_s, accel_noise_ug_rthz=None):
     if len(pers) < 2:
         return None
     f = np.fft.rfftfreq(n, 1.0 / fs)
-    use = (f >= HEIGHT_FIT_MIN_FIR_CYCLES / fir_s) & (f < 0.5 * fs)
+    use = (f >= HEIGHT_FIT_MIN_FIR_CYCLES / lowpass.length_s) & (f < 0.5 * fs)
     p = np.mean(pers, axis=0)[use]
     # the periodogram's expectation is the PSD seen through the window's spectral kernel; the steep
     # white-height term (∝ f⁴) would otherwise spill into the low bins and pass for a wander
@@ -421,11 +560,11 @@ def fit_height_noise(chain, fir_s, accel_noise_ug_rthz=None):
     return float(np.sqrt(np.exp(best.x[0]))), float(np.exp(best.x[1])), len(pers)
 
 
-def height_wander_floor_mgal(fir_s, q_m2_per_s):
-    """1-σ (mGal) of a random-walk height wander (increments' variance q·Δt, two-sided PSD q/(2πf)²)
-    differenced twice and through the zero-phase FIR: σ² = q ∫(2πf)²|H|⁴ df (as
+def height_wander_floor_mgal(lowpass: Lowpass, q_m2_per_s):
+    """1-σ (mGal) of a random-walk height wander (increments' variance q·Δt, q in m²/s, two-sided PSD
+    q/(2πf)²) differenced twice and through the zero-phase FIR: σ² = q ∫(2πf)²|H|⁴ df (as
     :func:`ldvsurvey.nav.gravity.noise_floor_mgal` integrates its terms)."""
-    f, h4 = _response4(fir_s)
+    f, h4 = lowpass.fine_response4
     w = 2 * np.pi * f
     return float(np.sqrt(q_m2_per_s * 2.0 * np.sum(w**2 * h4) * (f[1] - f[0])) / MGAL)
 
@@ -451,14 +590,33 @@ def _stated_height_noise(log, chain):
     return white, corr, tau
 
 
-def block(res, fir_s, trim_s, aiding, floor):
-    """The summary block of one chain."""
+def block(res: Evaluation, lowpass: Lowpass, trim_s: float, aiding: str, floor: dict) -> dict:
+    """The summary block of one chain: filter, lines, coincidence beside its floor, crossovers (mGal, m, s).
+
+    Parameters
+    ----------
+    res : Evaluation
+        :func:`evaluate` of the chain.
+    lowpass : Lowpass
+        The gravity filter.
+    trim_s : float
+        Trimmed at both ends of every line, s.
+    aiding : str
+        What the chain's vertical acceleration comes from ("ldv", "gnss", "ldv+gnss").
+    floor : dict
+        :func:`floor_of` (with the drift and IMU-bridge terms where present).
+
+    Returns
+    -------
+    dict
+        The block as the summary holds it.
+    """
     out = {
-        "fir_length_s": fir_s,
+        "fir_length_s": lowpass.length_s,
         "aiding": aiding,
-        "resolution_m": res["resolution_m"],
-        "median_speed_mps": res["median_speed_mps"],
-        "repeated_lines": res["repeated"],
+        "resolution_m": res.resolution_m,
+        "median_speed_mps": res.median_speed_mps,
+        "repeated_lines": res.repeated,
         "line_end_trim_s": trim_s,
         "line_ends": f"{trim_s:g} s trimmed at both ends of every line (FIR leakage of turnarounds, "
         "acceleration and braking)"
@@ -466,7 +624,7 @@ def block(res, fir_s, trim_s, aiding, floor):
         else "lines not trimmed",
         "noise_floor": floor,
     }
-    co = res.get("coincidence")
+    co = res.coincidence
     stats = {}
     if co is not None:
         stats = {
@@ -482,7 +640,7 @@ def block(res, fir_s, trim_s, aiding, floor):
             )
         }
     none = {"max_mgal": None, "min_mgal": None, "rms_mgal": None, "mean_mgal": None, "std_mgal": None}
-    out["lines"] = [{"name": p[0], **stats.get(p[0], none), **p[7]} for p in res["per_line"]]
+    out["lines"] = [{"name": ln.name, **stats.get(ln.name, none), **ln.info()} for ln in res.lines]
     out["total_mgal"] = co.total if co is not None else None
     out["n_lines_compared"] = len(co.names) if co is not None else 0
     out["common_length_m"] = float(co.distance_m[-1] - co.distance_m[0]) if co is not None else None
@@ -490,45 +648,45 @@ def block(res, fir_s, trim_s, aiding, floor):
     out["floor_ratio"] = co.total / floor["total_mgal"] if co is not None and floor.get("total_mgal") else None
     comb = floor.get("combined_mgal")
     out["combined_floor_ratio"] = co.total / comb if co is not None and comb else None
-    if "line_offsets_mgal" in res:
-        lin = "line_slopes_mgal_per_km" in res
+    if res.line_offsets_mgal is not None:
+        lin = res.line_slopes_mgal_per_km is not None
         out["line_leveling"] = {
             "method": ("linear drift per line" if lin else "bias") + " about the mean line (repeat-line adjustment)",
-            "offsets_mgal": res["line_offsets_mgal"],
+            "offsets_mgal": res.line_offsets_mgal,
             "note": "coincidence of the adjusted lines: internal and optimistic (the adjustment "
             f"takes {2 if lin else 1} degree(s) of freedom per line and removes the "
             "lines' differing drift, not the drift they share, which stays in the "
             "absolute values)",
         }
         if lin:
-            out["line_leveling"]["slopes_mgal_per_km"] = res["line_slopes_mgal_per_km"]
-    if "coincidence_note" in res:
-        out["coincidence_note"] = res["coincidence_note"]
-    out["crossover_mgal"] = res["crossover_mgal"]
-    out["n_crossings"] = len(res["crossings"])
-    out["bridged_s"] = float(sum(p[7]["bridged_s"] for p in res["per_line"]))
+            out["line_leveling"]["slopes_mgal_per_km"] = res.line_slopes_mgal_per_km
+    if res.coincidence_note is not None:
+        out["coincidence_note"] = res.coincidence_note
+    out["crossover_mgal"] = res.crossover_mgal
+    out["n_crossings"] = len(res.crossings)
+    out["bridged_s"] = float(sum(ln.bridged_s for ln in res.lines))
     return out
 
 
-def chain_difference(res_a, chains_a, res_b, chains_b):
+def chain_difference(res_a: Evaluation, chains_a, res_b: Evaluation, chains_b) -> list[dict]:
     """Per line: mean and RMS (mGal) of filtered chain A minus chain B at A's (trimmed) line samples."""
     out = []
-    for pa, pb in zip(res_a["per_line"], res_b["per_line"]):
-        if not len(pa[3]) or not len(pb[3]):
-            out.append({"name": pa[0], "mean_mgal": None, "rms_mgal": None})
+    for pa, pb in zip(res_a.lines, res_b.lines):
+        if not pa.has_data or not pb.has_data:
+            out.append({"name": pa.name, "mean_mgal": None, "rms_mgal": None})
             continue
-        ta = chains_a[pa[1]]["t_s"][pa[2]]
-        tb = chains_b[pb[1]]["t_s"]
-        fb = res_b["filtered"][pb[1]]
-        d = (res_a["filtered"][pa[1]][pa[2]] - np.interp(ta, tb, fb)) / MGAL  # withheld (NaN) stay out
+        ta = chains_a[pa.chain]["t_s"][pa.samples]
+        tb = chains_b[pb.chain]["t_s"]
+        fb = res_b.filtered[pb.chain]
+        d = (res_a.filtered[pa.chain][pa.samples] - np.interp(ta, tb, fb)) / MGAL  # withheld (NaN) stay out
         d = d[np.isfinite(d)]
         out.append(
             {
-                "name": pa[0],
+                "name": pa.name,
                 "mean_mgal": float(np.mean(d)) if len(d) else None,
                 "rms_mgal": float(np.sqrt(np.mean(d**2))) if len(d) else None,
                 "std_mgal": float(np.std(d)) if len(d) else None,
-                "compared_s": len(d) / chains_a[pa[1]]["fs"],
+                "compared_s": len(d) / chains_a[pa.chain]["fs"],
             }
         )
     return out
@@ -540,7 +698,7 @@ FRAME_TILT_MIN_SAMPLES = 100
 FRAME_TILT_MIN_ACCEL_MPS2 = 0.002
 
 
-def frame_tilt(res_a, chains_a, res_b, chains_b, fir_s):
+def frame_tilt(res_a: Evaluation, chains_a, res_b: Evaluation, chains_b, lowpass: Lowpass):
     """The navigation frame's tilt against the ellipsoidal normal, from SINS/LDV minus SINS/GNSS.
 
     The two chains share f_U; the SINS/LDV one is in the navigation's (plumb-levelled) frame, the
@@ -551,15 +709,16 @@ def frame_tilt(res_a, chains_a, res_b, chains_b, fir_s):
     navigation levelled to (rad). Returns a dict (xi_rad, eta_rad, their 1-σ from the fit's residual,
     n samples) or None when the drive gives too few samples or too little horizontal acceleration."""
     ys, xs, line = [], [], []
-    for pa, pb in zip(res_a["per_line"], res_b["per_line"]):
-        if not len(pa[3]) or not len(pb[3]):
+    for pa, pb in zip(res_a.lines, res_b.lines):
+        if not pa.has_data or not pb.has_data:
             continue
-        chb = chains_b[pb[1]]
-        tb = chb["t_s"][pb[2]]
-        fb = res_b["filtered"][pb[1]][pb[2]]
-        fa = np.interp(tb, chains_a[pa[1]]["t_s"], res_a["filtered"][pa[1]])
-        an = zero_phase_lowpass(chb["a_n"], fir_s, chb["fs"])[pb[2]]
-        ae = zero_phase_lowpass(chb["a_e"], fir_s, chb["fs"])[pb[2]]
+        chb = chains_b[pb.chain]
+        tb = chb["t_s"][pb.samples]
+        fb = res_b.filtered[pb.chain][pb.samples]
+        fa = np.interp(tb, chains_a[pa.chain]["t_s"], res_a.filtered[pa.chain])
+        lp = lowpass.at(chb["fs"])
+        an = lp.apply(chb["a_n"])[pb.samples]
+        ae = lp.apply(chb["a_e"])[pb.samples]
         ok = np.isfinite(fa) & np.isfinite(fb) & np.isfinite(an) & np.isfinite(ae)
         ys.append((fa - fb)[ok])
         xs.append(np.column_stack([an[ok], ae[ok]]))
@@ -576,7 +735,7 @@ def frame_tilt(res_a, chains_a, res_b, chains_b, fir_s):
     r = y - a @ c
     # the filtered residual is correlated over ~the FIR length: σ from the effective number of samples
     fs = chains_b[0]["fs"]
-    n_eff = max(len(y) / max(fir_s * fs / 2.0, 1.0), 4.0)
+    n_eff = max(len(y) / max(lowpass.length_s * fs / 2.0, 1.0), 4.0)
     cov = np.linalg.pinv(a.T @ a) * float(np.sum(r**2)) / max(len(y) - a.shape[1], 1) * len(y) / n_eff
     # the difference is SINS/LDV − SINS/GNSS = −(ξ a_N + η a_E) in the GNSS chain's error: sign flipped
     return {

@@ -21,7 +21,7 @@ The navigation levels its frame to the plumb line (the SINS/LDV filter cannot te
 the vertical from a tilt), GNSS heights are along the ellipsoidal normal: f_U then holds
 ξ·a_N + η·a_E beyond the ellipsoidal vertical acceleration. The SINS/LDV chain differentiates the
 LDV velocity in the same tilted frame and the term cancels; the SINS/GNSS chain keeps it (mGal on a
-winding road with a DOV of tens of arcseconds). :func:`gravity_report.frame_tilt` estimates it.
+winding road with a DOV of tens of arcseconds). :func:`report.frame_tilt` estimates it.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from scipy.ndimage import median_filter, uniform_filter1d
 
 from ldvsurvey.nav.attitude import c_from_q
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity, radii
-from ldvsurvey.nav.gravity import bridge_velocity, disturbance_mps2, runs, zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass, bridge_velocity, disturbance_mps2, runs
 from ldvsurvey.pipelines.stages.aids import GNSS_SIGMA, attitude_at
 from ldvsurvey.pipelines.stages.ldv_mounting import accel_fwd, ldv_body_velocity
 
@@ -370,6 +370,7 @@ class IntervalColumn:
 
     @property
     def shape(self):
+        """(n,): the shape of the materialized column."""
         return (self._n,)
 
     def __getitem__(self, idx):
@@ -404,10 +405,11 @@ def _mid_speed_column(v_n) -> IntervalColumn:
     )
 
 
-def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float = 4.0):
+def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: float = 4.0):
     """Raw δg (m/s²) on a regular grid at the GNSS rate from SINS/GNSS; dict like :func:`ldv_chain`.
 
-    ``fir_s``: the FIR length, for the first pass that carries the disturbance across outages.
+    ``lowpass``: the gravity filter, for the first pass that carries the disturbance across outages
+    (its length L: ``fir_s`` below).
     Uses the fixes of the given qualities. Multipath (height jumps of decimetres for seconds to a
     minute in fixed solutions) is screened against ``ref`` (a solution without GNSS, e.g. the
     SINS/LDV one; default ``sol``): a fix whose height residual departs from the residual's
@@ -416,6 +418,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
     """
     g = log.gnss
     t = inp.t_s
+    fir_s = lowpass.length_s
     keep = np.isin(g.fix, fixes) & np.isfinite(g.lat_deg) & np.isfinite(g.h_m) & (g.t_s > t[2]) & (g.t_s < t[-1])
     if keep.sum() < 20:
         raise ValueError(f"fewer than 20 GNSS fixes of quality {'/'.join(map(str, fixes))}")
@@ -457,7 +460,7 @@ def gnss_chain(log, inp, sol, fir_s: float, fixes=(4,), ref=None, k_sigma: float
         dg = (d[2:] - 2 * d[1:-1] + d[:-2]) / step**2
         if not bridged.any():
             break
-        g_prior = zero_phase_lowpass(dg, fir_s, 1.0 / step)
+        g_prior = lowpass.at(1.0 / step).apply(dg)
         # inside outages longer than the filter nothing constrains the prior: take it straight
         # across from the filtered values half a filter length outside the outage
         for a, b in runs(bridged):
