@@ -8,7 +8,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
 from ldvsurvey.api.app import create_app
-from ldvsurvey.pipelines.gravity_network import parse_ties
+from ldvsurvey.pipelines.gravity.network import parse_ties
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.store.db import session_scope
 from ldvsurvey.store.models import Project, ProjectTie, User

@@ -7,7 +7,7 @@ from ldvsurvey.cli import main
 
 def test_too_short_a_height_drive_is_refused_naming_duration(tmp_path, capsys):
     # 400 s: the 300 s static start, the turn and the stops leave nothing to drive (was a ZeroDivisionError)
-    assert main(["demo", str(tmp_path / "d"), "--scenario", "height", "--duration-s", "400"]) == 2
+    assert main(["demo", str(tmp_path / "d"), "--scenario", "height", "--duration-s", "399"]) == 2
     err = capsys.readouterr().err
-    assert "--duration-s" in err and "more than 460 s" in err
+    assert "--duration-s" in err and "more than 400 s" in err
     assert not (tmp_path / "d").exists()  # nothing written

@@ -74,10 +74,10 @@ def height(minutes: float = 40.0, length_m: float = 10000.0, relief_m: float = 3
     static = kw.pop("static_s", 300.0)
     turn_s = 40.0
     drive_s = minutes * 60.0 - static - turn_s - 60.0
-    if drive_s < 60.0:
+    if drive_s <= 0.0:
         raise ValueError(
-            f"a {minutes * 60.0:g} s height drive leaves {drive_s:g} s to drive after its {static:g} s static "
-            f"start, turn and stops: give it more than {(static + turn_s + 120.0):g} s"
+            f"a {minutes * 60.0:g} s height drive leaves no time to drive after its {static:g} s static "
+            f"start, turn and stops: give it more than {(static + turn_s + 60.0):g} s"
         )
     speed = 2 * length_m / (drive_s * 0.97)
     g = relief_m / (0.3 * length_m)  # grade that climbs the relief over 30 % of the road
