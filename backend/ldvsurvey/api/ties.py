@@ -61,6 +61,8 @@ def _may_change(who: Principal, row: ProjectTie, what: str) -> None:
 
 @router.get("/api/projects/{project_id}/ties", summary="The project's base stations and their base_ties text")
 def list_ties(project_id: PathId, session: SessionDep, who: CurrentUser) -> m.ProjectTies:
+    """The project's base stations (lat/lon deg, ellipsoidal h m, absolute g and its 1-σ in mGal) and the
+    ``base_ties`` text a gravity job takes (ties numbered T1… in this order). 404: no such project for you."""
     _project(session, who, project_id)
     rows = tstore.list_ties(session, project_id)
     return {"project_id": project_id, "ties": [tstore.tie_dict(r) for r in rows], "base_ties": base_ties_text(rows)}
@@ -73,6 +75,8 @@ def list_ties(project_id: PathId, session: SessionDep, who: CurrentUser) -> m.Pr
     responses={409: {"description": "a station of that name is already in the project"}},
 )
 def add_tie(project_id: PathId, body: TieIn, session: SessionDep, who: CurrentUser) -> m.TieOut:
+    """Add a station, checked as ``base_ties`` checks a tie. 422 naming the field, 409 a duplicate name,
+    404 no such project for you; nothing is stored on an error."""
     _project(session, who, project_id)
     values = check_tie(**body.model_dump())
     row = tstore.add_tie(session, project_id, values, who.user.id if who.user is not None else None)
@@ -81,6 +85,8 @@ def add_tie(project_id: PathId, body: TieIn, session: SessionDep, who: CurrentUs
 
 @router.put("/api/projects/{project_id}/ties/{tie_id}", summary="Replace a base station's values")
 def replace_tie(project_id: PathId, tie_id: PathId, body: TieIn, session: SessionDep, who: CurrentUser) -> m.TieOut:
+    """Replace a station's values (checked as on add). 403 for the demo account on a station it did not
+    enter, 404 no such station in the project, 409 a name another station has, 422 naming the field."""
     _project(session, who, project_id)
     row = _tie(session, project_id, tie_id)
     _may_change(who, row, "change")
@@ -89,6 +95,8 @@ def replace_tie(project_id: PathId, tie_id: PathId, body: TieIn, session: Sessio
 
 @router.delete("/api/projects/{project_id}/ties/{tie_id}", status_code=204, summary="Remove a base station")
 def delete_tie(project_id: PathId, tie_id: PathId, session: SessionDep, who: CurrentUser) -> Response:
+    """Remove a station (204). 403 for the demo account on a station it did not enter, 404 no such
+    station in the project. Jobs already run keep the ties they were given."""
     _project(session, who, project_id)
     row = _tie(session, project_id, tie_id)
     _may_change(who, row, "delete")

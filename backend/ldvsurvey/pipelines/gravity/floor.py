@@ -64,18 +64,14 @@ def drift_floor(
         The SINS/LDV chain (times, stops).
     res : report.Evaluation
         :func:`report.evaluate`'s result (the lines and their samples).
-    lowpass : Lowpass
-        The gravity filter.
-    spacing_m : float
-        Spacing of the common along-track points, m.
+    lowpass, spacing_m : Lowpass, float
+        The gravity filter; the spacing of the common along-track points (m).
     tie_applied : bool
         Whether the stop tie was subtracted.
     leveling : {"none", "bias", "linear"}
         The line levelling applied.
-    n_real : int
-        Monte Carlo realisations.
-    seed : int
-        Seed of their generator.
+    n_real, seed : int
+        Monte Carlo realisations and the seed of their generator.
     bundle : int
         Index of ``log`` among the run's logs: its lines are those of ``res`` on that chain.
 
