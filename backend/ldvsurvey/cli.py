@@ -399,6 +399,21 @@ def _cmd_project(args) -> int:
     return 0
 
 
+_FORMATS_HEADING = "Formats (FORMAT in FORMAT:FILE), the roles they read and what:\n"
+
+
+class _ImportHelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """``import --help``: the formats' lines are added only when the help is shown (listing them
+    imports every importer, which every other command, ``run`` included, would pay for at start)."""
+
+    def add_text(self, text):
+        if text is _FORMATS_HEADING:
+            from ldvsurvey.io.importers import formats_help
+
+            text = text + formats_help()
+        super().add_text(text)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="ldv-survey", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"ldv-survey {__version__}")
@@ -429,13 +444,13 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--duration-s", type=float, default=None, help="override the scenario's length")
     d.set_defaults(func=_cmd_demo)
 
-    from ldvsurvey.io.importers import REGISTRY, formats_help
+    from ldvsurvey.io.importers import REGISTRY
 
     im = sub.add_parser(
         "import",
         help=f"turn field recordings ({', '.join(REGISTRY)}) into a validated bundle .zip",
-        description="Formats (FORMAT in FORMAT:FILE), the roles they read and what:\n" + formats_help(),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=_FORMATS_HEADING,
+        formatter_class=_ImportHelpFormatter,
     )
     im.add_argument("--imu", required=True, metavar="FORMAT:FILE")
     im.add_argument("--gnss", metavar="FORMAT:FILE")
