@@ -23,11 +23,62 @@ STILL_ACCEL_MPS2 = 0.1
 STILL_RATE_RPS = 0.01
 
 
+# The running filters below replace scipy.ndimage's uniform_filter1d, median_filter and
+# minimum_filter1d (mode "nearest" and the windows they use): importing scipy.ndimage costs a
+# fresh process about 0.16 s of CPU, a tenth of a short ``ldv-survey run navigate`` (tests check
+# them against scipy.ndimage: the same numbers bit for bit, the same booleans).
+
+
+def _padded(x, w: int):
+    """``x`` along axis 0 extended by its edge values (scipy's mode "nearest") for a window of ``w``."""
+    a, b = w // 2, w - w // 2 - 1
+    return np.concatenate([np.repeat(x[:1], a, axis=0), x, np.repeat(x[-1:], b, axis=0)])
+
+
+def running_mean(x, w: int) -> np.ndarray:
+    """Centred running mean over ``w`` samples along axis 0, edges held (float64): the arithmetic of
+    ``scipy.ndimage.uniform_filter1d(x, w, axis=0, mode="nearest")``: a running sum (the first
+    window summed in order, then each step adding entering − leaving) divided by ``w``."""
+    x = np.asarray(x, float)
+    p = _padded(x, w)
+    steps = np.empty_like(x)
+    steps[0] = np.add.accumulate(p[:w], axis=0)[-1]
+    steps[1:] = p[w : w + len(x) - 1] - p[: len(x) - 1]
+    return np.add.accumulate(steps, axis=0) / w
+
+
+def running_median_within(x, w: int, limit: float) -> np.ndarray:
+    """|median of the ``w`` samples around each one| < ``limit``, edges held: the booleans of
+    ``abs(scipy.ndimage.median_filter(x, w, mode="nearest")) < limit`` (the median of an even
+    window is its upper middle value), from counts of the window's samples. A NaN has no place in
+    an order: with one in ``x`` scipy's filter is used, so its answer stays what it was."""
+    x = np.asarray(x, float)
+    if np.isnan(x).any():
+        from scipy.ndimage import median_filter
+
+        return np.abs(median_filter(x, size=w, mode="nearest")) < limit
+    p = _padded(x, w)
+    r = w // 2  # the rank of the median in the sorted window
+
+    def counts(flags):
+        c = np.concatenate([[0], np.cumsum(flags, dtype=np.int64)])
+        return c[w:] - c[:-w]
+
+    # the r-th smallest is < limit when more than r samples are; it is > −limit when at most r are ≤ −limit
+    return (counts(p < limit) > r) & (counts(p <= -limit) <= r)
+
+
+def _all_ahead(flags, n: int) -> np.ndarray:
+    """``flags[i:i + n]`` all true (false where the window runs past the end): the booleans of
+    ``scipy.ndimage.minimum_filter1d(flags, n, mode="constant", cval=0, origin=-(n // 2)) > 0``."""
+    f = np.asarray(flags, bool)
+    c = np.concatenate([[0], np.cumsum(f, dtype=np.int64), np.full(n - 1, f.sum(), np.int64)])
+    return c[n : len(f) + n] - c[: len(f)] == n
+
+
 def _body_signals(t, dtheta, dvel, eta, window_s: float = 1.0):
     """1-s running means of the specific force in the body frame (m/s², turntable angle removed
     with α = β = 0) and of the body turn rate about the turntable axis (rad/s)."""
-    from scipy.ndimage import uniform_filter1d
-
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0]))
     f = dvel / dt[:, None]
     wz = dtheta[:, 2] / dt
@@ -36,7 +87,7 @@ def _body_signals(t, dtheta, dvel, eta, window_s: float = 1.0):
         f = np.column_stack([c * f[:, 0] - s * f[:, 1], s * f[:, 0] + c * f[:, 1], f[:, 2]])
         wz = wz - np.diff(eta, prepend=eta[0]) / dt
     w = max(1, int(round(window_s / np.median(dt))))
-    return uniform_filter1d(f, w, axis=0, mode="nearest"), uniform_filter1d(wz, w, mode="nearest")
+    return running_mean(f, w), running_mean(wz, w)
 
 
 def _quiet(f_b, w_z, ref_idx, f_all=None, w_all=None):
@@ -57,12 +108,10 @@ def _still_intervals(t, speed, ok, min_len_s=3.0, thresh=STILL_SPEED_MPS, f_b=No
     still LDV sample counts as still when the IMU shows neither acceleration nor turning in it
     (``f_b``, ``w_z`` from :func:`_body_signals`), since a vehicle cannot start or stop without.
     """
-    from scipy.ndimage import median_filter
-
     # the 1-s running median: LDV noise of a few cm/s, and an isolated spike flagged good, must not
     # chop a stop into slivers
     w = max(1, int(round(1.0 / np.median(np.diff(t)))))
-    still = ok & (np.abs(median_filter(speed, size=w, mode="nearest")) < thresh)
+    still = ok & running_median_within(speed, w, thresh)
     if f_b is not None:
         edges = np.flatnonzero(np.diff(np.r_[0, (~ok).astype(int), 0]))
         n = len(t)
@@ -111,9 +160,7 @@ def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0) -> fl
     k_imu = int(np.argmin(quiet)) if not quiet.all() else len(t)
     mv = ok & (np.abs(speed) >= STILL_SPEED_MPS)
     run = max(1, int(round(min_moving_s / np.median(np.diff(t)))))
-    from scipy.ndimage import minimum_filter1d
-
-    sustained = minimum_filter1d(mv.astype(np.uint8), run, mode="constant", cval=0, origin=-(run // 2)) > 0
+    sustained = _all_ahead(mv, run)
     k_ldv = int(np.argmax(sustained)) if sustained.any() else len(t)
     k = min(k_imu, k_ldv)
     # both tests fire about a second into a smooth start (0.1 m/s², 0.03 m/s): keep 2 s off it

@@ -1,0 +1,67 @@
+"""``ldv-survey run`` as a process of its own (issue 25: its fixed cost beside KF-GINS): what it
+imports for ``navigate`` on an INS/GNSS log, and that its garbage-collector handling (none while
+the pipeline is imported, the objects frozen at exit) changes no byte of the result and stays out
+of a caller's process (main() called with argv, as here)."""
+
+from __future__ import annotations
+
+import gc
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from ldvsurvey.cli import main
+from ldvsurvey.io.writers import write_bundle
+from ldvsurvey.sim import catalog
+from ldvsurvey.sim.scenario import bundle_files, simulate
+
+BACKEND = Path(__file__).resolve().parents[2] / "backend"
+
+
+@pytest.fixture(scope="module")
+def gnss_bundle(tmp_path_factory):
+    """A 7-min INS/GNSS drive without an LDV (5 min static, then driving), as a bundle folder."""
+    d = tmp_path_factory.mktemp("run-process")
+    write_bundle(bundle_files(simulate(catalog.drive(minutes=7.0, with_ldv=False), seed=3)), d / "bundle")
+    return d / "bundle"
+
+
+def test_a_run_process_imports_only_what_navigate_needs_and_writes_what_main_writes(gnss_bundle, tmp_path):
+    own, called = tmp_path / "own", tmp_path / "called"
+    code = (
+        "import sys, json\n"
+        "from ldvsurvey.cli import main\n"
+        f"sys.argv = ['ldv-survey', 'run', 'navigate', {str(gnss_bundle)!r}, '--out', {str(own)!r}]\n"
+        "rc = main()\n"
+        "print(json.dumps({'rc': rc, 'modules': sorted(sys.modules)}))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(BACKEND)}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    assert got["rc"] == 0
+    mods = set(got["modules"])
+    heavy = {
+        m
+        for m in mods
+        if m.startswith(("scipy.ndimage", "scipy.signal", "scipy.interpolate", "pandas", "sqlalchemy", "fastapi"))
+        or m.startswith(("ldvsurvey.api", "ldvsurvey.store", "ldvsurvey.jobs", "ldvsurvey.sim"))
+        or (m.startswith("ldvsurvey.io.importers.") and m.split(".")[-1] in ("novatel", "ubx", "rtklib", "csvmap"))
+    }
+    assert heavy == set()
+    other_pipelines = ("gravity", "dov", "height", "tilt", "damping", "calibrate", "warmup")
+    names = {m.split(".")[2] for m in mods if m.startswith("ldvsurvey.pipelines.")}
+    assert not {n for n in names if n in other_pipelines or n.startswith("gravity_")}
+
+    freeze_before = gc.get_freeze_count()
+    assert main(["run", "navigate", str(gnss_bundle), "--out", str(called)]) == 0
+    assert gc.isenabled() and gc.get_freeze_count() == freeze_before  # a caller's process is left as it was
+    assert (own / "trajectory.csv").read_bytes() == (called / "trajectory.csv").read_bytes()
+    s_own, s_called = (json.loads((p / "summary.json").read_text()) for p in (own, called))
+    for s in (s_own, s_called):
+        s.pop("started_at", None)
+        s.pop("elapsed_s", None)
+    assert s_own == s_called
