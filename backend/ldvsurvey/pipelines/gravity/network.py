@@ -12,6 +12,8 @@ omission error, and each line's half-wavelength resolution from the filter's res
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ldvsurvey.errors import ParameterError
@@ -29,23 +31,43 @@ G_RANGE_MGAL = (976000.0, 984000.0)
 NETWORK_RATE_HZ = 1.0
 #: at most this many flagged residuals are listed in the summary
 MAX_LISTED = 50
+#: the 1-σ of a tie's absolute g (``base_ties``' fifth value, mGal) must lie in (0, TIE_SIGMA_MAX_MGAL]
+TIE_SIGMA_MAX_MGAL = 100.0
+#: a tie given with four values: its g is taken as exact (σ 0 mGal), its weight the stop mean's σ alone
+DEFAULT_TIE_SIGMA_MGAL = 0.0
 
 
 def parse_ties(text) -> list[tuple[float, float, float, float]]:
-    """``LAT,LON,H_M,G_MGAL;...`` into [(lat_deg, lon_deg, h_m, g_mgal)] (ParameterError naming the item)."""
+    """``LAT,LON,H_M,G_MGAL[,SIGMA_MGAL];...`` into [(lat_deg, lon_deg, h_m, g_mgal)] (ParameterError naming
+    the item); the ties' 1-σ: :func:`tie_sigmas_mgal`."""
+    return [t[:4] for t in _tie_items(text)]
+
+
+def tie_sigmas_mgal(text) -> list[float]:
+    """Per tie of ``base_ties``, the 1-σ of its absolute g (mGal): the fifth value, else
+    :data:`DEFAULT_TIE_SIGMA_MGAL` (the g taken as exact)."""
+    return [t[4] for t in _tie_items(text)]
+
+
+def _tie_items(text) -> list[tuple[float, float, float, float, float]]:
+    """``base_ties`` checked item by item: (lat deg, lon deg, h m, g mGal, 1-σ of g mGal)."""
     out = []
     for k, item in enumerate(str(text).split(";")):
         if not item.strip():
             continue
         parts = item.split(",")
         try:
-            lat, lon, h, g = (float(x) for x in parts)
+            if len(parts) not in (4, 5):
+                raise ValueError
+            lat, lon, h, g = (float(x) for x in parts[:4])
+            sigma = float(parts[4]) if len(parts) == 5 else None
         except ValueError:
             raise ParameterError(
-                f"tie {k + 1} ({item.strip()!r}): expected LAT,LON,H_M,G_MGAL (degrees, metres, mGal)",
+                f"tie {k + 1} ({item.strip()!r}): expected LAT,LON,H_M,G_MGAL or LAT,LON,H_M,G_MGAL,SIGMA_MGAL "
+                "(degrees, metres, mGal, mGal)",
                 field="base_ties",
             ) from None
-        if not all(np.isfinite([lat, lon, h, g])):
+        if not all(np.isfinite([lat, lon, h, g, 1.0 if sigma is None else sigma])):
             raise ParameterError(f"tie {k + 1}: values must be finite numbers", field="base_ties")
         if not (-90 <= lat <= 90 and -180 <= lon <= 360):
             raise ParameterError(f"tie {k + 1}: latitude {lat:g} or longitude {lon:g} out of range", field="base_ties")
@@ -57,9 +79,29 @@ def parse_ties(text) -> list[tuple[float, float, float, float]]:
                 f"{G_RANGE_MGAL[0]:.0f} to {G_RANGE_MGAL[1]:.0f} mGal)",
                 field="base_ties",
             )
-        out.append((lat, lon - 360.0 if lon > 180.0 else lon, h, g))  # east of 180° as negative, as the navigation
+        if sigma is not None and not 0.0 < sigma <= TIE_SIGMA_MAX_MGAL:
+            raise ParameterError(
+                f"tie {k + 1}: SIGMA_MGAL, the 1-σ of g, {sigma:g} mGal out of range (more than 0, at most "
+                f"{TIE_SIGMA_MAX_MGAL:g})",
+                field="base_ties",
+            )
+        sigma = DEFAULT_TIE_SIGMA_MGAL if sigma is None else sigma
+        out.append((lat, lon - 360.0 if lon > 180.0 else lon, h, g, sigma))  # east of 180° negative, as the navigation
     if not out:
         raise ParameterError("no tie given", field="base_ties")
+    return out
+
+
+def weigh_ties(ties: list[net.Tie], sigmas_mgal: list[float]) -> list[net.Tie]:
+    """The observed ties with the 1-σ of their stations' g: each tie observation's σ becomes
+    √(σ_stop² + σ_g²) (the stop mean's own and the station's, independent), ``stop_sigma_mgal`` and
+    ``g_sigma_mgal`` keep the two (mGal)."""
+    out = []
+    for t in ties:
+        s_g = float(sigmas_mgal[int(t.name[1:]) - 1])
+        out.append(
+            replace(t, sigma_mgal=float(np.hypot(t.sigma_mgal, s_g)), stop_sigma_mgal=t.sigma_mgal, g_sigma_mgal=s_g)
+        )
     return out
 
 
@@ -227,7 +269,9 @@ def datum_sigma_mgal(adj, lines) -> float:
 
 
 def tie_rows(ties, adj) -> list[dict]:
-    """Per observed tie: the stop's and the tie's δg and the residual after the adjustment (mGal)."""
+    """Per observed tie: the stop's and the tie's δg, the residual after the adjustment and the 1-σ (mGal):
+    ``sigma_mgal`` the observation's, of the stop mean (``stop_sigma_mgal``) and the station's g
+    (``tie_sigma_mgal``) combined."""
     rows = []
     for t in ties:
         pred = adj.correction(t.log, None, t.t_s)[0]
@@ -241,6 +285,8 @@ def tie_rows(ties, adj) -> list[dict]:
                 "stop_dg_mgal": t.measured_mgal,
                 "residual_mgal": t.measured_mgal - t.tie_mgal - pred,
                 "sigma_mgal": t.sigma_mgal,
+                "stop_sigma_mgal": t.sigma_mgal if t.stop_sigma_mgal is None else t.stop_sigma_mgal,
+                "tie_sigma_mgal": t.g_sigma_mgal,
             }
         )
     return rows
@@ -289,6 +335,7 @@ def survey_network(logs, chains, res, params, lowpass: Lowpass, floors, progress
     origin = network_origin(chains, res)
     lines, src = network_lines(chains, res, floors, origin)
     ties, ties_given = tie_observations(chains, logs, params, origin, warnings)
+    ties = weigh_ties(ties, tie_sigmas_mgal(params.base_ties) if params.base_ties else [])
     groups, clusters = network_points(lines, lowpass, params.spacing_m)
     fit_kw = {"drift": params.network_drift, "line_bias": params.network_line_bias}
     try:
