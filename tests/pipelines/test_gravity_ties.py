@@ -300,3 +300,27 @@ def test_the_datum_sigma_of_a_tied_log_is_that_of_its_weighted_ties():
     var = max(1.0, adj.sigma0**2) / sum(1.0 / (t.stop_sigma_mgal**2 + t.g_sigma_mgal**2) for t in ties)
     assert np.sqrt(adj.cov[adj.index["bias:0"], adj.index["bias:0"]]) == pytest.approx(np.sqrt(var), rel=1e-9)
     assert datum_sigma_mgal(adj, lines) == pytest.approx(np.sqrt(var), rel=0.02)  # the lines' mean bias is zero
+
+
+def test_height_sigma_without_fixes_on_the_line_is_the_filters():
+    """σ_h falls back to the navigation filter's where the GNSS cannot say: a SINS/GNSS chain (its filter is
+    GNSS-aided), a log without GNSS, a line with too few fixes of the chosen quality."""
+    from ldvsurvey.pipelines.gravity.network import MIN_HEIGHT_FIXES, line_height_sigma
+
+    t = np.arange(0.0, 100.0, 0.5)
+    ch = {"kind": "ldv", "t_s": t, "h": np.full(len(t), 50.0), "h_sigma_epochs": (np.array([0.0, 100.0]), np.ones(2))}
+    gnss = types.SimpleNamespace(t_s=t[::2], h_m=np.full(100, 51.6), fix=np.full(100, 5))
+    noise = {"4": types.SimpleNamespace(white_m=0.01, correlated_m=0.02)}
+    log = types.SimpleNamespace(
+        gnss=gnss,
+        manifest=types.SimpleNamespace(gnss=types.SimpleNamespace(lever_arm_m=[0.0, 0.0, 1.6], height_noise=noise)),
+    )
+    sig, src = line_height_sigma(ch, log, t[10:50], fixes=(4,))  # only float fixes: none of quality 4
+    assert np.all(sig == 1.0) and f"fewer than {MIN_HEIGHT_FIXES}" in src
+    assert line_height_sigma({**ch, "kind": "gnss"}, log, t, (5,))[1] == "navigation filter"
+    assert line_height_sigma(ch, types.SimpleNamespace(gnss=None), t, (5,))[1] == "navigation filter"
+    # with fixes: the navigated height 0.3 m off the GNSS one at the IMU, the receiver stating 0.05 m
+    gnss.h_m = np.full(100, 51.9)
+    log.manifest.gnss.height_noise = {"5": types.SimpleNamespace(white_m=0.03, correlated_m=0.04)}
+    sig, src = line_height_sigma(ch, log, t[10:50], fixes=(5,))
+    assert sig == pytest.approx(np.sqrt(0.3**2 - 0.05**2), rel=1e-9) and src.startswith("GNSS fix 5")
