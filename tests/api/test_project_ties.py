@@ -8,7 +8,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
 from ldvsurvey.api.app import create_app
-from ldvsurvey.pipelines.gravity.network import parse_ties
+from ldvsurvey.pipelines.gravity.network import parse_ties, tie_sigmas_mgal
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.store.db import session_scope
 from ldvsurvey.store.models import Project, ProjectTie, User
@@ -51,6 +51,7 @@ def test_enter_list_change_delete(open_app):
     # the base_ties text is the gravity pipeline's parameter: it validates, and parses back to the values
     assert get("gravity").validate({"base_ties": got["base_ties"]}).base_ties == got["base_ties"]
     assert parse_ties(got["base_ties"]) == [(t["lat_deg"], t["lon_deg"], t["h_m"], t["g_mgal"]) for t in got["ties"]]
+    assert tie_sigmas_mgal(got["base_ties"]) == [t["sigma_mgal"] for t in got["ties"]]  # each station's own weight
     r = c.put(f"/api/projects/{pid}/ties/{one['id']}", json={**STATION, "h_m": 151.0})
     assert r.status_code == 200 and r.json()["h_m"] == 151.0
     assert c.delete(f"/api/projects/{pid}/ties/{one['id']}").status_code == 204

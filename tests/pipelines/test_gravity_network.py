@@ -106,6 +106,24 @@ def test_absolute_dg_against_truth_per_line_without_removing_a_mean(network_run)
         assert np.sqrt(np.mean(err**2)) <= 2.0 * np.sqrt(np.mean(t["sigma_mgal"][k] ** 2)), name
 
 
+def test_height_sigma_covers_the_navigated_height_error(network_run):
+    """The SINS/LDV filter's height σ is its prior (a flat metre: the LDV observes no height); the table's σ_h
+    comes from the GNSS fixes on each line instead, and against the simulator's true height it is a 1-σ:
+    about 68 % of the samples inside it (not all: it is not a bound), nearly all inside 3σ."""
+    sims, summary, t, _ = network_run
+    z = []
+    for log in (1, 2, 3):
+        k = t["log"] == log
+        im = sims[log - 1].imu
+        z.append((t["h_m"][k] - np.interp(t["t_s"][k], im.t_s, im.h_m)) / t["h_sigma_m"][k])
+    z = np.abs(np.concatenate(z))
+    assert 0.4 <= np.mean(z < 1.0) <= 0.9, np.mean(z < 1.0)
+    assert np.mean(z < 3.0) >= 0.97, np.mean(z < 3.0)
+    assert np.max(t["h_sigma_m"]) < 0.3  # not the filter's flat metre
+    for pl in summary["network"]["lines"]:
+        assert pl["h_sigma_source"].startswith("GNSS fix 4 on the line"), pl
+
+
 def test_days_on_the_same_road_come_out_level(network_run):
     _, summary, t, _ = network_run
     floor = summary["network"]["noise_floor_mgal"]

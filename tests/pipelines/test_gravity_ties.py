@@ -2,6 +2,7 @@
 that observe a tie (drift removed as on the lines, weight from the accelerometer noise over the stop)."""
 
 import types
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -208,3 +209,118 @@ def test_dg_sigma_carries_the_navigated_height_error_and_g_does_not():
     np.testing.assert_allclose(table["sigma_mgal"], np.sqrt(sig_adj**2 + (0.3086 * sig_h) ** 2), rtol=2e-3)
     assert np.max(np.sqrt(table["sigma_mgal"] ** 2 - sig_adj**2)) > 0.3  # 0.3086 mGal/m · ~1.1 m on the last line
     assert all(pl["sigma_mgal"] >= pl["g_sigma_mgal"] for pl in per_line)
+
+
+def test_a_tie_may_carry_its_own_sigma():
+    """A fifth value is the 1-σ of the station's g (mGal); four values stay valid (the g taken as exact)."""
+    from ldvsurvey.pipelines.gravity.network import DEFAULT_TIE_SIGMA_MGAL, tie_sigmas_mgal
+
+    text = "28.5,113.0,120,979100.5,0.01; 28.6,113.1,130.5,979090"
+    assert parse_ties(text) == [(28.5, 113.0, 120.0, 979100.5), (28.6, 113.1, 130.5, 979090.0)]
+    assert tie_sigmas_mgal(text) == [0.01, DEFAULT_TIE_SIGMA_MGAL]
+    assert get("gravity").validate({"base_ties": text}).base_ties == text
+
+
+@pytest.mark.parametrize("sigma", ["0", "-0.1", "150", "nan", "x"])
+def test_a_bad_tie_sigma_is_refused_naming_the_tie(sigma):
+    with pytest.raises(ParameterError, match="tie 2") as exc:
+        get("gravity").validate({"base_ties": f"28.5,113.0,120,979100;28.6,113.1,130,979090,{sigma}"})
+    assert exc.value.field == "base_ties"
+    if sigma in ("0", "-0.1", "150"):
+        assert "SIGMA_MGAL" in exc.value.message and "at most 100" in exc.value.message
+
+
+def test_six_values_are_refused():
+    with pytest.raises(ParameterError, match="SIGMA_MGAL"):
+        parse_ties("28.5,113.0,120,979100,0.1,7")
+
+
+def _weighted_network(ties, sigmas):
+    """The simulated three-log network (tests/nav/test_network.py) on ``ties`` weighted by the stations' σ."""
+    from ldvsurvey.pipelines.gravity.network import tie_rows, weigh_ties
+    from tests.nav.test_network import network, survey
+
+    w = weigh_ties(ties, sigmas)
+    lines, _ = survey(3, ties=False)
+    _, _, adj = network(lines, w)
+    return {(r["tie"], r["log"]): r for r in tie_rows(w, adj)}, adj, lines
+
+
+def _level_error(adj, lines, lg):
+    """The log's level over its lines less the simulated one (bias and drift), and its stated 1-σ (mGal)."""
+    from tests.nav.test_network import BIASES, DRIFTS, T_REF
+
+    t = np.concatenate([ln.t_s for ln in lines if ln.log == lg])
+    a = np.mean(adj._row(lg, None, t), axis=0)
+    true = BIASES[lg] + DRIFTS[lg] * (np.mean(t) - T_REF[lg]) / 3600.0
+    return float(a @ adj.x - true), float(np.sqrt(a @ adj.cov @ a))
+
+
+def test_an_imprecise_tie_is_pulled_by_the_network_a_precise_one_holds():
+    """Station T1 is 3 mGal off (a poor relative tie), T2 right. Weighted alike, T1 pulls the level of the
+    logs standing on it, far beyond the level's stated σ; given its σ (3 mGal, T2 0.01 mGal), its residual
+    takes the 3 mGal and the level follows T2 (back at the simulated one within its stated 3σ, which now
+    holds the drift known from one precise tie and the repeats only)."""
+    from tests.nav.test_network import survey
+
+    _, ties = survey(3)
+    bad = [replace(t, tie_mgal=t.tie_mgal + 3.0) if t.name == "T1" else t for t in ties]
+    equal_rows, equal, lines = _weighted_network(bad, [0.0, 0.0])
+    rows, adj, _ = _weighted_network(bad, [3.0, 0.01])
+    for lg in (0, 1):
+        err_equal, sig_equal = _level_error(equal, lines, lg)
+        err, sig = _level_error(adj, lines, lg)
+        assert abs(err_equal) > max(0.8, 3 * sig_equal), (err_equal, sig_equal)  # pulled, and claiming precision
+        assert abs(err) < min(3 * sig, 0.6 * abs(err_equal)), (lg, err, sig, err_equal)
+        r1, r2 = rows[("T1", f"B{lg + 1}")], rows[("T2", f"B{lg + 1}")]
+        # y − δg: the station's g 3 mGal high, within the level's own 3σ at that stop
+        assert r1["residual_mgal"] == pytest.approx(-3.0, abs=3 * adj.correction_sigma(lg, None, r1["t_s"])[0])
+        assert abs(r1["residual_mgal"]) > 2 * abs(equal_rows[("T1", f"B{lg + 1}")]["residual_mgal"])
+        assert abs(r2["residual_mgal"]) < 3 * r2["sigma_mgal"]
+        for r, s_g in ((r1, 3.0), (r2, 0.01)):
+            assert r["tie_sigma_mgal"] == s_g
+            assert r["sigma_mgal"] == pytest.approx(np.hypot(r["stop_sigma_mgal"], s_g), rel=1e-12)
+
+
+def test_the_datum_sigma_of_a_tied_log_is_that_of_its_weighted_ties():
+    """One log, no drift: its lines hold no level (they only compare with each other), so its level's
+    variance is 1/Σ 1/(σ_stop² + σ_g²) over its ties (times max(1, σ0²)), whatever σ each station has."""
+    from ldvsurvey.nav import network as net
+    from ldvsurvey.pipelines.gravity.network import datum_sigma_mgal, weigh_ties
+    from tests.nav.test_network import LOWPASS, survey
+
+    lines, ties = survey(3)
+    lines = [ln for ln in lines if ln.log == 0]
+    ties = weigh_ties([t for t in ties if t.log == 0], [0.5, 0.02])
+    groups = net.repeat_groups(lines)
+    clusters = [
+        c for gi, g in enumerate(groups) for c in net.repeat_clusters(lines, g, gi, 10.0, LOWPASS.correlation_time_s)
+    ]
+    adj = net.adjust(lines, clusters, ties, 1, drift="none")
+    var = max(1.0, adj.sigma0**2) / sum(1.0 / (t.stop_sigma_mgal**2 + t.g_sigma_mgal**2) for t in ties)
+    assert np.sqrt(adj.cov[adj.index["bias:0"], adj.index["bias:0"]]) == pytest.approx(np.sqrt(var), rel=1e-9)
+    assert datum_sigma_mgal(adj, lines) == pytest.approx(np.sqrt(var), rel=0.02)  # the lines' mean bias is zero
+
+
+def test_height_sigma_without_fixes_on_the_line_is_the_filters():
+    """σ_h falls back to the navigation filter's where the GNSS cannot say: a SINS/GNSS chain (its filter is
+    GNSS-aided), a log without GNSS, a line with too few fixes of the chosen quality."""
+    from ldvsurvey.pipelines.gravity.network import MIN_HEIGHT_FIXES, line_height_sigma
+
+    t = np.arange(0.0, 100.0, 0.5)
+    ch = {"kind": "ldv", "t_s": t, "h": np.full(len(t), 50.0), "h_sigma_epochs": (np.array([0.0, 100.0]), np.ones(2))}
+    gnss = types.SimpleNamespace(t_s=t[::2], h_m=np.full(100, 51.6), fix=np.full(100, 5))
+    noise = {"4": types.SimpleNamespace(white_m=0.01, correlated_m=0.02)}
+    log = types.SimpleNamespace(
+        gnss=gnss,
+        manifest=types.SimpleNamespace(gnss=types.SimpleNamespace(lever_arm_m=[0.0, 0.0, 1.6], height_noise=noise)),
+    )
+    sig, src = line_height_sigma(ch, log, t[10:50], fixes=(4,))  # only float fixes: none of quality 4
+    assert np.all(sig == 1.0) and f"fewer than {MIN_HEIGHT_FIXES}" in src
+    assert line_height_sigma({**ch, "kind": "gnss"}, log, t, (5,))[1] == "navigation filter"
+    assert line_height_sigma(ch, types.SimpleNamespace(gnss=None), t, (5,))[1] == "navigation filter"
+    # with fixes: the navigated height 0.3 m off the GNSS one at the IMU, the receiver stating 0.05 m
+    gnss.h_m = np.full(100, 51.9)
+    log.manifest.gnss.height_noise = {"5": types.SimpleNamespace(white_m=0.03, correlated_m=0.04)}
+    sig, src = line_height_sigma(ch, log, t[10:50], fixes=(5,))
+    assert sig == pytest.approx(np.sqrt(0.3**2 - 0.05**2), rel=1e-9) and src.startswith("GNSS fix 5")

@@ -10,7 +10,8 @@ floor of the filtered line (σ_l). A base tie k observed in log L at time t_k is
 
     y_k − δg_k = b_L + d_L·(t_k − t_L) + ε_k
 
-(y_k: the log's stop mean of δg beside the tie, δg_k = g_k − γ(φ_k, h_k) from the tie's absolute g).
+(y_k: the log's stop mean of δg beside the tie, δg_k = g_k − γ(φ_k, h_k) from the tie's absolute g; ε_k of
+1-σ √(σ_stop² + σ_g²), the stop mean's and the station's g's).
 The G(p) are eliminated point by point (the weighted mean of the samples at p), which leaves the
 weighted least squares of the centred observations on the centred design. Constraints: the line
 biases of a log sum to zero (the log's level is b_L); without ties the logs' biases sum to zero
@@ -71,8 +72,10 @@ class Tie:
     t_s: float
     measured_mgal: float  #: the log's stop mean of δg (same processing as the lines' level)
     tie_mgal: float  #: δg of the tie, g − γ(φ, h)
-    sigma_mgal: float  #: 1-σ of the stop mean (white accelerometer noise over the stop)
+    sigma_mgal: float  #: 1-σ of the observation: the stop mean's, with the station's g where it is given
     distance_m: float  #: horizontal distance of the stop from the tie
+    stop_sigma_mgal: float | None = None  #: 1-σ of the stop mean alone (None: ``sigma_mgal`` is it)
+    g_sigma_mgal: float = 0.0  #: 1-σ of the station's absolute g
 
 
 @dataclass

@@ -13,7 +13,7 @@ from __future__ import annotations
 #: parameter name → (label, unit); unit "" for dimensionless, choices and text
 PARAM_LABELS: dict[str, tuple[str, str]] = {
     "aiding": ("Aiding of the navigation", ""),
-    "base_ties": ("Base stations: latitude, longitude, ellipsoidal height, absolute g", ""),
+    "base_ties": ("Base stations: latitude, longitude, ellipsoidal height, absolute g (and its 1-σ)", ""),
     "calibration": ("LDV calibration", ""),
     "calibration_window": ("Calibration stretch t0, t1 (time of day)", "s"),
     "compensation": ("Grid step × update interval study", ""),

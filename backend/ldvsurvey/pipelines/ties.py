@@ -11,10 +11,10 @@ import math
 import unicodedata
 
 from ldvsurvey.errors import ParameterError
-from ldvsurvey.pipelines.gravity.network import parse_ties
+from ldvsurvey.pipelines.gravity.network import TIE_SIGMA_MAX_MGAL, parse_ties, tie_sigmas_mgal
 
-#: the 1-σ of a station's absolute g must lie in (0, SIGMA_MAX_MGAL] mGal
-SIGMA_MAX_MGAL = 100.0
+#: the 1-σ of a station's absolute g must lie in (0, SIGMA_MAX_MGAL] mGal (as ``base_ties``' fifth value)
+SIGMA_MAX_MGAL = TIE_SIGMA_MAX_MGAL
 #: longest station name and note (characters)
 NAME_MAX, NOTE_MAX = 100, 500
 
@@ -56,14 +56,11 @@ def check_tie(
     for k, v in values.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise ParameterError(f"{v!r} is not a finite number", field=k)
+    text = f"{lat_deg!r},{lon_deg!r},{h_m!r},{g_mgal!r},{sigma_mgal!r}"
     try:
-        ((lat, lon, h, g),) = parse_ties(f"{lat_deg!r},{lon_deg!r},{h_m!r},{g_mgal!r}")
+        ((lat, lon, h, g),), (sigma_mgal,) = parse_ties(text), tie_sigmas_mgal(text)
     except ParameterError as exc:
         raise ParameterError(_own_words(exc.message), field=_field_of(exc.message, lat_deg)) from None
-    if not 0.0 < sigma_mgal <= SIGMA_MAX_MGAL:
-        raise ParameterError(
-            f"1-σ of g {sigma_mgal:g} mGal out of range (more than 0, at most {SIGMA_MAX_MGAL:g})", field="sigma_mgal"
-        )
     return {
         "name": name,
         "lat_deg": lat,
@@ -77,6 +74,8 @@ def check_tie(
 
 def _field_of(message: str, lat_deg: float) -> str:
     """The station field a ``parse_ties`` refusal is about."""
+    if "SIGMA_MGAL" in message:
+        return "sigma_mgal"
     if "latitude" in message:
         return "lat_deg" if not -90.0 <= lat_deg <= 90.0 else "lon_deg"
     if "height" in message:
@@ -95,16 +94,18 @@ def base_ties_text(ties) -> str | None:
     Parameters
     ----------
     ties : iterable
-        Objects or dicts with ``lat_deg``, ``lon_deg`` (deg), ``h_m`` (m), ``g_mgal`` (mGal).
+        Objects or dicts with ``lat_deg``, ``lon_deg`` (deg), ``h_m`` (m), ``g_mgal`` (mGal) and
+        ``sigma_mgal`` (mGal, the 1-σ of g; a station without one gives four values: g taken as exact).
 
     Returns
     -------
     str or None
-        ``LAT,LON,H_M,G_MGAL;...`` with every digit kept (``repr``), None for no station.
+        ``LAT,LON,H_M,G_MGAL,SIGMA_MGAL;...`` with every digit kept (``repr``), None for no station.
     """
 
     def get(t, k):
-        return t[k] if isinstance(t, dict) else getattr(t, k)
+        return t.get(k) if isinstance(t, dict) else getattr(t, k, None)
 
-    items = [",".join(repr(float(get(t, k))) for k in ("lat_deg", "lon_deg", "h_m", "g_mgal")) for t in ties]
+    keys = ("lat_deg", "lon_deg", "h_m", "g_mgal", "sigma_mgal")
+    items = [",".join(repr(float(get(t, k))) for k in keys if get(t, k) is not None) for t in ties]
     return ";".join(items) or None

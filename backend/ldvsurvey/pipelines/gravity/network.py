@@ -12,6 +12,8 @@ omission error, and each line's half-wavelength resolution from the filter's res
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ldvsurvey.errors import ParameterError
@@ -29,23 +31,45 @@ G_RANGE_MGAL = (976000.0, 984000.0)
 NETWORK_RATE_HZ = 1.0
 #: at most this many flagged residuals are listed in the summary
 MAX_LISTED = 50
+#: the 1-σ of a tie's absolute g (``base_ties``' fifth value, mGal) must lie in (0, TIE_SIGMA_MAX_MGAL]
+TIE_SIGMA_MAX_MGAL = 100.0
+#: fewer GNSS fixes than this along a SINS/LDV line: its height 1-σ stays the navigation filter's
+MIN_HEIGHT_FIXES = 10
+#: a tie given with four values: its g is taken as exact (σ 0 mGal), its weight the stop mean's σ alone
+DEFAULT_TIE_SIGMA_MGAL = 0.0
 
 
 def parse_ties(text) -> list[tuple[float, float, float, float]]:
-    """``LAT,LON,H_M,G_MGAL;...`` into [(lat_deg, lon_deg, h_m, g_mgal)] (ParameterError naming the item)."""
+    """``LAT,LON,H_M,G_MGAL[,SIGMA_MGAL];...`` into [(lat_deg, lon_deg, h_m, g_mgal)] (ParameterError naming
+    the item); the ties' 1-σ: :func:`tie_sigmas_mgal`."""
+    return [t[:4] for t in _tie_items(text)]
+
+
+def tie_sigmas_mgal(text) -> list[float]:
+    """Per tie of ``base_ties``, the 1-σ of its absolute g (mGal): the fifth value, else
+    :data:`DEFAULT_TIE_SIGMA_MGAL` (the g taken as exact)."""
+    return [t[4] for t in _tie_items(text)]
+
+
+def _tie_items(text) -> list[tuple[float, float, float, float, float]]:
+    """``base_ties`` checked item by item: (lat deg, lon deg, h m, g mGal, 1-σ of g mGal)."""
     out = []
     for k, item in enumerate(str(text).split(";")):
         if not item.strip():
             continue
         parts = item.split(",")
         try:
-            lat, lon, h, g = (float(x) for x in parts)
+            if len(parts) not in (4, 5):
+                raise ValueError
+            lat, lon, h, g = (float(x) for x in parts[:4])
+            sigma = float(parts[4]) if len(parts) == 5 else None
         except ValueError:
             raise ParameterError(
-                f"tie {k + 1} ({item.strip()!r}): expected LAT,LON,H_M,G_MGAL (degrees, metres, mGal)",
+                f"tie {k + 1} ({item.strip()!r}): expected LAT,LON,H_M,G_MGAL or LAT,LON,H_M,G_MGAL,SIGMA_MGAL "
+                "(degrees, metres, mGal, mGal)",
                 field="base_ties",
             ) from None
-        if not all(np.isfinite([lat, lon, h, g])):
+        if not all(np.isfinite([lat, lon, h, g, 1.0 if sigma is None else sigma])):
             raise ParameterError(f"tie {k + 1}: values must be finite numbers", field="base_ties")
         if not (-90 <= lat <= 90 and -180 <= lon <= 360):
             raise ParameterError(f"tie {k + 1}: latitude {lat:g} or longitude {lon:g} out of range", field="base_ties")
@@ -57,9 +81,29 @@ def parse_ties(text) -> list[tuple[float, float, float, float]]:
                 f"{G_RANGE_MGAL[0]:.0f} to {G_RANGE_MGAL[1]:.0f} mGal)",
                 field="base_ties",
             )
-        out.append((lat, lon - 360.0 if lon > 180.0 else lon, h, g))  # east of 180° as negative, as the navigation
+        if sigma is not None and not 0.0 < sigma <= TIE_SIGMA_MAX_MGAL:
+            raise ParameterError(
+                f"tie {k + 1}: SIGMA_MGAL, the 1-σ of g, {sigma:g} mGal out of range (more than 0, at most "
+                f"{TIE_SIGMA_MAX_MGAL:g})",
+                field="base_ties",
+            )
+        sigma = DEFAULT_TIE_SIGMA_MGAL if sigma is None else sigma
+        out.append((lat, lon - 360.0 if lon > 180.0 else lon, h, g, sigma))  # east of 180° negative, as the navigation
     if not out:
         raise ParameterError("no tie given", field="base_ties")
+    return out
+
+
+def weigh_ties(ties: list[net.Tie], sigmas_mgal: list[float]) -> list[net.Tie]:
+    """The observed ties with the 1-σ of their stations' g: each tie observation's σ becomes
+    √(σ_stop² + σ_g²) (the stop mean's own and the station's, independent), ``stop_sigma_mgal`` and
+    ``g_sigma_mgal`` keep the two (mGal)."""
+    out = []
+    for t in ties:
+        s_g = float(sigmas_mgal[int(t.name[1:]) - 1])
+        out.append(
+            replace(t, sigma_mgal=float(np.hypot(t.sigma_mgal, s_g)), stop_sigma_mgal=t.sigma_mgal, g_sigma_mgal=s_g)
+        )
     return out
 
 
@@ -227,7 +271,9 @@ def datum_sigma_mgal(adj, lines) -> float:
 
 
 def tie_rows(ties, adj) -> list[dict]:
-    """Per observed tie: the stop's and the tie's δg and the residual after the adjustment (mGal)."""
+    """Per observed tie: the stop's and the tie's δg, the residual after the adjustment and the 1-σ (mGal):
+    ``sigma_mgal`` the observation's, of the stop mean (``stop_sigma_mgal``) and the station's g
+    (``tie_sigma_mgal``) combined."""
     rows = []
     for t in ties:
         pred = adj.correction(t.log, None, t.t_s)[0]
@@ -241,10 +287,18 @@ def tie_rows(ties, adj) -> list[dict]:
                 "stop_dg_mgal": t.measured_mgal,
                 "residual_mgal": t.measured_mgal - t.tie_mgal - pred,
                 "sigma_mgal": t.sigma_mgal,
+                "stop_sigma_mgal": t.sigma_mgal if t.stop_sigma_mgal is None else t.stop_sigma_mgal,
+                "tie_sigma_mgal": t.g_sigma_mgal,
             }
         )
     return rows
 
+
+HEIGHT_SIGMA_NOTE = (
+    "σ_h of δg's height term (0.3086 mGal/m · σ_h): on SINS/LDV lines with GNSS fixes, the navigated height "
+    "against the fixes (RMS difference less the receiver's stated height noise; lines[].h_sigma_source); "
+    "else the navigation filter's own height σ (on SINS/LDV without fixes its prior, a flat metre)"
+)
 
 NETWORK_NOTE = (
     "adjusted values = filtered δg − (log bias + log drift·(t − t_ref) + line bias); the floor is the "
@@ -289,6 +343,7 @@ def survey_network(logs, chains, res, params, lowpass: Lowpass, floors, progress
     origin = network_origin(chains, res)
     lines, src = network_lines(chains, res, floors, origin)
     ties, ties_given = tie_observations(chains, logs, params, origin, warnings)
+    ties = weigh_ties(ties, tie_sigmas_mgal(params.base_ties) if params.base_ties else [])
     groups, clusters = network_points(lines, lowpass, params.spacing_m)
     fit_kw = {"drift": params.network_drift, "line_bias": params.network_line_bias}
     try:
@@ -301,14 +356,15 @@ def survey_network(logs, chains, res, params, lowpass: Lowpass, floors, progress
     residuals, flagged = _residuals(lines, clusters, ties, adj, params.outlier_sigma, origin, ties_given)
     if progress:
         progress("network: absolute values, external check", 0.85)
-    table, per_line = _adjusted_table(lines, src, chains, adj, lowpass)
+    fixes = tuple(int(x) for x in str(params.gnss_fixes or "4").split(","))  # validated at the door: "4,5"
+    h_sigma = [line_height_sigma(chains[ln.log], logs[ln.log], ln.t_s, fixes) for ln in lines]
+    table, per_line = _adjusted_table(lines, src, chains, adj, lowpass, h_sigma)
     for pl, r in zip(per_line, loo["lines"]):
         pl["loo_rms_mgal"] = r
     external = _external_check(
         table, per_line, params.external_model, grid_paths=params.external_grid, grid_id=params.external_grid_id
     )
     rows = tie_rows(ties, adj)
-    fixes = tuple(int(x) for x in str(params.gnss_fixes or "4").split(","))  # validated at the door: "4,5"
     warnings += check_tie_heights(rows, ties_given, chains, logs, fixes)
     summary = {
         "datum": adj.datum,
@@ -327,6 +383,7 @@ def survey_network(logs, chains, res, params, lowpass: Lowpass, floors, progress
         "line_bias": adj.line_bias,
         "parameters": parameter_rows(adj, lines),
         "correlation_time_s": lowpass.correlation_time_s,
+        "height_sigma_note": HEIGHT_SIGMA_NOTE,
         "n_downweighted": int(sum(np.count_nonzero(w < 1.0) for w in adj.weights)),
         "robust": f"Huber down-weighting beyond {net.ROBUST_K:g} σ ({net.ROBUST_ITERATIONS} passes)",
         "n_outliers": len(flagged),
@@ -410,8 +467,10 @@ def _residuals(lines, clusters, ties, adj, k_sigma, origin, ties_given):
     return table, flagged
 
 
-def _adjusted_table(lines, src, chains, adj, lowpass: Lowpass):
-    """gravity_adjusted.csv (1 Hz on the lines' trimmed samples) and the per-line summary."""
+def _adjusted_table(lines, src, chains, adj, lowpass: Lowpass, h_sigma=None):
+    """gravity_adjusted.csv (1 Hz on the lines' trimmed samples) and the per-line summary; ``h_sigma``: per
+    line, the height 1-σ (m) at its samples and its source (:func:`line_height_sigma`; default the
+    navigation filter's)."""
     cols = {
         k: []
         for k in (
@@ -449,7 +508,7 @@ def _adjusted_table(lines, src, chains, adj, lowpass: Lowpass):
         # absolute g = δg + γ(h_nav) does not depend on the navigated height (γ cancels); δg and Δg do:
         # γ evaluated at h_nav + δh moves them by −∂γ/∂h·δh = 0.3086 mGal/m · δh
         sigma_g = np.sqrt(ln.sigma_mgal**2 + cs**2)
-        h_sig = height_sigma_m(ch, ln.t_s)
+        h_sig, h_source = h_sigma[i] if h_sigma is not None else (height_sigma_m(ch, ln.t_s), "navigation filter")
         grad = (normal_gravity(lat, h - 0.5) - normal_gravity(lat, h + 0.5)) / MGAL  # mGal/m
         sigma = np.sqrt(sigma_g**2 + (grad * h_sig) ** 2)
         cols["t_s"] += list(ln.t_s)
@@ -478,6 +537,7 @@ def _adjusted_table(lines, src, chains, adj, lowpass: Lowpass):
                 "sigma_mgal": float(np.sqrt(np.mean(sigma**2))),
                 "g_sigma_mgal": float(np.sqrt(np.mean(sigma_g**2))),
                 "h_sigma_m": float(np.sqrt(np.mean(h_sig**2))),
+                "h_sigma_source": h_source,
                 "height_anomaly_m": float(np.mean(zeta)),
             }
         )
@@ -492,6 +552,61 @@ def height_sigma_m(ch, t_s) -> np.ndarray:
     if ep is None or not len(ep[0]):
         return np.zeros(len(t_s))
     return np.interp(t_s, ep[0], ep[1])
+
+
+def line_height_sigma(ch, log, t_s, fixes=(4,)) -> tuple[np.ndarray, str]:
+    """The height 1-σ (m) of a line's navigated heights at the times ``t_s`` (s), and where it comes from.
+
+    A SINS/LDV chain has no height observation: its filter's σ_h stays at its prior (a flat metre) while
+    the dead-reckoned height is good to centimetres on a survey line. Where the log has GNSS fixes of
+    the ``fixes`` qualities on the line, the navigated height is compared with theirs (antenna brought
+    down by the lever arm's up part, the vehicle about level): the mean square difference less the
+    receiver's stated height variance for those qualities (``gnss.height_noise``: white² +
+    correlated²), floored at the receiver's white σ, is the navigated height's variance on the line.
+    Otherwise (a SINS/GNSS chain, whose filter σ is GNSS-aided, or fewer than :data:`MIN_HEIGHT_FIXES`
+    fixes) the navigation filter's own σ (:func:`height_sigma_m`).
+
+    Parameters
+    ----------
+    ch : dict
+        The line's chain (``kind``, ``t_s`` in s, ``h`` in m, ``h_sigma_epochs``).
+    log : DriveLog
+        Its log (``gnss``: ``t_s`` s, ``h_m`` m ellipsoidal at the antenna, ``fix``; the manifest's lever
+        arm in m and height noise by fix quality in m).
+    t_s : numpy.ndarray
+        The line's sample times (s).
+    fixes : sequence of int
+        GGA fix qualities taken.
+
+    Returns
+    -------
+    tuple
+        (σ_h in m at ``t_s``, the source as text for the summary).
+    """
+    t_s = np.asarray(t_s, float)
+    g = getattr(log, "gnss", None)
+    if ch.get("kind") != "ldv" or g is None or not len(t_s):
+        return height_sigma_m(ch, t_s), "navigation filter"
+    m = (g.t_s >= t_s[0]) & (g.t_s <= t_s[-1]) & np.isin(g.fix, list(fixes)) & np.isfinite(g.h_m)
+    if np.count_nonzero(m) < MIN_HEIGHT_FIXES:
+        return height_sigma_m(ch, t_s), f"navigation filter (fewer than {MIN_HEIGHT_FIXES} GNSS fixes on the line)"
+    tc = np.asarray(ch["t_s"], float)
+    a, b = np.searchsorted(tc, [t_s[0], t_s[-1]])
+    k = slice(max(a - 1, 0), min(b + 1, len(tc)))
+    up = float(np.asarray(log.manifest.gnss.lever_arm_m, float)[2])
+    d = np.interp(g.t_s[m], tc[k], np.asarray(ch["h"][k], float)) - (g.h_m[m] - up)
+    noise = log.manifest.gnss.height_noise
+    spec = [noise.get(str(int(q))) for q in g.fix[m]]
+    var_g = float(np.mean([s.white_m**2 + s.correlated_m**2 if s else 0.0 for s in spec]))
+    white = float(np.sqrt(np.mean([s.white_m**2 if s else 0.0 for s in spec])))
+    ms = float(np.mean(d**2))
+    sigma = float(np.sqrt(max(ms - var_g, white**2)))
+    qual = "/".join(str(q) for q in sorted(set(int(q) for q in g.fix[m])))
+    source = (
+        f"GNSS fix {qual} on the line ({int(np.count_nonzero(m))} fixes): RMS(navigated − GNSS) {np.sqrt(ms):.3f} m "
+        f"less the receiver's stated {np.sqrt(var_g):.3f} m"
+    )
+    return np.full(len(t_s), sigma), source
 
 
 def _external_check(table, per_line, model: str, *, grid_paths=None, grid_id=None) -> dict:

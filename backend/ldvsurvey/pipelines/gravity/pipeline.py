@@ -91,9 +91,10 @@ class GravityParams(CalibrationParams):
     base_ties: Text | None = Field(
         None,
         max_length=10000,
-        description="base stations as LAT,LON,H_M,G_MGAL;... (degrees, ellipsoidal height in m, absolute g in "
-        "mGal): a log standing still within tie_radius_m of one is tied to it; ties at the start and end of a "
-        "log fix its level and linear drift",
+        description="base stations as LAT,LON,H_M,G_MGAL[,SIGMA_MGAL];... (degrees, ellipsoidal height in m, "
+        "absolute g in mGal, optionally its 1-σ in mGal, more than 0 and at most 100; without it the g is taken "
+        "as exact): a log standing still within tie_radius_m of one is tied to it; ties at the start and end of "
+        "a log fix its level and linear drift",
     )
     tie_radius_m: float = Field(
         30.0, gt=0.0, le=1000.0, description="a stop within this distance (m) of a base tie observes it (0 to 1000 m)"
