@@ -466,6 +466,10 @@ def gnss_comparison(rs: RunSetup, cs: ChainSet, res: Evaluation, summary: dict) 
     Returns its evaluation (None when not run or skipped, with a warning saying why)."""
     params, lowpass = rs.params, rs.lowpass
     if not (params.gnss_comparison and all(g is not None for g in cs.gnss)):
+        if params.gnss_comparison and len({c["kind"] for c in cs.main}) > 1:
+            cs.warnings.append(
+                "SINS/GNSS comparison skipped: some logs have no LDV (their SINS/GNSS chain is the result)"
+            )
         return None
     kw = {"strict": False, "leveling": params.line_leveling}
     try:
