@@ -87,16 +87,6 @@ def test_a_stop_near_a_tie_observes_it():
     assert ties == [] and unused[0]["tie"] == "T1"
 
 
-def test_a_log_without_static_gravity_cannot_observe_a_tie():
-    """A log without an LDV has no static chain: base ties are refused naming the parameter, not a crash."""
-    ch = _chain(1000.0, np.radians(28.5), np.radians(113.0), 0.0)
-    del ch["dg_static"]
-    log = types.SimpleNamespace(manifest=types.SimpleNamespace(imu=types.SimpleNamespace(accel_noise_ug_per_rthz=5.0)))
-    with pytest.raises(ParameterError) as e:
-        observed_ties([ch], [log], [(28.5, 113.0, 120.0, 979150.0)], 30.0, (ch["lat"][0], ch["lon"][0]))
-    assert e.value.field == "base_ties" and "no LDV" in e.value.message
-
-
 @pytest.mark.parametrize("params", [{"base_ties": "28.5,113.0,120,979150"}, {}])
 def test_line_levelling_and_the_network_exclude_each_other(params):
     """Levelling moves each log's bias into its lines and the ties would put it back: refused up front."""

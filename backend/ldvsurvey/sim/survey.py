@@ -120,7 +120,8 @@ def day(
     date : str
         Date of the drive (ISO).
     **kw
-        Further :class:`~ldvsurvey.sim.scenario.Scenario` fields (e.g. ``imu_rate_hz``).
+        Further :class:`~ldvsurvey.sim.scenario.Scenario` fields (e.g. ``imu_rate_hz``; ``with_ldv=False``
+        for a day logged without an LDV, the same IMU and GNSS data as with one).
 
     Returns
     -------

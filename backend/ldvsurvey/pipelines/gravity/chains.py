@@ -16,6 +16,8 @@ twice (S) against the GNSS heights brought to the IMU centre with the lever arm,
 fixes are missing (outage, lower quality, multipath) the height is bridged through S tied to
 both gap edges, the height-domain twin of the LDV bridge. The second difference of S − h is δg:
 both sides of the subtraction see the very same differencing, so the FIR treats them alike.
+Its static δg (the stop ties' and base ties' reading, ``dg_static``) is f_U − γ alone: standing
+still the vehicle does not accelerate, so the GNSS heights (only noise there) do not enter it.
 
 The navigation levels its frame to the plumb line (the SINS/LDV filter cannot tell a deflection of
 the vertical from a tilt), GNSS heights are along the ellipsoidal normal: f_U then holds
@@ -319,14 +321,18 @@ def ldv_chain(inp, sol, setup):
     }
 
 
-def _double_integral(t, sol) -> np.ndarray:
+def _double_integral(t, sol, first: np.ndarray | None = None) -> np.ndarray:
     """S (N,) in m: ∫∫ (f_U − γ + Eötvös) dt² at the IMU times (rectangle per interval, then trapezoid).
 
     In blocks of intervals; each running sum carries the previous block's last value into the first term of
-    its block's cumulative sum, which is then the very sequence of additions of one sum over the whole log."""
+    its block's cumulative sum, which is then the very sequence of additions of one sum over the whole log.
+    ``first`` (N,), when given, receives the single integral W = ∫ (f_U − γ + Eötvös) dt (m/s) at the IMU
+    times: exactly piecewise linear between them (the integrand is constant per interval)."""
     n = len(t)
     s = np.empty(n)
     s[0] = 0.0
+    if first is not None:
+        first[0] = 0.0
     w_end = s_end = 0.0  # ∫ (f_U − γ + Eötvös) dt and S at the last sample of the previous block
     for a, b in _blocks(n):
         b1 = min(b + 1, n)  # intervals a..b1−2 (samples a..b1−1)
@@ -350,6 +356,8 @@ def _double_integral(t, sol) -> np.ndarray:
         y = 0.5 * (w + np.r_[w_end, w[:-1]]) * dt
         y[0] += s_end
         s[a + 1 : b1] = np.cumsum(y)
+        if first is not None:
+            first[a + 1 : b1] = w
         w_end, s_end = w[-1], s[b1 - 1]
     return s
 
@@ -437,7 +445,8 @@ def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: f
     tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
     if len(tg) < 20:
         raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")
-    s = _double_integral(t, sol)
+    w_int = np.empty(len(t))
+    s = _double_integral(t, sol, first=w_int)
     # the fixes on a regular grid; the heights bridged through S tied to the gap edges
     step = float(np.median(np.diff(tg)))
     grid = tg[0] + step * np.arange(int(np.floor((tg[-1] - tg[0]) / step + 1e-6)) + 1)
@@ -474,12 +483,22 @@ def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: f
     for a, b in runs(bridged):
         if (b - a) * step > 0.5 * fir_s:
             dg[max(0, a - 1) : b + 1] = np.nan
+    # δg where the vehicle stands (drift and base ties): with v = 0 and v̇ = 0 the accelerometer reads
+    # f_U = g_U, so δg = f_U − γ (+ Eötvös, ≈ 0 at a ZUPT stop) with no height term at all. The GNSS
+    # heights' second difference, which carries the chain's noise, is only noise there and is left out;
+    # each grid time takes the mean over its own step (box, W's difference), so the samples do not
+    # overlap and their scatter is the stop's white noise (drift.stop_sigma).
+    half = 0.5 * step
+    dg_static = (np.interp(tc + half, t, w_int) - np.interp(tc - half, t, w_int)) / step
+    dg_static[(tc - half < t[0]) | (tc + half > t[-1])] = np.nan
+    del w_int
     # horizontal accelerations (navigation frame) over the same three-epoch stencil, for the frame tilt
     v_g = np.column_stack([np.interp(grid, t, sol.v_n[:, i]) for i in (0, 1)])
     a_en = (v_g[2:] - v_g[:-2]) / (2 * step)
     return {
         "t_s": tc,
         "dg": dg,
+        "dg_static": dg_static,
         "lat": np.interp(tc, t, sol.pos[:, 0]),
         "lon": np.interp(tc, t, sol.pos[:, 1]),
         "a_e": a_en[:, 0],

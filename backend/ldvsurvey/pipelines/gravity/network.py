@@ -138,16 +138,11 @@ def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], 
 
     A stop's 1-σ is the data's own (the scatter of its 1-s means, :func:`drift.stop_sigma`,
     lost IMU rows included); only where a stop is too short for that, the white accelerometer noise the
-    manifest states over its duration. A log without a static chain (no LDV) cannot observe a tie."""
+    manifest states over its duration. Both chains read a stop alike: SINS/LDV and SINS/GNSS (no LDV) each
+    carry their static δg, f_U − γ where the vehicle stands (``dg_static``, :mod:`chains`)."""
     out, unused = [], []
     seen = set()
     for ci, ch in enumerate(chains):
-        if "dg_static" not in ch:
-            raise ParameterError(
-                f"bundle {ci + 1} has no LDV: its stops give no static gravity, so base ties cannot be observed "
-                "(leave base_ties out: the SINS/GNSS chain's values stay relative)",
-                field="base_ties",
-            )
         noise = logs[ci].manifest.imu.accel_noise_ug_per_rthz
         drift = ch.get("drift_mps2")
         for tc, la, lo, mean, dur, stop_sigma_mps2 in stop_means(ch, ch["still"]):

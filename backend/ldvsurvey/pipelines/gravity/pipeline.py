@@ -330,8 +330,14 @@ def setup_run(logs, params: GravityParams) -> RunSetup:
             field="line_leveling",
         )
     primary = "ldv" if logs[0].ldv is not None else "gnss"
-    if any((log.ldv is not None) != (primary == "ldv") for log in logs):
-        raise ParameterError("some logs have an LDV and some have none: give logs of one kind", field="log_ids")
+    if not network and any((log.ldv is not None) != (primary == "ldv") for log in logs):
+        # one summary block and one coincidence of two kinds of chains would mix their floors: only the
+        # network weighs each log by its own floor
+        raise ParameterError(
+            "some logs have an LDV and some have none: give logs of one kind, or adjust them as one network "
+            "(network=auto)",
+            field="log_ids",
+        )
     return RunSetup(logs, params, Lowpass(fir_s), trim_s, parse_fixes(params.gnss_fixes), primary, network)
 
 
@@ -381,7 +387,7 @@ def all_chains(rs: RunSetup, progress) -> ChainSet:
     """Every log's chains and the survey lines on them (at least two)."""
     out = ChainSet()
     for i, log in enumerate(rs.logs):
-        if rs.primary == "gnss":  # no LDV: the SINS/GNSS chain is the result (same lines, floor, coincidence)
+        if log.ldv is None:  # no LDV: the SINS/GNSS chain is the result (same lines, floor, coincidence)
             out.main.append(gnss_primary_chain(rs, i, progress))
             out.gnss.append(None)
         else:
@@ -401,9 +407,7 @@ def remove_drift(rs: RunSetup, cs: ChainSet) -> list[dict]:
     reports = []
     for i, ch in enumerate(cs.main):
         rep = {"method": "none", "reason": "drift_correction=none"}
-        if mode != "none" and "dg_static" not in ch:
-            rep = {"method": "none", "reason": "the stop ties use the SINS/LDV chain's δg at stops: no LDV"}
-        elif mode != "none":
+        if mode != "none":  # both chains carry their static δg (SINS/LDV: f_U − γ; SINS/GNSS: the same)
             b, rep = drift_correction(ch, ch["still"], rs.logs[i].manifest.imu.accel_noise_ug_per_rthz, mode)
             if b is not None:
                 # the network's ties read the stops with the same drift removed (drift_mps2)
@@ -434,15 +438,23 @@ def main_summary(rs: RunSetup, cs: ChainSet, res: Evaluation, drift_reports: lis
     cs.drift_reports, cs.first_drift = drift_reports, drift
     floor = with_imu_bridges(combine(floor_of(rs.logs[0], cs.main[0], lowpass), drift), res)
     summary = block(res, lowpass, rs.trim_s, rs.primary, floor)
-    if rs.primary == "ldv":
-        cs.warnings += ldv_gap_warnings(res)
-        summary["ldv_screened_samples"] = int(sum(c["screened"] for c in cs.main))
-    else:
+    kinds = {c["kind"] for c in cs.main}  # both in a network of logs with and without an LDV
+    if "ldv" in kinds:
+        cs.warnings += ldv_gap_warnings(res, cs.main)
+        summary["ldv_screened_samples"] = int(sum(c["screened"] for c in cs.main if c["kind"] == "ldv"))
+    if "gnss" in kinds:
         summary["gnss_fixes"] = list(rs.fixes)
-        summary["screened_fixes"] = int(sum(c["screened"] for c in cs.main))
+        summary["screened_fixes"] = int(sum(c["screened"] for c in cs.main if c["kind"] == "gnss"))
+    if kinds == {"gnss"}:
         summary["chain"] = (
             "SINS/GNSS: the log has no LDV; δg from the GNSS-aided navigation's specific force less the "
             "vertical acceleration of the GNSS heights"
+        )
+    elif len(kinds) > 1:
+        summary["chain"] = (
+            "per log: SINS/LDV where the log has an LDV, SINS/GNSS where it has none (logs "
+            + ", ".join(f"B{i + 1}" for i, c in enumerate(cs.main) if c["kind"] == "gnss")
+            + "); the summary block is the first log's kind, the network weighs each log by its own floor"
         )
     summary["imu_gaps"] = imu_gap_report(rs.logs)
     summary["drift_correction"] = drift_reports[0] if len(drift_reports) == 1 else drift_reports
@@ -455,6 +467,10 @@ def gnss_comparison(rs: RunSetup, cs: ChainSet, res: Evaluation, summary: dict) 
     Returns its evaluation (None when not run or skipped, with a warning saying why)."""
     params, lowpass = rs.params, rs.lowpass
     if not (params.gnss_comparison and all(g is not None for g in cs.gnss)):
+        if params.gnss_comparison and len({c["kind"] for c in cs.main}) > 1:
+            cs.warnings.append(
+                "SINS/GNSS comparison skipped: some logs have no LDV (their SINS/GNSS chain is the result)"
+            )
         return None
     kw = {"strict": False, "leveling": params.line_leveling}
     try:
@@ -608,11 +624,14 @@ def gnss_primary_chain(rs: RunSetup, i: int, progress) -> dict:
     return ch
 
 
-def ldv_gap_warnings(res: Evaluation) -> list[str]:
+def ldv_gap_warnings(res: Evaluation, chains=None) -> list[str]:
     """One warning naming, per line, the LDV data bridged through the navigation velocity (dropouts,
-    low quality, screened values) and what was withheld as unsupported; none when nothing was bridged."""
+    low quality, screened values) and what was withheld as unsupported; none when nothing was bridged.
+    With ``chains`` (the main chains) only the lines of SINS/LDV chains are named."""
     parts = []
     for ln in res.lines:
+        if chains is not None and chains[ln.chain]["kind"] != "ldv":
+            continue
         if ln.bridged_s > 0:
             share = ln.bridged_s / ln.duration_s if ln.duration_s > 0 else 0.0
             parts.append(
