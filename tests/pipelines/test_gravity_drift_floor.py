@@ -38,10 +38,8 @@ def test_drift_floor_matches_the_true_drift(seed):
     assert drift is not None and abs(comb - np.sqrt(white**2 + drift**2 + bridges**2)) < 1e-9
     assert s["total_mgal"] >= comb - 3 * spread
     # the true drift through the same processing
-    params = get("gravity").resolve({})
-    inp, setup, sol = run_navigation(
-        navigation_log(log), {**params, "aiding": "ldv", "smooth": True}, lambda *a, **k: None
-    )
+    params = get("gravity").validate({})
+    inp, setup, sol = run_navigation(navigation_log(log), params, lambda *a, **k: None, aiding="ldv", smooth=True)
     ch = ldv_chain(inp, sol, setup)
     bz = np.interp(ch["t_s"], sim.imu.t_s, sim.extras["imu_errors"]["accel_gm_mps2"][:, 2])
     ch.update(dg=bz.copy(), dg_static=bz.copy(), still=inp.still)

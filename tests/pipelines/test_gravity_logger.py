@@ -117,8 +117,8 @@ def test_the_measured_bridge_sigma_covers_the_true_error(pair):
     from ldvsurvey.pipelines.gravity.pipeline import navigation_log
     from ldvsurvey.pipelines.navigate import run_navigation
 
-    params = get("gravity").resolve({"fir_length_s": FIR_S})
-    inp, _setup, sol = run_navigation(navigation_log(log), {**params, "aiding": "ldv", "smooth": True}, lambda *a: None)
+    params = get("gravity").validate({"fir_length_s": FIR_S})
+    inp, _setup, sol = run_navigation(navigation_log(log), params, lambda *a: None, aiding="ldv", smooth=True)
     sig = lost_increment_sigmas(inp, sol)
     gaps = [g for g in log.imu.bridges if g.lost]
     assert len(sig) == len(gaps) >= 15

@@ -1,8 +1,8 @@
 """The still detection's running filters against scipy.ndimage, the library they stand in for.
 
-``pipelines/stages/start.py`` computes its 1-s running means, the running median's test against the still
-speed and the "moving for a second" test itself, so that a navigation does not import
-scipy.ndimage. Truth here is scipy.ndimage's own answer on random signals of every length and
+``nav/running.py`` computes the still detection's 1-s running means, the running median's test
+against the still speed and the "moving for a second" test itself, so that a navigation does not
+import scipy.ndimage. Truth here is scipy.ndimage's own answer on random signals of every length and
 window (odd and even, longer than the signal, values exactly at the limit): the same numbers bit
 for bit, the same booleans.
 """
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import median_filter, minimum_filter1d, uniform_filter1d
 
-from ldvsurvey.pipelines.stages.start import _all_ahead, running_mean, running_median_within
+from ldvsurvey.nav.running import all_ahead, running_mean, running_median_within
 
 
 def _cases(seed, count=150):
@@ -51,4 +51,4 @@ def test_all_ahead_is_scipy_s_shifted_minimum_filter():
     for rng, n, w in _cases(4):
         flags = rng.random(n) < rng.uniform(0.2, 1.0)
         want = minimum_filter1d(flags.astype(np.uint8), w, mode="constant", cval=0, origin=-(w // 2)) > 0
-        assert np.array_equal(_all_ahead(flags, w), want), (n, w)
+        assert np.array_equal(all_ahead(flags, w), want), (n, w)

@@ -186,16 +186,16 @@ def start_job(
     if len(ids) > 1 and not pipe.multi_input:
         raise ParameterError(f"'{pipe.name}' takes one log", field="log_ids")
     # types and bounds of every parameter, then whether the pipeline applies to these logs: 422 naming the field
-    values = pipe.check([log_facts(r) for r in rows], {k: v for k, v in req.parameters.items() if v is not None})
-    check_job_quota(session, who, st)
     given = {k: v for k, v in req.parameters.items() if v is not None}
+    model = pipe.check([log_facts(r) for r in rows], given)
+    check_job_quota(session, who, st)
     job = jstore.add_job(
         session, pipeline=pipe.name, log_ids=ids, parameters=given, user_id=who.user.id if who.user else None
     )
     session.commit()
     runner.enqueue(job.id)
     out = job_dict(job)
-    out["resolved_parameters"] = values
+    out["resolved_parameters"] = model.model_dump(mode="json")
     return out
 
 

@@ -17,7 +17,15 @@ from sqlalchemy.exc import IntegrityError
 
 from ldvsurvey.errors import InputError
 from ldvsurvey.jobs.queue import make_huey
-from ldvsurvey.pipelines.base import Cancelled, LogFacts, Progress, release_free_memory, result_files, run_pipeline
+from ldvsurvey.pipelines.base import (
+    Cancelled,
+    LogFacts,
+    Params,
+    Progress,
+    release_free_memory,
+    result_files,
+    run_pipeline,
+)
 from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE
 from ldvsurvey.store.db import session_scope
 from ldvsurvey.store.models import Job, JobFile
@@ -155,7 +163,8 @@ class JobRunner:
         # background (it listens meanwhile), saying so in their stage
         wait_for_warmup(lambda: job.report(WAITING_STAGE, 0.0), job.cancelled)
         pipe = get(job.pipeline)
-        check_applicable(self.database_url, pipe, job.log_ids, job.params)  # the logs may have changed since the submit
+        # the logs may have changed since the submit; the run takes the model validated here
+        job.params = check_applicable(self.database_url, pipe, job.log_ids, job.params)
         return pipe
 
     def _load_logs(self, job: _Attempt) -> list:
@@ -289,7 +298,7 @@ class _Attempt:
         self._stop.set()
 
 
-def check_applicable(database_url: str, pipe, log_ids: list[int], params: dict) -> dict:
+def check_applicable(database_url: str, pipe, log_ids: list[int], params: dict) -> Params:
     """The submit-time check again, in the worker: :meth:`Pipeline.check` on the stored logs' facts.
 
     Parameters
@@ -305,8 +314,8 @@ def check_applicable(database_url: str, pipe, log_ids: list[int], params: dict) 
 
     Returns
     -------
-    dict
-        The validated parameters, defaults filled in.
+    Params
+        The pipeline's validated parameter model, defaults filled in.
 
     Raises
     ------

@@ -339,14 +339,14 @@ class Pipeline:
                 )
             raise err from None
 
-    def resolve(self, given: dict) -> dict:
-        """All parameter values, defaults included, as the dict the pipeline function takes."""
-        return self.validate(given).model_dump()
+    def model_of(self, given: dict | Params) -> Params:
+        """``given`` itself when it already is this pipeline's validated model, else :meth:`validate`."""
+        return given if type(given) is self.model else self.validate(given)
 
-    def check(self, logs: list[LogFacts], given: dict) -> dict:
-        """:meth:`resolve` plus the applicability to ``logs``; the first reason raised as a
-        :class:`ParameterError` (all reasons in its message)."""
-        params = self.validate(given)
+    def check(self, logs: list[LogFacts], given: dict | Params) -> Params:
+        """The validated parameter model (:meth:`model_of`) once it applies to ``logs``; the first
+        reason raised as a :class:`ParameterError` (all reasons in its message)."""
+        params = self.model_of(given)
         if not self.multi_input and len(logs) != 1:
             raise ParameterError(f"'{self.name}' takes exactly one log, got {len(logs)}", field="log_ids")
         reasons = self.applicable(logs, params)
@@ -355,7 +355,7 @@ class Pipeline:
                 f"'{self.name}' cannot run here: " + "; ".join(f"{r.field}: {r.message}" for r in reasons),
                 field=reasons[0].field,
             )
-        return params.model_dump()
+        return params
 
 
 def parse_set_args(items: list[str]) -> dict:
@@ -387,10 +387,14 @@ def _jsonable(x):
     return x
 
 
-def run_pipeline(pipe: Pipeline, logs: list, params: dict, progress: Progress | None = None) -> PipelineResult:
-    """Run ``pipe`` on parsed drive logs and add the common summary keys."""
+def run_pipeline(pipe: Pipeline, logs: list, params: dict | Params, progress: Progress | None = None) -> PipelineResult:
+    """Run ``pipe`` on parsed drive logs and add the common summary keys.
+
+    ``params`` is the pipeline's validated model (from :meth:`Pipeline.check` or
+    :meth:`Pipeline.validate`: used as it is) or a dict of given values (validated here).
+    """
     progress = progress or Progress()
-    model = pipe.validate(params)
+    model = pipe.model_of(params)
     values = model.model_dump()
     if not pipe.multi_input and len(logs) != 1:
         raise ParameterError(f"'{pipe.name}' takes exactly one bundle, got {len(logs)}", field="BUNDLE")

@@ -20,7 +20,7 @@ from ldvsurvey.pipelines.stages.aids import c_bs_of, nav_inputs
 from ldvsurvey.pipelines.stages.ldv_mounting import calibration_stage, time_window
 from ldvsurvey.pipelines.stages.plumb_line import DovParams, apply_dov
 from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
-from ldvsurvey.units import RAD_PER_DEG as RAD
+from ldvsurvey.units import G0_MPS2, RAD_PER_DEG
 
 
 class CalibrateParams(DovParams):
@@ -85,15 +85,15 @@ def run(logs: list[DriveLog], params: CalibrateParams, progress: Progress) -> Pi
         extra = {"alpha_rad": est.alpha_rad, "beta_rad": est.beta_rad}
     cal = calibration_stage(inp, cbs, params.calibration_window, progress)
     s = {
-        "ldv_pitch_deg": cal.pitch_rad / RAD,
-        "ldv_pitch_deg_sigma": cal.sigma["pitch"] / RAD,
-        "ldv_heading_deg": cal.heading_rad / RAD,
-        "ldv_heading_deg_sigma": cal.sigma["heading"] / RAD,
+        "ldv_pitch_deg": cal.pitch_rad / RAD_PER_DEG,
+        "ldv_pitch_deg_sigma": cal.sigma["pitch"] / RAD_PER_DEG,
+        "ldv_heading_deg": cal.heading_rad / RAD_PER_DEG,
+        "ldv_heading_deg_sigma": cal.sigma["heading"] / RAD_PER_DEG,
         "ldv_scale": cal.scale,
         "ldv_scale_sigma": cal.sigma["scale"],
         "ldv_pitch_k_rad_per_mps2": cal.pitch_k_rad_per_mps2,
         "ldv_pitch_k_rad_per_mps2_sigma": cal.sigma["pitch_k"],
-        "ldv_pitch_compliance_deg_per_g": cal.pitch_k_rad_per_mps2 / RAD * 9.80665,
+        "ldv_pitch_compliance_deg_per_g": cal.pitch_k_rad_per_mps2 / RAD_PER_DEG * G0_MPS2,
         "fix_qualities": list(cal.fixes),
         "segment_t_s": list(cal.window_s),
         "method": "kalman filter with LDV states: travel direction (pitch, heading, pitch compliance "

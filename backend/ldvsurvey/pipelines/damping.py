@@ -25,7 +25,7 @@ from ldvsurvey.pipelines.base import (
 )
 from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, initial_attitude, nav_inputs
 from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
-from ldvsurvey.units import RAD_PER_DEG as DEG
+from ldvsurvey.units import RAD_PER_DEG
 
 
 class DampingParams(Params):
@@ -117,7 +117,7 @@ def _filter_inputs(inp: NavInputs, cbs, params: DampingParams) -> tuple[ImuIn, S
     p0 = (
         np.concatenate(
             [
-                np.array([0.05, 0.05, 2.0]) * DEG,
+                np.array([0.05, 0.05, 2.0]) * RAD_PER_DEG,
                 np.full(3, 0.05),
                 np.full(3, 1.0),
                 np.full(3, max(noise.gyro_bias_rps, 1e-9)),
@@ -136,8 +136,8 @@ def _filter_inputs(inp: NavInputs, cbs, params: DampingParams) -> tuple[ImuIn, S
         inp.ldv_ok,
         inp.nu_f_mps,
         1.0 / nom.scale,
-        nom.pitch_deg * DEG,
-        nom.heading_deg * DEG,
+        nom.pitch_deg * RAD_PER_DEG,
+        nom.heading_deg * RAD_PER_DEG,
         float(params.ldv_sigma_mps),
     )
     dmp = Damping(

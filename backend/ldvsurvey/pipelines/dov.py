@@ -37,6 +37,7 @@ from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, gnss_ins, nav_in
 from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE  # defined there, so setting it need not import this module
 from ldvsurvey.pipelines.stages.plumb_line import load_grids
 from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
+from ldvsurvey.units import ARCSEC_PER_RAD
 
 
 class DovStudyParams(Params):
@@ -277,8 +278,8 @@ def _table(t_s, track_deg: tuple, xi, eta, out: dict, output_rate_hz: float) -> 
         "t_s": t_out,
         "lat_deg": lat_deg[step - 1 :: step],
         "lon_deg": lon_deg[step - 1 :: step],
-        "xi_arcsec": np.degrees(xi[step - 1 :: step]) * 3600,
-        "eta_arcsec": np.degrees(eta[step - 1 :: step]) * 3600,
+        "xi_arcsec": xi[step - 1 :: step] * ARCSEC_PER_RAD,
+        "eta_arcsec": eta[step - 1 :: step] * ARCSEC_PER_RAD,
     }
     for name in ("direct", "rk4", "theoretical"):
         to, dn, de = out[name]
@@ -373,7 +374,7 @@ def run(logs: list[DriveLog], params: DovStudyParams, progress: Progress) -> Pip
         "dov_source": grid.source,
         "mechanization_vs_reference_max_m": ins_drift_m,
         "rotating_imu": rot is not None,
-        "initial_misalignment_arcsec": (np.degrees(phi0) * 3600).tolist(),
+        "initial_misalignment_arcsec": (phi0 * ARCSEC_PER_RAD).tolist(),
         "xi_range_arcsec": [float(cols["xi_arcsec"].min()), float(cols["xi_arcsec"].max())],
         "eta_range_arcsec": [float(cols["eta_arcsec"].min()), float(cols["eta_arcsec"].max())],
     }

@@ -12,7 +12,7 @@ import numpy as np
 from pydantic import Field
 
 from ldvsurvey.io.drivelog import DriveLog
-from ldvsurvey.nav.filter import LdvAid, forward_accel_mps2, ldv_spikes
+from ldvsurvey.nav.filter import LdvAid, forward_accel_mps2
 from ldvsurvey.pipelines.base import (
     LogFacts,
     Pipeline,
@@ -30,6 +30,7 @@ from ldvsurvey.pipelines.stages.aids import (
     c_bs_of,
     nav_inputs,
     run_navigation_filter,
+    usable_ldv,
 )
 from ldvsurvey.pipelines.stages.ldv_mounting import (
     CalibrationParams,
@@ -116,10 +117,7 @@ def _ldv_samples(log: DriveLog, inp: NavInputs, setup: LdvSetup) -> tuple[LdvAid
     m = log.manifest
     ldv = log.ldv
     t_l = ldv.t_s
-    ok = np.ones(len(t_l), bool)
-    if ldv.quality is not None and m.ldv.min_quality is not None:
-        ok = ldv.quality >= m.ldv.min_quality
-    ok &= ~ldv_spikes(ldv.v_fwd_mps, ok)  # spikes flagged good (the same screen as the filter's input)
+    ok = usable_ldv(log)  # the same screen as the filter's input
     inside = (t_l >= inp.t_s[0]) & (t_l <= inp.t_s[-1])
     t_l, ok = t_l[inside], ok[inside]
     nu_f = ldv.v_fwd_mps[inside]

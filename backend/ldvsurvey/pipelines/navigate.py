@@ -41,7 +41,7 @@ from ldvsurvey.pipelines.stages.ldv_mounting import (
 )
 from ldvsurvey.pipelines.stages.plumb_line import DOV_HELP, DovChoice, DovParams, apply_dov
 from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
-from ldvsurvey.units import DEG_PER_RAD as DEG
+from ldvsurvey.units import DEG_PER_RAD, DPH_PER_RPS, UG_PER_MPS2
 
 
 class NavigateParams(CalibrationParams, DovParams):
@@ -224,18 +224,18 @@ def run(logs: list[DriveLog], params: NavigateParams, progress: Progress) -> Pip
     sg = sol.sigma_at(sl)
     table = {
         "t_s": sol.t_s[sl],
-        "lat_deg": sol.pos[sl, 0] * DEG,
-        "lon_deg": sol.pos[sl, 1] * DEG,
+        "lat_deg": sol.pos[sl, 0] * DEG_PER_RAD,
+        "lon_deg": sol.pos[sl, 1] * DEG_PER_RAD,
         "h_m": sol.pos[sl, 2],
         "v_e_mps": sol.v_n[sl, 0],
         "v_n_mps": sol.v_n[sl, 1],
         "v_u_mps": sol.v_n[sl, 2],
-        "pitch_deg": p * DEG,
-        "roll_deg": r * DEG,
-        "heading_deg": hd * DEG,
-        "tilt_e_sigma_deg": sg[:, 0] * DEG,
-        "tilt_n_sigma_deg": sg[:, 1] * DEG,
-        "heading_sigma_deg": sg[:, 2] * DEG,
+        "pitch_deg": p * DEG_PER_RAD,
+        "roll_deg": r * DEG_PER_RAD,
+        "heading_deg": hd * DEG_PER_RAD,
+        "tilt_e_sigma_deg": sg[:, 0] * DEG_PER_RAD,
+        "tilt_n_sigma_deg": sg[:, 1] * DEG_PER_RAD,
+        "heading_sigma_deg": sg[:, 2] * DEG_PER_RAD,
         "v_e_sigma_mps": sg[:, 3],
         "v_n_sigma_mps": sg[:, 4],
         "v_u_sigma_mps": sg[:, 5],
@@ -251,8 +251,8 @@ def run(logs: list[DriveLog], params: NavigateParams, progress: Progress) -> Pip
         "rms_horizontal_error_m": None if horiz is None else float(np.sqrt(np.mean(horiz**2))),
         "n_reference": n_ref,
         "rejected_measurements": sol.rejected,
-        "gyro_bias_dph": (sol.gyro_bias_rps * DEG * 3600).tolist(),
-        "accel_bias_ug": (sol.accel_bias_mps2 / 9.80665e-6).tolist(),
+        "gyro_bias_dph": (sol.gyro_bias_rps * DPH_PER_RPS).tolist(),
+        "accel_bias_ug": (sol.accel_bias_mps2 * UG_PER_MPS2).tolist(),
     }
     s["dov"], warnings = inp.cache["dov"]
     warnings = list(warnings)

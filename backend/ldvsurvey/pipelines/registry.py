@@ -93,8 +93,8 @@ def run_pipeline_cli(
     from ldvsurvey.pipelines.stages.grid_cache import GRID_CACHE
 
     pipe = get(name)
-    params = parse_set_args(sets)
-    pipe.validate(params)  # unknown, malformed or out-of-range parameters fail before any work
+    # unknown, malformed or out-of-range parameters fail before any work; validated once, here
+    params = pipe.validate(parse_set_args(sets))
     logs = [load_bundle(b) for b in bundles]
     pipe.check([LogFacts.of_log(log) for log in logs], params)  # and a pipeline that cannot apply
 

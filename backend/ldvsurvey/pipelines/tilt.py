@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import DriveLog
@@ -12,7 +11,6 @@ from ldvsurvey.nav.filter import NavSolution
 from ldvsurvey.nav.turntable import TiltEstimate, oscillation_per_cycle
 from ldvsurvey.pipelines.base import (
     LogFacts,
-    Params,
     Pipeline,
     PipelineResult,
     Progress,
@@ -21,29 +19,15 @@ from ldvsurvey.pipelines.base import (
     rate_within_imu,
 )
 from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, gnss_aid, ldv_aid, nav_inputs, run_navigation_filter
+from ldvsurvey.pipelines.stages.ldv_mounting import LdvMountingParams
 from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
-from ldvsurvey.units import RAD_PER_DEG as RAD
+from ldvsurvey.units import RAD_PER_DEG
 
 
-class TiltParams(Params):
-    """Parameters of ``tilt``."""
+class TiltParams(LdvMountingParams):
+    """Parameters of ``tilt``: the LDV mounting for the aiding (none given: the manifest's nominal)."""
 
     output_rate_hz: float = output_rate(10.0, "attitude.csv")
-    ldv_pitch_deg: float | None = Field(
-        None,
-        ge=-45.0,
-        le=45.0,
-        description="LDV mounting pitch in degrees for the aiding (|η_L| ≤ 45°; default: manifest nominal)",
-    )
-    ldv_heading_deg: float | None = Field(
-        None,
-        ge=-360.0,
-        le=360.0,
-        description="LDV mounting heading in degrees (−360° to 360°; default: manifest nominal)",
-    )
-    ldv_scale: float | None = Field(
-        None, ge=0.5, le=1.5, description="LDV scale factor (0.5 to 1.5; default: manifest nominal)"
-    )
 
 
 def applicable(logs: list[LogFacts], params: TiltParams) -> list[Reason]:
@@ -89,8 +73,8 @@ def compensated_attitude(
         aid = ldv_aid(
             inp,
             scale=params.ldv_scale,
-            pitch_rad=None if params.ldv_pitch_deg is None else params.ldv_pitch_deg * RAD,
-            heading_rad=None if params.ldv_heading_deg is None else params.ldv_heading_deg * RAD,
+            pitch_rad=None if params.ldv_pitch_deg is None else params.ldv_pitch_deg * RAD_PER_DEG,
+            heading_rad=None if params.ldv_heading_deg is None else params.ldv_heading_deg * RAD_PER_DEG,
         )
         sol = run_navigation_filter(inp, cbs=cbs, ldv=aid)
     c_bn = sol.c_bn()
@@ -138,14 +122,7 @@ def run(logs: list[DriveLog], params: TiltParams, progress: Progress) -> Pipelin
     """
     log = logs[0]
     progress("preparing", 0.02)
-    inp = nav_inputs(log)
-    if inp.eta_rad is None:
-        raise ParameterError(
-            "tilt compensation needs a rotating IMU: the manifest says imu.rotating is false "
-            "and imu.csv has no turntable_deg",
-            file="imu.csv",
-            field="turntable_deg",
-        )
+    inp = nav_inputs(log)  # a fixed IMU: refused by applicable and by tilt_stage
     progress("fine alignment and turntable stops", 0.1)
     est, stops = tilt_stage(inp)
     if not est.observable:  # the other pipelines go on with α = β = 0; this one has nothing to report

@@ -1,6 +1,11 @@
-"""From a parsed bundle to navigation inputs: aids, static periods, alignment, navigation runs.
+"""From a parsed bundle to navigation inputs, the filter's aids and a navigation run on them.
 
-Shared by the pipelines. Knows the bundle model and the numerical core, nothing of storage.
+:func:`nav_inputs` loads a log into arrays (:class:`NavInputs`: IMU increments, the usable LDV
+speeds at the IMU samples, still intervals, start; the still and start detection itself lives in
+:mod:`ldvsurvey.pipelines.stages.start`); :func:`usable_ldv` screens the LDV samples; :func:`gnss_aid`
+and :func:`ldv_aid` build the filter's aids; :func:`run_navigation_filter` runs the filter (and
+smoother) on a loaded log. Shared by the pipelines. Knows the bundle model and the numerical core,
+nothing of storage.
 """
 
 from __future__ import annotations
@@ -19,13 +24,13 @@ from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, ldv_spikes, run_filter
 from ldvsurvey.pipelines.base import warn
 from ldvsurvey.pipelines.stages.start import (
-    _body_signals,
-    _still_intervals,
+    body_force_and_rate,
     detect_static_start,
     initial_position,
     moving_start,
+    still_intervals,
 )
-from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402
+from ldvsurvey.units import RAD_PER_DEG
 
 #: fix quality -> 1-σ (horizontal, vertical) in m assumed for a survey receiver
 GNSS_SIGMA = {4: (0.03, 0.05), 5: (0.3, 0.5), 2: (1.0, 2.0), 1: (3.0, 5.0)}
@@ -75,14 +80,34 @@ class NavInputs:
             self.warnings = []
 
 
-def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
+def usable_ldv(log: DriveLog) -> np.ndarray:
+    """Which of the LDV's own samples may be used: the filter's input screen.
+
+    Parameters
+    ----------
+    log : DriveLog
+        A parsed bundle with an LDV.
+
+    Returns
+    -------
+    ndarray
+        (M,) bool per ``ldv.csv`` sample: its quality is at least the manifest's ``ldv.min_quality``
+        (every sample when either is absent) and it is not a spike flagged good
+        (:func:`ldvsurvey.nav.filter.ldv_spikes`).
+    """
     ldv = log.ldv
-    t = ldv.t_s
-    ok_l = np.ones(len(t), bool)
+    ok = np.ones(len(ldv.t_s), bool)
     mq = log.manifest.ldv.min_quality
     if ldv.quality is not None and mq is not None:
-        ok_l = ldv.quality >= mq
-    ok_l = ok_l & ~ldv_spikes(ldv.v_fwd_mps, ok_l)  # spikes flagged good
+        ok = ldv.quality >= mq
+    return ok & ~ldv_spikes(ldv.v_fwd_mps, ok)
+
+
+def _interp_ldv(log: DriveLog, t_imu: np.ndarray):
+    """The usable LDV speeds (:func:`usable_ldv`) at the IMU samples (m/s) and where they are usable."""
+    ldv = log.ldv
+    t = ldv.t_s
+    ok_l = usable_ldv(log)
     tg, vf = t[ok_l], ldv.v_fwd_mps[ok_l]
     if len(tg) < 2:
         raise ParameterError("the LDV has fewer than two samples above min_quality", field="ldv.csv")
@@ -156,8 +181,8 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         ok, nu_f, nu_u = np.zeros(len(t), bool), np.zeros(len(t)), None
         speed_ok, speed = _gnss_speed_at(log, t)
         by = "the GNSS track"
-    f_b, w_z = _body_signals(t, imu.dtheta_rad, imu.dvel_mps, eta)
-    still = _still_intervals(t, speed, speed_ok, f_b=f_b, w_z=w_z)
+    f_b, w_z = body_force_and_rate(t, imu.dtheta_rad, imu.dvel_mps, eta)
+    still = still_intervals(t, speed, speed_ok, f_b=f_b, w_z=w_z)
     static_s = m.initial.static_s
     start = None
     warnings = []
@@ -276,8 +301,8 @@ def gnss_aid(log: DriveLog, fixes=NAV_FIXES, window=None) -> GnssAid | None:
     sig = np.array([GNSS_SIGMA.get(int(f), (np.nan, np.nan)) for f in g.fix[keep]])
     return GnssAid(
         g.t_s[keep],
-        g.lat_deg[keep] * RAD,
-        g.lon_deg[keep] * RAD,
+        g.lat_deg[keep] * RAD_PER_DEG,
+        g.lon_deg[keep] * RAD_PER_DEG,
         g.h_m[keep],
         sig[:, 0],
         sig[:, 1],
@@ -310,8 +335,8 @@ def ldv_aid(inp: NavInputs, scale=None, pitch_rad=None, heading_rad=None, scale_
         inp.nu_f_mps,
         inp.nu_u_mps,
         scale=nom.scale if scale is None else scale,
-        pitch_rad=nom.pitch_deg * RAD if pitch_rad is None else pitch_rad,
-        heading_rad=nom.heading_deg * RAD if heading_rad is None else heading_rad,
+        pitch_rad=nom.pitch_deg * RAD_PER_DEG if pitch_rad is None else pitch_rad,
+        heading_rad=nom.heading_deg * RAD_PER_DEG if heading_rad is None else heading_rad,
         scale_up=scale_up,
         lever_arm_m=tuple(inp.log.manifest.ldv.lever_arm_m),
     )
@@ -328,7 +353,7 @@ GYRO_SCALE_Z_SIGMA = 3e-4
 
 #: initial σ of an alignment on the move: level from the specific force less the LDV acceleration
 #: (Coriolis and mounting neglected), heading from a GNSS course over 1 s; velocity from the LDV
-MOVING_ATT_SIGMA0_RAD = (0.3 * RAD, 0.3 * RAD, 3.0 * RAD)
+MOVING_ATT_SIGMA0_RAD = (0.3 * RAD_PER_DEG, 0.3 * RAD_PER_DEG, 3.0 * RAD_PER_DEG)
 MOVING_VEL_SIGMA0_MPS = 0.3
 MOVING_POS_SIGMA0_M = 3.0  #: a single-point fix carried back along the road
 
@@ -336,7 +361,7 @@ MOVING_POS_SIGMA0_M = 3.0  #: a single-point fix carried back along the road
 def pipeline_cfg(**kw) -> FilterConfig:
     """The filter configuration the pipelines use (coarse-alignment σ, unmodelled gravity)."""
     base = dict(
-        att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2.0 * RAD),
+        att_sigma0_rad=(0.05 * RAD_PER_DEG, 0.05 * RAD_PER_DEG, 2.0 * RAD_PER_DEG),
         gravity_noise_mgal=GRAVITY_NOISE_MGAL,
         dov_noise_mgal=DOV_NOISE_MGAL,
         gyro_scale_z_sigma0=GYRO_SCALE_Z_SIGMA,

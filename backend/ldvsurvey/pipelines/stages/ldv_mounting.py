@@ -27,8 +27,7 @@ from ldvsurvey.pipelines.stages.aids import (
     run_navigation_filter,
 )
 from ldvsurvey.pipelines.stages.turntable_tilt import tilt_stage
-from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
-from ldvsurvey.units import RAD_PER_DEG as RAD
+from ldvsurvey.units import G0_MPS2, RAD_PER_DEG
 
 
 @dataclass
@@ -109,7 +108,12 @@ def _choose_window(inp: NavInputs, window=None, min_distance_m: float = 500.0):
             if len(mv) < 2:
                 continue
             r = r[(r >= mv[0]) & (r <= mv[-1])]
-            e, n = local_metres(g.lat_deg[r[0]] * RAD, g.lon_deg[r[0]] * RAD, g.lat_deg[r] * RAD, g.lon_deg[r] * RAD)
+            e, n = local_metres(
+                g.lat_deg[r[0]] * RAD_PER_DEG,
+                g.lon_deg[r[0]] * RAD_PER_DEG,
+                g.lat_deg[r] * RAD_PER_DEG,
+                g.lon_deg[r] * RAD_PER_DEG,
+            )
             d = float(np.sum(np.hypot(np.diff(e), np.diff(n))))
             if d > best_d:
                 best, best_d = (float(g.t_s[r[0]]), float(g.t_s[r[-1]])), d
@@ -329,8 +333,8 @@ def _window_samples(inp: NavInputs, sol, win: _Windows) -> _WindowSamples:
         c_bn=sol.c_bn(k),  # over the window only
         gk=gk,
         lev_n_m=c_fix @ lev,
-        lat_rad=g.lat_deg[gk] * RAD,
-        lon_rad=g.lon_deg[gk] * RAD,
+        lat_rad=g.lat_deg[gk] * RAD_PER_DEG,
+        lon_rad=g.lon_deg[gk] * RAD_PER_DEG,
     )
 
 
@@ -344,7 +348,7 @@ def _closed_form(inp: NavInputs, w: _WindowSamples) -> dict:
     e, n = local_metres(w.lat_rad[0], w.lon_rad[0], w.lat_rad, w.lon_rad)
     gpos = np.column_stack([e - lev_n[:, 0], n - lev_n[:, 1], g.h_m[w.gk] - lev_n[:, 2]])
     gpos -= gpos[0]
-    pitch, heading, scale = nom.pitch_deg * RAD, nom.heading_deg * RAD, nom.scale
+    pitch, heading, scale = nom.pitch_deg * RAD_PER_DEG, nom.heading_deg * RAD_PER_DEG, nom.scale
     nu_u = inp.nu_u_mps[w.k] if inp.nu_u_mps is not None else None
     for _ in range(3):
         aid = LdvAid(
@@ -369,11 +373,11 @@ def _closed_form(inp: NavInputs, w: _WindowSamples) -> dict:
     span = float(np.sqrt(np.sum(d2**2)))
     resid_v = res_h - np.polyval(np.polyfit(dist, res_h, 1), dist)
     return {
-        "ldv_pitch_deg": pitch / RAD,
-        "ldv_heading_deg": heading / RAD,
+        "ldv_pitch_deg": pitch / RAD_PER_DEG,
+        "ldv_heading_deg": heading / RAD_PER_DEG,
         "ldv_scale": scale,
-        "ldv_pitch_deg_sigma": float(np.std(resid_v) / np.sqrt(np.sum((dist - dist.mean()) ** 2)) / RAD),
-        "ldv_heading_deg_sigma": rms_h / span / RAD,
+        "ldv_pitch_deg_sigma": float(np.std(resid_v) / np.sqrt(np.sum((dist - dist.mean()) ** 2)) / RAD_PER_DEG),
+        "ldv_heading_deg_sigma": rms_h / span / RAD_PER_DEG,
         "ldv_scale_sigma": rms_h / span * scale,
         "n_fixes": int(len(dist)),
     }
@@ -467,8 +471,37 @@ def calibration_stage(
     return cal
 
 
-class CalibrationParams(Params):
-    """The parameters shared by every pipeline that navigates with a calibrated LDV."""
+class LdvMountingParams(Params):
+    """The LDV mounting and scale a user may give: each given value wins over the manifest's nominal
+    one and over any calibration (shared by ``tilt``'s aiding and :class:`CalibrationParams`)."""
+
+    ldv_pitch_deg: float | None = Field(
+        None,
+        ge=-45.0,
+        le=45.0,
+        description="LDV mounting pitch η_L in degrees (|η_L| ≤ 45°; default: calibrated or manifest nominal)",
+    )
+    ldv_heading_deg: float | None = Field(
+        None,
+        ge=-360.0,
+        le=360.0,
+        description="LDV mounting heading φ_L in degrees (−360° to 360°; default: calibrated or manifest nominal)",
+    )
+    ldv_scale: float | None = Field(
+        None,
+        ge=0.5,
+        le=1.5,
+        description="LDV scale factor K (dimensionless, 0.5 to 1.5; default: calibrated or manifest nominal)",
+    )
+
+    @property
+    def mounting_given(self) -> bool:
+        """Pitch, heading and scale are all given: nothing is left for a calibration to estimate."""
+        return None not in (self.ldv_pitch_deg, self.ldv_heading_deg, self.ldv_scale)
+
+
+class _CalibrationChoice(Params):
+    """How the LDV is calibrated (declared before the mounting so forms and tables list it first)."""
 
     calibration: Literal["auto", "nominal"] = Field(
         "auto",
@@ -478,15 +511,17 @@ class CalibrationParams(Params):
     calibration_window: Floats | None = Field(
         None, description="t0,t1 in s (time of day, inside the log) for the automatic calibration"
     )
-    ldv_pitch_deg: float | None = Field(
-        None, ge=-45.0, le=45.0, description="LDV mounting pitch η_L in degrees (|η_L| ≤ 45°)"
-    )
-    ldv_heading_deg: float | None = Field(
-        None, ge=-360.0, le=360.0, description="LDV mounting heading φ_L in degrees (−360° to 360°)"
-    )
-    ldv_scale: float | None = Field(
-        None, ge=0.5, le=1.5, description="LDV scale factor K (dimensionless, 0.5 to 1.5: a calibration near 1)"
-    )
+
+    @field_validator("calibration_window")
+    @classmethod
+    def _window(cls, v):
+        return time_window(v)
+
+
+class CalibrationParams(LdvMountingParams, _CalibrationChoice):
+    """The parameters shared by every pipeline that navigates with a calibrated LDV: the calibration
+    choice, the given mounting and scale (:class:`LdvMountingParams`) and the pitch compliance."""
+
     ldv_pitch_k_rad_per_mps2: float | None = Field(
         None,
         ge=-0.02,
@@ -494,11 +529,6 @@ class CalibrationParams(Params):
         description="pitch compliance k_η: pitch of the travel direction the LDV "
         "sees per m/s² of forward acceleration (squat/dive), rad per m/s² (|k_η| ≤ 0.02, about 11° per g)",
     )
-
-    @field_validator("calibration_window")
-    @classmethod
-    def _window(cls, v):
-        return time_window(v)
 
     @property
     def given_ldv(self) -> dict[str, float]:
@@ -511,11 +541,6 @@ class CalibrationParams(Params):
             "ldv_pitch_k_rad_per_mps2": self.ldv_pitch_k_rad_per_mps2,
         }
         return {k: v for k, v in values.items() if v is not None}
-
-    @property
-    def mounting_given(self) -> bool:
-        """Pitch, heading and scale are all given: nothing is left for a calibration to estimate."""
-        return None not in (self.ldv_pitch_deg, self.ldv_heading_deg, self.ldv_scale)
 
 
 def time_window(v):
@@ -556,8 +581,8 @@ def _calibration_info(cal: Calibration, joint: bool) -> dict:
         "segment_t_s": list(cal.window_s),
         "fix_qualities": list(cal.fixes),
         "sigma": {
-            "ldv_pitch_deg": cal.sigma["pitch"] / RAD,
-            "ldv_heading_deg": cal.sigma["heading"] / RAD,
+            "ldv_pitch_deg": cal.sigma["pitch"] / RAD_PER_DEG,
+            "ldv_heading_deg": cal.sigma["heading"] / RAD_PER_DEG,
             "ldv_scale": cal.sigma["scale"],
             "ldv_pitch_k_rad_per_mps2": cal.sigma["pitch_k"],
         },
@@ -609,8 +634,8 @@ def ldv_setup(
     given = params.given_ldv
     info = {"source": "nominal"}
     pitch, heading, scale, scale_up = (
-        m.ldv.nominal.pitch_deg * RAD,
-        m.ldv.nominal.heading_deg * RAD,
+        m.ldv.nominal.pitch_deg * RAD_PER_DEG,
+        m.ldv.nominal.heading_deg * RAD_PER_DEG,
         m.ldv.nominal.scale,
         1.0,
     )
@@ -628,9 +653,9 @@ def ldv_setup(
             pitch_k = cal.pitch_k_rad_per_mps2
             info = _calibration_info(cal, joint)
     if "ldv_pitch_deg" in given:
-        pitch = given["ldv_pitch_deg"] * RAD
+        pitch = given["ldv_pitch_deg"] * RAD_PER_DEG
     if "ldv_heading_deg" in given:
-        heading = given["ldv_heading_deg"] * RAD
+        heading = given["ldv_heading_deg"] * RAD_PER_DEG
     if "ldv_scale" in given:
         scale = given["ldv_scale"]
     if "ldv_pitch_k_rad_per_mps2" in given:
@@ -639,11 +664,11 @@ def ldv_setup(
         info["given"] = given
     info.update(
         {
-            "ldv_pitch_deg": pitch / RAD,
-            "ldv_heading_deg": heading / RAD,
+            "ldv_pitch_deg": pitch / RAD_PER_DEG,
+            "ldv_heading_deg": heading / RAD_PER_DEG,
             "ldv_scale": scale,
             "ldv_pitch_k_rad_per_mps2": pitch_k,
-            "ldv_pitch_compliance_deg_per_g": pitch_k / RAD * G0,
+            "ldv_pitch_compliance_deg_per_g": pitch_k / RAD_PER_DEG * G0_MPS2,
         }
     )
     if inp.nu_u_mps is not None:

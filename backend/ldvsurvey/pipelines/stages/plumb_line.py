@@ -16,10 +16,10 @@ from pydantic import Field
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.gdf import parse_gdf
-from ldvsurvey.nav.dovgrid import ARCSEC, DovGrid, area_for_track, egm_grid
-from ldvsurvey.nav.earth import MGAL
+from ldvsurvey.nav.dovgrid import DovGrid, area_for_track, egm_grid
 from ldvsurvey.pipelines.base import Params, Paths, Progress, Text
 from ldvsurvey.pipelines.stages.aids import NavInputs
+from ldvsurvey.units import MPS2_PER_MGAL, RAD_PER_ARCSEC
 
 EGM_STEP_ARCMIN = 1.0
 EGM_DEGREE = 2190
@@ -195,12 +195,12 @@ def apply_dov(inp: NavInputs, params: DovParams, progress: Progress) -> tuple[di
     )
     info = {
         "source": grid.source or mode,
-        "xi_arcsec_max": float(np.max(np.abs(xi)) / ARCSEC),
-        "xi_arcsec_rms": float(np.sqrt(np.mean(xi**2)) / ARCSEC),
-        "eta_arcsec_max": float(np.max(np.abs(eta)) / ARCSEC),
-        "eta_arcsec_rms": float(np.sqrt(np.mean(eta**2)) / ARCSEC),
-        "dg_mgal_max": float(np.max(np.abs(dg)) / MGAL),
-        "dg_mgal_rms": float(np.sqrt(np.mean(dg**2)) / MGAL),
+        "xi_arcsec_max": float(np.max(np.abs(xi)) / RAD_PER_ARCSEC),
+        "xi_arcsec_rms": float(np.sqrt(np.mean(xi**2)) / RAD_PER_ARCSEC),
+        "eta_arcsec_max": float(np.max(np.abs(eta)) / RAD_PER_ARCSEC),
+        "eta_arcsec_rms": float(np.sqrt(np.mean(eta**2)) / RAD_PER_ARCSEC),
+        "dg_mgal_max": float(np.max(np.abs(dg)) / MPS2_PER_MGAL),
+        "dg_mgal_rms": float(np.sqrt(np.mean(dg**2)) / MPS2_PER_MGAL),
         "dg_used": grid.dg_mgal is not None,
         "height_effect_max_m": float(dh[np.argmax(np.abs(dh))]),
         "height_effect_note": "first-order height an INS levelled to the plumb line would gain, "

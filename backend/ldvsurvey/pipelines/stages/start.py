@@ -13,7 +13,8 @@ from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs
 from ldvsurvey.nav.earth import radii
-from ldvsurvey.units import RAD_PER_DEG as RAD  # noqa: E402
+from ldvsurvey.nav.running import all_ahead, running_mean, running_median_within
+from ldvsurvey.units import RAD_PER_DEG
 
 #: still: LDV speed below this (m/s)
 STILL_SPEED_MPS = 0.03
@@ -23,62 +24,28 @@ STILL_ACCEL_MPS2 = 0.1
 STILL_RATE_RPS = 0.01
 
 
-# The running filters below replace scipy.ndimage's uniform_filter1d, median_filter and
-# minimum_filter1d (mode "nearest" and the windows they use): importing scipy.ndimage costs a
-# fresh process about 0.16 s of CPU, a tenth of a short ``ldv-survey run navigate`` (tests check
-# them against scipy.ndimage: the same numbers bit for bit, the same booleans).
+def body_force_and_rate(t, dtheta, dvel, eta, window_s: float = 1.0):
+    """Running means of the specific force in the body frame and of the body turn rate about the
+    turntable axis, the signals the still detection tests.
 
+    Parameters
+    ----------
+    t : ndarray
+        (N,) IMU sample times (s).
+    dtheta, dvel : ndarray
+        (N, 3) angle (rad) and velocity (m/s) increments.
+    eta : ndarray or None
+        (N,) turntable angle (rad, unwrapped), removed with α = β = 0; None: a fixed IMU.
+    window_s : float
+        Length of the running mean (s).
 
-def _padded(x, w: int):
-    """``x`` along axis 0 extended by its edge values (scipy's mode "nearest") for a window of ``w``."""
-    a, b = w // 2, w - w // 2 - 1
-    return np.concatenate([np.repeat(x[:1], a, axis=0), x, np.repeat(x[-1:], b, axis=0)])
-
-
-def running_mean(x, w: int) -> np.ndarray:
-    """Centred running mean over ``w`` samples along axis 0, edges held (float64): the arithmetic of
-    ``scipy.ndimage.uniform_filter1d(x, w, axis=0, mode="nearest")``: a running sum (the first
-    window summed in order, then each step adding entering − leaving) divided by ``w``."""
-    x = np.asarray(x, float)
-    p = _padded(x, w)
-    steps = np.empty_like(x)
-    steps[0] = np.add.accumulate(p[:w], axis=0)[-1]
-    steps[1:] = p[w : w + len(x) - 1] - p[: len(x) - 1]
-    return np.add.accumulate(steps, axis=0) / w
-
-
-def running_median_within(x, w: int, limit: float) -> np.ndarray:
-    """|median of the ``w`` samples around each one| < ``limit``, edges held: the booleans of
-    ``abs(scipy.ndimage.median_filter(x, w, mode="nearest")) < limit`` (the median of an even
-    window is its upper middle value), from counts of the window's samples. A NaN has no place in
-    an order: with one in ``x`` scipy's filter is used, so its answer stays what it was."""
-    x = np.asarray(x, float)
-    if np.isnan(x).any():
-        from scipy.ndimage import median_filter
-
-        return np.abs(median_filter(x, size=w, mode="nearest")) < limit
-    p = _padded(x, w)
-    r = w // 2  # the rank of the median in the sorted window
-
-    def counts(flags):
-        c = np.concatenate([[0], np.cumsum(flags, dtype=np.int64)])
-        return c[w:] - c[:-w]
-
-    # the r-th smallest is < limit when more than r samples are; it is > −limit when at most r are ≤ −limit
-    return (counts(p < limit) > r) & (counts(p <= -limit) <= r)
-
-
-def _all_ahead(flags, n: int) -> np.ndarray:
-    """``flags[i:i + n]`` all true (false where the window runs past the end): the booleans of
-    ``scipy.ndimage.minimum_filter1d(flags, n, mode="constant", cval=0, origin=-(n // 2)) > 0``."""
-    f = np.asarray(flags, bool)
-    c = np.concatenate([[0], np.cumsum(f, dtype=np.int64), np.full(n - 1, f.sum(), np.int64)])
-    return c[n : len(f) + n] - c[: len(f)] == n
-
-
-def _body_signals(t, dtheta, dvel, eta, window_s: float = 1.0):
-    """1-s running means of the specific force in the body frame (m/s², turntable angle removed
-    with α = β = 0) and of the body turn rate about the turntable axis (rad/s)."""
+    Returns
+    -------
+    f_b : ndarray
+        (N, 3) specific force in the body frame (m/s²).
+    w_z : ndarray
+        (N,) body turn rate about the turntable axis (rad/s).
+    """
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0]))
     f = dvel / dt[:, None]
     wz = dtheta[:, 2] / dt
@@ -100,13 +67,32 @@ def _quiet(f_b, w_z, ref_idx, f_all=None, w_all=None):
     return (np.linalg.norm(f_b - f_ref, axis=1) < STILL_ACCEL_MPS2) & (np.abs(w_z - w_ref) < STILL_RATE_RPS)
 
 
-def _still_intervals(t, speed, ok, min_len_s=3.0, thresh=STILL_SPEED_MPS, f_b=None, w_z=None):
-    """Intervals (s) where the vehicle stands still for at least ``min_len_s``.
+def still_intervals(t, speed, ok, min_len_s=3.0, thresh=STILL_SPEED_MPS, f_b=None, w_z=None):
+    """Intervals where the vehicle stands still for at least ``min_len_s``.
 
     Still where the usable LDV speed (1-s running median) is below ``thresh``. Stretches where the LDV is unusable
     (samples below min_quality carry garbage, not zero) do not end a stop: a stretch next to a
     still LDV sample counts as still when the IMU shows neither acceleration nor turning in it
-    (``f_b``, ``w_z`` from :func:`_body_signals`), since a vehicle cannot start or stop without.
+    (``f_b``, ``w_z`` from :func:`body_force_and_rate`), since a vehicle cannot start or stop without.
+
+    Parameters
+    ----------
+    t : ndarray
+        (N,) IMU sample times (s).
+    speed, ok : ndarray
+        (N,) speed at the IMU samples (m/s, LDV or GNSS) and where it is usable.
+    min_len_s : float
+        Shortest stop kept (s).
+    thresh : float
+        Still below this speed (m/s).
+    f_b, w_z : ndarray or None
+        Body specific force (m/s²) and turn rate (rad/s) from :func:`body_force_and_rate`; None:
+        unusable stretches always end a stop.
+
+    Returns
+    -------
+    list of (float, float)
+        The still intervals (start, end) in s.
     """
     # the 1-s running median: LDV noise of a few cm/s, and an isolated spike flagged good, must not
     # chop a stop into slivers
@@ -144,7 +130,7 @@ def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0) -> fl
         (N,) IMU times (s).
     f_b, w_z : ndarray
         (N, 3) 1-s mean body specific force (m/s²) and (N,) turn rate about the turntable axis
-        (rad/s), from :func:`_body_signals`.
+        (rad/s), from :func:`body_force_and_rate`.
     speed, ok : ndarray
         (N,) speed (m/s, LDV or GNSS) and where it is usable.
     min_moving_s : float
@@ -160,7 +146,7 @@ def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0) -> fl
     k_imu = int(np.argmin(quiet)) if not quiet.all() else len(t)
     mv = ok & (np.abs(speed) >= STILL_SPEED_MPS)
     run = max(1, int(round(min_moving_s / np.median(np.diff(t)))))
-    sustained = _all_ahead(mv, run)
+    sustained = all_ahead(mv, run)
     k_ldv = int(np.argmax(sustained)) if sustained.any() else len(t)
     k = min(k_imu, k_ldv)
     # both tests fire about a second into a smooth start (0.1 m/s², 0.03 m/s): keep 2 s off it
@@ -203,7 +189,7 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
     """
     m = log.manifest
     if m.initial.lat_deg is not None and m.initial.lon_deg is not None and m.initial.h_m is not None:
-        return np.array([m.initial.lat_deg * RAD, m.initial.lon_deg * RAD, m.initial.h_m])
+        return np.array([m.initial.lat_deg * RAD_PER_DEG, m.initial.lon_deg * RAD_PER_DEG, m.initial.h_m])
     if moving is not None:  # (C_b^n, v^n, position) of an alignment on the move
         return moving[2]
     g = log.gnss
@@ -225,8 +211,8 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
                 f"no GNSS fix during the static period: the start position is the first fix of "
                 f"quality {best} at t={g.t_s[k[0]]:.1f} s"
             )
-    lat = float(np.mean(g.lat_deg[k])) * RAD
-    lon = float(np.mean(g.lon_deg[k])) * RAD
+    lat = float(np.mean(g.lat_deg[k])) * RAD_PER_DEG
+    lon = float(np.mean(g.lon_deg[k])) * RAD_PER_DEG
     h = float(np.mean(g.h_m[k]))
     lever = np.asarray(m.gnss.lever_arm_m, float)
     ks = t <= static_end
@@ -362,7 +348,7 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
         )
     if m.ldv is not None:
         nom = m.ldv.nominal
-        cdb, scale = c_db(nom.pitch_deg * RAD, nom.heading_deg * RAD), nom.scale
+        cdb, scale = c_db(nom.pitch_deg * RAD_PER_DEG, nom.heading_deg * RAD_PER_DEG), nom.scale
     else:  # nu_f is the GNSS ground speed: along the body's forward axis
         cdb, scale = np.eye(3), 1.0
     slope, v0 = np.polyfit(t[use] - t[0], nu_f[use] / scale, 1)

@@ -8,6 +8,7 @@ from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.turntable import TiltEstimate, estimate_tilt, find_stops
 from ldvsurvey.pipelines.base import warn
 from ldvsurvey.pipelines.stages.aids import NavInputs, c_bs_of, gnss_aid, ldv_aid, pipeline_cfg, run_navigation_filter
+from ldvsurvey.units import G0_MPS2
 
 
 def static_part(inp: NavInputs) -> NavInputs:
@@ -35,7 +36,7 @@ def _tilt_from(inp: NavInputs, sol, still, stops) -> TiltEstimate:
     c_sn = c_from_q(sol.q_sn)
     bias_sig = 0.0
     if sol.epoch_sigma is not None and sol.epoch_sigma.shape[1] >= 15:
-        bias_sig = float(np.median(sol.epoch_sigma[:, 12:14])) / 9.8
+        bias_sig = float(np.median(sol.epoch_sigma[:, 12:14])) / G0_MPS2
     return estimate_tilt(inp.t_s, c_sn, inp.eta_rad, still, bias_sigma_rad=bias_sig, stops=stops)
 
 
