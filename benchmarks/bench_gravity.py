@@ -26,7 +26,7 @@ import numpy as np
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import ARCSEC, MGAL
-from ldvsurvey.nav.gravity import zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
@@ -52,7 +52,7 @@ def truth_rms(sim, res, fir_s, column):
         return {}
     im = sim.imu
     _, _, dg = sim.extras["gravity_field"](im.lat_rad, im.lon_rad, im.h_m)
-    tf = zero_phase_lowpass(dg, fir_s, 1.0 / np.median(np.diff(im.t_s))) / MGAL
+    tf = Lowpass(fir_s, 1.0 / np.median(np.diff(im.t_s))).apply(dg) / MGAL
     on = np.array([x != "" for x in g["line"]])
     e = g[column][on] - np.interp(g["t_s"][on], im.t_s, tf)
     e -= np.nanmean(e)

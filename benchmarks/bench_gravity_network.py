@@ -18,7 +18,7 @@ import numpy as np
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL, normal_gravity
-from ldvsurvey.nav.gravity import zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import survey
@@ -50,7 +50,7 @@ def truth_errors(sims, table):
         true = sim.gravity_field.dg_mgal(
             0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]), 0.5 * (im.lon_rad[1:] + im.lon_rad[:-1])
         )
-        tf = zero_phase_lowpass(true * MGAL, FIR_S, sim.scenario.imu_rate_hz) / MGAL
+        tf = Lowpass(FIR_S, sim.scenario.imu_rate_hz).apply(true * MGAL) / MGAL
         e = table["dg_mgal"][k] - np.interp(table["t_s"][k], tm, tf)
         out.append((name, float(np.mean(e)), float(np.sqrt(np.mean(e**2)))))
     return out

@@ -6,7 +6,7 @@ from scipy.signal import filtfilt
 
 from ldvsurvey.nav.coincidence import along_track, common_points, crossovers, internal_coincidence, total_from_lines
 from ldvsurvey.nav.earth import MGAL, OMEGA_IE, normal_gravity, radii
-from ldvsurvey.nav.gravity import disturbance_mps2, fir_taps, zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass, disturbance_mps2
 
 
 def test_paper_tables_2_and_3_add_up():
@@ -66,15 +66,15 @@ def test_zero_phase_fir_equals_filtfilt_inside():
     rng = np.random.default_rng(1)
     fs, L = 10.0, 30.0
     x = rng.normal(0, 1, 5000).cumsum()
-    h = fir_taps(L, fs)
+    h = Lowpass(L, fs).taps
     ref = filtfilt(h, [1.0], x)
-    ours = zero_phase_lowpass(x, L, fs)
+    ours = Lowpass(L, fs).apply(x)
     k = slice(len(h) * 2, -len(h) * 2)
     np.testing.assert_allclose(ours[k], ref[k], rtol=1e-9, atol=1e-9)
     # gaps are bridged and the result stays where the data support it
     x2 = x.copy()
     x2[2000:2010] = np.nan
-    y2 = zero_phase_lowpass(x2, L, fs)
+    y2 = Lowpass(L, fs).apply(x2)
     assert np.all(np.isfinite(y2[2000:2010]))
     assert np.abs(y2[1500:2500] - ours[1500:2500]).max() < 0.05 * np.std(x)
 
@@ -117,13 +117,13 @@ def test_velocity_gaps_cost_only_their_own_samples():
     v_meas_bad = np.where(ok, v_meas, rng.normal(0, 5, len(t)))  # garbage values inside
 
     def gravity(v):
-        return zero_phase_lowpass(f_minus_g[1:] - np.diff(v) * fs, L, fs)
+        return Lowpass(L, fs).apply(f_minus_g[1:] - np.diff(v) * fs)
 
     clean = gravity(v_meas)
     bridged = gravity(bridge_velocity(v_meas_bad, ok, v_ref, edge_n=50))
     nan_way = gravity(np.where(ok, v_meas, np.nan))
     k = slice(int(2 * L * fs), -int(2 * L * fs))
-    truth = zero_phase_lowpass(dg_true[1:], L, fs)
+    truth = Lowpass(L, fs).apply(dg_true[1:])
     rms = lambda x: np.sqrt(np.mean((x[k] - truth[k]) ** 2)) / MGAL  # noqa: E731
     assert rms(bridged) < 1.3 * rms(clean) + 0.02
     assert rms(nan_way) > 5 * rms(bridged)
@@ -145,8 +145,9 @@ def test_bridge_ties_both_edges_and_keeps_data():
 def test_noise_floor_matches_monte_carlo(length_s):
     """σ of white sensor noise after the zero-phase FIR, against simulated noise through the same FIR."""
     rng = np.random.default_rng(7)
+    lp = Lowpass(length_s)
     floor = noise_floor_mgal(
-        length_s, accel_noise_ug_rthz=5.0, ldv_noise_mps=0.01, ldv_rate_hz=20.0, height_noise_m=0.02, gnss_rate_hz=1.0
+        lp, accel_noise_ug_rthz=5.0, ldv_noise_mps=0.01, ldv_rate_hz=20.0, height_noise_m=0.02, gnss_rate_hz=1.0
     )
     n_s = 400_000
     fs = 10.0  # accelerometer: per-sample σ = N·√fs (the simulator's and the filter's convention)
@@ -154,10 +155,10 @@ def test_noise_floor_matches_monte_carlo(length_s):
     v = rng.normal(0, 0.01, n_s)  # LDV at 20 Hz, differenced once
     h = rng.normal(0, 0.02, n_s // 10)  # GNSS heights at 1 Hz, differenced twice
     k = slice(int(3 * length_s * fs), -int(3 * length_s * fs))
-    got_acc = np.std(zero_phase_lowpass(acc, length_s, fs)[k]) / MGAL
-    got_ldv = np.std(zero_phase_lowpass(np.diff(v) * 20.0, length_s, 20.0)[k]) / MGAL
+    got_acc = np.std(Lowpass(length_s, fs).apply(acc)[k]) / MGAL
+    got_ldv = np.std(Lowpass(length_s, 20.0).apply(np.diff(v) * 20.0)[k]) / MGAL
     kg = slice(int(3 * length_s), -int(3 * length_s))
-    got_h = np.std(zero_phase_lowpass(np.diff(h, 2), length_s, 1.0)[kg]) / MGAL
+    got_h = np.std(Lowpass(length_s, 1.0).apply(np.diff(h, 2))[kg]) / MGAL
     assert got_acc == pytest.approx(floor["accel_mgal"], rel=0.08)
     assert got_ldv == pytest.approx(floor["ldv_mgal"], rel=0.08)
     assert got_h == pytest.approx(floor["gnss_height_mgal"], rel=0.15)
@@ -168,9 +169,9 @@ def test_noise_floor_matches_monte_carlo(length_s):
 
 def test_noise_floor_of_the_issue_example():
     """5 µg/√Hz through a 200-s Blackman FIR: 'roughly 0.3 mGal'; shorter filters pass more noise."""
-    f200 = noise_floor_mgal(200.0, 5.0)["accel_mgal"]
+    f60, f200, f300 = (noise_floor_mgal(Lowpass(length_s), 5.0)["accel_mgal"] for length_s in (60.0, 200.0, 300.0))
     assert 0.3 <= f200 <= 0.45
-    assert noise_floor_mgal(60.0, 5.0)["accel_mgal"] > f200 > noise_floor_mgal(300.0, 5.0)["accel_mgal"]
+    assert f60 > f200 > f300
 
 
 def test_crossovers_ignore_repeated_passes_over_one_road():
@@ -209,7 +210,7 @@ def test_second_difference_noise_gain_matches_monte_carlo():
     out = []
     for _ in range(300):
         e = rng.normal(0.0, 1.0, n + 2)
-        out.append(zero_phase_lowpass(np.where(valid, e[2:] - 2 * e[1:-1] + e[:-2], np.nan), length_s, 1.0))
+        out.append(Lowpass(length_s, 1.0).apply(np.where(valid, e[2:] - 2 * e[1:-1] + e[:-2], np.nan)))
     emp = np.sqrt(np.mean(np.square(out), axis=0))
     gain = second_difference_noise_gain(valid, Lowpass(length_s, 1.0))
     inner = np.median(emp[200:500])
@@ -234,3 +235,67 @@ def test_lowpass_response_and_noise_gain_against_scipy():
     assert np.var(lp.apply(x)[2000:-2000]) == pytest.approx(lp.noise_gain, rel=0.03)
     with pytest.raises(ValueError, match="not bound"):
         Lowpass(120.0).apply(x)
+
+
+class _Boxcar(Lowpass):
+    """Another design: a moving average over the same 2·L·f_s (+1, odd) taps."""
+
+    def _taps_at(self, fs_hz):
+        n = int(round(2 * self.length_s * fs_hz))
+        n += 1 - n % 2
+        return np.full(n, 1.0 / n)
+
+
+def test_a_subclass_design_reaches_taps_response_and_noise_floors():
+    """Overriding the one design method changes taps, kernel, response, noise gain, f½ and the noise floor
+    together, against independent truth: the boxcar's n taps of 1/n, scipy's freqz of them, Parseval on
+    its triangular kernel (Σ(h⋆h)² = (2n²+1)/(3n³)) and a sinc's half-amplitude point (T = 2L)."""
+    from scipy.optimize import brentq
+    from scipy.signal import freqz
+
+    from ldvsurvey.units import G0_MPS2
+
+    length_s, fs = 120.0, 2.0
+    box, blackman = _Boxcar(length_s), Lowpass(length_s)
+    lp = box.at(fs)
+    assert type(lp) is _Boxcar and lp.rate_hz == fs and lp.at(fs) is lp
+    n = 481  # 2·120 s·2 Hz + 1
+    np.testing.assert_array_equal(lp.taps, np.full(n, 1.0 / n))
+    # the applied kernel is the triangle h ⋆ h: an impulse comes out as it
+    x = np.zeros(4001)
+    x[2000] = 1.0
+    tri = (n - np.abs(np.arange(-(n - 1), n))) / n**2
+    np.testing.assert_allclose(lp.apply(x)[2000 - (n - 1) : 2000 + n], tri, atol=1e-15)
+    # response: bound, of its taps; unbound, of the taps at 50 samples per length (101 taps at 50/120 Hz)
+    f = np.array([0.0, 0.001, 1.0 / 240.0, 0.006, 0.02])
+    _, h = freqz(np.full(n, 1.0 / n), worN=f, fs=fs)
+    np.testing.assert_allclose(lp.response(f), np.abs(h) ** 2, atol=1e-12)
+    _, h = freqz(np.full(101, 1.0 / 101), worN=f, fs=50.0 / length_s)
+    np.testing.assert_allclose(box.response(f), np.abs(h) ** 2, atol=1e-12)
+    assert abs(box.response(0.006)[0] - blackman.response(0.006)[0]) > 0.01
+    # noise gain = ∫|H|⁴df = f_s Σ(h⋆h)² (Parseval) of the taps at the design rate (within the fine grid's
+    # one bin at 0 Hz, 0.2 %), and near the continuous boxcar's 2/(3T) = 1/(3L)
+    m, rate = 101, 50.0 / length_s
+    assert box.noise_gain == pytest.approx(rate * (2 * m**2 + 1) / (3 * m**3), rel=3e-3)
+    assert box.noise_gain == pytest.approx(1.0 / (3.0 * length_s), rel=1e-2)
+    assert box.noise_gain < 0.8 * blackman.noise_gain
+    # half amplitude after both passes: the m-tap moving average's Dirichlet kernel squared = 1/2
+    dirichlet = lambda f: np.sin(np.pi * f * m / rate) / (m * np.sin(np.pi * f / rate))  # noqa: E731
+    f_half = brentq(lambda f: dirichlet(f) ** 2 - 0.5, 1e-4, 1.0 / length_s)
+    assert box.half_amplitude_hz == pytest.approx(f_half, rel=1e-3)
+    assert box.half_wavelength_m(10.0) == pytest.approx(10.0 / (2 * f_half), rel=1e-3)
+    # the noise floor goes through the same noise gain
+    acc = noise_floor_mgal(box, 5.0)["accel_mgal"]
+    assert acc == pytest.approx(5.0 * 1e-6 * G0_MPS2 * np.sqrt(box.noise_gain) / MGAL, rel=1e-12)
+    assert acc < 0.9 * noise_floor_mgal(blackman, 5.0)["accel_mgal"]
+    # one den_cache for both designs: each gets its own filtered mask (they differ at the ends)
+    y = np.random.default_rng(4).normal(0.0, 1.0, 3000)
+    cache = {}
+    lb = blackman.at(fs)
+    np.testing.assert_array_equal(lb.apply(y, den_cache=cache), lb.apply(y))
+    np.testing.assert_array_equal(lp.apply(y, den_cache=cache), lp.apply(y))
+
+
+def test_noise_floor_refuses_a_length_for_the_filter():
+    with pytest.raises(TypeError, match="Lowpass"):
+        noise_floor_mgal(200.0, 5.0)

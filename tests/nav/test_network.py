@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from ldvsurvey.nav import network as net
-from ldvsurvey.nav.gravity import G0, Lowpass, noise_floor_mgal, zero_phase_lowpass
+from ldvsurvey.nav.gravity import G0, Lowpass, noise_floor_mgal
 from ldvsurvey.nav.gravmodel import TR_A_MGAL2, TR_B, TR_S, omission_mgal
 from ldvsurvey.units import MPS2_PER_MGAL as MGAL
 
@@ -28,7 +28,7 @@ def make_line(name, log, road, forward, t0, bias, drift_per_h, rng, length_m=700
     if not forward:
         s = -s
     noise = rng.normal(0, NOISE_UG * 1e-6 * G0 * np.sqrt(fs), len(t_full))
-    f = zero_phase_lowpass(noise, FIR_S, fs) / MGAL
+    f = Lowpass(FIR_S, fs).apply(noise) / MGAL
     on = (t_full >= t0) & (t_full <= t0 + length_m / SPEED)
     t = t_full[on][::10]
     e, n = s[on][::10] * np.sin(psi), s[on][::10] * np.cos(psi)
@@ -36,7 +36,7 @@ def make_line(name, log, road, forward, t0, bias, drift_per_h, rng, length_m=700
     return net.Line(name, log, t, e, n, v, FLOOR, SPEED)
 
 
-FLOOR = noise_floor_mgal(FIR_S, NOISE_UG)["total_mgal"]
+FLOOR = noise_floor_mgal(Lowpass(FIR_S), NOISE_UG)["total_mgal"]
 #: every log's reference time (its first tie)
 T_REF = {0: 1000.0, 1: 1000.0, 2: 1000.0}
 BIASES = (-19.6, 19.6, -5.0)  #: turn-on biases, tens of mGal apart
@@ -162,7 +162,7 @@ def test_correlation_time_is_the_white_noise_equivalent():
     rng = np.random.default_rng(0)
     fs = 2.0
     x = rng.normal(0, np.sqrt(fs), 2_000_000)  # density 1 /√Hz
-    y = zero_phase_lowpass(x, FIR_S, fs)[5000:-5000]
+    y = Lowpass(FIR_S, fs).apply(x)[5000:-5000]
     tau = LOWPASS.correlation_time_s
     assert np.var(y) == pytest.approx(1.0 / tau, rel=0.03)
 
@@ -172,7 +172,7 @@ def test_resolution_from_the_filter_response():
     f = LOWPASS.half_amplitude_hz
     fs = 2.0
     t = np.arange(0, 20000, 1 / fs)
-    y = zero_phase_lowpass(np.sin(2 * np.pi * f * t), FIR_S, fs)[2000:-2000]
+    y = Lowpass(FIR_S, fs).apply(np.sin(2 * np.pi * f * t))[2000:-2000]
     assert np.max(np.abs(y)) == pytest.approx(0.5, abs=0.01)
     assert LOWPASS.half_wavelength_m(SPEED) == pytest.approx(SPEED / (2 * f))
     assert LOWPASS.half_wavelength_m(SPEED) > LOWPASS.nominal_half_wavelength_m(SPEED) == SPEED * FIR_S / 2
@@ -220,7 +220,7 @@ def make_weaving_line(name, log, forward, t0, bias, rng, length_m=7000.0, amp_m=
     if not forward:
         s = -s
     noise = rng.normal(0, NOISE_UG * 1e-6 * G0 * np.sqrt(fs), len(t_full))
-    f = zero_phase_lowpass(noise, FIR_S, fs) / MGAL
+    f = Lowpass(FIR_S, fs).apply(noise) / MGAL
     on = (t_full >= t0) & (t_full <= t0 + length_m / SPEED)
     t, s = t_full[on][::10], s[on][::10]
     lat = amp_m * np.sin(2 * np.pi * (s + 0.37 * wave_m) / wave_m)  # crossings off the sample grid

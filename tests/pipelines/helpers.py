@@ -3,7 +3,7 @@
 import numpy as np
 
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.nav.gravity import zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass
 
 
 def truth_height(sim, t_s):
@@ -22,6 +22,6 @@ def truth_dg_error_mgal(sim, table, column="dg_mgal", fir_s=150.0):
         0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]), 0.5 * (im.lon_rad[1:] + im.lon_rad[:-1])
     )
     rate_hz = 1.0 / float(np.median(np.diff(im.t_s)))
-    tf = zero_phase_lowpass(true * MGAL, fir_s, rate_hz) / MGAL
+    tf = Lowpass(fir_s, rate_hz).apply(true * MGAL) / MGAL
     e = table[column][on] - np.interp(table["t_s"][on], tm, tf)
     return e[np.isfinite(e)]

@@ -224,9 +224,9 @@ def test_bridge_equals_its_previous_implementation(edge_fit, seed):
 
 
 def test_shared_filtered_mask_and_line_bisection_equal_the_plain_computation():
-    """zero_phase_lowpass with a den_cache equals it without; evaluate's lines (found by bisection of the
+    """Lowpass.apply with a den_cache equals it without; evaluate's lines (found by bisection of the
     chain times) hold exactly the samples the masks over the whole log select."""
-    from ldvsurvey.nav.gravity import Lowpass, trim_line, zero_phase_lowpass
+    from ldvsurvey.nav.gravity import Lowpass, trim_line
     from ldvsurvey.pipelines.gravity.report import evaluate
 
     rng = np.random.default_rng(7)
@@ -234,15 +234,13 @@ def test_shared_filtered_mask_and_line_bisection_equal_the_plain_computation():
     t = 50.0 + np.arange(n) / fs
     x, y = rng.normal(0.0, 1e-5, n), rng.normal(0.0, 1e-5, n)
     cache = {}
-    a1 = zero_phase_lowpass(x, 60.0, fs, den_cache=cache)
+    a1 = Lowpass(60.0, fs).apply(x, den_cache=cache)
     assert len(cache) == 1
-    np.testing.assert_array_equal(zero_phase_lowpass(y, 60.0, fs, den_cache=cache), zero_phase_lowpass(y, 60.0, fs))
-    np.testing.assert_array_equal(a1, zero_phase_lowpass(x, 60.0, fs))
+    np.testing.assert_array_equal(Lowpass(60.0, fs).apply(y, den_cache=cache), Lowpass(60.0, fs).apply(y))
+    np.testing.assert_array_equal(a1, Lowpass(60.0, fs).apply(x))
     x_gap = x.copy()
     x_gap[5000:5100] = np.nan  # with gaps the mask differs: not taken from (nor put into) the cache
-    np.testing.assert_array_equal(
-        zero_phase_lowpass(x_gap, 60.0, fs, den_cache=cache), zero_phase_lowpass(x_gap, 60.0, fs)
-    )
+    np.testing.assert_array_equal(Lowpass(60.0, fs).apply(x_gap, den_cache=cache), Lowpass(60.0, fs).apply(x_gap))
     assert len(cache) == 1
     # two passes over the same 10-km road, out (t 100..900 s) and back (1100..1900 s)
     s_m = np.interp(t, [50, 100, 900, 1100, 1900, 2100], [0, 0, 10000, 10000, 0, 0])

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from ldvsurvey.nav.earth import MGAL, normal_gravity
-from ldvsurvey.nav.gravity import Lowpass, zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass
 from ldvsurvey.pipelines.gravity.chains import gnss_chain
 from ldvsurvey.pipelines.gravity.report import edge_gain_max, evaluate
 
@@ -64,8 +64,8 @@ def synthetic(duration_s=3000.0, v0_mps=0.2, gaps=(), sigma_h_m=0.015, seed=5):
 
 def filtered_error_mgal(ch, tm, dg_true):
     """Filtered chain minus the equally filtered truth (mGal) at the chain's supported samples."""
-    f = zero_phase_lowpass(ch["dg"], FIR_S, ch["fs"])
-    truth = zero_phase_lowpass(dg_true, FIR_S, FS_HZ)
+    f = Lowpass(FIR_S, ch["fs"]).apply(ch["dg"])
+    truth = Lowpass(FIR_S, FS_HZ).apply(dg_true)
     e = (f - np.interp(ch["t_s"], tm, truth)) / MGAL
     inner = (ch["t_s"] > ch["t_s"][0] + FIR_S) & (ch["t_s"] < ch["t_s"][-1] - FIR_S)
     return e, inner
@@ -97,7 +97,7 @@ def test_values_next_to_a_break_are_withheld_not_smeared():
     support must be withheld and counted."""
     from ldvsurvey.nav.gravity import noise_floor_mgal
 
-    fl = noise_floor_mgal(FIR_S, accel_noise_ug_rthz=5.0, height_noise_m=0.015, gnss_rate_hz=1.0)
+    fl = noise_floor_mgal(Lowpass(FIR_S), accel_noise_ug_rthz=5.0, height_noise_m=0.015, gnss_rate_hz=1.0)
     worst, withheld = [], []
     for seed in range(4):
         log, inp, sol, tm, dg = synthetic(duration_s=2600.0, v0_mps=0.0, gaps=[(1000.0, 1400.0)], seed=seed)
@@ -105,7 +105,7 @@ def test_values_next_to_a_break_are_withheld_not_smeared():
         ch["edge_gain_max"] = edge_gain_max(fl)  # as the pipeline sets it
         lines = [("L1", 0, 300.0, 2300.0), ("L2", 0, 300.0, 2300.0)]
         res = evaluate([ch], lines, Lowpass(FIR_S), 10.0, 0.0, strict=False)
-        truth = np.interp(ch["t_s"], tm, zero_phase_lowpass(dg, FIR_S, FS_HZ))
+        truth = np.interp(ch["t_s"], tm, Lowpass(FIR_S, FS_HZ).apply(dg))
         e = (res.filtered[0] - truth) / MGAL
         k = res.lines[0].samples
         worst.append(np.nanmax(np.abs(e[k])))
@@ -194,9 +194,9 @@ def test_break_threshold_doubles_the_white_variance():
     every value whose gain rounded above 1)."""
     from ldvsurvey.nav.gravity import noise_floor_mgal
 
-    only_h = noise_floor_mgal(FIR_S, height_noise_m=0.05, gnss_rate_hz=1.0)
+    only_h = noise_floor_mgal(Lowpass(FIR_S), height_noise_m=0.05, gnss_rate_hz=1.0)
     assert edge_gain_max(only_h) == pytest.approx(np.sqrt(2.0))
-    both = noise_floor_mgal(FIR_S, accel_noise_ug_rthz=5.0, height_noise_m=0.05, gnss_rate_hz=1.0)
+    both = noise_floor_mgal(Lowpass(FIR_S), accel_noise_ug_rthz=5.0, height_noise_m=0.05, gnss_rate_hz=1.0)
     g = edge_gain_max(both)
     var = both["accel_mgal"] ** 2 + (g * both["gnss_height_mgal"]) ** 2
     assert var == pytest.approx(2.0 * both["total_mgal"] ** 2)

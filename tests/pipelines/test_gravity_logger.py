@@ -181,11 +181,11 @@ def test_stop_tie_sigma_is_the_scatter_of_drift_free_ties():
 
 def test_bridge_cost_is_the_filtered_impulse():
     """The σ a bridge leaves in the filtered δg against the FIR itself: a velocity error A (m/s)
-    over one interval is an impulse A/Δt in δg; the pipeline's filter (zero_phase_lowpass, with its
+    over one interval is an impulse A/Δt in δg; the pipeline's filter (Lowpass.apply, with its
     normalisation) applied to it must give, at every time, |filtered| = the predicted σ for σ = A,
     and two independent bridges add in variance."""
     from ldvsurvey.nav.earth import MGAL
-    from ldvsurvey.nav.gravity import Lowpass, zero_phase_lowpass
+    from ldvsurvey.nav.gravity import Lowpass
     from ldvsurvey.pipelines.gravity.report import imu_bridge_sigma_mgal
 
     fs, fir, n = 10.0, 100.0, 20000
@@ -193,10 +193,10 @@ def test_bridge_cost_is_the_filtered_impulse():
     a1, a2, i1, i2 = 3e-3, 2e-3, 8000, 8600
     x = np.zeros(n)
     x[i1] = a1 * fs
-    y1 = zero_phase_lowpass(x, fir, fs)
+    y1 = Lowpass(fir, fs).apply(x)
     x[:] = 0.0
     x[i2] = a2 * fs
-    y2 = zero_phase_lowpass(x, fir, fs)
+    y2 = Lowpass(fir, fs).apply(x)
     ch = {"fs": fs, "imu_bridges": [(t[i1], 0.03, a1), (t[i2], 0.02, a2)]}
     got = imu_bridge_sigma_mgal(ch, Lowpass(fir), t[5000:12000])
     want = np.sqrt(y1[5000:12000] ** 2 + y2[5000:12000] ** 2) / MGAL

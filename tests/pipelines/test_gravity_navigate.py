@@ -5,7 +5,7 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL, enu_offset_m
-from ldvsurvey.nav.gravity import zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass
 from ldvsurvey.pipelines.base import Progress, run_pipeline
 from ldvsurvey.pipelines.gravity.chains import ldv_chain
 from ldvsurvey.pipelines.navigate import run_navigation
@@ -105,8 +105,9 @@ def test_vehicle_at_rest_on_plus_10_mgal():
         fix_schedule=[],
     )
     log = parse_files(bundle_files(simulate(sc, seed=2)))
-    inp, setup, sol = run_navigation(log, {"aiding": "ldv", "calibration": "nominal"}, Progress())
+    params = get("gravity").validate({"calibration": "nominal"})
+    inp, setup, sol = run_navigation(log, params, Progress(), aiding="ldv")
     ch = ldv_chain(inp, sol, setup)
-    dg = zero_phase_lowpass(ch["dg"], 150.0, ch["fs"]) / MGAL
+    dg = Lowpass(150.0, ch["fs"]).apply(ch["dg"]) / MGAL
     mid = dg[len(dg) // 4 : 3 * len(dg) // 4]
     assert np.nanmean(mid) == pytest.approx(10.0, abs=0.1)

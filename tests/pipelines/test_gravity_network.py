@@ -10,7 +10,7 @@ import pytest
 from ldvsurvey.cli import main
 from ldvsurvey.io.writers import read_result_table, write_bundle
 from ldvsurvey.nav.earth import MGAL, normal_gravity
-from ldvsurvey.nav.gravity import zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass
 from ldvsurvey.sim import survey
 from ldvsurvey.sim.scenario import bundle_files, simulate
 
@@ -55,7 +55,7 @@ def truth_along(sim, t_s):
     im = sim.imu
     tm = 0.5 * (im.t_s[1:] + im.t_s[:-1])
     true = sim.gravity_field.dg_mgal(0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]), 0.5 * (im.lon_rad[1:] + im.lon_rad[:-1]))
-    return np.interp(t_s, tm, zero_phase_lowpass(true * MGAL, FIR_S, sim.scenario.imu_rate_hz) / MGAL)
+    return np.interp(t_s, tm, Lowpass(FIR_S, sim.scenario.imu_rate_hz).apply(true * MGAL) / MGAL)
 
 
 def test_turn_on_biases_tens_of_mgal_apart(network_run):

@@ -45,7 +45,7 @@ def test_height_noise_fit_without_wander_finds_none():
     term below the white part's."""
     w_fit, q_fit, _ = fit_height_noise(_chain(6 * 3600, 0.02, 0.0, 2.0, 3), LOWPASS, 2.0)
     assert w_fit == pytest.approx(0.02, rel=0.05)
-    white_floor = noise_floor_mgal(FIR_S, height_noise_m=w_fit, gnss_rate_hz=1.0)["gnss_height_mgal"]
+    white_floor = noise_floor_mgal(LOWPASS, height_noise_m=w_fit, gnss_rate_hz=1.0)["gnss_height_mgal"]
     assert q_fit < 0.1 * 2 * 0.026**2 / 300.0
     assert height_wander_floor_mgal(LOWPASS, q_fit) < white_floor
 
@@ -58,7 +58,7 @@ def test_wander_floor_is_the_long_gauss_markov_limit():
     """The random-walk term equals noise_floor_mgal's Gauss-Markov term for τ ≫ the FIR (q = 2σ²/τ)."""
     tau = 1e5
     sig = np.sqrt(4.5e-6 * tau / 2)
-    gm = noise_floor_mgal(FIR_S, height_correlated_m=sig, height_correlation_s=tau)["gnss_height_correlated_mgal"]
+    gm = noise_floor_mgal(LOWPASS, height_correlated_m=sig, height_correlation_s=tau)["gnss_height_correlated_mgal"]
     assert height_wander_floor_mgal(LOWPASS, 4.5e-6) == pytest.approx(gm, rel=0.01)
 
 

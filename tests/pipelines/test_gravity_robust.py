@@ -13,7 +13,7 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.nav.gravity import noise_floor_mgal, zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass, noise_floor_mgal
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
@@ -52,7 +52,7 @@ def _truth_error(sim, res, column="dg_mgal"):
         0.5 * (im.lon_rad[1:] + im.lon_rad[:-1]),
         0.5 * (im.h_m[1:] + im.h_m[:-1]),
     )
-    tf = zero_phase_lowpass(dg, FIR_S, 100.0) / MGAL
+    tf = Lowpass(FIR_S, 100.0).apply(dg) / MGAL
     on = np.array([x != "" for x in g["line"]])
     e = g[column][on] - np.interp(g["t_s"][on], 0.5 * (im.t_s[1:] + im.t_s[:-1]), tf)
     if np.isfinite(e).any():
@@ -113,7 +113,7 @@ def test_noise_floor_beside_the_measured_figure(with_dropouts):
     fl = s["noise_floor"]
     assert fl["accel_noise_ug_rthz"] == sim.scenario.accel_vrw_ug_rthz == 5.0
     # independent of the pipeline's own sums: 5 µg/√Hz through a 150-s Blackman FIR forward and back
-    assert fl["accel_mgal"] == pytest.approx(noise_floor_mgal(FIR_S, 5.0)["accel_mgal"])
+    assert fl["accel_mgal"] == pytest.approx(noise_floor_mgal(Lowpass(FIR_S), 5.0)["accel_mgal"])
     assert 0.35 < fl["accel_mgal"] < 0.5
     assert fl["total_mgal"] >= fl["accel_mgal"]
     assert s["floor_ratio"] == pytest.approx(s["total_mgal"] / fl["total_mgal"])

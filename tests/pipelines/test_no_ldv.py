@@ -96,7 +96,7 @@ def test_floor_from_the_data_when_the_manifest_states_no_noise(rtk_drive):
     wander fitted to the chain's raw δg), are the simulator's own within their scatter, and the
     coincidence is within 1.2× the floor printed (before the fit: a white σ from the fix quality and no
     accelerometer term: floor 0.235 mGal, coincidence/floor 1.8)."""
-    from ldvsurvey.nav.gravity import noise_floor_mgal
+    from ldvsurvey.nav.gravity import Lowpass, noise_floor_mgal
     from ldvsurvey.sim.sensors import FIX_SIGMA, FIX_WHITE, GNSS_CORR_S
 
     sim, files, log, _ = rtk_drive
@@ -118,7 +118,7 @@ def test_floor_from_the_data_when_the_manifest_states_no_noise(rtk_drive):
     # q's own scatter on a 24-min log is ±30 % (1 σ over simulated realizations); this seed gives +20 %
     assert fl["gnss_height_random_walk_m2_per_s"] == pytest.approx(q, rel=0.4)
     true_floor = noise_floor_mgal(
-        150.0,
+        Lowpass(150.0),
         sim.scenario.accel_vrw_ug_rthz,
         height_noise_m=white,
         gnss_rate_hz=1.0,

@@ -48,7 +48,7 @@ import numpy as np
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.nav.gravity import zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
@@ -131,7 +131,7 @@ def gravity_truth_rms_mgal(sim, res, fir_s: float = GRAVITY_FIR_S) -> tuple[floa
     im = sim.imu
     mid = lambda a: 0.5 * (a[1:] + a[:-1])  # noqa: E731 - a local shorthand
     _, _, dg = sim.extras["gravity_field"](mid(im.lat_rad), mid(im.lon_rad), mid(im.h_m))
-    tf = zero_phase_lowpass(dg, fir_s, 1.0 / float(np.median(np.diff(im.t_s)))) / MGAL
+    tf = Lowpass(fir_s, 1.0 / float(np.median(np.diff(im.t_s)))).apply(dg) / MGAL
     on = np.array([x != "" for x in g["line"]]) & np.isfinite(g["dg_mgal"])
     truth = np.interp(g["t_s"][on], mid(im.t_s), tf)
     e = g["dg_mgal"][on] - truth

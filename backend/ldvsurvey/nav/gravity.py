@@ -3,32 +3,47 @@
 δg = f_U − v̇_U − γ(L, h) + (v_E/(R_N+h) + 2ω_ie cos L) v_E + v_N²/(R_M+h)
 
 f_U is the up component of C_b^n f^b, v̇_U the vertical acceleration from the aiding velocity
-(LDV or GNSS). Then a window-based zero-phase FIR low-pass (Blackman, ``firwin(2·L·fs taps,
-cutoff 1/L Hz)`` applied forward and backward as in filtfilt), NaN-aware so gaps do not smear.
+(LDV or GNSS). Then a window-based zero-phase FIR low-pass (:class:`Lowpass`: Blackman,
+``firwin(2·L·fs taps, cutoff 1/L Hz)`` applied forward and backward as in filtfilt), NaN-aware so
+gaps do not smear; its one design is :meth:`Lowpass._taps_at`.
 All inputs in SI units; outputs in m/s² unless the name says mGal.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
 from scipy.signal import firwin, oaconvolve
 
 from ldvsurvey.nav.earth import MGAL, OMEGA_IE, normal_gravity, radii
+from ldvsurvey.units import G0_MPS2
 
-G0 = 9.80665  #: m/s² per g (sensor specifications in µg)
+#: standard gravity, m/s² (the old name, still imported by the gravity pipeline; new code: ``units.G0_MPS2``)
+G0 = G0_MPS2
 
 
 def disturbance_mps2(f_u, vdot_u, v_e, v_n, lat_rad, h_m):
-    """Gravity disturbance δg (m/s²) from the up specific force and the vehicle motion.
+    """Gravity disturbance δg from the up specific force and the vehicle motion.
 
     Parameters
     ----------
-    f_u : up component of the specific force in n, m/s².
-    vdot_u : vertical acceleration of the vehicle, m/s².
-    v_e, v_n : east and north velocity, m/s. lat_rad : latitude. h_m : ellipsoidal height, m.
+    f_u : float or array_like
+        Up component of the specific force in the navigation frame n, m/s².
+    vdot_u : float or array_like
+        Vertical (up) acceleration of the vehicle, m/s².
+    v_e, v_n : float or array_like
+        East and north velocity, m/s.
+    lat_rad : float or array_like
+        Geodetic latitude, rad.
+    h_m : float or array_like
+        Ellipsoidal height, m.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        δg = f_U − v̇_U − γ(L, h) + Eötvös and centripetal terms, m/s² (broadcast shape of the inputs).
     """
     rm, rn = radii(lat_rad)
     return (
@@ -38,13 +53,6 @@ def disturbance_mps2(f_u, vdot_u, v_e, v_n, lat_rad, h_m):
         + (v_e / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_rad)) * v_e
         + v_n**2 / (rm + h_m)
     )
-
-
-def fir_taps(length_s: float, fs_hz: float) -> np.ndarray:
-    """Blackman-window low-pass, 2·L·fs (+1, odd) taps, cut-off 1/L Hz (one pass)."""
-    n = int(round(2 * length_s * fs_hz))
-    n += 1 - n % 2
-    return firwin(n, 1.0 / length_s, window="blackman", fs=fs_hz)
 
 
 #: sampling rate (per filter length) of the grid the filter's continuous response is computed on
@@ -60,6 +68,11 @@ class Lowpass:
     A value: built once per run from ``fir_length_s`` and handed to every stage, which binds it to its
     series' sampling rate with :meth:`at`. The taps and the applied kernel h ⋆ h of a bound filter are
     computed once.
+
+    The design is one method, :meth:`_taps_at` (one pass's taps at a given rate): the taps, the kernel,
+    the response, the fine |H|⁴ behind the noise gain, the half-amplitude frequency and every noise
+    floor all come from it, so a subclass overriding it (another window, a Gaussian FIR) changes them
+    all consistently; :meth:`at` keeps the subclass.
 
     Parameters
     ----------
@@ -77,7 +90,16 @@ class Lowpass:
         """The same filter bound to the sampling rate ``rate_hz`` (Hz)."""
         if self.rate_hz is not None and float(rate_hz) == self.rate_hz:
             return self
-        return Lowpass(self.length_s, float(rate_hz))
+        return replace(self, rate_hz=float(rate_hz))
+
+    def _taps_at(self, fs_hz: float) -> np.ndarray:
+        """One pass's taps at the rate ``fs_hz`` (Hz), unit sum: the filter's design, and its only one.
+
+        Blackman-window low-pass (``scipy.signal.firwin``), 2·L·f_s (+1, odd) taps, cut-off 1/L Hz.
+        """
+        n = int(round(2 * self.length_s * fs_hz))
+        n += 1 - n % 2
+        return firwin(n, 1.0 / self.length_s, window="blackman", fs=fs_hz)
 
     def _rate(self) -> float:
         if self.rate_hz is None:
@@ -86,8 +108,8 @@ class Lowpass:
 
     @cached_property
     def taps(self) -> np.ndarray:
-        """One pass's taps at the bound rate (:func:`fir_taps`), unit sum."""
-        return fir_taps(self.length_s, self._rate())
+        """One pass's taps at the bound rate (:meth:`_taps_at`), unit sum."""
+        return self._taps_at(self._rate())
 
     @cached_property
     def kernel(self) -> np.ndarray:
@@ -126,7 +148,7 @@ class Lowpass:
             w = w * np.nan_to_num(np.asarray(weights, float))
             w = w / max(float(w.max()), 1e-300)
         num = oaconvolve(np.where(ok, x, 0.0) * w, h2, mode="same")
-        key = (len(x), float(self.length_s), float(self._rate()))
+        key = (len(x), self)  # the filter value itself: its design (class, fields) and bound rate
         if den_cache is not None and weights is None and key in den_cache and ok.all():
             den = den_cache[key]
         else:
@@ -140,8 +162,15 @@ class Lowpass:
 
     @cached_property
     def fine_response4(self) -> tuple[np.ndarray, np.ndarray]:
-        """Frequencies (Hz) and |H(f)|⁴ of the applied filter on a fine grid (:func:`_response4`)."""
-        return _response4(self.length_s)
+        """Frequencies (Hz) and |H(f)|⁴ of the applied (forward and back) filter on a fine grid.
+
+        The taps at a rate of 50 samples per filter length (any rate well above the cut-off gives the same
+        response), zero-padded to an FFT of ``RESPONSE_N_F`` points; whatever the bound rate."""
+        fs = RESPONSE_RATE_PER_LENGTH / self.length_s
+        h = self._taps_at(fs)
+        hf = np.fft.rfft(h, RESPONSE_N_F)
+        f = np.fft.rfftfreq(RESPONSE_N_F, 1.0 / fs)
+        return f, np.abs(hf) ** 4
 
     def response(self, freq_hz) -> np.ndarray:
         """Amplitude response |H(f)|² of the applied (forward and back) filter at ``freq_hz`` (Hz); 1 at 0 Hz.
@@ -149,7 +178,7 @@ class Lowpass:
         Of the taps at the bound rate; unbound, at a rate of 50 samples per filter length (the continuous
         response below that rate's Nyquist frequency)."""
         fs = self.rate_hz or RESPONSE_RATE_PER_LENGTH / self.length_s
-        h = self.taps if self.rate_hz else fir_taps(self.length_s, fs)
+        h = self.taps if self.rate_hz else self._taps_at(fs)
         k = np.arange(len(h)) - (len(h) - 1) / 2
         f = np.atleast_1d(np.asarray(freq_hz, float))
         hf = np.exp(-2j * np.pi * np.outer(f, k) / fs) @ h
@@ -166,8 +195,7 @@ class Lowpass:
     def noise_gain(self) -> float:
         """∫|H|⁴ df over all frequencies (Hz): white noise of density N (unit/√Hz) comes out with variance
         N²·noise_gain; its inverse is the correlation time τ_c (s)."""
-        f, h4 = self.fine_response4
-        return 2.0 * np.sum(h4) * (f[1] - f[0])
+        return self.noise_integral(0)
 
     @property
     def correlation_time_s(self) -> float:
@@ -189,13 +217,7 @@ class Lowpass:
 
     def nominal_half_wavelength_m(self, speed_mps: float) -> float:
         """Half-wavelength (m) at the single pass's cut-off 1/L: v·L/2 (``speed_mps`` in m/s)."""
-        return half_wavelength_resolution_m(speed_mps, self.length_s)
-
-
-def zero_phase_lowpass(x, length_s: float, fs_hz: float, min_weight: float = 0.5, weights=None, den_cache=None):
-    """:meth:`Lowpass.apply` of a filter of length ``length_s`` (s) at ``fs_hz`` (Hz): a series' zero-phase
-    low-pass, NaN samples as gaps (see there for the parameters)."""
-    return Lowpass(length_s, float(fs_hz)).apply(x, min_weight, weights, den_cache)
+        return 0.5 * speed_mps * self.length_s
 
 
 def second_difference_noise_gain(valid, lowpass: Lowpass) -> np.ndarray:
@@ -235,16 +257,6 @@ def second_difference_noise_gain(valid, lowpass: Lowpass) -> np.ndarray:
         out = np.sqrt(np.maximum(var, 0.0)) / den / inner
     out[den < 0.5] = np.nan
     return out
-
-
-def half_wavelength_resolution_m(speed_mps: float, length_s: float) -> float:
-    """Spatial half-wavelength at the FIR cut-off 1/L: v·L/2 (m)."""
-    return 0.5 * speed_mps * length_s
-
-
-def to_mgal(x):
-    """m/s² to mGal."""
-    return np.asarray(x) / MGAL
 
 
 # ---------------------------------------------------------------------------------------------
@@ -307,17 +319,8 @@ def bridge_velocity(v_mps, ok, v_ref_mps, edge_n: int = 1, edge_fit: str = "mean
 # white-noise floor of a repeated-line coincidence
 
 
-def _response4(length_s: float, n_f: int = RESPONSE_N_F):
-    """Frequencies (Hz) and |H(f)|⁴ of the zero-phase (forward-backward) FIR, on a fine grid."""
-    fs = RESPONSE_RATE_PER_LENGTH / length_s  # any rate well above the cut-off 1/L gives the same response
-    h = fir_taps(length_s, fs)
-    hf = np.fft.rfft(h, n_f)
-    f = np.fft.rfftfreq(n_f, 1.0 / fs)
-    return f, np.abs(hf) ** 4
-
-
 def noise_floor_mgal(
-    lowpass: Lowpass | float,
+    lowpass: Lowpass,
     accel_noise_ug_rthz: float | None = None,
     ldv_noise_mps: float | None = None,
     ldv_rate_hz: float | None = None,
@@ -343,8 +346,8 @@ def noise_floor_mgal(
 
     Parameters
     ----------
-    lowpass : Lowpass or float
-        The filter (or its length L in s).
+    lowpass : Lowpass
+        The filter (bound to a rate or not: the floor does not depend on it), e.g. ``Lowpass(length_s)``.
     accel_noise_ug_rthz : float or None
         Accelerometer white-noise density N, µg/√Hz.
     ldv_noise_mps, ldv_rate_hz : float or None
@@ -360,7 +363,8 @@ def noise_floor_mgal(
         The components given (``accel_mgal``, ``ldv_mgal``, ``gnss_height_mgal``,
         ``gnss_height_correlated_mgal``) and their root-sum-square ``total_mgal``, mGal.
     """
-    lowpass = lowpass if isinstance(lowpass, Lowpass) else Lowpass(lowpass)
+    if not isinstance(lowpass, Lowpass):
+        raise TypeError(f"noise_floor_mgal takes the filter, e.g. Lowpass(length_s), not {type(lowpass).__name__}")
     f, h4 = lowpass.fine_response4
     df = f[1] - f[0]
     w = 2 * np.pi * f
@@ -368,7 +372,7 @@ def noise_floor_mgal(
 
     out = {}
     if accel_noise_ug_rthz:
-        out["accel_mgal"] = float(accel_noise_ug_rthz * 1e-6 * G0 * np.sqrt(integral(0)) / MGAL)
+        out["accel_mgal"] = float(accel_noise_ug_rthz * 1e-6 * G0_MPS2 * np.sqrt(integral(0)) / MGAL)
     if ldv_noise_mps and ldv_rate_hz:
         out["ldv_mgal"] = float(ldv_noise_mps * np.sqrt(integral(2) / ldv_rate_hz) / MGAL)
     if height_noise_m and gnss_rate_hz:

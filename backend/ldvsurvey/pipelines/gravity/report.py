@@ -563,10 +563,8 @@ def fit_height_noise(chain, lowpass: Lowpass, accel_noise_ug_rthz=None):
 def height_wander_floor_mgal(lowpass: Lowpass, q_m2_per_s):
     """1-σ (mGal) of a random-walk height wander (increments' variance q·Δt, q in m²/s, two-sided PSD
     q/(2πf)²) differenced twice and through the zero-phase FIR: σ² = q ∫(2πf)²|H|⁴ df (as
-    :func:`ldvsurvey.nav.gravity.noise_floor_mgal` integrates its terms)."""
-    f, h4 = lowpass.fine_response4
-    w = 2 * np.pi * f
-    return float(np.sqrt(q_m2_per_s * 2.0 * np.sum(w**2 * h4) * (f[1] - f[0])) / MGAL)
+    :func:`ldvsurvey.nav.gravity.noise_floor_mgal` integrates its terms: :meth:`Lowpass.noise_integral`)."""
+    return float(np.sqrt(q_m2_per_s * lowpass.noise_integral(2)) / MGAL)
 
 
 def _stated_height_noise(log, chain):
