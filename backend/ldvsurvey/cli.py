@@ -435,7 +435,6 @@ class _ImportHelpFormatter(argparse.RawDescriptionHelpFormatter):
         super().add_text(text)
 
 
-
 def _cmd_ties(args) -> int:
     from ldvsurvey.pipelines.ties import base_ties_text, check_tie
     from ldvsurvey.store import ties as tstore
