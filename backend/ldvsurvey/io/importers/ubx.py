@@ -44,6 +44,7 @@ import numpy as np
 
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.importers.common import GnssPart, ImuPart, Stamps, fix_from_sigma
+from ldvsurvey.io.importers.contract import Importer, Option
 from ldvsurvey.io.importers.gpstime import GPS_EPOCH, WEEK_S, gps_minus_utc_s, unwrap_sow
 
 NAME = "ubx"
@@ -750,3 +751,21 @@ def _gnss(log: _Log, notes: list) -> GnssPart:
         hdop=a[:, 8],
         notes=notes,
     )
+
+
+IMPORTER = Importer(
+    NAME,
+    ROLES,
+    read,
+    sniff,
+    options=(
+        Option("esf", (str,), "the IMU message read when a log holds both: 'raw' (ESF-RAW) or 'meas' (ESF-MEAS)", ("imu",)),
+        Option(
+            "time_offset_s",
+            (float,),
+            "added to the sensor samples' times: the NAV messages' known output latency, s",
+            ("imu",),
+        ),
+    ),
+    summary="u-blox UBX logs: ESF-RAW/ESF-MEAS (IMU), NAV-HPPOSLLH/PVT/SOL/POSLLH, HNR-PVT (GNSS)",
+)
