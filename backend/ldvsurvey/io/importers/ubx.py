@@ -759,7 +759,7 @@ IMPORTER = Importer(
     read,
     sniff,
     options=(
-        Option("esf", (str,), "the IMU message read when a log holds both: 'raw' (ESF-RAW) or 'meas' (ESF-MEAS)", ("imu",)),
+        Option("esf", (str,), "the IMU message read when a log holds both: 'raw' (ESF-RAW) or 'meas'", ("imu",)),
         Option(
             "time_offset_s",
             (float,),
