@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib
 
 from ldvsurvey.errors import BundleError
+from ldvsurvey.io.importers.build import ImportResult, Source, build_bundle, parse_partial_manifest
 from ldvsurvey.io.importers.contract import Importer, Option, from_module
 
 #: format name -> module (imported on first use: some need optional libraries)
@@ -57,10 +58,9 @@ def detect(data: bytes, name: str) -> tuple[str, str] | None:
     return None
 
 
-from ldvsurvey.io.importers.build import ImportResult, Source, build_bundle, parse_partial_manifest  # noqa: E402
-
 __all__ = [
     "REGISTRY",
+    "SNIFF_ORDER",
     "ImportResult",
     "Importer",
     "Option",

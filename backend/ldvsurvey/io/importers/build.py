@@ -294,9 +294,9 @@ def _read_sources(sources: list[Source], m: dict, warnings: list[str]) -> tuple[
         if src.role in parts:
             raise BundleError(f"two {src.role} recordings given", file=src.name)
         imp = get_importer(src.format, src.name)
-        if src.role not in imp.ROLES:
+        if src.role not in imp.roles:
             raise BundleError(
-                f"the {imp.NAME} format has no {src.role} data (it has: {', '.join(imp.ROLES)})", file=src.name
+                f"the {imp.name} format has no {src.role} data (it has: {', '.join(imp.roles)})", file=src.name
             )
         parts[src.role] = imp.read(src.data, src.name, src.role, _options(m, src.role))
         by_role[src.role] = src

@@ -1,14 +1,19 @@
-"""What every importer returns, and a strict reader for whitespace/comma separated numbers."""
+"""What every importer returns, a strict reader for whitespace/comma separated numbers, and WGS-84 ECEF to
+geodetic coordinates."""
 
 from __future__ import annotations
 
 import datetime as dt
 import io
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ldvsurvey.errors import BundleError
+
+WGS84_A_M = 6378137.0  #: semi-major axis, m
+WGS84_F = 1.0 / 298.257223563  #: flattening
 
 
 @dataclass
@@ -95,6 +100,40 @@ class LdvPart:
     stamps: Stamps
     columns: dict[str, np.ndarray]
     notes: list[str] = field(default_factory=list)
+
+
+def ecef_to_lla(x_m: float, y_m: float, z_m: float) -> tuple[float, float, float]:
+    """WGS-84 geodetic coordinates of an Earth-centred Earth-fixed point.
+
+    The latitude is iterated as φ = atan2(z + e² N(φ) sin φ, p) (p the distance from the axis) until it no
+    longer changes (1e-15 rad; each step gains about a factor e² ≈ 0.0067), the height taken as
+    h = p cos φ + z sin φ − a √(1 − e² sin² φ): both hold at every latitude, the poles included.
+
+    Parameters
+    ----------
+    x_m, y_m, z_m : float
+        ECEF coordinates, m.
+
+    Returns
+    -------
+    lat_deg, lon_deg : float
+        Geodetic latitude and longitude, deg (longitude in (−180, 180]; 0 on the axis).
+    h_m : float
+        Ellipsoidal height, m.
+    """
+    e2 = WGS84_F * (2.0 - WGS84_F)
+    p = math.hypot(x_m, y_m)
+    lat = math.atan2(z_m, p * (1.0 - e2))
+    for _ in range(30):
+        n = WGS84_A_M / math.sqrt(1.0 - e2 * math.sin(lat) ** 2)
+        new = math.atan2(z_m + e2 * n * math.sin(lat), p)
+        done = abs(new - lat) <= 1e-15
+        lat = new
+        if done:
+            break
+    s, c = math.sin(lat), math.cos(lat)
+    h = p * c + z_m * s - WGS84_A_M * math.sqrt(1.0 - e2 * s * s)
+    return math.degrees(lat), math.degrees(math.atan2(y_m, x_m)), h
 
 
 def fix_from_sigma(sigma_h_m: np.ndarray) -> np.ndarray:

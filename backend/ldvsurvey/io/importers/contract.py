@@ -73,19 +73,6 @@ class Importer:
     sniffer: Callable  #: (data: bytes, file_name: str) -> role or None
     options: tuple[Option, ...] = ()
     summary: str = ""
-    #: the options above are all the format takes (False for a module written before this contract:
-    #: then options it does not declare are passed on without a note)
-    options_complete: bool = True
-
-    @property
-    def NAME(self) -> str:  # noqa: N802 - the module-level name the builder has always read
-        """The format's name (as the module-level ``NAME`` of an importer module)."""
-        return self.name
-
-    @property
-    def ROLES(self) -> tuple[str, ...]:  # noqa: N802
-        """The roles the format reads (as the module-level ``ROLES`` of an importer module)."""
-        return self.roles
 
     def option_specs(self, role: str) -> dict[str, Option]:
         """Option name -> :class:`Option` of everything the format takes in ``role`` (common options included)."""
@@ -105,7 +92,7 @@ class Importer:
             else:
                 unknown.append(key)
         part = self.reader(data, file, role, options)
-        if unknown and self.options_complete:
+        if unknown:
             part.notes.append(
                 f"{file}: option(s) {', '.join(f'import.{role}.{k}' for k in unknown)} not used by the {self.name} "
                 f"format (it knows: {', '.join(sorted(specs)) or 'none'})"
@@ -118,20 +105,8 @@ class Importer:
 
 
 def from_module(module) -> Importer:
-    """A module's ``IMPORTER``; for a module written before the contract, one made from its
-    ``NAME``, ``ROLES``, ``read`` and ``sniff`` (so that no importer can be left out)."""
+    """A module's ``IMPORTER``; a module without one is no importer (a :class:`TypeError`)."""
     imp = getattr(module, "IMPORTER", None)
-    if isinstance(imp, Importer):
-        return imp
-    for attr in ("NAME", "ROLES", "read", "sniff"):
-        if not hasattr(module, attr):
-            raise TypeError(f"{module.__name__} is no importer: no IMPORTER and no {attr}")
-    return Importer(
-        module.NAME,
-        tuple(module.ROLES),
-        module.read,
-        module.sniff,
-        tuple(getattr(module, "OPTIONS", ())),
-        summary=(module.__doc__ or "").strip().splitlines()[0].rstrip("."),
-        options_complete=False,
-    )
+    if not isinstance(imp, Importer):
+        raise TypeError(f"{module.__name__} is no importer: it declares no IMPORTER = Importer(...)")
+    return imp

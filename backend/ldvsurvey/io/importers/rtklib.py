@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ldvsurvey.errors import BundleError
-from ldvsurvey.io.importers.common import GnssPart, Stamps
+from ldvsurvey.io.importers.common import GnssPart, Stamps, ecef_to_lla
 from ldvsurvey.io.importers.contract import Importer, Option
 from ldvsurvey.io.importers.gpstime import GPS_EPOCH, WEEK_S
 
@@ -27,32 +27,12 @@ ROLES = ("gnss",)
 FIX_OF_Q = {1: 4, 2: 5, 3: 2, 4: 2, 5: 1, 6: 5}
 _DATE = re.compile(r"(\d{2,4})/(\d{1,2})/(\d{1,2})")
 _TIME = re.compile(r"(\d{1,2}):(\d{1,2}):(\d{1,2}(?:\.\d*)?)")
-WGS84_A = 6378137.0
-WGS84_F = 1.0 / 298.257223563
 
 
 def sniff(data: bytes, name: str) -> str | None:
     """``gnss`` when the first 4 kB hold an RTKLIB header line (``% GPST latitude(deg) ...``), else None."""
     head = data[:4096].decode("ascii", "replace")
     return "gnss" if re.search(r"^%\s+(GPST|UTC|JST)\s+(latitude|x-ecef)", head, re.M) else None
-
-
-def _ecef_to_llh(x: float, y: float, z: float) -> tuple[float, float, float]:
-    """WGS-84 ECEF (m) to latitude, longitude (deg) and ellipsoidal height (m), iterated to 1e-12 rad."""
-    e2 = WGS84_F * (2.0 - WGS84_F)
-    p = math.hypot(x, y)
-    lat = math.atan2(z, p * (1.0 - e2))
-    for _ in range(20):
-        n = WGS84_A / math.sqrt(1.0 - e2 * math.sin(lat) ** 2)
-        h = p / math.cos(lat) - n if abs(lat) < math.radians(89.0) else z / math.sin(lat) - n * (1.0 - e2)
-        new = math.atan2(z, p * (1.0 - e2 * n / (n + h)))
-        if abs(new - lat) < 1e-12:
-            lat = new
-            break
-        lat = new
-    n = WGS84_A / math.sqrt(1.0 - e2 * math.sin(lat) ** 2)
-    h = p / math.cos(lat) - n if abs(lat) < math.radians(89.0) else z / math.sin(lat) - n * (1.0 - e2)
-    return math.degrees(lat), math.degrees(math.atan2(y, x)), h
 
 
 def _num(tok: str, file: str, line: int, name: str) -> float:
@@ -207,7 +187,7 @@ def _position(rest: list[str], form: str, file: str, lineno: int) -> tuple[float
         lon = math.copysign(abs(v[3]) + v[4] / 60.0 + v[5] / 3600.0, -1.0 if rest[3].startswith("-") else 1.0)
         h = v[6]
     elif form == "ecef":
-        lat, lon, h = _ecef_to_llh(*(_num(x, file, lineno, f"{a}-ecef") for x, a in zip(rest[:3], "xyz")))
+        lat, lon, h = ecef_to_lla(*(_num(x, file, lineno, f"{a}-ecef") for x, a in zip(rest[:3], "xyz")))
     else:
         lat = _num(rest[0], file, lineno, "latitude")
         lon = _num(rest[1], file, lineno, "longitude")

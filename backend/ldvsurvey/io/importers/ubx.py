@@ -43,7 +43,8 @@ import struct
 import numpy as np
 
 from ldvsurvey.errors import BundleError
-from ldvsurvey.io.importers.common import GnssPart, ImuPart, Stamps, fix_from_sigma
+from ldvsurvey.io.importers.common import GnssPart, ImuPart, Stamps, ecef_to_lla, fix_from_sigma
+from ldvsurvey.io.importers.contract import Importer, Option
 from ldvsurvey.io.importers.gpstime import GPS_EPOCH, WEEK_S, gps_minus_utc_s, unwrap_sow
 
 NAME = "ubx"
@@ -305,21 +306,6 @@ class _Log:
         elif d > WEEK_S * 500:
             week -= 1
         return week
-
-
-def ecef_to_lla(x: float, y: float, z: float) -> tuple[float, float, float]:
-    """WGS-84 geodetic latitude, longitude (deg) and ellipsoidal height (m) of an ECEF point (m)."""
-    a, f = 6378137.0, 1.0 / 298.257223563
-    e2 = f * (2.0 - f)
-    p = math.hypot(x, y)
-    lon = math.atan2(y, x)
-    lat = math.atan2(z, p * (1.0 - e2))
-    h = 0.0
-    for _ in range(10):
-        n = a / math.sqrt(1.0 - e2 * math.sin(lat) ** 2)
-        h = p / math.cos(lat) - n if abs(lat) < math.radians(80) else z / math.sin(lat) - n * (1.0 - e2)
-        lat = math.atan2(z, p * (1.0 - e2 * n / (n + h)))
-    return math.degrees(lat), math.degrees(lon), h
 
 
 # ---------------------------------------------------------------------------------------------- time base
@@ -750,3 +736,21 @@ def _gnss(log: _Log, notes: list) -> GnssPart:
         hdop=a[:, 8],
         notes=notes,
     )
+
+
+IMPORTER = Importer(
+    NAME,
+    ROLES,
+    read,
+    sniff,
+    options=(
+        Option("esf", (str,), "the IMU message read when a log holds both: 'raw' (ESF-RAW) or 'meas'", ("imu",)),
+        Option(
+            "time_offset_s",
+            (float,),
+            "added to the sensor samples' times: the NAV messages' known output latency, s",
+            ("imu",),
+        ),
+    ),
+    summary="u-blox UBX logs: ESF-RAW/ESF-MEAS (IMU), NAV-HPPOSLLH/PVT/SOL/POSLLH, HNR-PVT (GNSS)",
+)
