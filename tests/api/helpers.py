@@ -179,7 +179,7 @@ def summary_of(view: str) -> dict:
     """The summary of a job that has something to show in ``view``."""
     from ldvsurvey.api.views import VIEWS
 
-    s = SUMMARIES[VIEWS[view].pipeline]
+    s = SUMMARIES.get(VIEWS[view].pipeline, {})
     return {**s, **NETWORK} if view == "gravity_network_map" else s
 
 

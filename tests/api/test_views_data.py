@@ -5,7 +5,8 @@ rows than a trace may carry, so thinning is at work. For every trace the test ma
 back to its row (exact values) and checks: the rows come in the data's order; consecutive plotted
 points of one segment have no missing row and no gap of the data's own step between them (so no
 segment is longer than the data's steps allow and there is a break at every gap); the plotted values
-lie inside the data's; every axis title carries a unit in parentheses; every title line fits.
+lie inside the data's; every axis title ends with a known unit in parentheses; every title line fits.
+A view the test has no branch for in :func:`_rows_of_trace` is checked on the columns of its files it draws.
 """
 
 import re
@@ -14,14 +15,16 @@ import numpy as np
 import pytest
 
 from ldvsurvey.api import views as V
+from ldvsurvey.pipelines.labels import SUFFIX_UNIT
 from tests.api.helpers import SUMMARIES, path, summary_of, tables
 
 N_POINTS = 400  #: points requested per trace (fewer than the rows: thinning is exercised)
 
 
-def _rows_of_trace(v, name, tabs, arrays):
+def _rows_of_trace(v, name, tabs, arrays, tr=None):
     """The (x, y, order) arrays a trace of view ``v`` is drawn from, by the trace's name; None for
-    a drawn reference (a noise-floor band)."""
+    a drawn reference (a noise-floor band). A view without a branch here: :func:`_columns_of_trace`
+    on the drawn trace ``tr``."""
     h, a, c, g, d, dm = (
         tabs[k] for k in ("height.csv", "attitude.csv", "coincidence.csv", "gravity.csv", "dov.csv", "damping.csv")
     )
@@ -77,7 +80,38 @@ def _rows_of_trace(v, name, tabs, arrays):
     if v == "damping":
         mth = name.rsplit(",", 1)[0].replace(" ", "_")
         return dm["t_s"], dm[f"{mth}_north_error_m"], dm["t_s"]
-    raise AssertionError(f"the test does not know the trace '{name}' of view '{v}'")
+    return _columns_of_trace(v, tr, tabs)
+
+
+def _columns_of_trace(v, tr, tabs, tol=1e-6):
+    """A view without a branch in _rows_of_trace: each of its traces must draw one column of one of its
+    declared files against another, row by row (then it is checked like any other, in the file's time
+    order, ``t_s``, or else x's); a trace drawn from anything computed needs a branch there."""
+    files = V.VIEWS[v].files
+    missing = [f for f in files if f not in tabs]
+    assert not missing, f"view '{v}' reads {missing}: add those tables to tables() in tests/api/helpers.py"
+    px = np.array([p for p in (tr or {}).get("x", []) if p is not None], float)
+    py = np.array([p for p in (tr or {}).get("y", []) if p is not None], float)
+
+    def inside(col, pts):  # every plotted value is a value of the column
+        s = np.sort(col[np.isfinite(col)])
+        if len(s) < 2 or not len(pts):
+            return False
+        k = np.clip(np.searchsorted(s, pts), 1, len(s) - 1)
+        near = np.minimum(np.abs(s[k - 1] - pts), np.abs(s[k] - pts))
+        return bool(np.all(near <= tol * np.maximum(1, np.abs(pts))))
+
+    for f in files:
+        cols = {c: np.asarray(a, float) for c, a in tabs[f].items() if a.dtype != object}
+        for cx in (c for c in cols if inside(cols[c], px)):
+            for cy in (c for c in cols if c != cx and inside(cols[c], py)):
+                return cols[cx], cols[cy], cols.get("t_s", cols[cx])
+    name = (tr or {}).get("name")
+    raise AssertionError(
+        f"trace '{name}' of view '{v}' is not one column of {list(files)} against another: add a branch for"
+        f" view '{v}' to _rows_of_trace in tests/api/test_views_data.py returning the (x, y, order) arrays"
+        " the trace draws, from the tables of tests/api/helpers.py"
+    )
 
 
 def check_trace(tr, x, y, order, tol=1e-6):
@@ -127,7 +161,29 @@ def check_trace(tr, x, y, order, tol=1e-6):
         assert chord <= path + tol
 
 
-UNIT = re.compile(r"\((s of day|m|m, ellipsoidal|deg|mGal|arcsec)\)$")
+#: the units an axis title may end with: every unit of the one table (pipelines/labels.py), and the
+#: angle units spelt out as the views write them
+KNOWN_UNITS = set(SUFFIX_UNIT.values()) | {"deg", "arcmin", "arcsec"}
+
+
+def axis_unit(text):
+    """The unit of an axis title: its trailing parenthesised group (nested parentheses kept), without
+    a qualifier after a comma or ' of day' ('h (m, ellipsoidal)' → 'm'); None when it has none."""
+    if not text.endswith(")"):
+        return None
+    depth = 0
+    for i in range(len(text) - 1, -1, -1):
+        depth += {")": 1, "(": -1}.get(text[i], 0)
+        if depth == 0:
+            unit = text[i + 1 : -1]
+            return re.sub(r"( of day|, [^()]*)$", "", unit) if i > 0 and text[i - 1] == " " else None
+    return None
+
+
+def test_axis_units_are_read_as_the_views_write_them():
+    assert axis_unit("h (m, ellipsoidal)") == "m" and axis_unit("t (s of day)") == "s"
+    assert axis_unit("k (rad/(m/s²))") == "rad/(m/s²)" and axis_unit("v (m/s)") == "m/s"
+    assert axis_unit("angle") is None and axis_unit("(m)") is None and axis_unit("v (m/s") is None
 
 
 def check_layout(fig):
@@ -135,7 +191,10 @@ def check_layout(fig):
     for ax, spec in lay.items():
         if re.fullmatch(r"[xy]axis\d*", ax) and not spec.get("matches"):
             text = spec["title"]["text"]
-            assert UNIT.search(text), f"{ax} title '{text}' carries no unit"
+            assert axis_unit(text) in KNOWN_UNITS, (
+                f"{ax} title '{text}' does not end with a known unit in parentheses; a new unit goes into"
+                " SUFFIX_UNIT of backend/ldvsurvey/pipelines/labels.py"
+            )
     title = lay["title"]["text"]
     for line in title.split("<br>"):
         assert len(re.sub(r"<[^>]+>", "", line)) <= V.TITLE_LINE_CHARS, f"title line too long: {line!r}"
@@ -151,11 +210,13 @@ def data():
 def test_every_view_against_its_data(name, data):
     tabs, arrays = data
     v = V.VIEWS[name]
+    missing = [f for f in v.files if f not in tabs]
+    assert not missing, f"view '{name}' reads {missing}: add those tables to tables() in tests/api/helpers.py"
     fig = V.build_view(V.DictTables(tabs, arrays), v.pipeline, summary_of(name), name, None, None, N_POINTS)
     assert fig["data"], "no trace"
     check_layout(fig)
     for tr in fig["data"]:
-        src = _rows_of_trace(name, tr["name"], tabs, arrays)
+        src = _rows_of_trace(name, tr["name"], tabs, arrays, tr)
         if src is not None:
             check_trace(tr, *src)
 
@@ -167,7 +228,7 @@ def test_a_zoomed_view_stays_in_its_range_and_order(name, data):
     x0, x1 = (30050.0, 30200.0) if v.pipeline in ("height", "tilt") else (-500.0, 800.0)
     fig = V.build_view(V.DictTables(tabs, arrays), v.pipeline, summary_of(name), name, x0, x1, N_POINTS)
     for tr in fig["data"]:
-        src = _rows_of_trace(name, tr["name"], tabs, arrays)
+        src = _rows_of_trace(name, tr["name"], tabs, arrays, tr)
         if src is None or tr.get("mode") == "markers":
             continue
         xs = np.array([p for p in tr["x"] if p is not None])
@@ -270,3 +331,59 @@ def test_maps_have_a_true_scale_bar_a_north_arrow_and_their_positions(name, data
             if la is None:
                 continue
             assert np.min(np.hypot(src_lat - la, src_lon - lo)) < 1e-8  # deg: under a millimetre
+
+
+def _register(monkeypatch, name, build, files):
+    """A throwaway view of the test's own, registered for one test only."""
+    monkeypatch.setattr(V, "VIEWS", dict(V.VIEWS))
+    V.view(name, "height", "A view added later", "m/s", files)(build)
+
+
+def test_a_new_view_on_its_files_columns_needs_no_test_edit(monkeypatch, data):
+    """What docs/architecture.md promises of a new view: one that draws columns of a file tables() has,
+    titled with any unit of the unit table, is checked without a branch of its own."""
+
+    def speed(v):
+        h = v.csv("height.csv")
+        return V._fig([v.trace(h["t_s"], h["h_uncompensated_m"], "v")], "Speed", "t (s of day)", "v (m/s)")
+
+    _register(monkeypatch, "test_speed", speed, ("height.csv",))
+    test_every_view_against_its_data("test_speed", data)
+
+
+def test_a_new_view_the_test_cannot_read_says_what_to_add(monkeypatch, data):
+    """A trace computed from its columns, or an axis without a known unit, fails naming the edit."""
+
+    def computed(v):
+        h = v.csv("height.csv")
+        return V._fig([v.trace(h["t_s"], 2 * h["h_uncompensated_m"], "2h")], "Twice", "t (s of day)", "2h (m)")
+
+    _register(monkeypatch, "test_computed", computed, ("height.csv",))
+    with pytest.raises(AssertionError, match="add a branch for view 'test_computed' to _rows_of_trace"):
+        test_every_view_against_its_data("test_computed", data)
+
+    def unitless(v):
+        h = v.csv("height.csv")
+        return V._fig([v.trace(h["t_s"], h["h_m"], "h")], "Odd unit", "t (s of day)", "h (furlong)")
+
+    _register(monkeypatch, "test_unitless", unitless, ("height.csv",))
+    with pytest.raises(AssertionError, match="a new unit goes into SUFFIX_UNIT"):
+        test_every_view_against_its_data("test_unitless", data)
+
+    _register(monkeypatch, "test_no_table", unitless, ("speed.csv",))
+    with pytest.raises(AssertionError, match=r"add those tables to tables\(\) in tests/api/helpers.py"):
+        test_every_view_against_its_data("test_no_table", data)
+
+
+def test_the_view_module_loads_without_the_compiled_core():
+    """The views and the report project with nav/localframe.py: importing them loads no numba and no filter."""
+    import subprocess
+    import sys
+
+    heavy = ("numba", "ldvsurvey.nav.filter", "ldvsurvey.pipelines.stages.aids")
+    code = (
+        "import sys, ldvsurvey.api.views, ldvsurvey.api.report, ldvsurvey.api.headlines;"
+        f"print(sorted(m for m in {heavy!r} if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

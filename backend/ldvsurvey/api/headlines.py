@@ -2,14 +2,14 @@
 
 The figures and their labels are the survey report's (:data:`ldvsurvey.api.report.HEADLINES`), so the
 page and the report a client receives say the same; the labels of summary keys come from their unit
-suffixes (:func:`ldvsurvey.api.report.label_unit`), those of parameters from
+suffixes (:func:`ldvsurvey.pipelines.labels.label_unit`), those of parameters from
 :data:`ldvsurvey.pipelines.labels.PARAM_LABELS`.
 """
 
 from __future__ import annotations
 
-from ldvsurvey.api.report import HEADLINES, fmt, label_unit, summary_value
-from ldvsurvey.pipelines.labels import param_label
+from ldvsurvey.api.report import HEADLINES, fmt, summary_value
+from ldvsurvey.pipelines.labels import label_unit, param_label
 
 #: headline figures a user may hold to a specification: |value| ≤ the specification passes
 SPECIFIABLE = {

@@ -22,30 +22,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ldvsurvey.api.views import VIEWS, MissingResult, Tables, build_view, views_of
-from ldvsurvey.pipelines.stages.aids import local_metres
+from ldvsurvey.nav.localframe import local_metres
+from ldvsurvey.pipelines.labels import label_unit
 from ldvsurvey.units import RAD_PER_DEG
 
 #: points per trace in a report figure (enough for print; keeps the file small)
 REPORT_POINTS = 800
 #: points per layer on a report map
 MAP_POINTS = 1000
-#: unit of a summary value by the suffix of its key (``total_mgal`` → mGal)
-SUFFIX_UNITS = {
-    "mgal": "mGal",
-    "m": "m",
-    "s": "s",
-    "rad": "rad",
-    "deg": "deg",
-    "arcsec": "″",
-    "mps": "m/s",
-    "mps2": "m/s²",
-    "hz": "Hz",
-    "pct": "%",
-    "ppm": "ppm",
-    "dph": "°/h",
-    "ug": "µg",
-    "km": "km",
-}
 #: the headline figures of each pipeline: (summary key path, label)
 HEADLINES = {
     "gravity": [
@@ -122,15 +106,13 @@ def esc(x) -> str:
     return html.escape(str(x), quote=True)
 
 
-def label_unit(key: str) -> tuple[str, str]:
-    """'total_mgal' → ('total', 'mGal'); 'max_error_m_fix4' → ('max error (fix4)', 'm')."""
-    parts = key.split("_")
-    for i in range(len(parts) - 1, 0, -1):
-        if parts[i] in SUFFIX_UNITS:
-            rest = parts[i + 1 :]
-            lab = " ".join(parts[:i]) + (f" ({' '.join(rest)})" if rest else "")
-            return lab, SUFFIX_UNITS[parts[i]]
-    return key.replace("_", " "), ""
+#: units written against the number (12.5°, 3.2″), as angles are
+SYMBOL_UNITS = ("°", "′", "″")
+
+
+def _with_unit(s: str, unit: str) -> str:
+    """A number's text with its unit: after a space, a degree/minute/second sign against it."""
+    return s + ("" if not unit else unit if unit in SYMBOL_UNITS else f" {unit}")
 
 
 def fmt(v, unit: str = "") -> str:
@@ -140,7 +122,7 @@ def fmt(v, unit: str = "") -> str:
     if isinstance(v, bool):
         return "yes" if v else "no"
     if isinstance(v, int):
-        return f"{v}" + (f" {unit}" if unit else "")
+        return _with_unit(f"{v}", unit)
     if isinstance(v, float):
         if not math.isfinite(v):
             return "–"
@@ -151,9 +133,9 @@ def fmt(v, unit: str = "") -> str:
             s = f"{v:.{max(0, 3 - math.floor(math.log10(a))) if a else 0}f}"
         if unit == "rad":
             return f"{s} rad ({v * 180 / math.pi * 3600:.2f}″)"
-        return s + (f" {unit}" if unit else "")
+        return _with_unit(s, unit)
     if isinstance(v, (list, tuple)) and all(isinstance(x, (int, float)) for x in v):
-        return ", ".join(fmt(x) for x in v) + (f" {unit}" if unit else "")
+        return _with_unit(", ".join(fmt(x) for x in v), unit)
     return str(v)
 
 

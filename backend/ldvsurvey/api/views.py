@@ -18,11 +18,9 @@ import pyarrow.csv as pacsv
 from tsdownsample import MinMaxLTTBDownsampler
 
 from ldvsurvey.io.nmea import FIX_QUALITY_NAMES
-from ldvsurvey.nav.earth import radii
-from ldvsurvey.pipelines.stages.aids import local_metres
-from ldvsurvey.units import DEG_PER_RAD, RAD_PER_DEG
+from ldvsurvey.nav.localframe import local_latlon, local_metres
+from ldvsurvey.units import ARCSEC_PER_RAD, DEG_PER_RAD, RAD_PER_DEG
 
-ARCSEC_PER_RAD = DEG_PER_RAD * 3600.0
 #: a step of the data's own order (time or distance) this many times its median step is a gap
 GAP_FACTOR = 5.0
 #: a title line longer than this many characters is broken (Plotly cuts titles wider than the plot)
@@ -469,10 +467,18 @@ def _gnss_traces(v: ViewInput, lat0: float, lon0: float) -> list[dict]:
 def _with_latlon(tr: dict, lat0: float, lon0: float) -> dict:
     """The trace's points also as latitude/longitude (``meta``), for a basemap: the inverse of
     local_metres (a small area), breaks kept."""
-    rm, rn = radii(lat0)
-    lat = [None if n is None else (lat0 + n / rm) * DEG_PER_RAD for n in tr["y"]]
-    lon = [None if e is None else (lon0 + e / (rn * np.cos(lat0))) * DEG_PER_RAD for e in tr["x"]]
-    return {**tr, "meta": {"lat": lat, "lon": lon}}
+    lat, lon = local_latlon(lat0, lon0, _floats(tr["x"]), _floats(tr["y"]))
+    return {**tr, "meta": {"lat": _points(lat * DEG_PER_RAD), "lon": _points(lon * DEG_PER_RAD)}}
+
+
+def _floats(p: list) -> np.ndarray:
+    """A trace's coordinates as floats, a break (None) as NaN."""
+    return np.array([np.nan if x is None else x for x in p], float)
+
+
+def _points(a: np.ndarray) -> list:
+    """Floats as a trace's coordinates, NaN as a break (None)."""
+    return [None if np.isnan(x) else x for x in a.tolist()]
 
 
 def _track(v: ViewInput, name: str) -> dict:

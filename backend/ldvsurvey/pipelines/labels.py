@@ -59,8 +59,28 @@ PARAM_LABELS: dict[str, tuple[str, str]] = {
     "update_s": ("Error-update period", "s"),
 }
 
-#: the unit a name's suffix states (checked against the table by the tests)
-SUFFIX_UNIT = {"s": "s", "m": "m", "deg": "°", "hz": "Hz", "arcmin": "′", "mps": "m/s", "mps2": "rad/(m/s²)"}
+#: the unit a name's unit word states: the one table for parameters (checked against
+#: :data:`PARAM_LABELS` by the tests) and summary keys (:func:`label_unit`, the job page and the report);
+#: ``<a>_per_<b>`` reads as a/b (``ldv_pitch_k_rad_per_mps2`` → rad/(m/s²))
+SUFFIX_UNIT = {
+    "s": "s",
+    "m": "m",
+    "km": "km",
+    "rad": "rad",
+    "deg": "°",
+    "deg_per_g": "°/g",
+    "arcmin": "′",
+    "arcsec": "″",
+    "hz": "Hz",
+    "mps": "m/s",
+    "mps2": "m/s²",
+    "mgal": "mGal",
+    "ug": "µg",
+    "ug_rthz": "µg/√Hz",
+    "dph": "°/h",
+    "ppm": "ppm",
+    "pct": "%",
+}
 
 
 def param_label(name: str) -> tuple[str, str]:
@@ -68,3 +88,29 @@ def param_label(name: str) -> tuple[str, str]:
     if name in PARAM_LABELS:
         return PARAM_LABELS[name]
     return name.replace("_", " ").capitalize(), ""
+
+
+def _unit_at(parts: list[str], i: int) -> tuple[int, str] | None:
+    """The unit whose last word is ``parts[i]``: (index of its first word, unit), longest first."""
+    for j in range(max(0, i - 2), i + 1):  # a unit of three words ("deg_per_g") or two ("ug_rthz") before one
+        word = "_".join(parts[j : i + 1])
+        if j > 0 and word in SUFFIX_UNIT:
+            if j >= 3 and parts[j - 1] == "per" and parts[j - 2] in SUFFIX_UNIT:  # "rad_per_mps2"
+                num, den = SUFFIX_UNIT[parts[j - 2]], SUFFIX_UNIT[word]
+                return j - 2, f"{num}/({den})" if "/" in den or "²" in den else f"{num}/{den}"
+            return j, SUFFIX_UNIT[word]
+    return None
+
+
+def label_unit(key: str) -> tuple[str, str]:
+    """A name's words and the unit its last unit word states (:data:`SUFFIX_UNIT`); words after the unit
+    are a qualifier in parentheses: 'total_mgal' → ('total', 'mGal'); 'max_error_m_fix4' →
+    ('max error (fix4)', 'm'); 'ldv_pitch_k_rad_per_mps2_sigma' → ('ldv pitch k (sigma)', 'rad/(m/s²)')."""
+    parts = key.split("_")
+    for i in range(len(parts) - 1, 0, -1):
+        found = _unit_at(parts, i)
+        if found:
+            j, unit = found
+            rest = parts[i + 1 :]
+            return " ".join(parts[:j]) + (f" ({' '.join(rest)})" if rest else ""), unit
+    return key.replace("_", " "), ""

@@ -20,8 +20,8 @@ from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.io.imutime import check_no_long_gaps
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
-from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, ldv_spikes, run_filter
+from ldvsurvey.nav.localframe import local_metres  # noqa: F401  (re-exported for the stages and gravity)
 from ldvsurvey.pipelines.base import warn
 from ldvsurvey.pipelines.stages.start import (
     body_force_and_rate,
@@ -485,9 +485,3 @@ def attitude_at(sol: NavSolution, t_s: np.ndarray, c_bn_all: np.ndarray | None =
     qb *= np.where(np.sum(qa * qb, axis=1) < 0, -1.0, 1.0)[:, None]
     w = np.clip((ts - t[k]) / (t[k + 1] - t[k]), 0.0, 1.0)[:, None]
     return c_from_q(qa + w * (qb - qa))
-
-
-def local_metres(lat0, lon0, lat, lon):
-    """Small-area East/North offsets (m) from a reference (rad)."""
-    rm, rn = radii(lat0)
-    return (lon - lon0) * rn * np.cos(lat0), (lat - lat0) * rm
