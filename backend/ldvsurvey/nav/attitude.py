@@ -208,4 +208,5 @@ def q_to_c_into(q, c):
 
 @nb.njit(cache=True)
 def cross(a, b):
+    """a × b of two 3-vectors (units multiply), allocated."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
