@@ -287,17 +287,19 @@ def run_damping(imu, st, ldv, dmp):
     cdb = c_db(ldv.pitch, ldv.heading)
     t_prev = t[0] - (t[1] - t[0])
     t_epoch = t_prev
+    # what the per-sample path touches, under names (a struct's field read in this loop is costly)
+    q, v, ldv_ok, zupt_end_s, period_s, s_out = nav.q_sn, nav.v_n_mps, ldv.ok, dmp.zupt_end_s, dmp.period_s, out.ldv_s
     for k in range(n_s):
         dt = t[k] - t_prev
         t_prev = t[k]
         mech_sample(imu, k, dt, nav, bias, 0.0, -1, wk)
-        q_to_c_into(nav.q_sn, c_sn)
+        q_to_c_into(q, c_sn)
         c_bn_into(c_sn, c_bs, k, rotating, c_bn)
-        if ldv.ok[k] and t[k] > dmp.zupt_end_s:
-            _water_sample(ldv, k, s_ldv, cdb, c_bn, nav.v_n_mps, sums)
+        if ldv_ok[k] and t[k] > zupt_end_s:
+            _water_sample(ldv, k, s_ldv, cdb, c_bn, v, sums)
         _store(out, k, nav)
-        out.ldv_s[k] = s_ldv
-        if t[k] - t_epoch < dmp.period_s - 1e-9 and k < n_s - 1:
+        s_out[k] = s_ldv
+        if t[k] - t_epoch < period_s - 1e-9 and k < n_s - 1:
             continue
         T = t[k] - t_epoch
         t_epoch = t[k]

@@ -179,6 +179,28 @@ class GnssAid:
 
 
 @dataclass
+class ImuData:
+    """The IMU's increments over the intervals ending at ``t_s``, in the sensor frame s."""
+
+    t_s: np.ndarray  #: (N,) end times of the increments, s; the first interval as long as the second
+    dtheta_rad: np.ndarray  #: (N, 3) angle increments, rad
+    dvel_mps: np.ndarray  #: (N, 3) velocity increments, m/s
+    #: (N, 3, 3) C_b^s per sample for a rotating IMU (None: s = b); C_b^n = C_s^n C_b^s
+    c_bs: np.ndarray | None = None
+
+
+@dataclass
+class NavStart:
+    """The navigation state at the start of the first interval."""
+
+    q_sn: np.ndarray  #: (4,) quaternion [w, x, y, z] of C_s^n
+    v_n_mps: np.ndarray  #: (3,) velocity ENU, m/s
+    pos_rad_m: np.ndarray  #: (3,) lat (rad), lon (rad), h (m)
+    gyro_bias_rps: np.ndarray | None = None  #: (3,) initial gyro bias estimate, rad/s (None: zero)
+    accel_bias_mps2: np.ndarray | None = None  #: (3,) initial accelerometer bias estimate, m/s² (None: zero)
+
+
+@dataclass
 class NavSolution:
     """Navigation result at the IMU sample times (forward, or smoothed when ``smoothed``)."""
 
@@ -397,34 +419,40 @@ def _gnss_in(gnss: GnssAid | None):
     return gin
 
 
-def _imu_in(t, dtheta_rad, dvel_mps, c_bs, gravity):
-    """The compiled filter's IMU input (:class:`~ldvsurvey.nav.kfloop.ImuIn`); arrays already float64
-    and contiguous are passed on, not copied."""
+def _imu_in(t, imu: ImuData, gravity):
+    """The compiled filter's IMU input (:class:`~ldvsurvey.nav.kfloop.ImuIn`) at the times ``t``
+    (float64, contiguous); arrays already float64 and contiguous are passed on, not copied."""
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
-    c_bs_arr = np.eye(3)[None] if c_bs is None else np.ascontiguousarray(c_bs, dtype=float)  # (1, 3, 3): fixed
-    return kfloop.ImuIn(
-        t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr, xi, eta, dg
+    # (1, 3, 3): a fixed IMU
+    c_bs_arr = np.eye(3)[None] if imu.c_bs is None else np.ascontiguousarray(imu.c_bs, dtype=float)
+    dth, dv = np.ascontiguousarray(imu.dtheta_rad, float), np.ascontiguousarray(imu.dvel_mps, float)
+    return kfloop.ImuIn(t, dth, dv, c_bs_arr, xi, eta, dg)
+
+
+def _start(start: NavStart):
+    """The compiled filter's initial state (:class:`~ldvsurvey.nav.kfloop.Start`)."""
+    b_g = np.zeros(3) if start.gyro_bias_rps is None else start.gyro_bias_rps
+    b_a = np.zeros(3) if start.accel_bias_mps2 is None else start.accel_bias_mps2
+    return kfloop.Start(
+        np.asarray(start.q_sn, float),
+        np.asarray(start.v_n_mps, float),
+        np.asarray(start.pos_rad_m, float),
+        np.concatenate([np.asarray(b_g, float), np.asarray(b_a, float)]),
     )
 
 
 def run_filter(
-    t_s,
-    dtheta_rad,
-    dvel_mps,
-    q0_sn,
-    v0_n,
-    pos0,
+    imu: ImuData,
+    start: NavStart,
     noise: ImuNoise,
     cfg: FilterConfig | None = None,
     *,
-    c_bs=None,
     zupt_intervals=(),
     ldv: LdvAid | None = None,
     gnss: GnssAid | None = None,
     gravity=None,
     smooth: bool = True,
-    bias0=None,
     keep_cov: bool = False,
     attitude_only: bool = False,
     specific_force: bool = True,
@@ -433,19 +461,14 @@ def run_filter(
 
     Parameters
     ----------
-    t_s : (N,) end times of the increments, s.
-    dtheta_rad, dvel_mps : (N, 3) angle (rad) and velocity (m/s) increments in the sensor frame.
-    q0_sn : initial C_s^n quaternion [w, x, y, z] at the start of the first interval.
-    v0_n : (3,) initial velocity ENU, m/s.
-    pos0 : (3,) initial [lat (rad), lon (rad), h (m)].
+    imu : the increments, their times and (rotating IMU) C_b^s per sample.
+    start : the state at the start of the first interval.
     noise : the IMU's error magnitudes.
     cfg : the filter's tuning (None: the defaults).
-    c_bs : (N, 3, 3) C_b^s per sample for a rotating IMU (None: s = b); C_b^n = C_s^n C_b^s.
     zupt_intervals : [(t_start, t_end)] in s where the vehicle stands still.
     ldv, gnss : the aids (None: not used).
     gravity : optional (xi_rad, eta_rad, dg_mps2) per sample for the gravity model.
     smooth : run the RTS smoother and correct every sample with it.
-    bias0 : (6,) initial gyro (rad/s) and accelerometer (m/s²) bias estimates (None: zero).
     keep_cov : keep the covariance of every epoch (``NavSolution.epoch_cov``).
     attitude_only : keep only the attitude per sample (v_n, pos, f_u_mps2, f_u_bias_mps2 come back
         empty): for a run whose use is its parameters and attitude, at 40 % of the memory.
@@ -458,11 +481,10 @@ def run_filter(
         At the IMU sample times, smoothed when ``smooth``.
     """
     cfg = cfg or FilterConfig()
-    t = np.ascontiguousarray(t_s, dtype=float)
+    t = np.ascontiguousarray(imu.t_s, dtype=float)
     mdl, aug_idx, ep_t = _model(t, noise, cfg, zupt_intervals, attitude_only, specific_force)
     lin = _ldv_in(ldv, cfg, aug_idx, len(t))
-    st = kfloop.Start(*(np.asarray(a, float) for a in (q0_sn, v0_n, pos0, np.zeros(6) if bias0 is None else bias0)))
-    fw = kfloop.forward(_imu_in(t, dtheta_rad, dvel_mps, c_bs, gravity), mdl, lin, _gnss_in(gnss), st)
+    fw = kfloop.forward(_imu_in(t, imu, gravity), mdl, lin, _gnss_in(gnss), _start(start))
     par0 = lin.par0
     del lin
     traj = kfloop.Trajectory(fw.q_sn, fw.v_n_mps, fw.pos_rad_m, fw.f_u_mps2, fw.f_en_mps2, fw.f_b_mps2)
@@ -488,7 +510,7 @@ def run_filter(
         q_sn=traj.q_sn,
         v_n=traj.v_n_mps,
         pos=traj.pos_rad_m,
-        c_bs=c_bs,
+        c_bs=imu.c_bs,
         smoothed=smooth,
         ldv_params=_ldv_params(par, xs, sig_ep, aug_idx, par0, smooth, ldv is not None),
         gyro_bias_rps=bias[jb, :3] + xs[jb, IX_EPS : IX_EPS + 3],

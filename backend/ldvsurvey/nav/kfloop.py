@@ -24,7 +24,7 @@ per epoch whatever the IMU rate.
 
 Inputs come grouped (:class:`ImuIn`, :class:`Model`, :class:`LdvIn`, :class:`GnssIn`,
 :class:`Start`), and so do the working arrays of the stages (:class:`~ldvsurvey.nav.mech.NavState`,
-:class:`Bias`, :class:`SampleWork`, :class:`CovWork`, :class:`KfWork`, :class:`LdvSums`,
+:class:`Bias`, :class:`SampleWork`, :class:`CovWork`, :class:`KfWork`,
 :class:`LdvCal`, :class:`GnssFix`): named tuples of arrays and scalars that numba compiles as
 they are, at no cost. The work of a sample (:func:`mech_sample`), of an epoch's covariance
 propagation (:func:`propagate_epoch`), the body attitude (:func:`c_bn_into`) and the feedback
@@ -144,16 +144,11 @@ class KfWork(NamedTuple):
     u: np.ndarray  #: (3, 5) work: the LDV columns ∂V^b/∂(LDV states) in b, before C̄_b^n
 
 
-class LdvSums(NamedTuple):
-    """The LDV residual's sums over the current epoch (divided by the count at the update)."""
-
-    z_n_mps: np.ndarray  #: (3,) Σ v̂ + C_b^n (ω × l) − v_l, m/s
-    v_l_n_mps: np.ndarray  #: (3,) Σ v_l = C_b^n C_d^b V^d, m/s
-    v_d_mps: np.ndarray  #: (3,) Σ V^d in the head frame, m/s
-    nu_mps: np.ndarray  #: (2,) Σ measured forward and up speeds, m/s
-    v_d_a: np.ndarray  #: (3,) Σ V^d a_f (the pitch-compliance column), m²/s³
-    c_bn: np.ndarray  #: (3, 3) Σ C_b^n
-    a_n: np.ndarray  #: (2,) [Σ a_f (m/s²), the number of samples]
+#: the LDV residual's sums over the current epoch, one flat array (divided by the count at the update):
+#: Σ v̂ + C_b^n (ω × l) − v_l (3, m/s), Σ v_l = C_b^n C_d^b V^d (3, m/s), Σ V^d in the head frame (3,
+#: m/s), Σ measured forward and up speeds (2, m/s), Σ V^d a_f (3, m²/s³: the pitch-compliance column),
+#: Σ C_b^n (9, row-major), Σ a_f (m/s²), the number of samples
+L_Z, L_VL, L_VD, L_NU, L_VDA, L_C, L_A, L_N, N_LSUM = 0, 3, 6, 9, 11, 14, 23, 24, 25
 
 
 class LdvCal(NamedTuple):
@@ -282,22 +277,22 @@ def mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk):
     float
         The corrected z-gyro increment, rad (for the epoch's mean ω_z).
     """
-    a_th, a_dv, f_n, fsum = wk.dth_rad, wk.dv_mps, wk.f_n_mps2, wk.fsum_n_mps
+    # the structs' arrays are used in place, never bound to names (that costs a reference count per call)
     gx = imu.xi[k] if len(imu.xi) > 0 else 0.0
     ge = imu.eta[k] if len(imu.xi) > 0 else 0.0
     gd = imu.dg[k] if len(imu.xi) > 0 else 0.0
     for i in range(3):
-        a_th[i] = imu.dth[k, i] - bias.gyro_rps[i] * dt
+        wk.dth_rad[i] = imu.dth[k, i] - bias.gyro_rps[i] * dt
     if i_sz >= 0:  # z-gyro scale factor: ω̃_z = (1 + s_z) ω_z
-        a_th[2] -= s_z * a_th[2]
+        wk.dth_rad[2] -= s_z * wk.dth_rad[2]
     for i in range(3):
-        a_dv[i] = imu.dvel[k, i] - bias.accel_mps2[i] * dt
-    mech_step_into(nav, a_th, a_dv, dt, gx, ge, gd, f_n)
+        wk.dv_mps[i] = imu.dvel[k, i] - bias.accel_mps2[i] * dt
+    mech_step_into(nav, wk.dth_rad, wk.dv_mps, dt, gx, ge, gd, wk.f_n_mps2)
     for i in range(3):
-        nav.dth_prev_rad[i] = a_th[i]
-        nav.dv_prev_mps[i] = a_dv[i]
-        fsum[i] += f_n[i] * dt
-    return a_th[2]
+        nav.dth_prev_rad[i] = wk.dth_rad[i]
+        nav.dv_prev_mps[i] = wk.dv_mps[i]
+        wk.fsum_n_mps[i] += wk.f_n_mps2[i] * dt
+    return wk.dth_rad[2]
 
 
 @nb.njit(cache=True)
@@ -503,22 +498,24 @@ def _h_att_neg_cross(H, a0, a1, a2):
 def _zupt_update(kf, v_n_mps, zupt_r, gate, rec, nis_j):
     """The zero-velocity update of an epoch standing still: z = v̂ (m/s), variance ``zupt_r`` (m/s)²;
     recorded in ``rec`` (an :data:`N_UPD` row), normalized innovations in ``nis_j`` (9,)."""
-    H = kf.H
+    H, r = kf.H, kf.r
     H[:, :] = 0.0
     for i in range(3):
         H[i, IX_V + i] = 1.0
-        kf.r[i] = zupt_r
+        r[i] = zupt_r
     rec[U_ZUPT] = 1.0
     _update_rows(kf, v_n_mps, gate, K_ZUPT, nis_j[0:3], rec[U_ZUPT_TAKEN : U_ZUPT_TAKEN + 3])
 
 
 @nb.njit(cache=True)
-def _ldv_update(kf, aug_idx, sums, cal, gate, rec, nis_j):
-    """The LDV velocity update from the epoch's mean residual (``sums``): H = [−[v̄_l×], I, 0, LDV
-    columns]; recorded in ``rec`` (an :data:`N_UPD` row), normalized innovations in ``nis_j`` (9,)."""
+def _ldv_update(kf, aug_idx, lsum, cal, gate, rec, nis_j):
+    """The LDV velocity update from the epoch's mean residual (``lsum``, :data:`N_LSUM`): H =
+    [−[v̄_l×], I, 0, LDV columns]; recorded in ``rec`` (an :data:`N_UPD` row), normalized
+    innovations in ``nis_j`` (9,)."""
     H, r3, zl, ub, par, cdb = kf.H, kf.r, kf.z, kf.u, cal.par, cal.c_db
-    lz, lvl, lvd, lnu, lvda, lc = sums.z_n_mps, sums.v_l_n_mps, sums.v_d_mps, sums.nu_mps, sums.v_d_a, sums.c_bn
-    la, ln = sums.a_n[0], sums.a_n[1]
+    lz, lvl, lvd, lnu = lsum[L_Z : L_Z + 3], lsum[L_VL : L_VL + 3], lsum[L_VD : L_VD + 3], lsum[L_NU : L_NU + 2]
+    lvda, lc = lsum[L_VDA : L_VDA + 3], lsum[L_C : L_C + 9].reshape((3, 3))
+    la, ln = lsum[L_A], lsum[L_N]
     for i in range(3):
         zl[i] = lz[i] / ln
         r3[i] = cal.r_mps2[i] / ln
@@ -625,24 +622,28 @@ def _symmetrize(P):
 
 
 @nb.njit(cache=True)
-def _ldv_sample(ldv, k, dt, cal, c_bn, c_bn_prev, v_n_mps, sums):
-    """Add LDV sample k to the epoch's sums: V^b = C_d^b [0, s_f ν_f, s_u ν_u] (pitched by k_η a_f
-    when ``cal.use_k``), v_l = C_b^n V^b and the residual v̂ + C_b^n (ω × l) − v_l, the body rate ω
-    from the attitude change over ``dt`` (s). Scalars throughout: no small-array allocations."""
-    par, cdb, l_ldv, a_fwd = cal.par, cal.c_db, ldv.lever, ldv.a_fwd
-    vd1 = ldv.nu_f[k] * par[0]
-    vd2 = (ldv.nu_u[k] * par[3]) if ldv.up else 0.0
-    if cal.use_k:  # C_d^b(η_L + k a, φ_L): forward and up columns
-        ak = a_fwd[k]
+def _ldv_sample(meas, par, cdb, lever, c_bn, c_bn_prev, v, lsum):
+    """Add an LDV sample to the epoch's sums ``lsum`` (:data:`N_LSUM`).
+
+    V^b = C_d^b [0, s_f ν_f, s_u ν_u] (pitched by k_η a_f with the compliance), v_l = C_b^n V^b and
+    the residual v̂ + C_b^n (ω × l) − v_l, the body rate ω from the attitude change c_bn_prev → c_bn.
+    ``meas`` = (dt (s), ν_f, ν_u (m/s, 0 for a 1-D LDV), a_f (m/s²), 2-D LDV, compliance used);
+    ``par`` the LDV calibration (5,), ``cdb`` C_d^b, ``lever`` (3,) m, ``v`` v̂ (3,) m/s. Arrays and
+    scalars only (a struct's fields cost several times this arithmetic in the per-sample path) and
+    no small-array allocation."""
+    dt, nu_f, nu_u, ak, up, use_k = meas
+    vd1 = nu_f * par[0]
+    vd2 = (nu_u * par[3]) if up else 0.0
+    if use_k:  # C_d^b(η_L + k a, φ_L): forward and up columns
         ee = par[1] + par[4] * ak
         ce, se = np.cos(ee), np.sin(ee)
         cp, sp = cdb[0, 0], cdb[1, 0]  # cos φ_L, sin φ_L: computed once per epoch, in C_d^b
         vb0 = -sp * ce * vd1 + sp * se * vd2
         vb1 = cp * ce * vd1 - cp * se * vd2
         vb2 = se * vd1 + ce * vd2
-        sums.v_d_a[1] += vd1 * ak
-        sums.v_d_a[2] += vd2 * ak
-        sums.a_n[0] += ak
+        lsum[L_VDA + 1] += vd1 * ak
+        lsum[L_VDA + 2] += vd2 * ak
+        lsum[L_A] += ak
     else:
         vb0 = cdb[0, 1] * vd1 + cdb[0, 2] * vd2
         vb1 = cdb[1, 1] * vd1 + cdb[1, 2] * vd2
@@ -659,21 +660,20 @@ def _ldv_sample(ldv, k, dt, cal, c_bn, c_bn_prev, v_n_mps, sums):
     w0 = (r21 - r12) / (2.0 * dt)
     w1 = (r02 - r20) / (2.0 * dt)
     w2 = (r10 - r01) / (2.0 * dt)
-    a0 = w1 * l_ldv[2] - w2 * l_ldv[1]
-    a1 = w2 * l_ldv[0] - w0 * l_ldv[2]
-    a2 = w0 * l_ldv[1] - w1 * l_ldv[0]
-    v = v_n_mps
+    a0 = w1 * lever[2] - w2 * lever[1]
+    a1 = w2 * lever[0] - w0 * lever[2]
+    a2 = w0 * lever[1] - w1 * lever[0]
     for i in range(3):
         vl_i = c_bn[i, 0] * vb0 + c_bn[i, 1] * vb1 + c_bn[i, 2] * vb2
-        sums.z_n_mps[i] += v[i] + c_bn[i, 0] * a0 + c_bn[i, 1] * a1 + c_bn[i, 2] * a2 - vl_i
-        sums.v_l_n_mps[i] += vl_i
+        lsum[L_Z + i] += v[i] + c_bn[i, 0] * a0 + c_bn[i, 1] * a1 + c_bn[i, 2] * a2 - vl_i
+        lsum[L_VL + i] += vl_i
         for jj in range(3):
-            sums.c_bn[i, jj] += c_bn[i, jj]
-    sums.v_d_mps[1] += vd1
-    sums.v_d_mps[2] += vd2
-    sums.nu_mps[0] += ldv.nu_f[k]
-    sums.nu_mps[1] += ldv.nu_u[k] if ldv.up else 0.0
-    sums.a_n[1] += 1.0
+            lsum[L_C + 3 * i + jj] += c_bn[i, jj]
+    lsum[L_VD + 1] += vd1
+    lsum[L_VD + 2] += vd2
+    lsum[L_NU] += nu_f
+    lsum[L_NU + 1] += nu_u if up else 0.0
+    lsum[L_N] += 1.0
 
 
 @nb.njit(cache=True)
@@ -717,43 +717,38 @@ def _checkpoint(out, j, x, P, par, bias):
     out.dx[j] = x
     if j % CK_EVERY == 0:
         _pack(P, out.ck_packed[j // CK_EVERY])
+    sig = out.sigma
     for i in range(P.shape[0]):
-        out.sigma[j, i] = np.sqrt(max(P[i, i], 0.0))
+        sig[j, i] = np.sqrt(max(P[i, i], 0.0))
     out.ldv_par[j] = par
     out.bias[j, :3], out.bias[j, 3:] = bias.gyro_rps, bias.accel_mps2
 
 
 @nb.njit(cache=True, inline="always")
-def _store_sample(out, k, nav, full):
+def _store_sample(q_out, v_out, p_out, k, q, v, pos, full):
     """Sample k of the results: the attitude, and velocity and position unless attitude only."""
     for i in range(4):
-        out.q_sn[k, i] = nav.q_sn[i]
+        q_out[k, i] = q[i]
     for i in range(3):
         if full:
-            out.v_n_mps[k, i] = nav.v_n_mps[i]
-            out.pos_rad_m[k, i] = nav.pos_rad_m[i]
+            v_out[k, i] = v[i]
+            p_out[k, i] = pos[i]
 
 
 @nb.njit(cache=True, inline="always")
-def _store_forces(out, k, f_n, c_sn, b_a):
+def _store_forces(fu_out, fen_out, fb_out, k, f_n, c_sn, b_a):
     """Sample k's specific force in n as integrated (up; E, N as float32) and (C_s^n b̂_a)_U."""
-    out.f_u_mps2[k] = f_n[2]
-    out.f_en_mps2[k, 0] = f_n[0]
-    out.f_en_mps2[k, 1] = f_n[1]
-    out.f_b_mps2[k] = c_sn[2, 0] * b_a[0] + c_sn[2, 1] * b_a[1] + c_sn[2, 2] * b_a[2]
+    fu_out[k] = f_n[2]
+    fen_out[k, 0] = f_n[0]
+    fen_out[k, 1] = f_n[1]
+    fb_out[k] = c_sn[2, 0] * b_a[0] + c_sn[2, 1] * b_a[1] + c_sn[2, 2] * b_a[2]
 
 
 @nb.njit(cache=True)
-def _reset_sums(wk, sums):
+def _reset_sums(wk, lsum):
     """Zero the epoch's sums (specific force, LDV residual) after its update."""
     wk.fsum_n_mps[:] = 0.0
-    sums.z_n_mps[:] = 0.0
-    sums.v_l_n_mps[:] = 0.0
-    sums.v_d_mps[:] = 0.0
-    sums.nu_mps[:] = 0.0
-    sums.v_d_a[:] = 0.0
-    sums.c_bn[:, :] = 0.0
-    sums.a_n[:] = 0.0
+    lsum[:] = 0.0
 
 
 @nb.njit(cache=True)
@@ -834,7 +829,7 @@ def forward(imu, mdl, ldv, gnss, st):
         out.rejected,
         np.empty((3, N_LDV_PAR)),
     )
-    sums = LdvSums(np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(2), np.zeros(3), np.zeros((3, 3)), np.zeros(2))
+    lsum = np.zeros(N_LSUM)
     par = ldv.par0.copy()  # s_f, η_L, φ_L, s_u, k_η
     use_k = len(ldv.a_fwd) > 0 and (ldv.aug_idx[4] >= 0 or par[4] != 0.0)
     cal = LdvCal(par, c_db(par[1], par[2]), ldv.sigma**2, use_k)  # C_d^b changes only at feedback
@@ -854,6 +849,13 @@ def forward(imu, mdl, ldv, gnss, st):
     j = 0
     s_z = 0.0  # z-gyro scale-factor estimate (state i_sz when ≥ 0)
     wz_sum = 0.0
+    # what the per-sample path touches, under names: read through its struct in this loop, a field
+    # costs as much as the mechanization itself (measured); stages are handed the structs
+    q, v, pos, f_n, b_a = nav.q_sn, nav.v_n_mps, nav.pos_rad_m, wk.f_n_mps2, bias.accel_mps2
+    ldv_ok, nu_f, nu_u, a_fwd, up, g_t, fix_idx = ldv.ok, ldv.nu_f, ldv.nu_u, ldv.a_fwd, ldv.up, gnss.t, fix.idx
+    cdb, lever = cal.c_db, ldv.lever
+    q_out, v_out, p_out = out.q_sn, out.v_n_mps, out.pos_rad_m
+    fu_out, fen_out, fb_out = out.f_u_mps2, out.f_en_mps2, out.f_b_mps2
     for k in range(n_s):
         # ---- IMU sample: mechanization, the LDV residual's sums, GNSS fixes brought to the epoch ----
         dt = t[k] - t_prev
@@ -861,16 +863,18 @@ def forward(imu, mdl, ldv, gnss, st):
         dwz = mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk)
         if i_sz >= 0:
             wz_sum += dwz
-        q_to_c_into(nav.q_sn, c_sn)
+        q_to_c_into(q, c_sn)
         if forces:
-            _store_forces(out, k, wk.f_n_mps2, c_sn, bias.accel_mps2)
+            _store_forces(fu_out, fen_out, fb_out, k, f_n, c_sn, b_a)
         c_bn_into(c_sn, c_bs, k, rotating, c_bn)
-        if ldv.ok[k]:
-            _ldv_sample(ldv, k, dt, cal, c_bn, c_bn_prev, nav.v_n_mps, sums)
-        _gnss_sample(gnss, t[k], nav, c_bn, fix)
+        if ldv_ok[k]:
+            meas = (dt, nu_f[k], nu_u[k] if up else 0.0, a_fwd[k] if use_k else 0.0, up, use_k)
+            _ldv_sample(meas, par, cdb, lever, c_bn, c_bn_prev, v, lsum)
+        if fix_idx[0] < len(g_t) and g_t[fix_idx[0]] <= t[k]:  # a GNSS fix in (t_{k−1}, t_k]
+            _gnss_sample(gnss, t[k], nav, c_bn, fix)
         c_bn, c_bn_prev = c_bn_prev, c_bn  # this sample's body attitude is the next one's previous
         if (k + 1) % decim != 0:
-            _store_sample(out, k, nav, full)
+            _store_sample(q_out, v_out, p_out, k, q, v, pos, full)
             continue
         # ---- filter epoch: propagation, updates, feedback, what the smoother keeps ----
         j += 1
@@ -881,8 +885,8 @@ def forward(imu, mdl, ldv, gnss, st):
         kf.x[:] = 0.0
         if mdl.zupt[j]:
             _zupt_update(kf, nav.v_n_mps, zupt_r, gate, out.upd[j], out.nis[j])
-        if sums.a_n[1] > 0:
-            _ldv_update(kf, ldv.aug_idx, sums, cal, gate, out.upd[j], out.nis[j])
+        if lsum[L_N] > 0:
+            _ldv_update(kf, ldv.aug_idx, lsum, cal, gate, out.upd[j], out.nis[j])
         if fix.idx[1] != 0:
             _gnss_update(kf, fix, gnss.lever, gate, out.upd[j], out.nis[j])
         _symmetrize(cov.P)
@@ -894,8 +898,8 @@ def forward(imu, mdl, ldv, gnss, st):
             s_z += kf.x[i_sz]
             out.gyro_scale_z[j] = s_z
         wz_sum = 0.0
-        _reset_sums(wk, sums)
-        _store_sample(out, k, nav, full)
+        _reset_sums(wk, lsum)
+        _store_sample(q_out, v_out, p_out, k, q, v, pos, full)
     return out
 
 

@@ -87,7 +87,9 @@ def _rotvec_sc(a0, a1, a2):
     return np.cos(a / 2), np.sin(a / 2) / a
 
 
-@nb.njit(cache=True)
+# inlined into its caller: a call with the NavState tuple would take a reference on each of its
+# arrays per sample (about a tenth of a microsecond), the cost of the filter's whole mechanization
+@nb.njit(cache=True, inline="always")
 def mech_step_into(nav, dth, dv, dt, xi, eta, dg, f_n):
     """:func:`mech_step` in place and without allocation (the same arithmetic, term by term).
 
