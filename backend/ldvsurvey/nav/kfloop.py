@@ -24,10 +24,13 @@ per epoch whatever the IMU rate.
 
 Inputs come grouped (:class:`ImuIn`, :class:`Model`, :class:`LdvIn`, :class:`GnssIn`,
 :class:`Start`), and so do the working arrays of the stages (:class:`~ldvsurvey.nav.mech.NavState`,
-:class:`Bias`, :class:`SampleWork`, :class:`CovWork`, :class:`KfWork`,
-:class:`LdvCal`, :class:`GnssFix`): named tuples of arrays and scalars that numba compiles as
-they are, at no cost. The work of a sample (:func:`mech_sample`), of an epoch's covariance
-propagation (:func:`propagate_epoch`), the body attitude (:func:`c_bn_into`) and the feedback
+:class:`Bias`, :class:`SampleWork`, :class:`CovWork`, :class:`KfWork`, :class:`LdvCal`,
+:class:`GnssFix`): named tuples of arrays and scalars that numba compiles as they are. Handing
+them to a stage costs nothing measurable, but reading their fields inside the per-sample loop
+does (it made the forward pass twice as slow): the loop binds the arrays it touches to names once,
+and the per-sample LDV stage takes plain arrays and one flat array of sums (:data:`N_LSUM`). The
+work of a sample (:func:`mech_sample`), of an epoch's covariance propagation
+(:func:`propagate_epoch`), the body attitude (:func:`c_bn_into`) and the feedback
 (:func:`feedback_into`) are shared with the water-velocity damping filter
 (:mod:`ldvsurvey.nav.damping`).
 
@@ -53,6 +56,8 @@ from ldvsurvey.nav.errmodel import IX_EPS, IX_NABLA, IX_P, IX_PHI, IX_V, N_BASE,
 from ldvsurvey.nav.mech import NavState, mech_step_into
 
 MAX_REJECT_RUN = 5  #: epochs of consecutive rejections after which a measurement is taken anyway
+# The stages of the filter loop are compiled with inline="always": numba inlines them into the driver,
+# so their struct arguments cost no call (as separate calls the forward pass took about 20 % longer)
 
 #: the IMU: t (N,) s; dth, dvel (N, 3) sensor-frame increments (rad, m/s); c_bs (N, 3, 3) C_b^s per
 #: sample, or (1, 3, 3) for a fixed IMU; xi, eta (rad), dg (m/s²) per sample for the gravity model, or empty
@@ -212,7 +217,7 @@ class Trajectory(NamedTuple):
     f_b_mps2: np.ndarray
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def feedback_into(x, nav, bias):
     """Closed-loop reset of the 15 base states, in place.
 
@@ -254,7 +259,7 @@ def feedback_into(x, nav, bias):
     pos_prev[2] -= d2
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk):
     """Mechanize IMU sample k with the bias (and z scale-factor) estimates removed.
 
@@ -295,7 +300,7 @@ def mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk):
     return wk.dth_rad[2]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def propagate_epoch(fin_j, c_sn, fsum_n_mps, wz_sum_rad, nav, dt_s, proc, cov):
     """Covariance propagation over an epoch: P ← Φ P Φᵀ + diag(qd) T.
 
@@ -448,7 +453,7 @@ def _cov_apply(P, ph, s):
             P[i, jj] -= k_i * ph[jj]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _update_rows(kf, z, gate, kind, nis_row, taken):
     """Scalar updates for the rows of one measurement type (H, r in ``kf``) with the innovation gate
     and its lock-out protection: after MAX_REJECT_RUN epochs with a rejection the gate is lifted.
@@ -494,7 +499,7 @@ def _h_att_neg_cross(H, a0, a1, a2):
     H[2, IX_PHI], H[2, IX_PHI + 1] = a1, -a0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _zupt_update(kf, v_n_mps, zupt_r, gate, rec, nis_j):
     """The zero-velocity update of an epoch standing still: z = v̂ (m/s), variance ``zupt_r`` (m/s)²;
     recorded in ``rec`` (an :data:`N_UPD` row), normalized innovations in ``nis_j`` (9,)."""
@@ -507,7 +512,7 @@ def _zupt_update(kf, v_n_mps, zupt_r, gate, rec, nis_j):
     _update_rows(kf, v_n_mps, gate, K_ZUPT, nis_j[0:3], rec[U_ZUPT_TAKEN : U_ZUPT_TAKEN + 3])
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _ldv_update(kf, aug_idx, lsum, cal, gate, rec, nis_j):
     """The LDV velocity update from the epoch's mean residual (``lsum``, :data:`N_LSUM`): H =
     [−[v̄_l×], I, 0, LDV columns]; recorded in ``rec`` (an :data:`N_UPD` row), normalized
@@ -554,7 +559,7 @@ def _ldv_update(kf, aug_idx, lsum, cal, gate, rec, nis_j):
     _update_rows(kf, zl, gate, K_LDV, nis_j[3:6], rec[U_LDV_TAKEN : U_LDV_TAKEN + 3])
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _gnss_update(kf, fix, lever_m, gate, rec, nis_j):
     """The GNSS position update from the pending fix: H = [[(C_b^n l)×], 0, I]; recorded in ``rec``
     (an :data:`N_UPD` row), normalized innovations in ``nis_j`` (9,); the fix is then consumed."""
@@ -621,7 +626,7 @@ def _symmetrize(P):
             P[jj, i] = a
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _ldv_sample(meas, par, cdb, lever, c_bn, c_bn_prev, v, lsum):
     """Add an LDV sample to the epoch's sums ``lsum`` (:data:`N_LSUM`).
 
@@ -676,7 +681,7 @@ def _ldv_sample(meas, par, cdb, lever, c_bn, c_bn_prev, v, lsum):
     lsum[L_N] += 1.0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _gnss_sample(gnss, t_k, nav, c_bn, fix):
     """Bring the GNSS fixes in (t_{k−1}, t_k] to the coming epoch: INS − GNSS at the antenna in
     local metres, back-dated by v̂ (t_k − t_fix); the last one is kept in ``fix``, marked pending."""
@@ -699,7 +704,7 @@ def _gnss_sample(gnss, t_k, nav, c_bn, fix):
     fix.idx[0] = gi
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _feedback(x, nav, bias, cal, aug_idx):
     """Feed the epoch's estimate back: the 15 base states (:func:`feedback_into`) and the LDV
     calibration (its inverse scales and angles − their errors, C_d^b rebuilt)."""
@@ -710,7 +715,7 @@ def _feedback(x, nav, bias, cal, aug_idx):
     cal.c_db[:, :] = c_db(cal.par[1], cal.par[2])
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _checkpoint(out, j, x, P, par, bias):
     """What epoch j keeps for the smoother and the results: the fed-back dx, P⁺ (packed, every
     :data:`CK_EVERY` epochs), the 1-σ, the LDV calibration and the biases."""
@@ -744,7 +749,7 @@ def _store_forces(fu_out, fen_out, fb_out, k, f_n, c_sn, b_a):
     fb_out[k] = c_sn[2, 0] * b_a[0] + c_sn[2, 1] * b_a[1] + c_sn[2, 2] * b_a[2]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _reset_sums(wk, lsum):
     """Zero the epoch's sums (specific force, LDV residual) after its update."""
     wk.fsum_n_mps[:] = 0.0
