@@ -282,22 +282,24 @@ def mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk):
     float
         The corrected z-gyro increment, rad (for the epoch's mean ω_z).
     """
-    # the structs' arrays are used in place, never bound to names (that costs a reference count per call)
+    a_th, a_dv, f_n, fsum = wk.dth_rad, wk.dv_mps, wk.f_n_mps2, wk.fsum_n_mps
+    b_g, b_a, dth, dvel = bias.gyro_rps, bias.accel_mps2, imu.dth, imu.dvel
     gx = imu.xi[k] if len(imu.xi) > 0 else 0.0
     ge = imu.eta[k] if len(imu.xi) > 0 else 0.0
     gd = imu.dg[k] if len(imu.xi) > 0 else 0.0
     for i in range(3):
-        wk.dth_rad[i] = imu.dth[k, i] - bias.gyro_rps[i] * dt
+        a_th[i] = dth[k, i] - b_g[i] * dt
     if i_sz >= 0:  # z-gyro scale factor: ω̃_z = (1 + s_z) ω_z
-        wk.dth_rad[2] -= s_z * wk.dth_rad[2]
+        a_th[2] -= s_z * a_th[2]
     for i in range(3):
-        wk.dv_mps[i] = imu.dvel[k, i] - bias.accel_mps2[i] * dt
-    mech_step_into(nav, wk.dth_rad, wk.dv_mps, dt, gx, ge, gd, wk.f_n_mps2)
+        a_dv[i] = dvel[k, i] - b_a[i] * dt
+    mech_step_into(nav, a_th, a_dv, dt, gx, ge, gd, f_n)
+    dth_prev, dv_prev = nav.dth_prev_rad, nav.dv_prev_mps
     for i in range(3):
-        nav.dth_prev_rad[i] = wk.dth_rad[i]
-        nav.dv_prev_mps[i] = wk.dv_mps[i]
-        wk.fsum_n_mps[i] += wk.f_n_mps2[i] * dt
-    return wk.dth_rad[2]
+        dth_prev[i] = a_th[i]
+        dv_prev[i] = a_dv[i]
+        fsum[i] += f_n[i] * dt
+    return a_th[2]
 
 
 @nb.njit(cache=True, inline="always")
