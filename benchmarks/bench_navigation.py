@@ -11,7 +11,7 @@ import numpy as np
 
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import q_from_c
-from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, run_filter
+from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuData, ImuNoise, LdvAid, NavStart, run_filter
 from ldvsurvey.nav.mech import mechanize
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import simulate
@@ -55,12 +55,8 @@ def main():
 
         def run(smooth, cfg=cfg):
             return run_filter(
-                imu.t_s,
-                sim.dtheta_rad,
-                sim.dvel_mps,
-                q_from_c(c0),
-                np.zeros(3),
-                pos0,
+                ImuData(imu.t_s, sim.dtheta_rad, sim.dvel_mps),
+                NavStart(q_from_c(c0), np.zeros(3), pos0),
                 noise,
                 cfg,
                 zupt_intervals=[(sc.t0_s, sc.t0_s + 300)],

@@ -5,7 +5,7 @@ import numpy as np
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import attitude_error_rad, q_from_c
 from ldvsurvey.nav.earth import ARCSEC, OMEGA_IE
-from ldvsurvey.nav.filter import FilterConfig, ImuNoise, run_filter
+from ldvsurvey.nav.filter import FilterConfig, ImuData, ImuNoise, NavStart, run_filter
 from ldvsurvey.sim.motion import Static
 from ldvsurvey.sim.road import Ramps, Road
 from ldvsurvey.sim.scenario import Scenario
@@ -29,12 +29,8 @@ def test_coarse_and_fine_alignment_limits():
         pos0 = np.array([lat, road.lon0_rad, road.h0_m])
         cfg = FilterConfig(att_sigma0_rad=(0.01 * RAD, 0.01 * RAD, 1 * RAD))
         sol = run_filter(
-            imu.t_s,
-            dth,
-            dv,
-            q_from_c(c0),
-            np.zeros(3),
-            pos0,
+            ImuData(imu.t_s, dth, dv),
+            NavStart(q_from_c(c0), np.zeros(3), pos0),
             ImuNoise(eps_dph, nabla_ug, 0.0001, 2.0),
             cfg,
             zupt_intervals=[(imu.t_s[0] - 1, imu.t_s[-1])],

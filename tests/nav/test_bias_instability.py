@@ -12,7 +12,7 @@ import pytest
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import q_from_c
-from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, run_filter
+from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuData, ImuNoise, NavStart, run_filter
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim import truth as TR
 from ldvsurvey.sim.effects import Effects, ImuErrorSpec
@@ -62,12 +62,8 @@ def drifting():
     ):
         noise = ImuNoise(0.01, 50.0, sc.gyro_arw_dprh, sc.accel_vrw_ug_rthz, **extra)
         out[name] = run_filter(
-            imu.t_s,
-            sim.dtheta_rad,
-            sim.dvel_mps,
-            q_from_c(c0),
-            np.zeros(3),
-            pos0,
+            ImuData(imu.t_s, sim.dtheta_rad, sim.dvel_mps),
+            NavStart(q_from_c(c0), np.zeros(3), pos0),
             noise,
             cfg,
             zupt_intervals=[(sc.t0_s, sc.t0_s + 59)],

@@ -7,7 +7,7 @@ from scipy.stats import chi2
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import q_from_c, skew
 from ldvsurvey.nav.earth import ARCSEC, radii
-from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, run_filter
+from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuData, ImuNoise, LdvAid, NavStart, run_filter
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import simulate
 from ldvsurvey.sim.sensors import FIX_SIGMA, ImuErrors, LdvSpecSim, gnss_fixes, ldv_measure
@@ -62,7 +62,14 @@ def _run_seed(sc, m, imu, seed, smooth):
     gnss = GnssAid(tg, glat * RAD, glon * RAD, gh, np.full(len(tg), s_h), np.full(len(tg), s_v), sc.gnss_lever_m)
     ldv = LdvAid(np.ones(len(imu.t_s), bool), vf, vu, lever_arm_m=sc.ldv.lever_arm_m)
     sol = run_filter(
-        imu.t_s, dth, dv, q_from_c(c0), v0, pos0, noise, cfg, ldv=ldv, gnss=gnss, smooth=smooth, keep_cov=True
+        ImuData(imu.t_s, dth, dv),
+        NavStart(q_from_c(c0), v0, pos0),
+        noise,
+        cfg,
+        ldv=ldv,
+        gnss=gnss,
+        smooth=smooth,
+        keep_cov=True,
     )
     return sol, err
 
@@ -136,12 +143,8 @@ def test_gnss_denied_30_minutes_with_2d_ldv():
     cfg = FilterConfig(ldv_aug=("scale", "pitch", "heading"), att_sigma0_rad=(0.05 * RAD, 0.05 * RAD, 2 * RAD))
     pos0 = np.array([sc.road.lat0_rad, sc.road.lon0_rad, sc.road.h0_m])
     sol = run_filter(
-        imu.t_s,
-        sim.dtheta_rad,
-        sim.dvel_mps,
-        q_from_c(c0),
-        np.zeros(3),
-        pos0,
+        ImuData(imu.t_s, sim.dtheta_rad, sim.dvel_mps),
+        NavStart(q_from_c(c0), np.zeros(3), pos0),
         ImuNoise(0.003, 20.0, 0.0005, 5.0),
         cfg,
         zupt_intervals=[(sc.t0_s, sc.t0_s + 300)],

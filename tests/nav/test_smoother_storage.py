@@ -12,7 +12,7 @@ import pytest
 from ldvsurvey.nav import kfloop
 from ldvsurvey.nav.attitude import c_from_q, q_from_c, skew
 from ldvsurvey.nav.earth import ARCSEC
-from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, run_filter
+from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuData, ImuNoise, LdvAid, NavStart, run_filter
 from ldvsurvey.pipelines.stages.aids import attitude_at
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.sensors import (
@@ -53,7 +53,7 @@ def case():
     ldv = LdvAid(np.ones(len(imu.t_s), bool), vf, vu, lever_arm_m=sc.ldv.lever_arm_m)
     cfg = FilterConfig(ldv_aug=("scale", "pitch", "heading"), gate_sigma=3.0, bias_instability=0.1)
     kw = {"cfg": cfg, "ldv": ldv, "gnss": gnss, "zupt_intervals": [(imu.t_s[0], imu.t_s[0] + 60.0)]}
-    return (imu.t_s, dth, dv, q_from_c(c0), tr0["v_n"][0], pos0, noise), kw
+    return (ImuData(imu.t_s, dth, dv), NavStart(q_from_c(c0), tr0["v_n"][0], pos0), noise), kw
 
 
 def test_redone_covariances_are_the_forward_ones(case):

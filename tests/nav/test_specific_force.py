@@ -11,7 +11,7 @@ import pytest
 
 from ldvsurvey.nav.attitude import c_bs, q_from_c
 from ldvsurvey.nav.earth import MGAL
-from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, run_filter
+from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuData, ImuNoise, NavStart, run_filter
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.imu import GL_W, GL_X, rates, simulate_imu
 from ldvsurvey.sim.motion import Motion, Turntable
@@ -51,15 +51,10 @@ def test_f_u_matches_truth_on_rotating_imu(rotating_drive):
     sc, imu, cbs, f_true, tr0, c0_s = rotating_drive
     pos0 = np.array([tr0["lat_rad"][0], tr0["lon_rad"][0], tr0["h_m"][0]])
     sol = run_filter(
-        imu.t_s,
-        imu.dtheta_rad,
-        imu.dvel_mps,
-        q_from_c(c0_s),
-        tr0["v_n"][0],
-        pos0,
+        ImuData(imu.t_s, imu.dtheta_rad, imu.dvel_mps, cbs),
+        NavStart(q_from_c(c0_s), tr0["v_n"][0], pos0),
         ImuNoise(),
         FilterConfig(),
-        c_bs=cbs,
         smooth=False,
     )
     assert sol.f_u_mps2.shape == imu.t_s.shape
@@ -98,28 +93,18 @@ def test_f_u_smoothed_follows_the_smoothed_attitude(rotating_drive):
     cfg = FilterConfig(att_sigma0_rad=(200 * RAD / 3600, 200 * RAD / 3600, 0.1 * RAD))
     noise = ImuNoise(gyro_bias_dph=0.003, accel_bias_ug=20.0, gyro_arw_dprh=0.0005, accel_vrw_ug_rthz=5.0)
     fwd = run_filter(
-        imu.t_s,
-        imu.dtheta_rad,
-        imu.dvel_mps,
-        q_from_c(c0),
-        tr0["v_n"][0],
-        pos0,
+        ImuData(imu.t_s, imu.dtheta_rad, imu.dvel_mps, cbs),
+        NavStart(q_from_c(c0), tr0["v_n"][0], pos0),
         noise,
         cfg,
-        c_bs=cbs,
         gnss=gnss,
         smooth=False,
     )
     smo = run_filter(
-        imu.t_s,
-        imu.dtheta_rad,
-        imu.dvel_mps,
-        q_from_c(c0),
-        tr0["v_n"][0],
-        pos0,
+        ImuData(imu.t_s, imu.dtheta_rad, imu.dvel_mps, cbs),
+        NavStart(q_from_c(c0), tr0["v_n"][0], pos0),
         noise,
         cfg,
-        c_bs=cbs,
         gnss=gnss,
         smooth=True,
     )

@@ -12,7 +12,7 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.attitude import q_from_c
-from ldvsurvey.nav.filter import FilterConfig, ImuNoise, LdvAid, ldv_spikes, run_filter
+from ldvsurvey.nav.filter import FilterConfig, ImuData, ImuNoise, LdvAid, NavStart, ldv_spikes, run_filter
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
@@ -80,15 +80,10 @@ def test_gate_rejects_an_unscreened_spike_without_lockout(garbage_sim):
             lever_arm_m=sc.ldv.lever_arm_m,
         )
         sol = run_filter(
-            imu.t_s,
-            sim.dtheta_rad,
-            sim.dvel_mps,
-            q_from_c(c0),
-            np.zeros(3),
-            pos0,
+            ImuData(imu.t_s, sim.dtheta_rad, sim.dvel_mps, cbs),
+            NavStart(q_from_c(c0), np.zeros(3), pos0),
             noise,
             cfg,
-            c_bs=cbs,
             zupt_intervals=static,
             ldv=aid,
             smooth=False,

@@ -17,11 +17,20 @@ import numpy as np
 
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity_nb, radii_nb
 
+#: first index of each 3-vector block of the state: φ (rad, ENU), δv (m/s, ENU), δp (m: East, North,
+#: Up), ε (rad/s, sensor frame), ∇ (m/s², sensor frame); N_BASE states in all
 IX_PHI, IX_V, IX_P, IX_EPS, IX_NABLA, N_BASE = 0, 3, 6, 9, 12, 15
+#: the first augmented state: the navigation filter's LDV states (in the order of
+#: ``ldvsurvey.nav.filter.AUG_NAMES``, those enabled), then the z-gyro scale factor; the damping
+#: filter's one LDV state δs (the inverse-scale error)
+IX_AUG = N_BASE
+#: the number of LDV calibration states the navigation filter knows (s_f, η_L, φ_L, s_u, k_η)
+N_LDV_PAR = 5
 
 
 @nb.njit(cache=True)
 def skew_nb(v):
+    """[v×] (3×3) of a 3-vector v (any unit), allocated: [v×] u = v × u."""
     m = np.zeros((3, 3))
     m[0, 1], m[0, 2] = -v[2], v[1]
     m[1, 0], m[1, 2] = v[2], -v[0]
@@ -39,14 +48,27 @@ def build_f(n, c_sn, f_n, v, lat, h):
     lat : rad. h : m.
     """
     F = np.zeros((n, n))
-    build_f_into(F, c_sn, f_n[0], f_n[1], f_n[2], v[0], v[1], v[2], lat, h)
+    build_f_into(F, c_sn, f_n, v, lat, h)
     return F
 
 
 @nb.njit(cache=True)
-def build_f_into(F, c_sn, f0, f1, f2, ve, vn, vu, lat, h):
+def build_f_into(F, c_sn, f_n_mps2, v_n_mps, lat_rad, h_m):
     """Write the 15 base-state block of F (see :func:`build_f`) into ``F``, which holds zeros there
-    (no allocation: the filter builds one F per epoch). f: specific force in n (m/s²), v: ENU (m/s)."""
+    (no allocation: the filter builds one F per epoch).
+
+    Parameters
+    ----------
+    F : (n, n) system matrix (1/s), written in rows and columns 0..14.
+    c_sn : (3, 3) C_s^n.
+    f_n_mps2 : (3,) specific force in n, m/s².
+    v_n_mps : (3,) velocity ENU, m/s.
+    lat_rad : latitude, rad.
+    h_m : ellipsoidal height, m.
+    """
+    f0, f1, f2 = f_n_mps2[0], f_n_mps2[1], f_n_mps2[2]
+    ve, vn, vu = v_n_mps[0], v_n_mps[1], v_n_mps[2]
+    lat, h = lat_rad, h_m
     rm, rn = radii_nb(lat)
     rmh, rnh = rm + h, rn + h
     sl, cl = np.sin(lat), np.cos(lat)
@@ -75,8 +97,8 @@ def build_f_into(F, c_sn, f0, f1, f2, ve, vn, vu, lat, h):
     F[2, 8] = me22
     for i in range(3):
         for jj in range(3):
-            F[i, 9 + jj] = -c_sn[i, jj]
-            F[3 + i, 12 + jj] = c_sn[i, jj]
+            F[IX_PHI + i, IX_EPS + jj] = -c_sn[i, jj]
+            F[IX_V + i, IX_NABLA + jj] = c_sn[i, jj]
     # F[3:6, 0:3] = [f×]
     F[3, 1], F[3, 2] = -f2, f1
     F[4, 0], F[4, 2] = f2, -f0
@@ -105,7 +127,7 @@ def build_f_into(F, c_sn, f0, f1, f2, ve, vn, vu, lat, h):
     F[5, 8] = (-vn) * n02 + ve * n12
     F[5, 8] += 2.0 * normal_gravity_nb(lat, h) / np.sqrt(rm * rn)
     for i in range(3):
-        F[6 + i, 3 + i] = 1.0
+        F[IX_P + i, IX_V + i] = 1.0
     F[6, 6] = vu / rnh - vn * tl / rmh
     F[6, 7] = ve * tl / rmh
     F[6, 8] = -ve / rnh
@@ -115,7 +137,7 @@ def build_f_into(F, c_sn, f0, f1, f2, ve, vn, vu, lat, h):
 
 @nb.njit(cache=True)
 def discretize(F, dt):
-    """Φ ≈ I + F dt + (F dt)²/2."""
+    """Φ ≈ I + F dt + (F dt)²/2 of the system matrix F (1/s) over dt (s), allocated."""
     n = F.shape[0]
     A = F * dt
     return np.eye(n) + A + 0.5 * (A @ A)

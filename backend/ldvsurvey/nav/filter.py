@@ -16,6 +16,7 @@ import numpy as np
 from ldvsurvey.nav import kfloop
 from ldvsurvey.nav.attitude import c_from_q
 from ldvsurvey.nav.earth import ARCSEC, MGAL
+from ldvsurvey.nav.errmodel import IX_AUG, IX_EPS, IX_NABLA, N_BASE
 from ldvsurvey.units import RAD_PER_DEG
 
 AUG_NAMES = ("scale", "pitch", "heading", "scale_up", "pitch_k")
@@ -93,10 +94,12 @@ class ImuNoise:
 
     @property
     def gyro_bias_rps(self) -> float:
+        """Gyro bias 1-σ, rad/s."""
         return self.gyro_bias_dph * RAD_PER_DEG / 3600.0
 
     @property
     def accel_bias_mps2(self) -> float:
+        """Accelerometer bias 1-σ, m/s²."""
         return self.accel_bias_ug * 9.80665e-6
 
     @property
@@ -173,6 +176,28 @@ class GnssAid:
     sigma_h_m: np.ndarray
     sigma_v_m: np.ndarray
     lever_arm_m: tuple = (0.0, 0.0, 0.0)
+
+
+@dataclass
+class ImuData:
+    """The IMU's increments over the intervals ending at ``t_s``, in the sensor frame s."""
+
+    t_s: np.ndarray  #: (N,) end times of the increments, s; the first interval as long as the second
+    dtheta_rad: np.ndarray  #: (N, 3) angle increments, rad
+    dvel_mps: np.ndarray  #: (N, 3) velocity increments, m/s
+    #: (N, 3, 3) C_b^s per sample for a rotating IMU (None: s = b); C_b^n = C_s^n C_b^s
+    c_bs: np.ndarray | None = None
+
+
+@dataclass
+class NavStart:
+    """The navigation state at the start of the first interval."""
+
+    q_sn: np.ndarray  #: (4,) quaternion [w, x, y, z] of C_s^n
+    v_n_mps: np.ndarray  #: (3,) velocity ENU, m/s
+    pos_rad_m: np.ndarray  #: (3,) lat (rad), lon (rad), h (m)
+    gyro_bias_rps: np.ndarray | None = None  #: (3,) initial gyro bias estimate, rad/s (None: zero)
+    accel_bias_mps2: np.ndarray | None = None  #: (3,) initial accelerometer bias estimate, m/s² (None: zero)
 
 
 @dataclass
@@ -280,10 +305,10 @@ def _model(t, noise: ImuNoise, cfg: FilterConfig, zupt_intervals, attitude_only,
     decim = max(1, int(round(1.0 / (cfg.rate_hz * np.median(np.diff(t))))))
     m = n_s // decim
     aug = [a for a in AUG_NAMES if a in cfg.ldv_aug]
-    n = 15 + len(aug)
+    n = N_BASE + len(aug)
     aug_idx = np.full(len(AUG_NAMES), -1, dtype=np.int64)
     for i, a in enumerate(aug):
-        aug_idx[AUG_NAMES.index(a)] = 15 + i
+        aug_idx[AUG_NAMES.index(a)] = IX_AUG + i
     i_sz = -1
     if cfg.gyro_scale_z_sigma0 > 0:  # the z-gyro scale factor, last state
         i_sz = n
@@ -319,7 +344,7 @@ def _model(t, noise: ImuNoise, cfg: FilterConfig, zupt_intervals, attitude_only,
         ]
     )
     inv_tau = np.zeros(n)
-    inv_tau[9:15] = inv_gm
+    inv_tau[IX_EPS : IX_NABLA + 3] = inv_gm
     ep_t = np.concatenate([[t[0] - (t[1] - t[0])], t[decim - 1 : m * decim : decim]])
     zupt = np.zeros(m + 1, dtype=np.bool_)
     for a, b in zupt_intervals:
@@ -394,33 +419,40 @@ def _gnss_in(gnss: GnssAid | None):
     return gin
 
 
-def _imu_in(t, dtheta_rad, dvel_mps, c_bs, gravity):
-    """The compiled filter's IMU input (:class:`~ldvsurvey.nav.kfloop.ImuIn`); arrays already float64
-    and contiguous are passed on, not copied."""
+def _imu_in(t, imu: ImuData, gravity):
+    """The compiled filter's IMU input (:class:`~ldvsurvey.nav.kfloop.ImuIn`) at the times ``t``
+    (float64, contiguous); arrays already float64 and contiguous are passed on, not copied."""
     e = np.zeros(0)
     xi, eta, dg = (e, e, e) if gravity is None else (np.ascontiguousarray(g, dtype=float) for g in gravity)
-    c_bs_arr = np.eye(3)[None] if c_bs is None else np.ascontiguousarray(c_bs, dtype=float)  # (1, 3, 3): fixed
-    return kfloop.ImuIn(
-        t, np.ascontiguousarray(dtheta_rad, float), np.ascontiguousarray(dvel_mps, float), c_bs_arr, xi, eta, dg
+    # (1, 3, 3): a fixed IMU
+    c_bs_arr = np.eye(3)[None] if imu.c_bs is None else np.ascontiguousarray(imu.c_bs, dtype=float)
+    dth, dv = np.ascontiguousarray(imu.dtheta_rad, float), np.ascontiguousarray(imu.dvel_mps, float)
+    return kfloop.ImuIn(t, dth, dv, c_bs_arr, xi, eta, dg)
+
+
+def _start(start: NavStart):
+    """The compiled filter's initial state (:class:`~ldvsurvey.nav.kfloop.Start`)."""
+    b_g = np.zeros(3) if start.gyro_bias_rps is None else start.gyro_bias_rps
+    b_a = np.zeros(3) if start.accel_bias_mps2 is None else start.accel_bias_mps2
+    return kfloop.Start(
+        np.asarray(start.q_sn, float),
+        np.asarray(start.v_n_mps, float),
+        np.asarray(start.pos_rad_m, float),
+        np.concatenate([np.asarray(b_g, float), np.asarray(b_a, float)]),
     )
 
 
 def run_filter(
-    t_s,
-    dtheta_rad,
-    dvel_mps,
-    q0_sn,
-    v0_n,
-    pos0,
+    imu: ImuData,
+    start: NavStart,
     noise: ImuNoise,
     cfg: FilterConfig | None = None,
-    c_bs=None,
+    *,
     zupt_intervals=(),
     ldv: LdvAid | None = None,
     gnss: GnssAid | None = None,
     gravity=None,
     smooth: bool = True,
-    bias0=None,
     keep_cov: bool = False,
     attitude_only: bool = False,
     specific_force: bool = True,
@@ -429,81 +461,87 @@ def run_filter(
 
     Parameters
     ----------
-    t_s : (N,) end times of the increments (s). dtheta_rad, dvel_mps : (N, 3) in the sensor frame.
-    q0_sn : initial C_s^n quaternion at the start of the first interval. v0_n (m/s), pos0 [lat, lon rad, h m].
-    c_bs : (N, 3, 3) C_b^s per sample for a rotating IMU (None: s = b); C_b^n = C_s^n C_b^s.
+    imu : the increments, their times and (rotating IMU) C_b^s per sample.
+    start : the state at the start of the first interval.
+    noise : the IMU's error magnitudes.
+    cfg : the filter's tuning (None: the defaults).
     zupt_intervals : [(t_start, t_end)] in s where the vehicle stands still.
+    ldv, gnss : the aids (None: not used).
     gravity : optional (xi_rad, eta_rad, dg_mps2) per sample for the gravity model.
+    smooth : run the RTS smoother and correct every sample with it.
+    keep_cov : keep the covariance of every epoch (``NavSolution.epoch_cov``).
     attitude_only : keep only the attitude per sample (v_n, pos, f_u_mps2, f_u_bias_mps2 come back
         empty): for a run whose use is its parameters and attitude, at 40 % of the memory.
     specific_force : False: f_u_mps2 and f_u_bias_mps2 come back empty (a navigation that will not
         serve gravity: 24 bytes per sample less).
+
+    Returns
+    -------
+    NavSolution
+        At the IMU sample times, smoothed when ``smooth``.
     """
     cfg = cfg or FilterConfig()
-    t = np.ascontiguousarray(t_s, dtype=float)
+    t = np.ascontiguousarray(imu.t_s, dtype=float)
     mdl, aug_idx, ep_t = _model(t, noise, cfg, zupt_intervals, attitude_only, specific_force)
     lin = _ldv_in(ldv, cfg, aug_idx, len(t))
-    gin = _gnss_in(gnss)
-    imu = _imu_in(t, dtheta_rad, dvel_mps, c_bs, gravity)
-    st = kfloop.Start(
-        np.asarray(q0_sn, float),
-        np.asarray(v0_n, float),
-        np.asarray(pos0, float),
-        np.zeros(6) if bias0 is None else np.asarray(bias0, float),
-    )
-    decim, qd, inv_tau, i_sz, par0 = mdl.decim, mdl.qd, mdl.inv_tau, mdl.i_sz, lin.par0
-    m = len(t) // decim
-    (q, v, p, f_u, f_en, f_b, ck, upd, sig_f, fin, dts, dxs, par, bias, nis, rej, sz) = kfloop.forward(
-        imu, mdl, lin, gin, st
-    )
-    del imu, lin, gin
-    par = par[[0, -1]]  # the LDV parameters are read at the first or last epoch only
+    fw = kfloop.forward(_imu_in(t, imu, gravity), mdl, lin, _gnss_in(gnss), _start(start))
+    par0 = lin.par0
+    del lin
+    traj = kfloop.Trajectory(fw.q_sn, fw.v_n_mps, fw.pos_rad_m, fw.f_u_mps2, fw.f_en_mps2, fw.f_b_mps2)
+    rec = kfloop.Record(fw.ck_packed, fw.upd, fw.fin, fw.dt_s, fw.dx)
+    proc = kfloop.ProcessModel(mdl.qd, mdl.inv_tau, mdl.i_sz, aug_idx, float(cfg.zupt_sigma_mps))
+    # the LDV parameters are read at the first or last epoch only; the smoother's 1-σ replace the
+    # forward ones, which are not held through the smoother
+    par, bias, sz, sig_f = fw.ldv_par[[0, -1]], fw.bias, fw.gyro_scale_z, None if smooth else fw.sigma
+    nis, rej = fw.nis, fw.rejected
+    del fw
     if smooth:
-        del sig_f  # the smoother's 1-σ replace the forward ones: not held through the smoother
-    zs = float(cfg.zupt_sigma_mps)
-    if smooth:
-        xs, sig_ep, ps = kfloop.rts(ck, upd, fin, dts, dxs, qd, inv_tau, i_sz, aug_idx, zs, keep_cov)
-        kfloop.apply_corrections(t, ep_t, decim, m, xs, dxs, q, v, p, f_u, f_en, f_b)
+        xs, sig_ep, ps = kfloop.rts(rec, proc, keep_cov)
+        kfloop.apply_corrections(t, ep_t, mdl.decim, xs, rec.dx, traj)
     else:
-        xs = np.zeros_like(dxs)
+        xs = np.zeros_like(rec.dx)
         sig_ep = sig_f
-        ps = kfloop.forward_covs(ck, upd, fin, dts, qd, inv_tau, i_sz, aug_idx, zs) if keep_cov else None
-    del f_en, ck, upd, fin
-    ep_bias = bias + xs[:, 9:15]
-    ldv_params = {}
-    for a in AUG_NAMES:
-        i = AUG_NAMES.index(a)
-        if aug_idx[i] >= 0:
-            jj = 0 if smooth else -1
-            val = par[jj, i] - xs[jj, aug_idx[i]]
-            sig = float(sig_ep[jj, aug_idx[i]])
-            if a.startswith("scale"):  # estimated as s = 1/K
-                val, sig = 1.0 / val, sig / val**2
-            ldv_params[a] = (float(val), sig)
-        elif ldv is not None:
-            v0 = par0[i]
-            ldv_params[a] = (float(1.0 / v0 if a.startswith("scale") else v0), 0.0)
-    jb = 0 if smooth else -1
-    gyro_b = bias[jb, :3] + xs[jb, 9:12]
-    acc_b = bias[jb, 3:] + xs[jb, 12:15]
+        ps = kfloop.forward_covs(rec, proc) if keep_cov else None
+    del rec
+    jb = 0 if smooth else -1  # the biases and LDV parameters are read at the first or last epoch
+    i_sz = mdl.i_sz
     return NavSolution(
         t_s=t,
-        q_sn=q,
-        v_n=v,
-        pos=p,
-        c_bs=c_bs,
+        q_sn=traj.q_sn,
+        v_n=traj.v_n_mps,
+        pos=traj.pos_rad_m,
+        c_bs=imu.c_bs,
         smoothed=smooth,
-        ldv_params=ldv_params,
-        gyro_bias_rps=gyro_b,
-        accel_bias_mps2=acc_b,
+        ldv_params=_ldv_params(par, xs, sig_ep, aug_idx, par0, smooth, ldv is not None),
+        gyro_bias_rps=bias[jb, :3] + xs[jb, IX_EPS : IX_EPS + 3],
+        accel_bias_mps2=bias[jb, 3:] + xs[jb, IX_NABLA : IX_NABLA + 3],
         epoch_t_s=ep_t,
         epoch_sigma=sig_ep,
         normalized_innovations=nis,
         rejected={"zupt": int(rej[0]), "ldv": int(rej[1]), "gnss": int(rej[2])},
-        epoch_index=np.arange(m + 1) * decim - 1,
-        epoch_bias=ep_bias,
+        epoch_index=np.arange(len(ep_t)) * mdl.decim - 1,
+        epoch_bias=bias + xs[:, IX_EPS : IX_NABLA + 3],
         epoch_cov=ps if keep_cov else None,
-        f_u_mps2=f_u,
-        f_u_bias_mps2=f_b,
+        f_u_mps2=traj.f_u_mps2,
+        f_u_bias_mps2=traj.f_b_mps2,
         gyro_scale_z=None if i_sz < 0 else (float(sz[jb] + xs[jb, i_sz]), float(sig_ep[jb, i_sz])),
     )
+
+
+def _ldv_params(par, xs, sig_ep, aug_idx, par0, smooth, has_ldv) -> dict:
+    """name → (value, 1-σ) of each LDV parameter (scales as K, angles in rad, k_η in rad per m/s²):
+    the estimated ones from the first (smoothed) or last epoch of ``par`` (2, 5) corrected by x_s,
+    the others as given (σ 0) when an LDV aids at all."""
+    out = {}
+    jj = 0 if smooth else -1
+    for i, a in enumerate(AUG_NAMES):
+        if aug_idx[i] >= 0:
+            val = par[jj, i] - xs[jj, aug_idx[i]]
+            sig = float(sig_ep[jj, aug_idx[i]])
+            if a.startswith("scale"):  # estimated as s = 1/K
+                val, sig = 1.0 / val, sig / val**2
+            out[a] = (float(val), sig)
+        elif has_ldv:
+            v0 = par0[i]
+            out[a] = (float(1.0 / v0 if a.startswith("scale") else v0), 0.0)
+    return out

@@ -10,6 +10,8 @@ Units: rad, m, m/s, s. State ``pos`` is [lat_rad, lon_rad, h_m]; ``q`` is C_s^n 
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba as nb
 import numpy as np
 
@@ -17,21 +19,37 @@ from ldvsurvey.nav.attitude import cross, q_rotvec, q_to_c, qmul
 from ldvsurvey.nav.earth import OMEGA_IE, normal_gravity_nb, radii_nb
 
 
+class NavState(NamedTuple):
+    """The mechanization's state at the start of an interval and what it extrapolates from, (3,)
+    arrays unless said (numba passes it as a tuple; :func:`mech_step_into` updates it in place)."""
+
+    q_sn: np.ndarray  #: (4,) quaternion [w, x, y, z] of C_s^n
+    v_n_mps: np.ndarray  #: velocity ENU, m/s
+    pos_rad_m: np.ndarray  #: [lat (rad), lon (rad), h (m)]
+    v_prev_n_mps: np.ndarray  #: the velocity one interval earlier (mid-interval extrapolation), m/s
+    pos_prev_rad_m: np.ndarray  #: the position one interval earlier, [rad, rad, m]
+    dth_prev_rad: np.ndarray  #: the previous interval's angle increment (coning, sculling), rad
+    dv_prev_mps: np.ndarray  #: the previous interval's velocity increment (sculling), m/s
+
+
 @nb.njit(cache=True)
-def mech_step(q, v, pos, v_prev, pos_prev, dth, dv, dth_prev, dv_prev, dt, xi, eta, dg):
-    """One update over an interval of length dt (s).
+def mech_step(nav, dth, dv, dt, xi, eta, dg):
+    """One update over an interval of length dt (s), allocating (the reference for :func:`mech_step_into`).
 
     Parameters
     ----------
-    q, v, pos : state at the start (quaternion C_s^n, velocity ENU m/s, [lat, lon, h]).
-    v_prev, pos_prev : state one interval earlier (for mid-interval extrapolation).
-    dth, dv : increments of this interval in s (rad, m/s); dth_prev, dv_prev: the previous ones.
-    xi, eta, dg : deflection (rad) and disturbance (m/s²) used in the gravity model.
+    nav : :class:`NavState` at the start of the interval (not modified).
+    dth, dv : (3,) increments of this interval in s, rad and m/s.
+    dt : interval length, s.
+    xi, eta : deflection of the vertical (north, east), rad, used in the gravity model.
+    dg : gravity disturbance, m/s².
 
     Returns
     -------
-    q_new, v_new, pos_new, f_n : state at the end and the mean specific force in n (m/s²).
+    q_new, v_new, pos_new, f_n : state at the end (C_s^n quaternion, ENU m/s, [lat rad, lon rad, h m])
+        and the mean specific force in n (m/s²).
     """
+    q, v, pos, v_prev, pos_prev, dth_prev, dv_prev = nav
     phi = dth + cross(dth_prev, dth) / 12.0
     dv_b = dv + 0.5 * cross(dth, dv) + (cross(dth_prev, dv) + cross(dv_prev, dth)) / 12.0
     v_mid = 1.5 * v - 0.5 * v_prev
@@ -69,13 +87,23 @@ def _rotvec_sc(a0, a1, a2):
     return np.cos(a / 2), np.sin(a / 2) / a
 
 
-@nb.njit(cache=True)
-def mech_step_into(q, v, pos, v_prev, pos_prev, dth, dv, dth_prev, dv_prev, dt, xi, eta, dg, f_n):
+# inlined into its caller: a call with the NavState tuple would take a reference on each of its
+# arrays per sample (about a tenth of a microsecond), the cost of the filter's whole mechanization
+@nb.njit(cache=True, inline="always")
+def mech_step_into(nav, dth, dv, dt, xi, eta, dg, f_n):
     """:func:`mech_step` in place and without allocation (the same arithmetic, term by term).
 
-    On return q, v, pos hold the state at the end of the interval, v_prev, pos_prev the state at
-    its start, and f_n (3,) the mean specific force in n (m/s²). dth, dv, dth_prev, dv_prev: (3,).
+    Parameters
+    ----------
+    nav : :class:`NavState`; on return its q, v, pos hold the state at the end of the interval and
+        v_prev, pos_prev the state at its start (dth_prev, dv_prev are left to the caller).
+    dth, dv : (3,) increments of this interval, rad and m/s.
+    dt : interval length, s.
+    xi, eta : deflection of the vertical (north, east), rad.
+    dg : gravity disturbance, m/s².
+    f_n : (3,) written: the mean specific force in n over the interval, m/s².
     """
+    q, v, pos, v_prev, pos_prev, dth_prev, dv_prev = nav
     t0, t1, t2 = dth[0], dth[1], dth[2]
     u0, u1, u2 = dv[0], dv[1], dv[2]
     p0, p1, p2 = dth_prev[0], dth_prev[1], dth_prev[2]
@@ -155,7 +183,12 @@ def mech_step_into(q, v, pos, v_prev, pos_prev, dth, dv, dth_prev, dv_prev, dt, 
 
 
 @nb.njit(cache=True)
-def _run(t, dth, dvel, q0, v0, pos0, xi, eta, dg, h_ref, vu_ref):
+def _run(t, dth, dvel, start, gravity, hold):
+    """The free-inertial loop of :func:`mechanize`: start (q0, v0, pos0), gravity (xi, eta, dg) and
+    hold (h_ref, vu_ref) are tuples of arrays, the latter two of empty arrays when not given."""
+    q0, v0, pos0 = start
+    xi, eta, dg = gravity
+    h_ref, vu_ref = hold
     n = len(t)
     q_out = np.empty((n, 4))
     v_out = np.empty((n, 3))
@@ -164,7 +197,7 @@ def _run(t, dth, dvel, q0, v0, pos0, xi, eta, dg, h_ref, vu_ref):
     v_prev, pos_prev = v.copy(), pos.copy()
     dth_prev, dv_prev = np.zeros(3), np.zeros(3)
     has_g = len(xi) > 0
-    hold = len(h_ref) > 0
+    holding = len(h_ref) > 0
     t_prev = t[0] - (t[1] - t[0]) if n > 1 else t[0] - 0.01
     for k in range(n):
         dt = t[k] - t_prev
@@ -174,10 +207,9 @@ def _run(t, dth, dvel, q0, v0, pos0, xi, eta, dg, h_ref, vu_ref):
         gx = xi[k] if has_g else 0.0
         ge = eta[k] if has_g else 0.0
         gd = dg[k] if has_g else 0.0
-        q_new, v_new, p_new, _ = mech_step(
-            q, v, pos, v_prev, pos_prev, dth[k], dvel[k], dth_prev, dv_prev, dt, gx, ge, gd
-        )
-        if hold:
+        nav = NavState(q, v, pos, v_prev, pos_prev, dth_prev, dv_prev)
+        q_new, v_new, p_new, _ = mech_step(nav, dth[k], dvel[k], dt, gx, ge, gd)
+        if holding:
             p_new[2] = h_ref[k]
             v_new[2] = vu_ref[k]
         v_prev, pos_prev = v, pos
@@ -213,12 +245,7 @@ def mechanize(t_s, dtheta_rad, dvel_mps, q0, v0_n, pos0, gravity=None, height_re
         t,
         np.ascontiguousarray(dtheta_rad, dtype=float),
         np.ascontiguousarray(dvel_mps, dtype=float),
-        np.asarray(q0, dtype=float),
-        np.asarray(v0_n, dtype=float),
-        np.asarray(pos0, dtype=float),
-        xi,
-        eta,
-        dg,
-        h_ref,
-        vu_ref,
+        (np.asarray(q0, dtype=float), np.asarray(v0_n, dtype=float), np.asarray(pos0, dtype=float)),
+        (xi, eta, dg),
+        (h_ref, vu_ref),
     )

@@ -20,7 +20,17 @@ from ldvsurvey.io.drivelog import DriveLog
 from ldvsurvey.io.imutime import check_no_long_gaps
 from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs, c_from_q, q_from_c
-from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuNoise, LdvAid, NavSolution, ldv_spikes, run_filter
+from ldvsurvey.nav.filter import (
+    FilterConfig,
+    GnssAid,
+    ImuData,
+    ImuNoise,
+    LdvAid,
+    NavSolution,
+    NavStart,
+    ldv_spikes,
+    run_filter,
+)
 from ldvsurvey.nav.localframe import local_metres  # noqa: F401  (re-exported for the stages and gravity)
 from ldvsurvey.pipelines.base import warn
 from ldvsurvey.pipelines.stages.start import (
@@ -423,15 +433,10 @@ def run_navigation_filter(
             pos_sigma0_m=max(cfg.pos_sigma0_m, MOVING_POS_SIGMA0_M),
         )
     return run_filter(
-        inp.t_s,
-        inp.dtheta_rad,
-        inp.dvel_mps,
-        q_from_c(c0),
-        v0,
-        inp.pos0,
+        ImuData(inp.t_s, inp.dtheta_rad, inp.dvel_mps, cbs),
+        NavStart(q_from_c(c0), v0, inp.pos0),
         inp.noise,
         cfg,
-        c_bs=cbs,
         zupt_intervals=inp.still if zupt else [],
         ldv=ldv,
         gnss=gnss,
