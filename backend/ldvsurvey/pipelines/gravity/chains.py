@@ -264,6 +264,12 @@ def height_sigma_epochs(sol):
     return np.array(sol.epoch_t_s, float), np.array(sol.epoch_sigma[:, 8], float)
 
 
+def _accel_noise_ug_rthz(log):
+    """The manifest's white accelerometer noise (µg/√Hz), None when not given."""
+    imu = getattr(getattr(log, "manifest", None), "imu", None)
+    return getattr(imu, "accel_noise_ug_per_rthz", None)
+
+
 def ldv_chain(inp, sol, setup):
     """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times.
 
@@ -322,7 +328,7 @@ def ldv_chain(inp, sol, setup):
         "h_sigma_epochs": height_sigma_epochs(sol),
         "kind": "ldv",
         # the manifest's white accelerometer noise (µg/√Hz, None when not given): the floor of a stop's σ
-        "accel_noise_ug_rthz": inp.log.manifest.imu.accel_noise_ug_per_rthz,
+        "accel_noise_ug_rthz": _accel_noise_ug_rthz(inp.log),
     }
 
 
@@ -528,5 +534,5 @@ def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: f
         "imu_bridges": lost_increment_sigmas(inp, sol),
         "h_sigma_epochs": height_sigma_epochs(sol),
         "kind": "gnss",
-        "accel_noise_ug_rthz": log.manifest.imu.accel_noise_ug_per_rthz,
+        "accel_noise_ug_rthz": _accel_noise_ug_rthz(log),
     }
