@@ -12,7 +12,7 @@ import pytest
 
 from ldvsurvey.io.drivelog import parse_files
 from ldvsurvey.nav.earth import MGAL, normal_gravity
-from ldvsurvey.nav.gravity import zero_phase_lowpass
+from ldvsurvey.nav.gravity import Lowpass
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog, survey
@@ -31,7 +31,7 @@ def _truth_along(sim, t_s, fir_s):
     im = sim.imu
     tm = 0.5 * (im.t_s[1:] + im.t_s[:-1])
     true = sim.gravity_field.dg_mgal(0.5 * (im.lat_rad[1:] + im.lat_rad[:-1]), 0.5 * (im.lon_rad[1:] + im.lon_rad[:-1]))
-    return np.interp(t_s, tm, zero_phase_lowpass(true * MGAL, fir_s, sim.scenario.imu_rate_hz) / MGAL)
+    return np.interp(t_s, tm, Lowpass(fir_s, sim.scenario.imu_rate_hz).apply(true * MGAL) / MGAL)
 
 
 def _ties(road, line_km):
