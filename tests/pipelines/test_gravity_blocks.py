@@ -133,7 +133,8 @@ def reference_chain(inp, sol, setup):
         "v_imu": v_imu,
         "t_s": 0.5 * (t[1:] + t[:-1]),
         "dg": dg,
-        "dg_static": dg + vdot_u,
+        "dg_static": f_n[1:] - normal_gravity(lat, h),  # standing: no velocity terms (no Eötvös)
+        "w_static": np.concatenate([[0.0], np.cumsum((f_u[1:] - normal_gravity(lat, h)) * dt)]),
         "lat": lat,
         "lon": 0.5 * (sol.pos[1:, 1] + sol.pos[:-1, 1]),
         "h": h,
@@ -153,6 +154,9 @@ def test_block_wise_chain_equals_the_whole_log_formulas(monkeypatch, block, rota
     np.testing.assert_array_equal(gc.vertical_force(inp, sol), ref["f_u"])
     np.testing.assert_array_equal(gc.ldv_velocity_imu(inp, sol, setup), ref["v_imu"])
     np.testing.assert_array_equal(gc._double_integral(inp.t_s, sol), ref["s"])
+    w_static = np.empty(len(inp.t_s))
+    gc._double_integral(inp.t_s, sol, first_static=w_static)
+    np.testing.assert_allclose(w_static, ref["w_static"], rtol=0, atol=1e-12 * np.max(np.abs(ref["w_static"])))
     ch = gc.ldv_chain(inp, sol, setup)
     assert ch["screened"] == ref["screened"] >= 3  # the three spikes (and maybe garbage next to the dropout)
     for key in ("t_s", "dg", "dg_static", "lat", "lon", "h", "speed", "bridged"):

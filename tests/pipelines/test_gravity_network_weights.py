@@ -151,8 +151,9 @@ def test_an_orthometric_tie_height_is_reported(weighted_run):
     assert flagged and {r["tie"] for r in flagged} == {"T1"} and len(warnings) == len(flagged)
     for r in flagged:
         assert r["h_difference_m"] == pytest.approx(-zeta, abs=1.5)
-        assert f"{h - zeta:.1f} m" in r["height_warning"] and f"{r['h_gnss_m']:.1f} m" in r["height_warning"]
-        assert "T1" in r["height_warning"] and "orthometric" in r["height_warning"]
+        assert f"{h - zeta:.1f} m" in r["height_warning"] and f"{r['h_reference_m']:.1f} m" in r["height_warning"]
+        assert r["h_reference_source"] == "GNSS" and r["h_reference_m"] == pytest.approx(r["h_gnss_m"], abs=0.5)
+        assert "T1" in r["height_warning"] and "the tie's height looks orthometric" in r["height_warning"]
 
 
 def test_without_gnss_the_navigated_height_is_the_reference(weighted_run):

@@ -314,3 +314,77 @@ def test_height_sigma_without_fixes_on_the_line_is_the_filters():
     log.manifest.gnss.height_noise = {"5": types.SimpleNamespace(white_m=0.03, correlated_m=0.04)}
     sig, src = line_height_sigma(ch, log, t[10:50], fixes=(5,))
     assert sig == pytest.approx(np.sqrt(0.3**2 - 0.05**2), rel=1e-9) and src.startswith("GNSS fix 5")
+
+
+def _graded_stop(grade=0.06, imu_above_mark_m=0.8, lever_up_m=1.2, orthometric_log_zeta=None):
+    """A straight road east at 28.2° N falling at ``grade``, driven to x = 0 and stopped there; fixes at 10 Hz
+    (RTK fixed) at the antenna ``lever_up_m`` above the IMU, the IMU ``imu_above_mark_m`` above the road.
+    Returns (chain, log, lat0 deg, lon0 deg, road height m as a function of x m east)."""
+    from ldvsurvey.nav.earth import radii
+
+    lat0, lon0 = 28.2, 112.9
+    rm, rn = radii(np.radians(lat0))
+    road = lambda x: 99.2 - grade * np.asarray(x, float)  # noqa: E731
+    t = np.arange(0.0, 160.0, 0.1)
+    x = np.minimum(-500.0 + 5.0 * t, 0.0)  # 5 m/s for 100 s, then 60 s standing at x = 0
+    h_imu = road(x) + imu_above_mark_m
+    lat = np.full(len(t), np.radians(lat0))
+    lon = np.radians(lon0) + x / (rn * np.cos(lat))
+    chain = {"t_s": t, "lat": lat, "lon": lon, "h": h_imu, "still": [(100.0, 160.0)], "h_sigma_epochs": None}
+    h_gnss = h_imu + lever_up_m - (0.0 if orthometric_log_zeta is None else orthometric_log_zeta)
+    gnss = types.SimpleNamespace(
+        t_s=t, lat_deg=np.degrees(lat), lon_deg=np.degrees(lon), h_m=h_gnss, fix=np.full(len(t), 4)
+    )
+    log = types.SimpleNamespace(
+        gnss=gnss, manifest=types.SimpleNamespace(gnss=types.SimpleNamespace(lever_arm_m=[0.0, 0.0, lever_up_m]))
+    )
+    return chain, log, lat0, lon0, road, rn
+
+
+def test_a_tie_50_m_down_a_6_percent_grade_is_no_false_warning():
+    """The mark 50 m beyond the stop down a 6 % grade, the IMU 0.8 m above the road: the tie is 3.8 m
+    below the stop's height (the old check, stop height against tie, warned), the geometry explains it."""
+    from ldvsurvey.nav.gravmodel import height_anomaly_m
+    from ldvsurvey.pipelines.gravity.tieheight import TIE_HEIGHT_WARN_M, check_tie_heights
+
+    chain, log, lat0, lon0, road, rn = _graded_stop()
+    lon_tie = lon0 + np.degrees(50.0 / (rn * np.cos(np.radians(lat0))))
+    h_mark = float(road(50.0))
+    rows = [{"tie": "T1", "log": "B1", "t_s": 130.0}]
+    assert check_tie_heights(rows, [(lat0, lon_tie, h_mark, 979000.0)], [chain], [log]) == []
+    r = rows[0]
+    assert r["height_warning"] is None
+    assert abs(h_mark - r["h_gnss_m"]) > TIE_HEIGHT_WARN_M  # what the stop-height check compared, and flagged
+    assert r["h_gnss_m"] == pytest.approx(road(0.0) + 0.8, abs=1e-9)  # the lever arm's up part taken off
+    assert r["reference_distance_m"] == pytest.approx(50.0, abs=0.5)
+    assert r["reference_grade"] == pytest.approx(0.06, rel=1e-6)
+    assert r["h_reference_sigma_m"] == pytest.approx(0.05)  # RTK fixed: aids.GNSS_SIGMA's vertical
+    # the same mark given as an orthometric height (H = h − ζ) is still flagged, and named as the tie's
+    zeta = float(height_anomaly_m(lat0, lon_tie, h_mark)[0])
+    rows = [{"tie": "T1", "log": "B1", "t_s": 130.0}]
+    warnings = check_tie_heights(rows, [(lat0, lon_tie, h_mark - zeta, 979000.0)], [chain], [log])
+    assert len(warnings) == 1 and "T1" in warnings[0]
+    assert "tie's height looks orthometric" in warnings[0] and f"ζ = {zeta:+.1f} m" in warnings[0]
+    assert "σ 0.05 m" in warnings[0] and "2.40 m" in warnings[0]  # the reference's σ, twice the lever's up
+    assert f"{0.3086 * abs(h_mark - zeta - road(0.0) - 0.8):.1f} mGal" in warnings[0]
+
+
+def test_orthometric_log_heights_are_named_as_the_log_side():
+    """The tie right; the log's GGA without a geoid separation (heights above the geoid, h − ζ): the tie
+    warning says the log's heights look orthometric, and the gravity summary warns of δg's offset."""
+    from ldvsurvey.nav.gravmodel import height_anomaly_m
+    from ldvsurvey.pipelines.gravity.tieheight import check_tie_heights, separation_warnings
+
+    zeta = float(height_anomaly_m(28.2, 112.9, 100.0)[0])
+    chain, log, lat0, lon0, road, _ = _graded_stop(orthometric_log_zeta=zeta)
+    rows = [{"tie": "T1", "log": "B1", "t_s": 130.0}]
+    warnings = check_tie_heights(rows, [(lat0, lon0, float(road(0.0)), 979000.0)], [chain], [log])
+    assert len(warnings) == 1 and "the log's heights look orthometric" in warnings[0]
+    assert rows[0]["h_difference_m"] == pytest.approx(zeta - 0.8, abs=1e-6)
+    # the separation: all NaN (an empty GGA field) warns with the size of the error; stated, none
+    log.gnss.sep_m = np.full(len(log.gnss.t_s), np.nan)
+    (w,) = separation_warnings([log])
+    assert "bundle 1" in w and "orthometric" in w and "ellipsoidal heights" in w
+    assert f"{-0.3086 * zeta:+.1f} mGal" in w
+    log.gnss.sep_m = np.full(len(log.gnss.t_s), zeta)
+    assert separation_warnings([log]) == []

@@ -17,7 +17,8 @@ fixes are missing (outage, lower quality, multipath) the height is bridged throu
 both gap edges, the height-domain twin of the LDV bridge. The second difference of S − h is δg:
 both sides of the subtraction see the very same differencing, so the FIR treats them alike.
 Its static δg (the stop ties' and base ties' reading, ``dg_static``) is f_U − γ alone: standing
-still the vehicle does not accelerate, so the GNSS heights (only noise there) do not enter it.
+still the vehicle neither accelerates nor moves, so the GNSS heights (only noise there) and the Eötvös
+terms of the navigated velocity (its residual there) do not enter it; the SINS/LDV chain's likewise.
 
 The navigation levels its frame to the plumb line (the SINS/LDV filter cannot tell a deflection of
 the vertical from a tilt), GNSS heights are along the ellipsoidal normal: f_U then holds
@@ -263,6 +264,12 @@ def height_sigma_epochs(sol):
     return np.array(sol.epoch_t_s, float), np.array(sol.epoch_sigma[:, 8], float)
 
 
+def _accel_noise_ug_rthz(log):
+    """The manifest's white accelerometer noise (µg/√Hz), None when not given."""
+    imu = getattr(getattr(log, "manifest", None), "imu", None)
+    return getattr(imu, "accel_noise_ug_per_rthz", None)
+
+
 def ldv_chain(inp, sol, setup):
     """Raw δg (m/s²) per IMU interval from SINS/LDV; dict of arrays at the interval mid-times.
 
@@ -300,7 +307,9 @@ def ldv_chain(inp, sol, setup):
         dg = disturbance_mps2(f_u, vdot_u, v_mid[:, 0], v_mid[:, 1], lat, h)
         k = slice(a, b1 - 1)
         cols["dg"][k] = dg
-        cols["dg_static"][k] = dg + vdot_u
+        # the static reading has no velocity terms: where it is read (stops) the vehicle stands, and the
+        # navigated velocity's residual there would add Eötvös (0.128 mGal per cm/s east at 28.5°)
+        cols["dg_static"][k] = f_u - normal_gravity(lat, h)
     del v_u  # before the third column
     bridged = ~(use[1:] & use[:-1])  # intervals touching a bridged sample
     return {
@@ -318,22 +327,27 @@ def ldv_chain(inp, sol, setup):
         "imu_bridges": lost_increment_sigmas(inp, sol),
         "h_sigma_epochs": height_sigma_epochs(sol),
         "kind": "ldv",
+        # the manifest's white accelerometer noise (µg/√Hz, None when not given): the floor of a stop's σ
+        "accel_noise_ug_rthz": _accel_noise_ug_rthz(inp.log),
     }
 
 
-def _double_integral(t, sol, first: np.ndarray | None = None) -> np.ndarray:
+def _double_integral(t, sol, first: np.ndarray | None = None, first_static: np.ndarray | None = None) -> np.ndarray:
     """S (N,) in m: ∫∫ (f_U − γ + Eötvös) dt² at the IMU times (rectangle per interval, then trapezoid).
 
     In blocks of intervals; each running sum carries the previous block's last value into the first term of
     its block's cumulative sum, which is then the very sequence of additions of one sum over the whole log.
     ``first`` (N,), when given, receives the single integral W = ∫ (f_U − γ + Eötvös) dt (m/s) at the IMU
-    times: exactly piecewise linear between them (the integrand is constant per interval)."""
+    times: exactly piecewise linear between them (the integrand is constant per interval). ``first_static``
+    (N,), when given, receives ∫ (f_U − γ) dt (m/s), the same without the velocity terms (the stops' reading)."""
     n = len(t)
     s = np.empty(n)
     s[0] = 0.0
     if first is not None:
         first[0] = 0.0
-    w_end = s_end = 0.0  # ∫ (f_U − γ + Eötvös) dt and S at the last sample of the previous block
+    w_end = s_end = ws_end = 0.0  # ∫ (f_U − γ + Eötvös) dt, S and ∫ (f_U − γ) dt at the previous block's end
+    if first_static is not None:
+        first_static[0] = 0.0
     for a, b in _blocks(n):
         b1 = min(b + 1, n)  # intervals a..b1−2 (samples a..b1−1)
         if b1 - a < 2:
@@ -343,13 +357,18 @@ def _double_integral(t, sol, first: np.ndarray | None = None) -> np.ndarray:
         h_m = 0.5 * (pos[1:, 2] + pos[:-1, 2])
         v_mid = 0.5 * (v_n[1:] + v_n[:-1])
         rm, rn = radii(lat_m)
+        static = _vertical_force_block(sol, a + 1, b1) - normal_gravity(lat_m, h_m)
         acc = (
-            _vertical_force_block(sol, a + 1, b1)
-            - normal_gravity(lat_m, h_m)
+            static
             + (v_mid[:, 0] / (rn + h_m) + 2 * OMEGA_IE * np.cos(lat_m)) * v_mid[:, 0]
             + v_mid[:, 1] ** 2 / (rm + h_m)
         )
         dt = np.diff(t[a:b1])
+        if first_static is not None:
+            xs = static * dt
+            xs[0] += ws_end
+            first_static[a + 1 : b1] = ws = np.cumsum(xs)
+            ws_end = ws[-1]
         x = acc * dt
         x[0] += w_end
         w = np.cumsum(x)  # at the samples a+1..b1−1
@@ -445,8 +464,8 @@ def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: f
     tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
     if len(tg) < 20:
         raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")
-    w_int = np.empty(len(t))
-    s = _double_integral(t, sol, first=w_int)
+    w_int = np.empty(len(t))  # the static reading's integral: no velocity terms (the vehicle stands there)
+    s = _double_integral(t, sol, first_static=w_int)
     # the fixes on a regular grid; the heights bridged through S tied to the gap edges
     step = float(np.median(np.diff(tg)))
     grid = tg[0] + step * np.arange(int(np.floor((tg[-1] - tg[0]) / step + 1e-6)) + 1)
@@ -484,7 +503,8 @@ def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: f
         if (b - a) * step > 0.5 * fir_s:
             dg[max(0, a - 1) : b + 1] = np.nan
     # δg where the vehicle stands (drift and base ties): with v = 0 and v̇ = 0 the accelerometer reads
-    # f_U = g_U, so δg = f_U − γ (+ Eötvös, ≈ 0 at a ZUPT stop) with no height term at all. The GNSS
+    # f_U = g_U, so δg = f_U − γ with no height and no velocity term at all (a navigated velocity's
+    # residual would add its Eötvös, 0.128 mGal per cm/s east at 28.5°). The GNSS
     # heights' second difference, which carries the chain's noise, is only noise there and is left out;
     # each grid time takes the mean over its own step (box, W's difference), so the samples do not
     # overlap and their scatter is the stop's white noise (drift.stop_sigma).
@@ -514,4 +534,5 @@ def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: f
         "imu_bridges": lost_increment_sigmas(inp, sol),
         "h_sigma_epochs": height_sigma_epochs(sol),
         "kind": "gnss",
+        "accel_noise_ug_rthz": _accel_noise_ug_rthz(log),
     }

@@ -17,6 +17,7 @@ from scipy.stats import chi2 as chi2_dist
 
 from ldvsurvey.nav.earth import MGAL
 from ldvsurvey.pipelines.stages.aids import local_metres
+from ldvsurvey.units import G0_MPS2
 
 #: stops shorter than this (after trimming their edges) are not used, s
 MIN_STOP_S = 10.0
@@ -26,26 +27,46 @@ STOP_EDGE_S = 2.0
 SAME_SPOT_M = 30.0
 
 
-#: the σ of a stop's mean is measured on means over blocks of this length (s): robust to noise that
-#: is not white at the sample rate (engine vibration, a bridged IMU gap)
-STOP_BLOCK_S = 1.0
+#: the σ of a stop's mean is measured on means over blocks of this length (s): a few seconds, so that
+#: slow disturbances of a standing vehicle (rocking, wind, people moving in it), which correlate
+#: neighbouring 1-s means and hide from their scatter, show in it
+STOP_BLOCK_S = 3.0
+#: fewest blocks whose scatter is used; a shorter stop takes the white-noise floor alone
+STOP_MIN_BLOCKS = 4
 
 
-def stop_sigma(t_s, x, duration_s, bridges=()):
-    """σ (m/s²) of the mean of ``x`` over a stop, measured on the data, plus its lost IMU rows.
+def white_stop_sigma(noise_ug_rthz, duration_s) -> float:
+    """σ (m/s²) of a T-second mean of white accelerometer noise of density ``noise_ug_rthz`` (µg/√Hz): N/√T;
+    NaN when no density is given."""
+    if not noise_ug_rthz:
+        return float("nan")
+    return float(noise_ug_rthz * 1e-6 * G0_MPS2 / np.sqrt(duration_s))
+
+
+def stop_sigma(t_s, x, duration_s, bridges=(), noise_ug_rthz=None):
+    """σ (m/s²) of the mean of ``x`` over a stop, measured on the data, floored, plus its lost IMU rows.
 
     The means over :data:`STOP_BLOCK_S` blocks scatter about the stop's mean; their standard deviation
     over √(number of blocks) is the σ of the mean whatever the noise's colour below the block length.
-    Each lost IMU run bridged inside the stop (σ_g of its up velocity, m/s; see
-    :func:`chains.lost_increment_sigmas`) adds σ_g/T to the mean over T seconds."""
+    From a handful of blocks that estimate is itself uncertain (and chance can make it small), so it
+    is floored at what the accelerometer's white noise alone gives the mean, N/√T (N the manifest's
+    ``noise_ug_rthz`` in µg/√Hz, T = ``duration_s``); a stop of fewer than :data:`STOP_MIN_BLOCKS`
+    blocks takes the floor alone (NaN without N). Each lost IMU run bridged inside the stop (σ_g of its
+    up velocity, m/s; see :func:`chains.lost_increment_sigmas`) adds σ_g/T to the mean over T seconds."""
+    floor = white_stop_sigma(noise_ug_rthz, duration_s)
     nb = int(np.floor(duration_s / STOP_BLOCK_S))
-    if nb < 4:
+    if nb < STOP_MIN_BLOCKS:
+        var = floor**2
+    else:
+        j = np.minimum(((t_s - t_s[0]) / (duration_s / nb)).astype(int), nb - 1)
+        cnt = np.bincount(j, minlength=nb)
+        good = cnt > 0
+        means = np.bincount(j, weights=x, minlength=nb)[good] / cnt[good]
+        var = float(np.var(means, ddof=1) / good.sum())
+        if np.isfinite(floor):
+            var = max(var, floor**2)
+    if not np.isfinite(var):
         return float("nan")
-    j = np.minimum(((t_s - t_s[0]) / (duration_s / nb)).astype(int), nb - 1)
-    cnt = np.bincount(j, minlength=nb)
-    good = cnt > 0
-    means = np.bincount(j, weights=x, minlength=nb)[good] / cnt[good]
-    var = float(np.var(means, ddof=1) / good.sum())
     for t_g, _dur, sig in bridges:
         if t_s[0] <= t_g <= t_s[-1] and np.isfinite(sig):
             var += (sig / duration_s) ** 2
@@ -55,7 +76,8 @@ def stop_sigma(t_s, x, duration_s, bridges=()):
 def stop_means(chain, still):
     """(t_s, lat, lon, mean f_U − γ in m/s², duration s, σ of the mean in m/s²) of every usable stop.
 
-    The σ is the data's (:func:`stop_sigma`)."""
+    The σ is the data's, floored at the white noise of the chain's ``accel_noise_ug_rthz`` (the
+    manifest's, µg/√Hz; :func:`stop_sigma`)."""
     out = []
     t = chain["t_s"]
     for a, b in still:
@@ -73,7 +95,7 @@ def stop_means(chain, still):
                 float(np.mean(chain["lon"][k])),
                 float(np.mean(x)),
                 float(b - a),
-                stop_sigma(t[k], x, float(b - a), chain.get("imu_bridges") or ()),
+                stop_sigma(t[k], x, float(b - a), chain.get("imu_bridges") or (), chain.get("accel_noise_ug_rthz")),
             )
         )
     return out
@@ -173,7 +195,7 @@ def drift_correction(chain, still, noise_ug_rthz=None, mode="auto"):
     sig = np.array([s[5] for s in stops], float)
     if noise_ug_rthz:
         dur = np.array([s[4] for s in stops])
-        sig = np.where(np.isfinite(sig), sig, noise_ug_rthz * 1e-6 * 9.80665 / np.sqrt(dur))
+        sig = np.where(np.isfinite(sig), sig, [white_stop_sigma(noise_ug_rthz, d) for d in dur])
     sigma = float(np.sqrt(np.nanmean(sig**2)) / MGAL) if np.isfinite(sig).any() else None
     rng_mgal = float(np.ptp(est["drift"]) / MGAL)
     d_sig = est.get("drift_sigma")
@@ -193,7 +215,8 @@ def drift_correction(chain, still, noise_ug_rthz=None, mode="auto"):
         "n_spots": int(est["n_spots"]),
         "drift_range_mgal": rng_mgal,
         "stop_sigma_mgal": sigma,
-        "stop_sigma_source": "the stops' own data (scatter of 1-s means, plus lost IMU rows bridged there)",
+        "stop_sigma_source": f"the stops' own data (scatter of {STOP_BLOCK_S:g}-s means, floored at the manifest's "
+        "white accelerometer noise over √T, plus lost IMU rows bridged there)",
         "max_drift_sigmas": _max_sigmas(est),
         # the drifts' χ² against their covariance and its probability under "no drift" (small: drift)
         "drift_chi2": est.get("chi2"),

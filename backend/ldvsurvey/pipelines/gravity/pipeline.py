@@ -50,6 +50,7 @@ from ldvsurvey.pipelines.gravity.report import (
     frame_tilt,
     with_imu_bridges,
 )
+from ldvsurvey.pipelines.gravity.tieheight import separation_warnings
 from ldvsurvey.pipelines.navigate import run_navigation
 from ldvsurvey.pipelines.stages.aids import gnss_aid
 from ldvsurvey.pipelines.stages.aids import run_navigation_filter as navigate
@@ -575,6 +576,7 @@ def run(logs, params: GravityParams, progress) -> PipelineResult:
     """
     rs = setup_run(logs, params)
     cs = all_chains(rs, progress)
+    cs.warnings += separation_warnings(rs.logs)  # GGA heights without a geoid separation: orthometric
     progress("drift, filtering and coincidence", 0.75)
     drift_reports = remove_drift(rs, cs)
     res = evaluate(cs.main, cs.lines, rs.lowpass, params.spacing_m, rs.trim_s, leveling=params.line_leveling)
