@@ -432,20 +432,11 @@ def _mid_speed_column(v_n) -> IntervalColumn:
     )
 
 
-def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: float = 4.0):
-    """Raw δg (m/s²) on a regular grid at the GNSS rate from SINS/GNSS; dict like :func:`ldv_chain`.
-
-    ``lowpass``: the gravity filter, for the first pass that carries the disturbance across outages
-    (its length L: ``fir_s`` below).
-    Uses the fixes of the given qualities. Multipath (height jumps of decimetres for seconds to a
-    minute in fixed solutions) is screened against ``ref`` (a solution without GNSS, e.g. the
-    SINS/LDV one; default ``sol``): a fix whose height residual departs from the residual's
-    running median (over ``fir_s``) by more than ``k_sigma`` robust σ (at least 3 σ of its fix
-    quality) is dropped and bridged. Raises ValueError when fewer than 20 fixes remain.
-    """
+def _screened_fixes(log, inp, sol, fixes, *, ref, fir_s: float, k_sigma: float):
+    """The fixes of the qualities ``fixes`` at the IMU (times s, heights m, their height 1-σ m) with
+    multipath screened against ``ref`` (see :func:`gnss_chain`), and the mask of those kept."""
     g = log.gnss
     t = inp.t_s
-    fir_s = lowpass.length_s
     keep = np.isin(g.fix, fixes) & np.isfinite(g.lat_deg) & np.isfinite(g.h_m) & (g.t_s > t[2]) & (g.t_s < t[-1])
     if keep.sum() < 20:
         raise ValueError(f"fewer than 20 GNSS fixes of quality {'/'.join(map(str, fixes))}")
@@ -464,6 +455,32 @@ def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: f
     tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
     if len(tg) < 20:
         raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")
+    return tg, h_g, sig_v, good
+
+
+def _box_means(t, w_int, tc, step: float):
+    """Mean over each grid time's own step (s) of the quantity whose running integral is ``w_int`` on
+    ``t``: the difference of the integral across the box, NaN where the box leaves the record."""
+    half = 0.5 * step
+    out = (np.interp(tc + half, t, w_int) - np.interp(tc - half, t, w_int)) / step
+    out[(tc - half < t[0]) | (tc + half > t[-1])] = np.nan
+    return out
+
+
+def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: float = 4.0):
+    """Raw δg (m/s²) on a regular grid at the GNSS rate from SINS/GNSS; dict like :func:`ldv_chain`.
+
+    ``lowpass``: the gravity filter, for the first pass that carries the disturbance across outages
+    (its length L: ``fir_s`` below).
+    Uses the fixes of the given qualities. Multipath (height jumps of decimetres for seconds to a
+    minute in fixed solutions) is screened against ``ref`` (a solution without GNSS, e.g. the
+    SINS/LDV one; default ``sol``): a fix whose height residual departs from the residual's
+    running median (over ``fir_s``) by more than ``k_sigma`` robust σ (at least 3 σ of its fix
+    quality) is dropped and bridged. Raises ValueError when fewer than 20 fixes remain.
+    """
+    t = inp.t_s
+    fir_s = lowpass.length_s
+    tg, h_g, sig_v, good = _screened_fixes(log, inp, sol, fixes, ref=ref, fir_s=fir_s, k_sigma=k_sigma)
     w_int = np.empty(len(t))  # the static reading's integral: no velocity terms (the vehicle stands there)
     s = _double_integral(t, sol, first_static=w_int)
     # the fixes on a regular grid; the heights bridged through S tied to the gap edges
@@ -508,9 +525,7 @@ def gnss_chain(log, inp, sol, lowpass: Lowpass, fixes=(4,), ref=None, k_sigma: f
     # heights' second difference, which carries the chain's noise, is only noise there and is left out;
     # each grid time takes the mean over its own step (box, W's difference), so the samples do not
     # overlap and their scatter is the stop's white noise (drift.stop_sigma).
-    half = 0.5 * step
-    dg_static = (np.interp(tc + half, t, w_int) - np.interp(tc - half, t, w_int)) / step
-    dg_static[(tc - half < t[0]) | (tc + half > t[-1])] = np.nan
+    dg_static = _box_means(t, w_int, tc, step)
     del w_int
     # horizontal accelerations (navigation frame) over the same three-epoch stencil, for the frame tilt
     v_g = np.column_stack([np.interp(grid, t, sol.v_n[:, i]) for i in (0, 1)])
