@@ -148,8 +148,8 @@ def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], 
     A stop's 1-σ is the data's own (the scatter of its 1-s means, :func:`drift.stop_sigma`,
     lost IMU rows included); only where a stop is too short for that, the white accelerometer noise the
     manifest states over its duration; in quadrature with it :data:`TIE_GRADIENT_MGAL_PER_M` · distance,
-    the g the stop may miss standing beside the station. Both chains read a stop alike: SINS/LDV and SINS/GNSS (no LDV) each
-    carry their static δg, f_U − γ where the vehicle stands (``dg_static``, :mod:`chains`)."""
+    the g the stop may miss standing beside the station. Both chains read a stop alike: SINS/LDV and
+    SINS/GNSS (no LDV) each carry their static δg, f_U − γ where the vehicle stands (``dg_static``, :mod:`chains`)."""
     out, unused = [], []
     seen = set()
     for ci, ch in enumerate(chains):
