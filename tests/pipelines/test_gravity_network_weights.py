@@ -204,7 +204,10 @@ def test_a_drifting_log_whose_manifest_states_no_drift_keeps_a_drift_term(weight
     kw = {"tie_applied": True, "leveling": "bias", "bundle": 1}
     true_law = drift_floor(log, cs.main[1], res, rs.lowpass, rs.params.spacing_m, **kw)
     tied_law = drift_floor(blind, cs.main[1], res, rs.lowpass, rs.params.spacing_m, **kw)
-    print(f"drift floor: manifest's law {true_law['drift_mgal']:.2f} mGal, the tie's {tied_law['drift_mgal']:.2f}")
+    print(
+        f"drift floor: manifest's law {true_law['drift_mgal']:.2f} mGal, the tie's {tied_law['drift_mgal']:.2f} "
+        f"(σ {tied_law['accel_bias_instability_ug']:.2f} µg, τ {tied_law['bias_correlation_s']:.0f} s)"
+    )
     assert "stop tie's measured drift" in tied_law["drift_source"] and "bundle 2" in tied_law["drift_warning"]
     assert 0.3 * true_law["drift_mgal"] < tied_law["drift_mgal"] < 3.0 * true_law["drift_mgal"]
     assert tied_law["drift_mgal"] > floor_of(log, cs.main[1], rs.lowpass)["total_mgal"]  # as the true one, it dominates
