@@ -6,12 +6,15 @@ Every line sample (filtered δg, mGal) at a network point p is modelled as
 
 with G(p) the unknown true value at the point, b_L and d_L the bias and linear drift of the line's
 log L (t_L: the log's first tie or its first line sample), c_l the line's own bias, ε white-noise
-floor of the filtered line (σ_l). A base tie k observed in log L at time t_k is
+floor of the filtered line (σ_l). A base tie k observed in log L at time t_k at station S is
 
-    y_k − δg_k = b_L + d_L·(t_k − t_L) + ε_k
+    y_k − δg_k = b_L + d_L·(t_k − t_L) + s_S + ε_k,      0 = s_S + η_S
 
 (y_k: the log's stop mean of δg beside the tie, δg_k = g_k − γ(φ_k, h_k) from the tie's absolute g; ε_k of
-1-σ √(σ_stop² + σ_g²), the stop mean's and the station's g's).
+1-σ σ_stop, the stop mean's own; s_S the error of station S's given g, ONE unknown per station, common to
+every stop that observes it, held by the pseudo-observation 0 ± σ_g (η_S of 1-σ σ_g). Repeat visits of a
+station average the stop noise down, never the station's σ_g: a log tied to one station n times has a level
+of variance σ_stop²/n + σ_g². A station given without σ_g (σ_g = 0) has no unknown: its g is exact.)
 The G(p) are eliminated point by point (the weighted mean of the samples at p), which leaves the
 weighted least squares of the centred observations on the centred design. Constraints: the line
 biases of a log sum to zero (the log's level is b_L); without ties the logs' biases sum to zero
@@ -98,7 +101,7 @@ class Adjustment:
     """The adjusted network."""
 
     names: list[str]  #: parameter names
-    x: np.ndarray  #: parameters (mGal, mGal/h for drifts)
+    x: np.ndarray  #: parameters (mGal, mGal/h for drifts; ``station:<name>``: a station's g error, mGal)
     cov: np.ndarray  #: their covariance (a priori weights, scaled by max(1, σ0²))
     sigma0: float  #: a posteriori unit-weight σ
     dof: int
@@ -384,15 +387,36 @@ def observation_blocks(lines: list[Line], clusters: list[Cluster], ties: list[Ti
         sm = np.array([lines[i].sigma_mgal for i in cl.lines])
         blocks.append((a, np.asarray(cl.values, float), w, sm))
     for tie in ties:
+        row = design.row(tie.log, None, tie.t_s)
+        if f"station:{tie.name}" in design.index:
+            row[design.index[f"station:{tie.name}"]] = 1.0
         blocks.append(
             (
-                design.row(tie.log, None, tie.t_s)[None, :],
+                row[None, :],
                 np.array([tie.measured_mgal - tie.tie_mgal]),
-                np.array([1.0 / tie.sigma_mgal**2]),
+                np.array([1.0 / _stop_sigma(tie) ** 2]),
                 None,  # no point to eliminate: the tie's value is known
             )
         )
+    for name, s_g in _stations(ties).items():  # each station's g error: 0 ± σ_g, once however often observed
+        row = np.zeros(len(design.names))
+        row[design.index[f"station:{name}"]] = 1.0
+        blocks.append((row[None, :], np.zeros(1), np.array([1.0 / s_g**2]), None))
     return blocks
+
+
+def _stop_sigma(tie: Tie) -> float:
+    """1-σ of a tie's stop mean alone (mGal): the observation's own noise, the station's σ_g apart."""
+    return tie.sigma_mgal if tie.stop_sigma_mgal is None else tie.stop_sigma_mgal
+
+
+def _stations(ties: list[Tie]) -> dict:
+    """The stations whose g carries a 1-σ (name -> σ_g in mGal, > 0): each gets one unknown offset."""
+    out = {}
+    for t in ties:
+        if t.g_sigma_mgal > 0:
+            out[t.name] = max(out.get(t.name, 0.0), float(t.g_sigma_mgal))
+    return out
 
 
 def robust_solve(blocks: list, z: np.ndarray, robust_k: float | None, undetermined):
@@ -456,7 +480,9 @@ def adjust(
     clusters : list of Cluster
         The network's points (repeats and crossings).
     ties : list of Tie
-        Base ties observed by the logs.
+        Base ties observed by the logs: each weighted by its stop mean's σ (``stop_sigma_mgal``); a station
+        (``name``) with ``g_sigma_mgal`` > 0 gets one unknown offset ``station:<name>`` (mGal) held by
+        0 ± σ_g, shared by all its ties.
     n_logs : int
         Number of logs (each gets a bias b_L).
     drift : {"auto", "linear", "none"}
@@ -484,6 +510,7 @@ def adjust(
     names = [f"bias:{lg}" for lg in range(n_logs)] + [f"drift:{lg}" for lg in drift_logs]
     if line_bias:
         names += [f"line:{i}" for i in range(len(lines))]
+    names += [f"station:{nm}" for nm in _stations(ties)]
     design = _Design(names, {nm: k for k, nm in enumerate(names)}, t_ref, line_bias)
     z, datum = constraint_basis(lines, design, n_logs, logs_seen, bool(ties))
     blocks = observation_blocks(lines, clusters, ties, design)
@@ -496,7 +523,7 @@ def adjust(
     # line's information over its correlated samples; it is not a larger error of each)
     infl = np.concatenate(
         [np.broadcast_to(np.asarray(cl.var_scale, float), (len(b[1]),)) for b, cl in zip(blocks, clusters)]
-        + [np.ones(len(ties))]
+        + [np.ones(len(blocks) - len(clusters))]  # the ties and the stations' pseudo-observations
     )
     r = (y_all - a_all @ xi) * sw * np.sqrt(infl)
     n_points = len(clusters)

@@ -432,6 +432,35 @@ def _mid_speed_column(v_n) -> IntervalColumn:
     )
 
 
+def multipath_screen(t_s, d_m, fix, *, window_s: float, k_sigma: float) -> np.ndarray:
+    """Which GNSS height residuals to keep: multipath (height jumps of decimetres for seconds to a minute
+    in fixed solutions) departs from the residuals' running median.
+
+    Parameters
+    ----------
+    t_s, d_m : ndarray
+        The fixes' times (s) and height residuals against a reference (m).
+    fix : ndarray of int
+        Their fix qualities (``GNSS_SIGMA`` gives each one's vertical 1-σ).
+    window_s : float
+        Length of the running median (s).
+    k_sigma : float
+        How many robust σ (MAD) a residual may depart from the median; never fewer than 3 σ of its
+        fix quality.
+
+    Returns
+    -------
+    ndarray of bool
+        True for a fix kept.
+    """
+    step = float(np.median(np.diff(t_s))) if len(t_s) > 1 else 1.0
+    win = max(3, int(round(window_s / step)) | 1)
+    rest = d_m - median_filter(d_m, size=win, mode="nearest")
+    mad = 1.4826 * np.median(np.abs(rest - np.median(rest)))
+    sig_v = np.array([GNSS_SIGMA.get(int(f), (np.nan, 5.0))[1] for f in fix])
+    return np.abs(rest) <= np.maximum(k_sigma * mad, 3.0 * sig_v)
+
+
 def _screened_fixes(log, inp, sol, fixes, *, ref, fir_s: float, k_sigma: float):
     """The fixes of the qualities ``fixes`` at the IMU (times s, heights m, their height 1-σ m) with
     multipath screened against ``ref`` (see :func:`gnss_chain`), and the mask of those kept."""
@@ -445,13 +474,7 @@ def _screened_fixes(log, inp, sol, fixes, *, ref, fir_s: float, k_sigma: float):
     h_g = g.h_m[keep] - (attitude_at(sol, tg, _AttitudeRows(sol)) @ lever)[:, 2]
     sig_v = np.array([GNSS_SIGMA.get(int(f), (np.nan, 5.0))[1] for f in g.fix[keep]])
     ref = sol if ref is None else ref
-    res = h_g - np.interp(tg, t, ref.pos[:, 2])
-    step0 = float(np.median(np.diff(tg)))
-    win = max(3, int(round(fir_s / step0)) | 1)
-    slow = median_filter(res, size=win, mode="nearest")
-    rest = res - slow
-    mad = 1.4826 * np.median(np.abs(rest - np.median(rest)))
-    good = np.abs(rest) <= np.maximum(k_sigma * mad, 3.0 * sig_v)
+    good = multipath_screen(tg, h_g - np.interp(tg, t, ref.pos[:, 2]), g.fix[keep], window_s=fir_s, k_sigma=k_sigma)
     tg, h_g, sig_v = tg[good], h_g[good], sig_v[good]
     if len(tg) < 20:
         raise ValueError("fewer than 20 GNSS fixes agree with the navigation solution")

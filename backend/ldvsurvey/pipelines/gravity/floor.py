@@ -13,6 +13,12 @@ the same FIR, lines, common points and coincidence. The result is the RMS over r
 the coincidence the drift alone would give (``drift_mgal``); the combined floor is the
 root-sum-square with the white-noise floor (independent sources; an RMS statistic, so the
 combination is the expectation of ε², not of ε).
+
+A manifest that states no bias instability does not make a drifting accelerometer steady: where the
+stop tie was applied (it found drift beyond the stops' noise, or was asked for), the Monte Carlo takes
+its Gauss–Markov law from the drift the tie measured (:func:`tied_drift_law`) and says so
+(``drift_source``, ``drift_warning``). Where no drift term can be computed although the tie was applied
+(fewer than two lines, no common stretch), ``drift_warning`` says the floor is the white one alone.
 """
 
 from __future__ import annotations
@@ -30,6 +36,28 @@ from ldvsurvey.pipelines.gravity.report import leveling_fit
 N_REALISATIONS = 80
 #: rate of the realisations, Hz
 MC_RATE_HZ = 1.0
+
+
+def tied_drift_law(chain) -> tuple[float, float, str] | None:
+    """The Gauss–Markov law (σ in m/s², τ in s) of the drift the stop tie measured, or None without one.
+
+    σ: the RMS about its mean of the tied drift (``chain["drift_mps2"]``, linear between the stops: the
+    slow part the stops see, so a lower bound of the process's σ); τ: the median spacing of the stops
+    (the tie sees the drift change between them, and nothing faster). Also the text naming the source."""
+    b = chain.get("drift_mps2")
+    if b is None:
+        return None
+    b = np.asarray(b, float)
+    sigma = float(np.sqrt(np.mean((b - np.mean(b)) ** 2)))
+    tc = np.sort([s[0] for s in stop_means(chain, chain["still"])])
+    if not sigma > 0 or len(tc) < 2:
+        return None
+    tau = float(np.median(np.diff(tc)))
+    text = (
+        f"the stop tie's measured drift (RMS {sigma / G0 * 1e6:.2f} µg about its mean, taken as the "
+        f"Gauss–Markov σ; τ = the stops' median spacing, {tau:.0f} s)"
+    )
+    return sigma, tau, text
 
 
 def gauss_markov_1hz(n: int, sigma: float, tau_s: float, dt_s: float, rng) -> np.ndarray:
@@ -57,11 +85,8 @@ def drift_floor(
 
     Parameters
     ----------
-    log : DriveLog
-        The log (its manifest's ``imu.accel_bias_instability_ug``, ``imu.bias_correlation_s`` and
-        ``imu.accel_noise_ug_per_rthz``).
-    chain : dict
-        The SINS/LDV chain (times, stops).
+    log, chain : DriveLog, dict
+        The log (its manifest's bias instability and noise) and its chain (times, stops).
     res : report.Evaluation
         :func:`report.evaluate`'s result (the lines and their samples).
     lowpass, spacing_m : Lowpass, float
@@ -78,27 +103,26 @@ def drift_floor(
     Returns
     -------
     dict
-        ``drift_mgal`` (None when the manifest gives no bias instability), its spread over the
-        realisations and how it was computed.
+        ``drift_mgal`` (None without a drift law: :func:`_drift_law`), its spread over the realisations,
+        ``drift_source`` and a ``drift_warning`` where the law is the tie's or the tie's drift is left out.
     """
     imu = log.manifest.imu
-    sig_ug = getattr(imu, "accel_bias_instability_ug", None)
-    tau = getattr(imu, "bias_correlation_s", None)
-    if not sig_ug or not tau:
+    drift_law = _drift_law(imu, chain, tie_applied, bundle)
+    if drift_law is None:
         return {
             "drift_mgal": None,
             "drift_source": "manifest gives no imu.accel_bias_instability_ug / "
             "imu.bias_correlation_s: drift not in the floor",
         }
+    sig_ug, tau, law, warning = drift_law
     sigma = float(sig_ug) * 1e-6 * G0
     t = chain["t_s"]
     tg = np.arange(t[0], t[-1], 1.0 / MC_RATE_HZ)
     used = [ln for ln in res.lines if ln.has_data and ln.chain == bundle]
     if len(used) < 2:
-        return {
-            "drift_mgal": None,
-            "drift_source": "fewer than two lines in the " + (f"bundle {bundle + 1}" if bundle else "first bundle"),
-        }
+        return _no_drift_term(
+            "fewer than two lines in the " + (f"bundle {bundle + 1}" if bundle else "first bundle"), chain, bundle
+        )
     # the filtered drift is smooth at 1/L: the lines' samples thinned to ~the Monte Carlo rate
     step = max(1, int(round(chain.get("fs", 1.0 / float(np.median(np.diff(t[:1000])))) / MC_RATE_HZ)))
     line_t = [(t[ln.samples][::step], ln.along_m[::step]) for ln in used]
@@ -125,20 +149,53 @@ def drift_floor(
         try:
             grid, vals = common_points([(s, np.interp(tt, tg, f) / MGAL) for tt, s in line_t], spacing_m)
         except ValueError:
-            return {"drift_mgal": None, "drift_source": "no common stretch"}
+            return _no_drift_term("no common stretch", chain, bundle)
         if leveling in ("bias", "linear"):
             vals = vals - leveling_fit(vals, grid, leveling)
         co = internal_coincidence(vals)
         tot.append(co.total)
-    return {
+    out = {
         "drift_mgal": float(np.sqrt(np.mean(np.square(tot)))),
         "drift_mgal_spread": float(np.std(tot)),
         "accel_bias_instability_ug": float(sig_ug),
         "bias_correlation_s": float(tau),
-        "drift_source": f"manifest bias instability; Monte Carlo of the same processing ({n_real} Gauss-Markov "
+        "drift_source": f"{law}; Monte Carlo of the same processing ({n_real} Gauss-Markov "
         f"realisations, stop tie {'applied' if tie_applied else 'not applied'}, leveling "
         f"{leveling})",
     }
+    if warning:
+        out["drift_warning"] = warning
+    return out
+
+
+def _drift_law(imu, chain, tie_applied: bool, bundle: int):
+    """(σ µg, τ s, where the law comes from, a warning or None) of the accelerometer drift: the manifest's
+    bias instability, else the applied stop tie's measured drift (:func:`tied_drift_law`), else None."""
+    sig_ug = getattr(imu, "accel_bias_instability_ug", None)
+    tau = getattr(imu, "bias_correlation_s", None)
+    if sig_ug and tau:
+        return sig_ug, tau, "manifest bias instability", None
+    tied = tied_drift_law(chain) if tie_applied else None
+    if tied is None:
+        return None
+    sigma, tau, law = tied
+    warning = (
+        f"bundle {bundle + 1}: the manifest states no accelerometer bias instability but the stop tie "
+        f"measured drift: the drift floor takes its law from {law}"
+    )
+    return sigma / G0 * 1e6, tau, law, warning
+
+
+def _no_drift_term(reason: str, chain, bundle: int) -> dict:
+    """No drift term (``reason``); a warning when the stop tie measured drift all the same."""
+    out = {"drift_mgal": None, "drift_source": reason}
+    law = tied_drift_law(chain)
+    if law is not None:
+        out["drift_warning"] = (
+            f"bundle {bundle + 1}: the stop tie measured drift ({law[0] / G0 * 1e6:.2f} µg RMS) but the floor "
+            f"has no drift term ({reason}): the white floor alone understates the lines' error"
+        )
+    return out
 
 
 def combine(floor: dict, drift: dict) -> dict:

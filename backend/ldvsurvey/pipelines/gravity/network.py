@@ -21,6 +21,7 @@ from ldvsurvey.nav import network as net
 from ldvsurvey.nav.earth import MGAL, normal_gravity
 from ldvsurvey.nav.gravity import G0, Lowpass
 from ldvsurvey.nav.gravmodel import free_air_anomaly_mgal, height_anomaly_grid, omission_mgal
+from ldvsurvey.pipelines.gravity.chains import multipath_screen
 from ldvsurvey.pipelines.gravity.drift import stop_means
 from ldvsurvey.pipelines.gravity.tieheight import check_tie_heights
 from ldvsurvey.pipelines.stages.aids import local_metres
@@ -37,6 +38,13 @@ TIE_SIGMA_MAX_MGAL = 100.0
 MIN_HEIGHT_FIXES = 10
 #: a tie given with four values: its g is taken as exact (σ 0 mGal), its weight the stop mean's σ alone
 DEFAULT_TIE_SIGMA_MGAL = 0.0
+#: horizontal gradient of g a tie's stop may stand in, beside the station (mGal/m): 5 mGal/km (50 E) is a
+#: steep regional gradient and the order of the near-field effect of a building or embankment; a stop d metres
+#: from the station reads the station's g to ±k·d, added in quadrature to its stop mean's σ
+TIE_GRADIENT_MGAL_PER_M = 0.005
+#: GNSS heights departing from the line's running median difference by more than this many robust σ (at least
+#: 3 σ of their fix quality) are screened out of the height check, as :func:`chains.gnss_chain` screens them
+HEIGHT_SCREEN_K = 4.0
 
 
 def parse_ties(text) -> list[tuple[float, float, float, float]]:
@@ -95,9 +103,11 @@ def _tie_items(text) -> list[tuple[float, float, float, float, float]]:
 
 
 def weigh_ties(ties: list[net.Tie], sigmas_mgal: list[float]) -> list[net.Tie]:
-    """The observed ties with the 1-σ of their stations' g: each tie observation's σ becomes
-    √(σ_stop² + σ_g²) (the stop mean's own and the station's, independent), ``stop_sigma_mgal`` and
-    ``g_sigma_mgal`` keep the two (mGal)."""
+    """The observed ties with the 1-σ of their stations' g: ``stop_sigma_mgal`` the stop mean's own (with the
+    distance term), ``g_sigma_mgal`` the station's, ``sigma_mgal`` their root-sum-square (a single
+    observation's marginal σ, for its residual). The adjustment weighs each stop by its own σ and gives each
+    station with σ_g > 0 one unknown held by 0 ± σ_g (:func:`nav.network.adjust`): the station's error is
+    common to all its stops, never averaged down by repeat visits (mGal)."""
     out = []
     for t in ties:
         s_g = float(sigmas_mgal[int(t.name[1:]) - 1])
@@ -136,10 +146,12 @@ def network_lines(chains, res, floors, origin) -> tuple[list[net.Line], list]:
 def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], list[dict]]:
     """Every stop of every log within ``radius_m`` of a tie: its mean δg (drift removed as on the lines).
 
-    A stop's 1-σ is the data's own (the scatter of its 1-s means, :func:`drift.stop_sigma`,
-    lost IMU rows included); only where a stop is too short for that, the white accelerometer noise the
-    manifest states over its duration. Both chains read a stop alike: SINS/LDV and SINS/GNSS (no LDV) each
-    carry their static δg, f_U − γ where the vehicle stands (``dg_static``, :mod:`chains`)."""
+    A stop's 1-σ is the data's own (the scatter of its 3-s means floored at the manifest's white
+    noise, :func:`drift.stop_sigma`, lost IMU rows included); only where a stop is too short for that,
+    the white accelerometer noise the manifest states over its duration; in quadrature with it
+    :data:`TIE_GRADIENT_MGAL_PER_M` · distance, the g the stop may miss standing beside the station.
+    Both chains read a stop alike: SINS/LDV and SINS/GNSS (no LDV) each carry their static δg,
+    f_U − γ where the vehicle stands (``dg_static``, :mod:`chains`)."""
     out, unused = [], []
     seen = set()
     for ci, ch in enumerate(chains):
@@ -157,13 +169,14 @@ def observed_ties(chains, logs, ties, radius_m, origin) -> tuple[list[net.Tie], 
                     sigma = stop_sigma_mps2 / MGAL
                 else:
                     sigma = (noise or 0.0) * 1e-6 * G0 / np.sqrt(dur) / MGAL
-                if not sigma > 0:
+                if not sigma > 0:  # the stop mean's own σ must be known before the distance term joins it
                     raise ParameterError(
                         f"bundle {ci + 1}: a stop near tie T{k + 1} is too short to measure its own scatter and "
                         "the manifest gives no imu.accel_noise_ug_per_rthz, so the tie's weight is unknown",
                         field="base_ties",
                     )
-                out.append(net.Tie(f"T{k + 1}", ci, float(tc), float(meas / MGAL), float(dg_tie), float(sigma), d))
+                sigma = float(np.hypot(sigma, TIE_GRADIENT_MGAL_PER_M * d))  # g may change over the d metres
+                out.append(net.Tie(f"T{k + 1}", ci, float(tc), float(meas / MGAL), float(dg_tie), sigma, d))
                 seen.add(k)
     for k, t in enumerate(ties):
         if k not in seen:
@@ -244,11 +257,15 @@ def fit_statistics(lines, clusters, groups, adj, loo) -> dict:
 
 
 def parameter_rows(adj, lines) -> list[dict]:
-    """The adjusted parameters with their 1-σ: log biases (mGal), log drifts (mGal/h), line biases (mGal)."""
+    """The adjusted parameters with their 1-σ: log biases (mGal), log drifts (mGal/h), line biases (mGal), the
+    offsets of the stations given with a σ of g (mGal)."""
     sig = np.sqrt(np.maximum(np.diag(adj.cov), 0.0))
     pars = []
     for nm, v, s in zip(adj.names, adj.x, sig):
         kind, idx = nm.split(":")
+        if kind == "station":
+            pars.append({"parameter": "station g offset", "tie": idx, "value_mgal": v, "sigma_mgal": s})
+            continue
         idx = int(idx)
         if kind == "bias":
             pars.append({"parameter": "log bias", "log": f"B{idx + 1}", "value_mgal": v, "sigma_mgal": s})
@@ -267,7 +284,8 @@ def datum_sigma_mgal(adj, lines) -> float:
 
 def tie_rows(ties, adj) -> list[dict]:
     """Per observed tie: the stop's and the tie's δg, the residual after the adjustment and the 1-σ (mGal):
-    ``sigma_mgal`` the observation's, of the stop mean (``stop_sigma_mgal``) and the station's g
+    ``sigma_mgal`` the observation's, of the stop mean (``stop_sigma_mgal``, with the distance term
+    ``distance_sigma_mgal`` = :data:`TIE_GRADIENT_MGAL_PER_M` · ``distance_m``) and the station's g
     (``tie_sigma_mgal``) combined."""
     rows = []
     for t in ties:
@@ -284,6 +302,7 @@ def tie_rows(ties, adj) -> list[dict]:
                 "sigma_mgal": t.sigma_mgal,
                 "stop_sigma_mgal": t.sigma_mgal if t.stop_sigma_mgal is None else t.stop_sigma_mgal,
                 "tie_sigma_mgal": t.g_sigma_mgal,
+                "distance_sigma_mgal": TIE_GRADIENT_MGAL_PER_M * t.distance_m,
             }
         )
     return rows
@@ -352,7 +371,7 @@ def survey_network(logs, chains, res, params, lowpass: Lowpass, floors, progress
     if progress:
         progress("network: absolute values, external check", 0.85)
     fixes = tuple(int(x) for x in str(params.gnss_fixes or "4").split(","))  # validated at the door: "4,5"
-    h_sigma = [line_height_sigma(chains[ln.log], logs[ln.log], ln.t_s, fixes) for ln in lines]
+    h_sigma = [line_height_sigma(chains[ln.log], logs[ln.log], ln.t_s, fixes, lowpass.length_s) for ln in lines]
     table, per_line = _adjusted_table(lines, src, chains, adj, lowpass, h_sigma)
     for pl, r in zip(per_line, loo["lines"]):
         pl["loo_rms_mgal"] = r
@@ -480,6 +499,7 @@ def _adjusted_table(lines, src, chains, adj, lowpass: Lowpass, h_sigma=None):
             "free_air_mgal",
             "sigma_mgal",
             "g_sigma_mgal",
+            "adjustment_sigma_mgal",
             "h_sigma_m",
             "height_anomaly_m",
             "dg_unadjusted_mgal",
@@ -500,8 +520,10 @@ def _adjusted_table(lines, src, chains, adj, lowpass: Lowpass, h_sigma=None):
         c = adj.correction(ln.log, i, ln.t_s)
         cs = adj.correction_sigma(ln.log, i, ln.t_s)
         dg = ln.dg_mgal - c
-        # absolute g = δg + γ(h_nav) does not depend on the navigated height (γ cancels); δg and Δg do:
-        # γ evaluated at h_nav + δh moves them by −∂γ/∂h·δh = 0.3086 mGal/m · δh
+        # δg and Δg depend on the navigated height: γ evaluated at h_nav + δh moves them by −∂γ/∂h·δh =
+        # 0.3086 mGal/m · δh. Absolute g = δg + γ(h_nav) does not (γ cancels), but it is reported AT h_m: the
+        # field there differs from the field where it was measured by the free-air gradient times δh, so its
+        # σ holds the same height term; ``adjustment_sigma_mgal`` is the adjustment's alone
         sigma_g = np.sqrt(ln.sigma_mgal**2 + cs**2)
         h_sig, h_source = h_sigma[i] if h_sigma is not None else (height_sigma_m(ch, ln.t_s), "navigation filter")
         grad = (normal_gravity(lat, h - 0.5) - normal_gravity(lat, h + 0.5)) / MGAL  # mGal/m
@@ -516,7 +538,8 @@ def _adjusted_table(lines, src, chains, adj, lowpass: Lowpass, h_sigma=None):
         cols["dg_mgal"] += list(dg)
         cols["free_air_mgal"] += list(free_air_anomaly_mgal(dg, lat, h, zeta))
         cols["sigma_mgal"] += list(sigma)
-        cols["g_sigma_mgal"] += list(sigma_g)
+        cols["g_sigma_mgal"] += list(sigma)
+        cols["adjustment_sigma_mgal"] += list(sigma_g)
         cols["h_sigma_m"] += list(h_sig)
         cols["height_anomaly_m"] += list(zeta)
         cols["dg_unadjusted_mgal"] += list(ln.dg_mgal)
@@ -530,7 +553,8 @@ def _adjusted_table(lines, src, chains, adj, lowpass: Lowpass, h_sigma=None):
                 "noise_floor_mgal": ln.sigma_mgal,
                 "mean_correction_mgal": float(np.mean(c)),
                 "sigma_mgal": float(np.sqrt(np.mean(sigma**2))),
-                "g_sigma_mgal": float(np.sqrt(np.mean(sigma_g**2))),
+                "g_sigma_mgal": float(np.sqrt(np.mean(sigma**2))),
+                "adjustment_sigma_mgal": float(np.sqrt(np.mean(sigma_g**2))),
                 "h_sigma_m": float(np.sqrt(np.mean(h_sig**2))),
                 "h_sigma_source": h_source,
                 "height_anomaly_m": float(np.mean(zeta)),
@@ -549,13 +573,15 @@ def height_sigma_m(ch, t_s) -> np.ndarray:
     return np.interp(t_s, ep[0], ep[1])
 
 
-def line_height_sigma(ch, log, t_s, fixes=(4,)) -> tuple[np.ndarray, str]:
+def line_height_sigma(ch, log, t_s, fixes=(4,), window_s: float = 100.0) -> tuple[np.ndarray, str]:
     """The height 1-σ (m) of a line's navigated heights at the times ``t_s`` (s), and where it comes from.
 
     A SINS/LDV chain has no height observation: its filter's σ_h stays at its prior (a flat metre) while
     the dead-reckoned height is good to centimetres on a survey line. Where the log has GNSS fixes of
     the ``fixes`` qualities on the line, the navigated height is compared with theirs (antenna brought
-    down by the lever arm's up part, the vehicle about level): the mean square difference less the
+    down by the lever arm's up part, the vehicle about level; multipath screened as :func:`chains.gnss_chain`
+    does, over a running median of ``window_s``): the mean square difference about the line's mean (a
+    constant height offset moves δg by a constant, which the line's bias absorbs) less the
     receiver's stated height variance for those qualities (``gnss.height_noise``: white² +
     correlated²), floored at the receiver's white σ, is the navigated height's variance on the line.
     Otherwise (a SINS/GNSS chain, whose filter σ is GNSS-aided, or fewer than :data:`MIN_HEIGHT_FIXES`
@@ -572,6 +598,8 @@ def line_height_sigma(ch, log, t_s, fixes=(4,)) -> tuple[np.ndarray, str]:
         The line's sample times (s).
     fixes : sequence of int
         GGA fix qualities taken.
+    window_s : float
+        Window of the running median the GNSS heights are screened against (s; the pipeline's filter length).
 
     Returns
     -------
@@ -590,16 +618,21 @@ def line_height_sigma(ch, log, t_s, fixes=(4,)) -> tuple[np.ndarray, str]:
     k = slice(max(a - 1, 0), min(b + 1, len(tc)))
     up = float(np.asarray(log.manifest.gnss.lever_arm_m, float)[2])
     d = np.interp(g.t_s[m], tc[k], np.asarray(ch["h"][k], float)) - (g.h_m[m] - up)
+    fix = g.fix[m]
+    good = multipath_screen(g.t_s[m], d, fix, window_s=window_s, k_sigma=HEIGHT_SCREEN_K)
+    d, fix = d[good], fix[good]
+    if len(d) < MIN_HEIGHT_FIXES:
+        return height_sigma_m(ch, t_s), f"navigation filter (fewer than {MIN_HEIGHT_FIXES} GNSS fixes on the line)"
     noise = log.manifest.gnss.height_noise
-    spec = [noise.get(str(int(q))) for q in g.fix[m]]
+    spec = [noise.get(str(int(q))) for q in fix]
     var_g = float(np.mean([s.white_m**2 + s.correlated_m**2 if s else 0.0 for s in spec]))
     white = float(np.sqrt(np.mean([s.white_m**2 if s else 0.0 for s in spec])))
-    ms = float(np.mean(d**2))
+    ms = float(np.mean((d - np.mean(d)) ** 2))  # about the line's mean: the line's bias absorbs a constant
     sigma = float(np.sqrt(max(ms - var_g, white**2)))
-    qual = "/".join(str(q) for q in sorted(set(int(q) for q in g.fix[m])))
+    qual = "/".join(str(q) for q in sorted(set(int(q) for q in fix)))
     source = (
-        f"GNSS fix {qual} on the line ({int(np.count_nonzero(m))} fixes): RMS(navigated − GNSS) {np.sqrt(ms):.3f} m "
-        f"less the receiver's stated {np.sqrt(var_g):.3f} m"
+        f"GNSS fix {qual} on the line ({len(d)} fixes, {int(np.count_nonzero(~good))} screened out): RMS about "
+        f"the line's mean of (navigated − GNSS) {np.sqrt(ms):.3f} m less the receiver's stated {np.sqrt(var_g):.3f} m"
     )
     return np.full(len(t_s), sigma), source
 
