@@ -119,9 +119,13 @@ def test_stop_ties_remove_a_drifting_accelerometers_drift(drifting_drive):
 
     off_before, off_after = line_offsets(before), line_offsets(after)
     floor = after.summary["noise_floor"]["combined_mgal"]
-    # the tie carries the stops' own noise into the lines: the bound is the printed floor and the drift's
-    # printed 1-σ at the stops (RMS), in quadrature
-    bound = float(np.hypot(floor, np.sqrt(np.mean(sig[1:] ** 2))))
+    white = after.summary["noise_floor"]["total_mgal"]
+    # the tie carries the stops' own noise into the lines: the bound is the white floor and the drift's
+    # printed 1-σ at the stops (RMS), in quadrature. The printed combined floor is larger: the manifest
+    # states no bias instability, so its drift term takes a Gauss–Markov law from the tie's own drift
+    # (σ its RMS, τ the stops' spacing), which a smooth ramp like this one overstates (stated, not hidden)
+    bound = float(np.hypot(white, np.sqrt(np.mean(sig[1:] ** 2))))
+    assert floor >= bound and "stop tie's measured drift" in after.summary["noise_floor"]["drift_source"]
     rms_before, rms_after = np.sqrt(np.mean(off_before**2)), np.sqrt(np.mean(off_after**2))
     print(
         f"line offsets vs truth before {np.round(off_before, 2)} (RMS {rms_before:.2f}), after {np.round(off_after, 2)}"
