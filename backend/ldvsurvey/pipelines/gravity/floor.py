@@ -41,21 +41,63 @@ MC_RATE_HZ = 1.0
 def tied_drift_law(chain) -> tuple[float, float, str] | None:
     """The Gauss–Markov law (σ in m/s², τ in s) of the drift the stop tie measured, or None without one.
 
-    σ: the RMS about its mean of the tied drift (``chain["drift_mps2"]``, linear between the stops: the
-    slow part the stops see, so a lower bound of the process's σ); τ: the median spacing of the stops
-    (the tie sees the drift change between them, and nothing faster). Also the text naming the source."""
+    With four stops or more: the (σ, τ) of greatest likelihood for the tie's drift at the stops
+    (:func:`_likeliest_law`): a smooth ramp fits a long τ, which the tie follows, a wander faster than
+    the stops a short one. With fewer: σ the RMS about its mean of the tied drift (``chain["drift_mps2"]``,
+    linear between the stops: the slow part the stops see, so a lower bound of the process's σ), τ the
+    median spacing of the stops (the tie sees the drift change between them, and nothing faster).
+    Also the text naming the source."""
     b = chain.get("drift_mps2")
     if b is None:
         return None
     b = np.asarray(b, float)
+    stops = stop_means(chain, chain["still"])
+    tc = np.sort([s[0] for s in stops])
+    if len(stops) >= 4:
+        law = _likeliest_law(chain, b, stops)
+        if law is not None:
+            return law
     sigma = float(np.sqrt(np.mean((b - np.mean(b)) ** 2)))
-    tc = np.sort([s[0] for s in stop_means(chain, chain["still"])])
     if not sigma > 0 or len(tc) < 2:
         return None
     tau = float(np.median(np.diff(tc)))
     text = (
         f"the stop tie's measured drift (RMS {sigma / G0 * 1e6:.2f} µg about its mean, taken as the "
         f"Gauss–Markov σ; τ = the stops' median spacing, {tau:.0f} s)"
+    )
+    return sigma, tau, text
+
+
+def _likeliest_law(chain, b, stops) -> tuple[float, float, str] | None:
+    """(σ m/s², τ s, text) maximising the Gaussian likelihood of the tie's drift at the stops, their mean
+    removed (the level is the log's bias), each stop with its own noise (twice its mean's variance: a
+    drift is a difference of two readings); τ from the stops' spacing to ten times the log."""
+    tc = np.array([st[0] for st in stops])
+    noise = np.array([st[5] if np.isfinite(st[5]) else 0.0 for st in stops])
+    t = np.asarray(chain["t_s"], float)[: len(b)]
+    d = np.interp(tc, t, b)
+    d = d - np.mean(d)
+    spacing = float(np.median(np.diff(np.sort(tc))))
+    if not np.any(d) or not spacing > 0:
+        return None
+    n = len(d)
+    c = np.eye(n) - 1.0 / n  # the mean removed: the likelihood of the contrasts
+    lag = np.abs(tc[:, None] - tc[None, :])
+    nz = c @ np.diag(2.0 * noise**2) @ c
+    best = None
+    for tau in np.geomspace(spacing, 10.0 * float(t[-1] - t[0]), 40):
+        r = c @ np.exp(-lag / tau) @ c
+        for sigma in np.geomspace(1e-3, 10.0, 60) * float(np.std(d)):
+            w, v = np.linalg.eigh(sigma**2 * r + nz)
+            keep = w > 1e-12 * w.max()  # the mean's direction carries nothing
+            y = v[:, keep].T @ d
+            ll = -0.5 * (np.sum(y**2 / w[keep]) + np.sum(np.log(w[keep])))
+            if best is None or ll > best[0]:
+                best = (ll, float(sigma), float(tau))
+    _, sigma, tau = best
+    text = (
+        f"the stop tie's measured drift at {n} stops (the Gauss–Markov law of greatest likelihood: "
+        f"σ {sigma / G0 * 1e6:.2f} µg, τ {tau:.0f} s)"
     )
     return sigma, tau, text
 
