@@ -9,9 +9,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-A_M = 6378137.0  #: semi-major axis, m
-F = 1.0 / 298.257223563  #: flattening
-E2 = F * (2.0 - F)  #: first eccentricity squared
+from ldvsurvey.nav.localframe import A_M, E2, F, radii  # noqa: F401  (the ellipsoid, defined once)
+
 B_M = A_M * (1.0 - F)  #: semi-minor axis, m
 OMEGA_IE = 7.292115e-5  #: Earth rotation rate, rad/s
 GM = 3.986004418e14  #: m³/s²
@@ -36,13 +35,6 @@ def normal_gravity_nb(lat_rad: float, h_m: float) -> float:
     s2 = np.sin(lat_rad) ** 2
     g0 = GAMMA_E * (1.0 + K_SOMIGLIANA * s2) / np.sqrt(1.0 - E2 * s2)
     return g0 * (1.0 - 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2) * h_m + 3.0 * h_m * h_m / (A_M * A_M))
-
-
-def radii(lat_rad):
-    """Vectorized (R_M, R_N) in m."""
-    s2 = np.sin(lat_rad) ** 2
-    w = 1.0 - E2 * s2
-    return A_M * (1.0 - E2) / (w * np.sqrt(w)), A_M / np.sqrt(w)
 
 
 def normal_gravity(lat_rad, h_m):

@@ -1,8 +1,8 @@
 """Small-area local east/north metres about a reference point, and back (WGS-84 radii of curvature).
 
 Plain numpy, no numba: the views and the report (:mod:`ldvsurvey.api`) import it without loading
-the compiled core. The ellipsoid's numbers are those of :mod:`ldvsurvey.nav.earth` (a test checks
-they agree); :func:`radii` is the same formula as ``earth.radii``.
+the compiled core. The WGS-84 ellipsoid and :func:`radii` are defined here once; :mod:`ldvsurvey.nav.earth`
+and the importers' ECEF conversion take them from here.
 """
 
 from __future__ import annotations
