@@ -2,7 +2,7 @@
 
 Plain numpy, no numba: the views and the report (:mod:`ldvsurvey.api`) import it without loading
 the compiled core. The WGS-84 ellipsoid and :func:`radii` are defined here once; :mod:`ldvsurvey.nav.earth`
-and the importers' ECEF conversion take them from here.
+takes them from here.
 """
 
 from __future__ import annotations

@@ -11,8 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ldvsurvey.errors import BundleError
-from ldvsurvey.nav.localframe import A_M as WGS84_A_M
-from ldvsurvey.nav.localframe import E2 as WGS84_E2
+
+WGS84_A_M = 6378137.0  #: semi-major axis, m
+WGS84_F = 1.0 / 298.257223563  #: flattening
 
 
 @dataclass
@@ -120,7 +121,7 @@ def ecef_to_lla(x_m: float, y_m: float, z_m: float) -> tuple[float, float, float
     h_m : float
         Ellipsoidal height, m.
     """
-    e2 = WGS84_E2
+    e2 = WGS84_F * (2.0 - WGS84_F)
     p = math.hypot(x_m, y_m)
     lat = math.atan2(z_m, p * (1.0 - e2))
     for _ in range(30):
