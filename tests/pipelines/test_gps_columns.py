@@ -87,3 +87,14 @@ def test_missing_times_leave_empty_cells():
     add_gps_time(tables, [dt.date(2024, 1, 7)])  # a Sunday: 00:00:00.5 UTC is 18.5 s into week 2296
     text = result_files(type("R", (), {"summary": {}, "tables": tables, "files": {}})())["t.csv"].decode()
     assert text.splitlines() == ["t_s,gps_week,gps_sow_s", ",,", "0.5,2296,18.5"]
+
+
+def test_a_date_past_the_leap_tables_known_end_is_warned():
+    from ldvsurvey.io.leapseconds import LEAP_TABLE_VALID_TO
+
+    late = LEAP_TABLE_VALID_TO + dt.timedelta(days=1)
+    tables = {"t": {"t_s": np.array([1.0])}}
+    warnings = add_gps_time(tables, [late])
+    assert "gps_week" in tables["t"]
+    assert len(warnings) == 1 and "leap-second table" in warnings[0] and str(late) in warnings[0]
+    assert add_gps_time({"t": {"t_s": np.array([1.0])}}, [LEAP_TABLE_VALID_TO]) == []
