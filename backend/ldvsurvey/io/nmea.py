@@ -575,6 +575,25 @@ def _ddmm(deg: float, width: int) -> str:
     return f"{d:0{width}d}{m:011.8f}"
 
 
+def gga_time(t_s: float) -> str:
+    """UTC seconds of the day as the GGA time field ``hhmmss.sss[sss]``: rounded to the microsecond, with at
+    least three decimals (milliseconds) and the trailing zeros after the third left out.
+
+    The rounding is done on whole microseconds and carried into seconds, minutes and hours, so
+    59.9999996 s is written as the next minute (``..1000.000``, never ``..0960.000``). A time that
+    rounds up to 24:00:00 is written ``000000.000``: the first instant of the next day, which a
+    reader counts as a midnight passed (the bundle clock's rule: a time of day dropping by more than
+    half a day). ``t_s`` is taken modulo one day (the bundle clock runs past 86400 s after midnight).
+    """
+    us = round(float(t_s) * 1_000_000) % 86_400_000_000
+    s, us = divmod(us, 1_000_000)
+    hh, rem = divmod(s, 3600)
+    mm, ss = divmod(rem, 60)
+    frac = f"{us:06d}"
+    frac = frac[:3] + frac[3:].rstrip("0")
+    return f"{hh:02d}{mm:02d}{ss:02d}.{frac}"
+
+
 def format_gga(
     t_s: float,
     lat_deg: float,
@@ -592,7 +611,7 @@ def format_gga(
     Parameters
     ----------
     t_s : float
-        UTC time (s of day; taken modulo one day).
+        UTC time (s of day; taken modulo one day), written to the microsecond by :func:`gga_time`.
     lat_deg, lon_deg : float
         WGS-84 latitude and longitude (deg); with ``fix`` 0 or a NaN latitude the position fields stay empty.
     h_msl_m : float
@@ -613,10 +632,7 @@ def format_gga(
     str
         ``$..GGA,...*hh``, without a line end.
     """
-    tod = t_s % 86400.0
-    hh, rem = divmod(tod, 3600.0)
-    mm, ss = divmod(rem, 60.0)
-    tstr = f"{int(hh):02d}{int(mm):02d}{ss:05.2f}"
+    tstr = gga_time(t_s)
     if fix > 0 and np.isfinite(lat_deg):
         lat = _ddmm(abs(lat_deg), 2)
         lon = _ddmm(abs(lon_deg), 3)
