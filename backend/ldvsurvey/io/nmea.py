@@ -11,7 +11,6 @@ from __future__ import annotations
 import datetime as dt
 import math
 import re
-from bisect import bisect_left
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -359,6 +358,9 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None, *, file: str = FILE, l
     gga_body, gga_line, skipped, rmc = _sort_sentences(*_checked_sentences(data, tally), lenient, tally)
     cols, gga_line = _gga_fields(gga_body, gga_line, file, lenient, tally)
     rows = _epochs(cols.tod_s.tolist(), gga_line, t_ref_s, file, lenient, tally) if cols is not None else []
+    if lenient and rows:
+        rows = _order(rows, cols, gga_line, file, tally)
+    rows = [(j, t) for j, t, *_ in rows]
     _check_epochs(len(rows), file, lenient, tally)
     keep = np.array([j for j, _ in rows], dtype=np.int64)
     t_s = np.array([t for _, t in rows], dtype=np.float64)
@@ -395,8 +397,9 @@ class _Tally:
     no_fix: int = 0
     not_measured: int = 0  #: GGA of quality 6, 7 or 8
     defective: int = 0
-    duplicates: int = 0
-    out_of_order: int = 0
+    duplicates: int = 0  #: epochs of a time already seen, dropped (the first kept)
+    repeats_exact: int = 0  #: of which the same fix again
+    out_of_order: int = 0  #: (lenient) epochs that came after a later one, sorted into place
     first_defect: BundleError | None = None
     first_backwards: BundleError | None = None
 
@@ -464,47 +467,118 @@ def _gga_fields(gga_body: list[str], gga_line: list[int], file: str, lenient: bo
 
 
 def _epochs(tod: list[float], gga_line: list[int], t_ref_s, file: str, lenient: bool, tally: _Tally) -> list:
-    """(index, time s on the counting clock) of each epoch kept: times of day (s) counted on past midnight from the
-    day nearest ``t_ref_s``; a repeated epoch dropped, one going backwards refused (lenient: dropped, counted)."""
+    """(index, time s on the counting clock) of each epoch in file order: times of day (s) counted on past midnight
+    from the day nearest ``t_ref_s`` (an epoch half a day or more before the latest so far is after a midnight, one
+    half a day or more after it from before a midnight already passed). Strict: a repeated epoch dropped, one going
+    backwards refused. Lenient: all kept, with the latest time before an epoch that comes late (else None), see
+    :func:`_order`."""
     rows = []
     k_day = None
-    prev_t = None
+    top = None  # the latest time so far
     for j, lineno in enumerate(gga_line):
         if k_day is None:
             ref = t_ref_s if t_ref_s is not None else tod[j]
             k_day = round((ref - tod[j]) / 86400.0)
         t = tod[j] + 86400.0 * k_day
-        if prev_t is not None and t < prev_t - 43200.0:  # passed midnight
+        if top is not None and t < top - 43200.0:  # passed midnight
             k_day += 1
             t += 86400.0
-        if prev_t is not None and t <= prev_t:
-            if t == prev_t:  # the same epoch again (e.g. GP and GN talkers): keep the first
+        elif top is not None and t > top + 43200.0:  # written late, from before a midnight already passed
+            t -= 86400.0
+        late = top is not None and t <= top
+        if late and not lenient:
+            if t == top:  # the same epoch again (e.g. GP and GN talkers): keep the first
                 tally.duplicates += 1
                 continue
-            backwards = BundleError(
-                f"GGA time goes backwards: {t:.2f} s after {prev_t:.2f} s", file=file, line=lineno, field="time"
+            raise BundleError(
+                f"GGA time goes backwards: {t:.2f} s after {top:.2f} s", file=file, line=lineno, field="time"
             )
-            if not lenient:
-                raise backwards
-            tally.out_of_order += 1  # a stray epoch is dropped; a clock that jumps back is refused (_check_epochs)
-            tally.first_backwards = tally.first_backwards or backwards
-            continue
-        prev_t = t
-        rows.append((j, t))
+        rows.append((j, t, top if late and t < top else None))  # the latest time before a late epoch
+        top = t if top is None else max(top, t)
     return rows
 
 
-def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally) -> None:
-    """Refuse a clock that jumped back (more than a stray epoch in a hundred out of order) or no epoch at all."""
-    if tally.out_of_order > max(1, n_rows // 100):
-        first = tally.first_backwards
-        raise BundleError(
-            f"{first.message} ({tally.out_of_order} GGA epochs out of order: the receiver's clock jumped; "
-            "only a stray one in a hundred is left out)",
-            file=file,
-            line=first.line,
-            field="time",
+#: an epoch sorted into place is no track when it leaves the path between its neighbours by more than this (m) ...
+DETOUR_M = 25.0
+#: ... at a speed more than this many times the rest of the log's (plus SPEED_SLACK_MPS)
+SPEED_FACTOR = 3.0
+SPEED_SLACK_MPS = 5.0
+
+
+def _local_xy(lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
+    """Metres east and north of the first point (spherical Earth; enough to judge a track's plausibility)."""
+    r = 6371000.0
+    lat, lon = np.radians(lat_deg), np.radians(lon_deg)
+    dlon = (lon - lon[0] + np.pi) % (2 * np.pi) - np.pi
+    return np.column_stack([r * np.cos(lat[0]) * dlon, r * (lat - lat[0])])
+
+
+def _order(rows: list, cols: GgaFields, gga_line: list[int], file: str, tally: _Tally) -> list:
+    """(index, time) of the epochs sorted by time (lenient reading of field recordings).
+
+    Receivers and loggers write epochs out of order (a 4-Hz receiver ...58.250 before 58.000, a handheld repeating
+    epochs after a reset): the epochs are sorted by time; an epoch of a time already seen is dropped (the first in
+    the file kept), counted as an exact repeat (same fix) or not. The sorted fixes must make one track: an epoch
+    that came late and, sorted into place, leaves the path between its neighbours by more than ``DETOUR_M`` at a
+    speed well above the rest of the log's is a clock that jumped: refused naming its line."""
+    order = sorted(range(len(rows)), key=lambda k: rows[k][1])  # stable: file order among equal times
+    kept = []
+    for k in order:
+        j, t, late = rows[k]
+        if kept and t == rows[kept[-1]][1]:
+            i = rows[kept[-1]][0]
+            same = all(cols[c][i] == cols[c][j] for c in (1, 2, 3, 4)) or all(np.isnan(cols[c][i]) for c in (1, 2))
+            tally.duplicates += 1
+            tally.repeats_exact += int(bool(same))
+            continue
+        kept.append(k)
+    late = sorted((rows[k] for k in kept if rows[k][2] is not None), key=lambda r: r[0])
+    tally.out_of_order = len(late)
+    if late:
+        j, t, top = late[0]
+        tally.first_backwards = BundleError(
+            f"GGA time goes backwards: {t:.2f} s after {top:.2f} s", file=file, line=gga_line[j], field="time"
         )
+    if tally.out_of_order:
+        _check_track([rows[k] for k in kept], cols, gga_line, file, tally)
+    return [(rows[k][0], rows[k][1]) for k in kept]
+
+
+def _check_track(rows: list, cols: GgaFields, gga_line: list[int], file: str, tally: _Tally) -> None:
+    """Refuse when an epoch that came late does not fit the track its neighbours in time make (see :func:`_order`)."""
+    idx = np.array([j for j, _, _ in rows], dtype=np.int64)
+    t = np.array([t for _, t, _ in rows])
+    late = np.array([top is not None for _, _, top in rows], dtype=bool)
+    lat, lon = np.asarray(cols.lat_deg, float)[idx], np.asarray(cols.lon_deg, float)[idx]
+    if len(t) < 3 or not np.isfinite(lat).all() or not np.isfinite(lon).all():
+        return
+    xy = _local_xy(lat, lon)
+    dist = np.hypot(*np.diff(xy, axis=0).T)  # between consecutive epochs in time, m
+    step_v = dist / np.diff(t)
+    on_time = ~late[:-1] & ~late[1:]
+    v_typ = float(np.median(step_v[on_time])) if on_time.any() else float(np.median(step_v))
+    v_max = SPEED_FACTOR * v_typ + SPEED_SLACK_MPS
+    for k in np.flatnonzero(late):
+        d_prev = dist[k - 1] if k > 0 else 0.0
+        d_next = dist[k] if k < len(t) - 1 else 0.0
+        through = float(np.hypot(*(xy[k + 1] - xy[k - 1]))) if 0 < k < len(t) - 1 else 0.0
+        detour = d_prev + d_next - through
+        v = max(step_v[k - 1] if k > 0 else 0.0, step_v[k] if k < len(t) - 1 else 0.0)
+        if detour > DETOUR_M and v > v_max:
+            line = gga_line[int(idx[k])]
+            raise BundleError(
+                f"GGA time goes backwards ({tally.out_of_order} epoch(s) out of order, the first at line "
+                f"{tally.first_backwards.line}) and sorted by time the fixes make no track: the epoch of this line, "
+                f"{t[k]:.2f} s, lies {detour:.0f} m off the path between its neighbours in time, at {v:.1f} m/s "
+                f"against {v_typ:.1f} m/s in the rest of the log: the receiver's clock jumped",
+                file=file,
+                line=line,
+                field="time",
+            )
+
+
+def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally) -> None:
+    """Refuse a file without an epoch, giving what it holds instead."""
     if n_rows:
         return
     what = "with a fix" if lenient else "with a time"
@@ -528,7 +602,12 @@ def _day_of(rmc, line_of_row: np.ndarray, t_s: np.ndarray) -> dt.date | None:
     clock by the row nearest to it in the file; None without an RMC."""
     if rmc is None:
         return None
-    k = min(bisect_left(line_of_row.tolist(), rmc[0]), len(line_of_row) - 1)
+    after = line_of_row >= rmc[0]  # the first row written after the RMC (rows are in time order, lines need not be)
+    k = (
+        int(np.argmin(np.where(after, line_of_row, np.iinfo(np.int64).max)))
+        if after.any()
+        else int(np.argmax(line_of_row))
+    )
     t_rmc = rmc[1] + 86400.0 * round((t_s[k] - rmc[1]) / 86400.0)
     return rmc[2] - dt.timedelta(days=int(t_rmc // 86400.0) - int(t_s[0] // 86400.0))
 
@@ -558,11 +637,18 @@ def _warnings(file: str, lenient: bool, tally: _Tally) -> list[str]:
             f"first: line {d.line}, field '{d.field}': {d.message}"
         )
     if tally.duplicates:
-        warnings.append(f"{file}: {tally.duplicates} repeated GGA epoch(s) skipped")
+        other = tally.duplicates - tally.repeats_exact
+        how = (
+            f" ({tally.repeats_exact} the same fix again, {other} another fix: the first in the file kept)"
+            if other
+            else ""
+        )
+        warnings.append(f"{file}: {tally.duplicates} repeated GGA epoch(s) skipped{how}")
     if tally.out_of_order:
         b = tally.first_backwards
         warnings.append(
-            f"{file}: {tally.out_of_order} GGA epoch(s) out of order left out; the first: line {b.line}, {b.message}"
+            f"{file}: {tally.out_of_order} GGA epoch(s) written out of order sorted into place (they fit the track); "
+            f"the first: line {b.line}, {b.message}"
         )
     return warnings
 
