@@ -354,6 +354,8 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None, *, file: str = FILE, l
     """
     if not data.strip():
         raise BundleError("file is empty", file=file, line=1)
+    if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark: the text is ASCII all the same
+        data = data[3:]
     tally = _Tally()
     gga_body, gga_line, skipped, rmc = _sort_sentences(*_checked_sentences(data, tally), lenient, tally)
     cols, gga_line = _gga_fields(gga_body, gga_line, file, lenient, tally)
@@ -400,12 +402,17 @@ class _Tally:
     duplicates: int = 0  #: epochs of a time already seen, dropped (the first kept)
     repeats_exact: int = 0  #: of which the same fix again
     out_of_order: int = 0  #: (lenient) epochs that came after a later one, sorted into place
+    head_bytes: int = 0  #: bytes looked at for :attr:`control_bytes`
+    control_bytes: int = 0  #: zero and control bytes among them (binary data, or text in UTF-16)
     first_defect: BundleError | None = None
     first_backwards: BundleError | None = None
 
 
 def _checked_sentences(data: bytes, tally: _Tally) -> tuple[list[int], list[str]]:
     """(line, body) of every sentence with a good checksum; the others and the lines that are none counted."""
+    head = np.frombuffer(data[:65536], dtype=np.uint8)
+    ctrl = (head < 32) & (head != 9) & (head != 10) & (head != 13)  # zero and control bytes: no text
+    tally.head_bytes, tally.control_bytes = len(head), int(np.count_nonzero(ctrl))
     text = data.decode("ascii", "replace")
     cand_line, cand_body, cand_cks, tally.malformed, tally.after_binary = _split_sentences(text)
     ok = _checksums(cand_body) == np.fromiter(
@@ -581,6 +588,12 @@ def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally) -> None:
     """Refuse a file without an epoch, giving what it holds instead."""
     if n_rows:
         return
+    if tally.control_bytes > 0.1 * tally.head_bytes:
+        raise BundleError(
+            f"the file cannot be read as NMEA text: {tally.control_bytes} of its first {tally.head_bytes} bytes are "
+            "zero or control bytes (binary data, or text in another encoding such as UTF-16; NMEA is ASCII text)",
+            file=file,
+        )
     what = "with a fix" if lenient else "with a time"
     counts = (
         f"{tally.no_fix} without a fix, {tally.defective} defective, {tally.bad_checksum} with a bad checksum, "

@@ -14,7 +14,7 @@ import re
 import numpy as np
 
 from ldvsurvey.errors import BundleError
-from ldvsurvey.io.importers.common import GnssPart, Stamps
+from ldvsurvey.io.importers.common import GnssPart, Stamps, text_reader, text_sniffer
 from ldvsurvey.io.importers.contract import Importer
 from ldvsurvey.io.nmea import parse_nmea
 
@@ -25,6 +25,7 @@ ROLES = ("gnss",)
 _SENTENCE = re.compile(rb"\$([A-Z]{2}(?:GGA|RMC),[^$*\r\n]*)\*([0-9A-Fa-f]{2})")
 
 
+@text_sniffer
 def sniff(data: bytes, name: str) -> str | None:
     """``gnss`` when the first 64 kB hold a GGA or RMC sentence with a good checksum (anywhere: real
     logs start with comments, a cut sentence or binary frames)."""
@@ -37,6 +38,7 @@ def sniff(data: bytes, name: str) -> str | None:
     return None
 
 
+@text_reader
 def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
     """GGA fixes of an NMEA field recording (lenient: defective sentences skipped and counted).
 
