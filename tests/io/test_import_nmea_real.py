@@ -259,3 +259,74 @@ def test_real_logs_are_recognised_from_their_content():
     got = {p.name: detect(p.read_bytes(), p.name) for p in LOGS}
     assert all(v in (("nmea", "gnss"), ("ubx", "gnss")) for v in got.values()), got
     assert sum(v == ("nmea", "gnss") for v in got.values()) >= 100
+
+
+def _with_quality(path: Path, quality: int) -> bytes:
+    """A real log with every GGA's fix quality set to ``quality`` (checksums recomputed)."""
+    out = []
+    for ln in path.read_text().splitlines():
+        if "GGA," in ln and "*" in ln:
+            f = ln[1 : ln.index("*")].split(",")
+            f[6] = str(quality)
+            ln = sentence(",".join(f))
+        out.append(ln)
+    return "\r\n".join(out).encode()
+
+
+def test_simulator_fixes_are_counted_in_the_refusal():
+    # gpsd's Garmin GPSmap 76S log in its simulator mode: every GGA of quality 8; before, the refusal said
+    # "0 without a fix, 0 defective, 0 with a bad checksum": nothing named what the file held
+    path = GPSD.parent / "gpsd-extra" / "GPSmap-76S.log"
+    data = path.read_bytes()
+    q = [m.quality for m in (NMEAReader.parse(ln.strip()) for ln in data.split(b"\n") if b"GGA," in ln)]
+    assert set(q) == {8}
+    with pytest.raises(BundleError) as e:
+        nmea.read(data, path.name, "gnss", {})
+    assert f"{len(q)} of quality 6, 7 or 8 (dead reckoning, manual input, simulator)" in e.value.message
+
+
+def test_manual_input_fixes_are_counted_in_the_refusal():
+    # no real log of quality 7 was found: rst39's 40 fixes as a receiver in manual-input mode would write them
+    with pytest.raises(BundleError) as e:
+        nmea.read(_with_quality(GPSD / "rst39.log", 7), "rst39.log", "gnss", {})
+    assert "40 of quality 6, 7 or 8 (dead reckoning, manual input, simulator)" in e.value.message
+
+
+def test_an_rmc_only_log_is_refused_saying_what_it_holds_and_lacks():
+    # gpsd's Magellan EC-10X log: RMC only ("as dumb as NMEA gets"); before, "no valid GGA sentence with a fix
+    # (0 without a fix, 0 defective, ...)"
+    path = GPSD.parent / "gpsd-extra" / "magellan-ec10.log"
+    data = path.read_bytes()
+    rmc = [
+        (k, m)
+        for k, ln in enumerate(data.split(b"\n"), start=1)
+        if b"RMC," in ln and (m := NMEAReader.parse(ln.strip(), validate=1)) is not None and m.status == "A"
+    ]
+    with pytest.raises(BundleError) as e:
+        nmea.read(data, path.name, "gnss", {})
+    assert (e.value.file, e.value.line, e.value.field) == (path.name, rmc[0][0], "GGA")
+    assert f"holds {len(rmc)} RMC fixes" in e.value.message and "no height" in e.value.message
+
+
+def test_ais_lines_are_recognised_and_ignored():
+    # gpsd's ais-nmea.log: a boat's GPS with an AIS receiver; before, the !AIVDM lines were counted as "lines that
+    # are not NMEA sentences"
+    data = (GPSD / "ais-nmea.log").read_bytes()
+    n_ais = sum(1 for ln in data.split(b"\n") if re.match(rb"!AIVD[MO],", ln))
+    n_other = sum(1 for ln in data.split(b"\n") if ln.strip() and not ln.strip().startswith((b"!AIVD", b"$")))
+    g = nmea.read(data, "ais-nmea.log", "gnss", {})
+    assert any(f"{n_ais} AIS line(s)" in n for n in g.notes), g.notes
+    assert any(f"{n_other} line(s) that are not NMEA sentences" in n for n in g.notes), g.notes
+    assert len(g.lat_deg) == len(_independent(data))
+
+
+@pytest.mark.parametrize("name", ["mr-350p.log", "hemi.log", "ericsson-gru04-02-70sec.log"])
+def test_a_log_without_rmc_is_dated_by_its_zda(name):
+    # these receivers write ZDA, not RMC; before, the manifest had to give the date
+    data = (GPSD / name).read_bytes()
+    zda = [m for m in (NMEAReader.parse(ln.strip()) for ln in data.split(b"\n") if b"ZDA," in ln) if m is not None]
+    fix_times = {_tod(m) for m in _independent(data).values()}
+    z = next(m for m in zda if any(abs(_tod(m) - t) <= 1.5 for t in fix_times))  # at the time of a fix
+    g = nmea.read(data, name, "gnss", {})
+    assert g.stamps.day == dt.date(z.year, z.month, z.day)
+    assert any("dated" in n and "ZDA line" in n for n in g.notes), g.notes

@@ -50,7 +50,8 @@ class GnssData:
         Geoid separation (m) the sentence states; NaN where its field is empty (then ``h_m`` is the
         altitude field as it stands).
     day : datetime.date or None
-        UTC day of the first row, from the first RMC sentence with a date (None without one).
+        UTC day of the first row, from the first valid RMC sentence, else from the first ZDA at the time of a fix
+        (None without either).
     """
 
     t_s: np.ndarray
@@ -68,6 +69,7 @@ class GnssData:
     warnings: list = field(default_factory=list)
     sep_m: np.ndarray | None = None
     day: dt.date | None = None
+    day_from: str | None = None  #: the sentence that states ``day`` (``RMC line 12``, ``ZDA line 3``)
     no_fix: int = 0  #: GGA sentences without a solution (quality 0 or empty) left out
     defective: int = 0  #: (lenient) GGA sentences with a good checksum but a defective field, skipped
 
@@ -284,10 +286,13 @@ _RMC_DATE = re.compile(r"\d{6}")
 NOT_MEASURED = ("6", "7", "8")
 
 
-def _split_sentences(text: str) -> tuple[list[int], list[str], list[str], int, int]:
-    """(line, body, given checksum) of every ``$...*hh`` sentence, and the counts of lines that are
-    no sentence and of sentences found after other bytes on their line (e.g. a binary frame)."""
-    malformed = after_binary = 0
+_AIS = re.compile(r"!\w{2}VD[MO],")  #: AIS's encapsulated sentences (!AIVDM, !AIVDO...): no position of ours
+
+
+def _split_sentences(text: str) -> tuple[list[int], list[str], list[str], tuple[int, int, int]]:
+    """(line, body, given checksum) of every ``$...*hh`` sentence, and the counts of lines that are no sentence,
+    of sentences found after other bytes on their line (e.g. a binary frame) and of AIS lines (``!AIVDM``)."""
+    malformed = after_binary = ais = 0
     cand_line, cand_body, cand_cks = [], [], []
     for lineno, raw in enumerate(text.split("\n"), start=1):  # LF only: other control bytes are no line end
         line = raw.strip()
@@ -295,7 +300,10 @@ def _split_sentences(text: str) -> tuple[list[int], list[str], list[str], int, i
             continue
         k = line.rfind("$")  # a sentence right after a binary frame on the frame's "line", or "$$GNGGA"
         if k < 0 or "*" not in line[k:]:
-            malformed += 1
+            if _AIS.match(line):
+                ais += 1
+            else:
+                malformed += 1
             continue
         if k:
             if line[:k].strip("$"):
@@ -305,7 +313,7 @@ def _split_sentences(text: str) -> tuple[list[int], list[str], list[str], int, i
         cand_line.append(lineno)
         cand_body.append(body)
         cand_cks.append(cks)
-    return cand_line, cand_body, cand_cks, malformed, after_binary
+    return cand_line, cand_body, cand_cks, (malformed, after_binary, ais)
 
 
 def _rmc_date(body: str) -> tuple[float, dt.date] | None:
@@ -322,6 +330,21 @@ def _rmc_date(body: str) -> tuple[float, dt.date] | None:
     except ValueError:
         return None
     return hh * 3600.0 + mm * 60.0 + ss, day
+
+
+def _zda_date(body: str) -> tuple[float, dt.date] | None:
+    """(UTC time of day s, date) of a ZDA sentence body (``hhmmss.ss,dd,mm,yyyy,...``), or None."""
+    f = body.split(",")
+    if len(f) < 5 or not _TIME.fullmatch(f[1]) or not (f[2].isdigit() and f[3].isdigit() and f[4].isdigit()):
+        return None
+    hh, mm, ss = int(f[1][0:2]), int(f[1][2:4]), int(f[1][4:6])
+    if hh > 23 or mm > 59 or ss > 59 or len(f[4]) != 4:
+        return None
+    try:
+        day = dt.date(int(f[4]), int(f[3]), int(f[2]))
+    except ValueError:
+        return None
+    return hh * 3600.0 + mm * 60.0 + ss + float("0" + f[1][6:]), day
 
 
 def parse_nmea(data: bytes, t_ref_s: float | None = None, *, file: str = FILE, lenient: bool = False) -> GnssData:
@@ -357,7 +380,7 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None, *, file: str = FILE, l
     if data.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark: the text is ASCII all the same
         data = data[3:]
     tally = _Tally()
-    gga_body, gga_line, skipped, rmc = _sort_sentences(*_checked_sentences(data, tally), lenient, tally)
+    gga_body, gga_line, skipped, dates = _sort_sentences(*_checked_sentences(data, tally), lenient, tally)
     cols, gga_line = _gga_fields(gga_body, gga_line, file, lenient, tally)
     rows = _epochs(cols.tod_s.tolist(), gga_line, t_ref_s, file, lenient, tally) if cols is not None else []
     if lenient and rows:
@@ -368,6 +391,7 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None, *, file: str = FILE, l
     t_s = np.array([t for _, t in rows], dtype=np.float64)
     got = GgaFields(*(np.asarray(c)[keep] for c in cols))
     line_of_row = np.array(gga_line, dtype=np.int64)[keep]
+    day, day_from = _day_of(dates, line_of_row, t_s, tally)
     return GnssData(
         t_s=t_s,
         lat_deg=got.lat_deg.astype(np.float64),
@@ -383,7 +407,8 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None, *, file: str = FILE, l
         skipped_sentences=skipped,
         warnings=_warnings(file, lenient, tally),
         sep_m=got.sep_m.astype(np.float64),
-        day=_day_of(rmc, line_of_row, t_s),
+        day=day,
+        day_from=day_from,
         no_fix=tally.no_fix,
         defective=tally.defective,
     )
@@ -396,12 +421,17 @@ class _Tally:
     bad_checksum: int = 0
     malformed: int = 0  #: lines that are no NMEA sentence
     after_binary: int = 0  #: sentences read after other bytes on their line
+    ais: int = 0  #: AIS lines (!AIVDM, !AIVDO): ignored
+    rmc_fixes: int = 0  #: RMC sentences with a valid position (status A)
+    first_rmc_line: int | None = None
+    gga_seen: int = 0  #: GGA sentences with a good checksum
     no_fix: int = 0
     not_measured: int = 0  #: GGA of quality 6, 7 or 8
     defective: int = 0
     duplicates: int = 0  #: epochs of a time already seen, dropped (the first kept)
     repeats_exact: int = 0  #: of which the same fix again
     out_of_order: int = 0  #: (lenient) epochs that came after a later one, sorted into place
+    date_conflict: str | None = None  #: RMC and ZDA state different days
     head_bytes: int = 0  #: bytes looked at for :attr:`control_bytes`
     control_bytes: int = 0  #: zero and control bytes among them (binary data, or text in UTF-16)
     first_defect: BundleError | None = None
@@ -414,7 +444,7 @@ def _checked_sentences(data: bytes, tally: _Tally) -> tuple[list[int], list[str]
     ctrl = (head < 32) & (head != 9) & (head != 10) & (head != 13)  # zero and control bytes: no text
     tally.head_bytes, tally.control_bytes = len(head), int(np.count_nonzero(ctrl))
     text = data.decode("ascii", "replace")
-    cand_line, cand_body, cand_cks, tally.malformed, tally.after_binary = _split_sentences(text)
+    cand_line, cand_body, cand_cks, (tally.malformed, tally.after_binary, tally.ais) = _split_sentences(text)
     ok = _checksums(cand_body) == np.fromiter(
         (_given_checksum(c.strip()[:2]) for c in cand_cks), dtype=np.int64, count=len(cand_cks)
     )
@@ -424,21 +454,29 @@ def _checked_sentences(data: bytes, tally: _Tally) -> tuple[list[int], list[str]
 
 
 def _sort_sentences(lines: list[int], bodies: list[str], lenient: bool, tally: _Tally):
-    """The GGA sentences with an epoch (bodies, lines), the other sentences counted by type, and (line, time of
-    day s, date) of the first RMC with a date (or None); GGA without a fix or not measured counted."""
+    """The GGA sentences with an epoch (bodies, lines), the other sentences counted by type, and the dates: (line,
+    time of day s, date) of the first RMC with a date (or None) and of every ZDA with one; GGA without a fix or
+    not measured counted."""
     skipped: dict[str, int] = {}
     gga_body, gga_line = [], []
-    rmc = None
+    rmc, zda = None, []
     for lineno, body in zip(lines, bodies):
         head = body[: body.find(",")] if "," in body else body
         stype = head[-3:]
         if stype != "GGA" or body.startswith("P"):
-            if stype == "RMC" and rmc is None and not body.startswith("P"):
+            if stype == "RMC" and not body.startswith("P"):
                 got = _rmc_date(body)
                 if got is not None:
-                    rmc = (lineno, *got)
+                    tally.rmc_fixes += 1
+                    rmc = rmc or (lineno, *got)
+                    tally.first_rmc_line = rmc[0]
+            elif stype == "ZDA" and not body.startswith("P") and len(zda) < 1000:
+                got = _zda_date(body)
+                if got is not None:
+                    zda.append((lineno, *got))
             skipped[stype] = skipped.get(stype, 0) + 1
             continue
+        tally.gga_seen += 1
         f = body.split(",", 7)
         quality = f[6] if len(f) > 6 else ""
         if (quality == "" and lenient) or (quality == "0" and (lenient or f[1] == "")):
@@ -449,7 +487,7 @@ def _sort_sentences(lines: list[int], bodies: list[str], lenient: bool, tally: _
             continue
         gga_body.append(body)
         gga_line.append(lineno)
-    return gga_body, gga_line, skipped, rmc
+    return gga_body, gga_line, skipped, (rmc, zda)
 
 
 def _gga_fields(gga_body: list[str], gga_line: list[int], file: str, lenient: bool, tally: _Tally):
@@ -596,9 +634,20 @@ def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally) -> None:
         )
     what = "with a fix" if lenient else "with a time"
     counts = (
-        f"{tally.no_fix} without a fix, {tally.defective} defective, {tally.bad_checksum} with a bad checksum, "
-        f"{tally.malformed} lines that are no NMEA sentence"
+        f"{tally.no_fix} without a fix, "
+        + (f"{tally.not_measured} of quality 6, 7 or 8 (dead reckoning, manual input, simulator), " if lenient else "")
+        + f"{tally.defective} defective, {tally.bad_checksum} with a bad checksum, "
+        f"{tally.malformed} lines that are no NMEA sentence" + (f", {tally.ais} AIS lines" if tally.ais else "")
     )
+    if tally.rmc_fixes and not tally.gga_seen:
+        raise BundleError(
+            f"no GGA sentence: the file holds {tally.rmc_fixes} RMC fixes (status A, the first at line "
+            f"{tally.first_rmc_line}), but RMC states no height and no fix quality, which the GNSS fixes need: set "
+            f"the receiver or logger to write GGA ({counts})",
+            file=file,
+            line=tally.first_rmc_line,
+            field="GGA",
+        )
     first = tally.first_defect
     if first is not None:
         raise BundleError(
@@ -610,19 +659,49 @@ def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally) -> None:
     raise BundleError(f"no valid GGA sentence {what} ({counts})", file=file)
 
 
-def _day_of(rmc, line_of_row: np.ndarray, t_s: np.ndarray) -> dt.date | None:
-    """UTC day of the first row (s on the counting clock) from the first RMC's date, its time placed on the rows'
-    clock by the row nearest to it in the file; None without an RMC."""
-    if rmc is None:
-        return None
+def _day_of(dates, line_of_row: np.ndarray, t_s: np.ndarray, tally: _Tally) -> tuple[dt.date | None, str | None]:
+    """UTC day of the first row (s on the counting clock) and what states it: the first valid RMC's date, else the
+    first ZDA's whose time is that of a fix (a receiver's clock that is set); (None, None) without either. When
+    both state a day and they differ, the RMC's is used and the conflict noted in ``tally``."""
+    rmc, zda = dates
+    if not len(t_s):
+        return None, None
+    d_rmc = _rmc_day(rmc, line_of_row, t_s) if rmc is not None else None
+    z = _zda_day(zda, t_s)
+    if d_rmc is not None and z is not None and z[0] != d_rmc:
+        tally.date_conflict = (
+            f"the RMC of line {rmc[0]} dates the log {d_rmc}, the ZDA of line {z[1]} {z[0]}: the RMC's date is used"
+        )
+    if d_rmc is not None:
+        return d_rmc, f"RMC line {rmc[0]}"
+    if z is not None:
+        return z[0], f"ZDA line {z[1]}"
+    return None, None
+
+
+def _rmc_day(rmc, line_of_row: np.ndarray, t_s: np.ndarray) -> dt.date:
+    """UTC day of the first row from an RMC's (line, time of day s, date), its time placed on the rows' clock by the
+    row written next after it."""
     after = line_of_row >= rmc[0]  # the first row written after the RMC (rows are in time order, lines need not be)
-    k = (
-        int(np.argmin(np.where(after, line_of_row, np.iinfo(np.int64).max)))
-        if after.any()
-        else int(np.argmax(line_of_row))
-    )
+    if after.any():
+        k = int(np.argmin(np.where(after, line_of_row, np.iinfo(np.int64).max)))
+    else:
+        k = int(np.argmax(line_of_row))
     t_rmc = rmc[1] + 86400.0 * round((t_s[k] - rmc[1]) / 86400.0)
     return rmc[2] - dt.timedelta(days=int(t_rmc // 86400.0) - int(t_s[0] // 86400.0))
+
+
+def _zda_day(zda: list, t_s: np.ndarray) -> tuple[dt.date, int] | None:
+    """(UTC day of the first row, line) from the first ZDA (line, time of day s, date) whose time is within 1.5 s of
+    a row's (a ZDA of a receiver whose clock is not set yet may carry any date); None without one."""
+    tod = np.mod(t_s, 86400.0)
+    for line, z_tod, day in zda:
+        diff = np.mod(tod - z_tod + 43200.0, 86400.0) - 43200.0
+        k = int(np.argmin(np.abs(diff)))
+        if abs(diff[k]) <= 1.5:
+            t_z = t_s[k] - diff[k]  # the ZDA's time on the rows' clock
+            return day - dt.timedelta(days=int(t_z // 86400.0) - int(t_s[0] // 86400.0)), line
+    return None
 
 
 def _warnings(file: str, lenient: bool, tally: _Tally) -> list[str]:
@@ -632,6 +711,10 @@ def _warnings(file: str, lenient: bool, tally: _Tally) -> list[str]:
         warnings.append(f"{file}: {tally.bad_checksum} sentence(s) with a bad checksum skipped")
     if tally.malformed:
         warnings.append(f"{file}: {tally.malformed} line(s) that are not NMEA sentences skipped")
+    if tally.date_conflict:
+        warnings.append(f"{file}: {tally.date_conflict}")
+    if tally.ais:
+        warnings.append(f"{file}: {tally.ais} AIS line(s) (!AIVDM/!AIVDO: other vessels' reports) ignored")
     if tally.after_binary:
         warnings.append(
             f"{file}: {tally.after_binary} sentence(s) read after other bytes on their line (binary frames)"

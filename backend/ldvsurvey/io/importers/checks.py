@@ -51,9 +51,17 @@ def check_dates(parts: dict, names: dict, manifest_date: dt.date | None) -> dict
         day, how = got
         out[role] = {"day": day.isoformat(), "from": how}
         if manifest_date is not None and abs((day - manifest_date).days) > 1:
+            n_days = (day - manifest_date).days
+            weeks = round(n_days / 7168) * 1024
+            rollover = (
+                f" (exactly {abs(weeks)} GPS weeks: a receiver's week-number roll-over bug; its date is wrong, the "
+                "manifest's may be right)"
+                if weeks and abs(n_days - weeks * 7) <= 1
+                else ""
+            )
             raise BundleError(
                 f"the recording is dated {day} ({how}) but the partial manifest says {manifest_date}: its samples "
-                f"would land {(day - manifest_date).days} days away on the bundle clock; correct the manifest's date "
+                f"would land {n_days} days away on the bundle clock{rollover}; correct the manifest's date "
                 "(or leave it out: the recordings state it)",
                 file=names[role],
                 field="date",

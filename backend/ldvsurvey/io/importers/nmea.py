@@ -1,4 +1,4 @@
-"""NMEA 0183 text from any receiver: GGA gives the fixes, the first RMC the date.
+"""NMEA 0183 text from any receiver: GGA gives the fixes, the first RMC (else a ZDA) the date.
 
 Read by the product's one NMEA reader, :func:`ldvsurvey.io.nmea.parse_nmea`, in its lenient mode:
 sentences with a bad checksum, GGA sentences without a fix (the pre-fix ``$GPGGA,,,,,,0,,,,M,,M,,*66``)
@@ -56,7 +56,7 @@ def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
     Returns
     -------
     GnssPart
-        Fixes (deg, ellipsoidal height m, geoid separation m) on the UTC time of day, with the RMC's date.
+        Fixes (deg, ellipsoidal height m, geoid separation m) on the UTC time of day, with the RMC's or ZDA's date.
 
     Raises
     ------
@@ -71,7 +71,9 @@ def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
         raise BundleError("no GGA sentence with a fix", file=file, field="fix_quality")
     notes = list(g.warnings)
     if g.day is None:
-        notes.append(f"{file}: no RMC sentence with a date: the manifest's date is used")
+        notes.append(f"{file}: no RMC or ZDA sentence with a date: the manifest's date is used")
+    elif g.day_from and g.day_from.startswith("ZDA"):
+        notes.append(f"{file}: no RMC sentence with a date: the log is dated {g.day} by its {g.day_from}")
     sep = np.where(np.isnan(g.sep_m), 0.0, g.sep_m)[ok]
     return GnssPart(
         stamps=Stamps("utc_tod", g.t_s[ok], g.line_of_row[ok], day=g.day),
@@ -86,4 +88,4 @@ def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
     )
 
 
-IMPORTER = Importer(NAME, ROLES, read, sniff, summary="NMEA 0183 text: GGA fixes, the first RMC for the date")
+IMPORTER = Importer(NAME, ROLES, read, sniff, summary="NMEA 0183 text: GGA fixes, the first RMC (or ZDA) for the date")
