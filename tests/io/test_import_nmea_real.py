@@ -305,7 +305,26 @@ def test_an_rmc_only_log_is_refused_saying_what_it_holds_and_lacks():
     with pytest.raises(BundleError) as e:
         nmea.read(data, path.name, "gnss", {})
     assert (e.value.file, e.value.line, e.value.field) == (path.name, rmc[0][0], "GGA")
-    assert f"holds {len(rmc)} RMC fixes" in e.value.message and "no height" in e.value.message
+    assert f"positions without a height ({len(rmc)} RMC with status A" in e.value.message
+
+
+def test_a_gll_only_marine_log_is_refused_saying_what_it_holds():
+    # SignalK's plaka.log (a sailing boat's instruments: GLL positions, wind, depth, AIS...): before, no format
+    # recognised it (the sniffer wanted GGA or RMC)
+    from ldvsurvey.io.importers import detect
+
+    path = GPSD.parent / "signalk" / "plaka-head.log"
+    data = path.read_bytes()
+    gll = [
+        k
+        for k, ln in enumerate(data.split(b"\n"), start=1)
+        if b"GLL," in ln and (m := NMEAReader.parse(ln.strip(), validate=1)) is not None and m.status == "A"
+    ]
+    assert detect(data, path.name) == ("nmea", "gnss")
+    with pytest.raises(BundleError) as e:
+        nmea.read(data, path.name, "gnss", {})
+    assert (e.value.line, e.value.field) == (gll[0], "GGA")
+    assert f"({len(gll)} GLL with status A" in e.value.message
 
 
 def test_ais_lines_are_recognised_and_ignored():

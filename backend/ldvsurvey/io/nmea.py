@@ -386,7 +386,7 @@ def parse_nmea(data: bytes, t_ref_s: float | None = None, *, file: str = FILE, l
     if lenient and rows:
         rows = _order(rows, cols, gga_line, file, tally)
     rows = [(j, t) for j, t, *_ in rows]
-    _check_epochs(len(rows), file, lenient, tally)
+    _check_epochs(len(rows), file, lenient, tally, skipped)
     keep = np.array([j for j, _ in rows], dtype=np.int64)
     t_s = np.array([t for _, t in rows], dtype=np.float64)
     got = GgaFields(*(np.asarray(c)[keep] for c in cols))
@@ -422,8 +422,9 @@ class _Tally:
     malformed: int = 0  #: lines that are no NMEA sentence
     after_binary: int = 0  #: sentences read after other bytes on their line
     ais: int = 0  #: AIS lines (!AIVDM, !AIVDO): ignored
-    rmc_fixes: int = 0  #: RMC sentences with a valid position (status A)
-    first_rmc_line: int | None = None
+    positions: dict = field(default_factory=dict)  #: RMC and GLL sentences with a valid position, by type
+    first_position_line: int | None = None
+    good_sentences: int = 0  #: sentences with a good checksum
     gga_seen: int = 0  #: GGA sentences with a good checksum
     no_fix: int = 0
     not_measured: int = 0  #: GGA of quality 6, 7 or 8
@@ -449,8 +450,18 @@ def _checked_sentences(data: bytes, tally: _Tally) -> tuple[list[int], list[str]
         (_given_checksum(c.strip()[:2]) for c in cand_cks), dtype=np.int64, count=len(cand_cks)
     )
     tally.bad_checksum = int(len(ok) - np.count_nonzero(ok))
+    tally.good_sentences = int(np.count_nonzero(ok))
     good = np.flatnonzero(ok).tolist()
     return [cand_line[i] for i in good], [cand_body[i] for i in good]
+
+
+_GLL_VALID = re.compile(r"\w{2}GLL,\d+\.?\d*,[NS],\d+\.?\d*,[EW],[^,]*,A")  #: a GLL with a position, status A
+
+
+def _count_position(tally: _Tally, kind: str, lineno: int) -> None:
+    tally.positions[kind] = tally.positions.get(kind, 0) + 1
+    if tally.first_position_line is None:
+        tally.first_position_line = lineno
 
 
 def _sort_sentences(lines: list[int], bodies: list[str], lenient: bool, tally: _Tally):
@@ -467,9 +478,10 @@ def _sort_sentences(lines: list[int], bodies: list[str], lenient: bool, tally: _
             if stype == "RMC" and not body.startswith("P"):
                 got = _rmc_date(body)
                 if got is not None:
-                    tally.rmc_fixes += 1
+                    _count_position(tally, "RMC", lineno)
                     rmc = rmc or (lineno, *got)
-                    tally.first_rmc_line = rmc[0]
+            elif stype == "GLL" and not body.startswith("P") and _GLL_VALID.match(body):
+                _count_position(tally, "GLL", lineno)
             elif stype == "ZDA" and not body.startswith("P") and len(zda) < 1000:
                 got = _zda_date(body)
                 if got is not None:
@@ -622,11 +634,11 @@ def _check_track(rows: list, cols: GgaFields, gga_line: list[int], file: str, ta
             )
 
 
-def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally) -> None:
-    """Refuse a file without an epoch, giving what it holds instead."""
+def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally, skipped: dict) -> None:
+    """Refuse a file without an epoch, giving what it holds instead (``skipped``: the other sentences by type)."""
     if n_rows:
         return
-    if tally.control_bytes > 0.1 * tally.head_bytes:
+    if not tally.good_sentences and tally.control_bytes > 0.1 * tally.head_bytes:
         raise BundleError(
             f"the file cannot be read as NMEA text: {tally.control_bytes} of its first {tally.head_bytes} bytes are "
             "zero or control bytes (binary data, or text in another encoding such as UTF-16; NMEA is ASCII text)",
@@ -639,15 +651,17 @@ def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally) -> None:
         + f"{tally.defective} defective, {tally.bad_checksum} with a bad checksum, "
         f"{tally.malformed} lines that are no NMEA sentence" + (f", {tally.ais} AIS lines" if tally.ais else "")
     )
-    if tally.rmc_fixes and not tally.gga_seen:
-        raise BundleError(
-            f"no GGA sentence: the file holds {tally.rmc_fixes} RMC fixes (status A, the first at line "
-            f"{tally.first_rmc_line}), but RMC states no height and no fix quality, which the GNSS fixes need: set "
-            f"the receiver or logger to write GGA ({counts})",
-            file=file,
-            line=tally.first_rmc_line,
-            field="GGA",
-        )
+    if not tally.gga_seen:
+        rest = [
+            f"{n} {what}"
+            for n, what in (
+                (tally.bad_checksum, "with a bad checksum"),
+                (tally.malformed, "lines that are no NMEA sentence"),
+                (tally.ais, "AIS lines"),
+            )
+            if n
+        ]
+        _refuse_without_gga(file, tally, skipped, f"; besides: {', '.join(rest)}" if rest else "")
     first = tally.first_defect
     if first is not None:
         raise BundleError(
@@ -657,6 +671,29 @@ def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally) -> None:
             field=first.field,
         )
     raise BundleError(f"no valid GGA sentence {what} ({counts})", file=file)
+
+
+def _refuse_without_gga(file: str, tally: _Tally, skipped: dict, rest: str) -> None:
+    """A file with no GGA sentence at all: say what positions (RMC, GLL) or other sentences it holds instead."""
+    if tally.positions:
+        held = ", ".join(f"{n} {k}" for k, n in tally.positions.items())
+        raise BundleError(
+            f"no GGA sentence: the file holds positions without a height ({held} with status A, the first at line "
+            f"{tally.first_position_line}); RMC and GLL state no height and no fix quality, which the GNSS fixes "
+            f"need: set the receiver or logger to write GGA{rest}",
+            file=file,
+            line=tally.first_position_line,
+            field="GGA",
+        )
+    if skipped:
+        top = sorted(skipped.items(), key=lambda kv: -kv[1])
+        held = ", ".join(f"{n} {k}" for k, n in top[:6]) + (", ..." if len(top) > 6 else "")
+        raise BundleError(
+            f"no GGA sentence: the file holds {sum(skipped.values())} NMEA sentences of other kinds ({held}), none "
+            f"with a position{rest}",
+            file=file,
+            field="GGA",
+        )
 
 
 def _day_of(dates, line_of_row: np.ndarray, t_s: np.ndarray, tally: _Tally) -> tuple[dt.date | None, str | None]:

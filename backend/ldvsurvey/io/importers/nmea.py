@@ -22,13 +22,14 @@ NAME = "nmea"
 ROLES = ("gnss",)
 
 
-_SENTENCE = re.compile(rb"\$([A-Z]{2}(?:GGA|RMC),[^$*\r\n]*)\*([0-9A-Fa-f]{2})")
+_SENTENCE = re.compile(rb"\$([A-Z0-9]{2}[A-Z]{3},[^$*\r\n]*)\*([0-9A-Fa-f]{2})")
 
 
 @text_sniffer
 def sniff(data: bytes, name: str) -> str | None:
-    """``gnss`` when the first 64 kB hold a GGA or RMC sentence with a good checksum (anywhere: real
-    logs start with comments, a cut sentence or binary frames)."""
+    """``gnss`` when the first 64 kB hold an NMEA sentence with a good checksum (anywhere: real logs start with
+    comments, a cut sentence or binary frames). Any sentence: a log without GGA is then refused saying what it
+    holds (RMC or GLL positions without a height, a boat's wind and depth...), not left unrecognised."""
     for m in _SENTENCE.finditer(data[:65536]):
         acc = 0
         for b in m.group(1):
