@@ -349,3 +349,19 @@ def test_a_log_without_rmc_is_dated_by_its_zda(name):
     g = nmea.read(data, name, "gnss", {})
     assert g.stamps.day == dt.date(z.year, z.month, z.day)
     assert any("dated" in n and "ZDA line" in n for n in g.notes), g.notes
+
+
+def test_rmc_and_zda_dating_the_log_differently_is_warned():
+    # rst39's ZDA sentences moved a day on (checksums recomputed): the RMC's date (2014-02-19) is kept, both named
+    out = []
+    for ln in (GPSD / "rst39.log").read_text().splitlines():
+        if "ZDA," in ln:
+            f = ln[1 : ln.index("*")].split(",")
+            f[2] = f"{int(f[2]) + 1:02d}"
+            ln = sentence(",".join(f))
+        out.append(ln)
+    data = "\r\n".join(out).encode()
+    rmc = next(m for m in (NMEAReader.parse(x.strip()) for x in data.split(b"\n") if b"RMC," in x) if m)
+    g = nmea.read(data, "rst39.log", "gnss", {})
+    assert g.stamps.day == rmc.date == dt.date(2014, 2, 19)
+    assert any("dates the log 2014-02-19" in n and "2014-02-20" in n for n in g.notes), g.notes
