@@ -62,8 +62,8 @@ def test_fixes_at_59_999_s_and_across_midnight_are_read_back_by_the_bundle_reade
     n = len(t)
     data = nmea_text(t, np.full(n, 48.74), np.full(n, 9.31), np.full(n, 311.3), np.full(n, 4), extra_sentences=False)
     g = parse_nmea(data, t_ref_s=70000.0)
-    # every time written on whole ms here (or carried to one): the reader gives them to 1 µs
-    np.testing.assert_allclose(g.t_s, np.round(t, 6), rtol=0, atol=1e-9 + 1e-6)
+    # written to the µs and read to the nearest µs: equal up to the float's own rounding
+    np.testing.assert_allclose(g.t_s, np.round(t, 6), rtol=0, atol=1e-9)
     assert g.t_s[-2] == 86400.0  # 23:59:59.9999996 is the first instant of the next day, after the midnight
 
 
@@ -78,9 +78,8 @@ def test_random_times_round_trip_through_pynmeagps_and_our_reader(t_s):
     frac = s.split(",")[1].split(".")[1]
     assert 3 <= len(frac) <= 6  # at least milliseconds
     ours = parse_nmea((s + "\r\n").encode()).t_s[0]
-    # our reader truncates the fraction's float to whole µs (a float like .123456 * 1e6 can land at
-    # 123455.9999): within 1 µs of what pynmeagps reads
-    assert abs(ours * 1e6 - got) <= 1.0 + 1e-3
+    # our reader rounds the fraction to the nearest µs (it once truncated: .000249 read as 248 µs)
+    assert abs(ours * 1e6 - got) <= 1e-3
 
 
 def test_gga_time_of_negative_bundle_time_is_the_previous_days_clock():

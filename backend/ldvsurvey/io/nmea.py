@@ -130,7 +130,7 @@ def _num(value: str, line: int, name: str, *, allow_empty: bool = True) -> float
 
 
 def _time_of_day(value: str, line: int) -> float:
-    """``hhmmss[.ss]`` to seconds of the day (fraction kept to the microsecond)."""
+    """``hhmmss[.ss]`` to seconds of the day (fraction rounded to the nearest microsecond)."""
     if value == "":
         raise BundleError("GGA without time", file=FILE, line=line, field="time")
     if not _TIME.fullmatch(value):
@@ -139,7 +139,7 @@ def _time_of_day(value: str, line: int) -> float:
     if hh > 23 or mm > 59 or ss > 59:
         raise BundleError(f"'{value}' is not a time of day", file=FILE, line=line, field="time")
     frac = value[6:]
-    us = int(float(frac) * 1_000_000) if frac not in ("", ".") else 0
+    us = round(float(frac) * 1_000_000) if frac not in ("", ".") else 0
     return hh * 3600 + mm * 60 + ss + us * 1e-6
 
 
@@ -249,7 +249,7 @@ def _gga_columns(bodies: list[str]) -> GgaFields | None:
     if (hh > 23).any() or (mm > 59).any() or (ss > 59).any():
         return None
     frac = _tof([v[6:] if len(v) > 7 else "0" for v in t_col])
-    tod = (hh * 3600 + mm * 60 + ss) + np.trunc(frac * 1_000_000).astype(np.int64) * 1e-6
+    tod = (hh * 3600 + mm * 60 + ss) + np.rint(frac * 1_000_000).astype(np.int64) * 1e-6
     fix = _tof(fix_col).astype(np.int64)
     n = len(rows)
     lat, lon, h, sep_all = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
