@@ -218,3 +218,23 @@ def test_a_log_that_starts_on_the_move_keeps_its_alignment():
     assert al.method == "moving_start" and al.standstill_s is None
     assert abs(_heading_error(inp.c_bn0, sim, int(np.flatnonzero(ki)[0]))) < 0.3 * DEG
     assert al.summary()["alignment_heading_sigma_deg"] == pytest.approx(3.0)
+
+
+def test_a_manifest_heading_overrides_and_a_bad_one_is_refused(mems):
+    """``initial.heading_deg`` (with ``initial.heading_sigma_deg``) is the start heading as given,
+    whatever the gyros or the course say; a heading that is no number is refused naming the field."""
+    from ldvsurvey.errors import ParameterError
+
+    sim, _ = mems
+    files = _without_static_s(sim)
+    m = json.loads(files["manifest.json"])
+    m["initial"].update(heading_deg=33.0, heading_sigma_deg=0.5)
+    files["manifest.json"] = json.dumps(m).encode()
+    al = nav_inputs(parse_files(files)).alignment
+    assert al.method == "manifest" and al.heading_sigma_rad == pytest.approx(0.5 * DEG)
+    assert euler_from_c_bn(al.c_bn)[2] == pytest.approx(33.0 * DEG, abs=1e-12)
+    m["initial"]["heading_deg"] = "north"
+    files["manifest.json"] = json.dumps(m).encode()
+    with pytest.raises(ParameterError) as exc:
+        nav_inputs(parse_files(files))
+    assert exc.value.field == "initial.heading_deg"

@@ -246,7 +246,7 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         pos0=pos0,
         noise=noise,
         warnings=warnings,
-        c_bn0=alignment.c_bn,
+        c_bn0=None if start is None else start[0],
         v0_n=None if start is None else start[1],
         ldv_unusable=unusable,
         alignment=alignment,
@@ -332,8 +332,11 @@ def initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
 
 
 def _initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
-    if inp.c_bn0 is not None:
-        return inp.c_bn0 if cbs is None else inp.c_bn0 @ cbs[0].T
+    c_bn = inp.c_bn0
+    if c_bn is None and inp.alignment is not None:  # a standstill whose heading came from elsewhere
+        c_bn = inp.alignment.c_bn
+    if c_bn is not None:
+        return c_bn if cbs is None else c_bn @ cbs[0].T
     k = inp.t_s <= inp.static_end_s
     if k.sum() < 100:
         raise ParameterError("the static period holds fewer than 100 IMU samples", field="initial.static_s")
@@ -551,6 +554,9 @@ def _start_bias(inp: NavInputs, cfg: FilterConfig):
 
 #: the standstill's noise replaces the manifest's when it is at least this many times larger (vibration)
 VIBRATION_NOISE_RATIO = 2.0
+#: ... and above these (°/√h, µg/√Hz): a sensor simulated or specified noiseless keeps its figures
+VIBRATION_MIN_ARW_DPRH = 0.01
+VIBRATION_MIN_VRW_UG_RTHZ = 10.0
 
 
 def _vibration_noise(noise: ImuNoise, al: Alignment | None) -> ImuNoise:
@@ -562,9 +568,9 @@ def _vibration_noise(noise: ImuNoise, al: Alignment | None) -> ImuNoise:
     if al is None or al.gyro_arw_dprh is None:
         return noise
     kw = {}
-    if al.gyro_arw_dprh > VIBRATION_NOISE_RATIO * noise.gyro_arw_dprh:
+    if al.gyro_arw_dprh > max(VIBRATION_NOISE_RATIO * noise.gyro_arw_dprh, VIBRATION_MIN_ARW_DPRH):
         kw["gyro_arw_dprh"] = al.gyro_arw_dprh
-    if al.accel_vrw_ug_rthz > VIBRATION_NOISE_RATIO * noise.accel_vrw_ug_rthz:
+    if al.accel_vrw_ug_rthz > max(VIBRATION_NOISE_RATIO * noise.accel_vrw_ug_rthz, VIBRATION_MIN_VRW_UG_RTHZ):
         kw["accel_vrw_ug_rthz"] = al.accel_vrw_ug_rthz
     return dataclasses.replace(noise, **kw) if kw else noise
 
