@@ -238,3 +238,23 @@ def test_a_manifest_heading_overrides_and_a_bad_one_is_refused(mems):
     with pytest.raises(ParameterError) as exc:
         nav_inputs(parse_files(files))
     assert exc.value.field == "initial.heading_deg"
+
+
+def test_no_north_and_no_course_is_said(mems):
+    """The MEMS log without its GNSS (start position from the manifest, no LDV): the IMU alone finds
+    the idling stop, the gyros cannot find north and there is no course: the alignment says the
+    heading is not observable (σ beyond 10°), and the warning says what to give."""
+    sim, _ = mems
+    files = _without_static_s(sim)
+    del files["gnss.nmea"]
+    inp = nav_inputs(parse_files(files))
+    al = inp.alignment
+    assert al.method == "gyrocompass" and not al.observable
+    assert al.heading_sigma_rad > 10 * DEG
+    assert "IMU" in al.standstill_found_by and "no speed" in al.standstill_found_by
+    assert STOP_S - 4.0 <= al.standstill_s[1] - sim.scenario.t0_s <= STOP_S + 0.5
+    assert any("heading not observable" in w and "initial.heading_deg" in w for w in inp.warnings)
+    # the horizontal Earth rate stays in the bias estimate's σ: the truth is inside it
+    n = int(np.searchsorted(sim.imu.t_s, al.standstill_s[1]))
+    truth = sim.errors.gyro_bias_rps + sim.extras["imu_errors"]["gyro_gm_rps"][:n].mean(axis=0)
+    assert np.all(np.abs(al.gyro_bias_rps - truth) <= 3.0 * al.gyro_bias_sigma_rps)
