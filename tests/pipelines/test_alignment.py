@@ -258,3 +258,22 @@ def test_no_north_and_no_course_is_said(mems):
     n = int(np.searchsorted(sim.imu.t_s, al.standstill_s[1]))
     truth = sim.errors.gyro_bias_rps + sim.extras["imu_errors"]["gyro_gm_rps"][:n].mean(axis=0)
     assert np.all(np.abs(al.gyro_bias_rps - truth) <= 3.0 * al.gyro_bias_sigma_rps)
+
+
+def test_a_horizontal_bias_the_manifest_does_not_state_stops_gyrocompassing():
+    """A navigation-grade log whose x gyro reads 300 °/h more (a bias of its own, its vertical gyro
+    quiet) and whose manifest states no gyro bias: the standstill's horizontal rate, 20 times the
+    Earth's, shows the gyros cannot find north, so the heading comes from the course."""
+    from ldvsurvey.io.writers import imu_csv
+
+    sim = simulate(catalog.drive(minutes=4.0, static_s=60.0, with_ldv=False), seed=6)
+    files = _without_static_s(sim)
+    m = json.loads(files["manifest.json"])
+    del m["imu"]["gyro_bias_dph"]
+    files["manifest.json"] = json.dumps(m).encode()
+    dth = sim.dtheta_rad.copy()
+    dth[:, 0] += 300.0 * DEG / 3600.0 * 0.01
+    files["imu.csv"] = imu_csv(sim.imu.t_s, dth, sim.dvel_mps)
+    al = nav_inputs(parse_files(files)).alignment
+    assert al.gyrocompass_sigma_rad > 30 * DEG and al.method == "gnss_course"
+    assert abs(_heading_error(al.c_bn, sim)) <= 3.0 * al.heading_sigma_rad

@@ -704,8 +704,9 @@ def align_at_standstill(log: DriveLog, t, eta, still_s: tuple, found_by: str, la
     Roll and pitch from the standstill's mean specific force. Heading: the manifest's
     ``initial.heading_deg`` when given; else gyrocompassing when the gyros resolve the horizontal
     Earth rate to :data:`GYROCOMPASS_MAX_SIGMA_RAD` (:func:`ldvsurvey.nav.align.gyrocompass_sigma`
-    with the larger of the manifest's gyro bias and the bias the standstill shows on the vertical
-    axis, where the Earth rate is known without heading); else the GNSS course at move-off
+    with the larger of the manifest's gyro bias and the bias the standstill shows: on the vertical
+    axis, where the Earth rate is known without heading, and as a horizontal rate beyond the Earth's
+    ω cos L); else the GNSS course at move-off
     (:func:`course_heading`); else gyrocompassing at whatever σ it has (the summary says when that
     is no heading at all). Gyro biases: the standstill's mean less the Earth rate through the
     attitude found, σ from the mean's scatter and the Earth rate's horizontal part times the heading σ.
@@ -745,7 +746,10 @@ def align_at_standstill(log: DriveLog, t, eta, still_s: tuple, found_by: str, la
     # the vertical gyro's bias is seen without heading: Earth's vertical rate is ω sin L whatever the heading
     up_b = c_gc[2]  # the up axis in the body frame
     b_up = abs(float(up_b @ w_mean) - OMEGA_IE * np.sin(lat_rad))
-    seen = max(0.0, b_up - 3.0 * float(np.linalg.norm(w_sig)))
+    # and a horizontal rate well beyond the Earth's (ω cos L) is bias too, whatever the heading
+    w_h = float(np.linalg.norm(w_mean - up_b * (up_b @ w_mean)))
+    b_h = w_h - OMEGA_IE * abs(np.cos(lat_rad))
+    seen = max(0.0, max(b_up, b_h) - 3.0 * float(np.linalg.norm(w_sig)))
     sig_gc = gyrocompass_sigma(
         lat_rad, max(noise.gyro_bias_rps, seen) if eta is None else 0.0, float(np.hypot(*w_sig[:2]))
     )
