@@ -613,10 +613,12 @@ def format_gga(
     str
         ``$..GGA,...*hh``, without a line end.
     """
-    tod = t_s % 86400.0
-    hh, rem = divmod(tod, 3600.0)
-    mm, ss = divmod(rem, 60.0)
-    tstr = f"{int(hh):02d}{int(mm):02d}{ss:05.2f}"
+    # rounded to the field's 10 ms first, so that 59.996 s carries into the minute (and 23:59:59.996
+    # into 00:00:00.00 of the next day, which the reader counts as a wrap)
+    cs = int(round((t_s % 86400.0) * 100.0)) % 8640000
+    hh, rem = divmod(cs, 360000)
+    mm, rem = divmod(rem, 6000)
+    tstr = f"{hh:02d}{mm:02d}{rem // 100:02d}.{rem % 100:02d}"
     if fix > 0 and np.isfinite(lat_deg):
         lat = _ddmm(abs(lat_deg), 2)
         lon = _ddmm(abs(lon_deg), 3)
