@@ -118,6 +118,10 @@ def prepare_rtklibexplorer(src: Path, out: Path, which: str) -> None:
     raw = np.genfromtxt(src / f"imu_{stem}.csv", delimiter=",", skip_header=1, skip_footer=1)
     start, span = _tag_times((src / f"imu_{stem}.csv.tag").read_bytes())
     ms = raw[:, 6] - raw[0, 6]
+    # the ticks are the host's arrival times (8-11 ms steps around exactly 10 ms): the sensor samples at
+    # a fixed rate, so the time base is the ticks' straight-line fit against the sample index
+    ms = np.polyval(np.polyfit(np.arange(len(ms)), ms, 1), np.arange(len(ms)))
+    ms -= ms[0]
     t = start + ms / 1000.0 * span / (ms[-1] / 1000.0) + cfg["t_off"]
     c = _c_body_of_imu(cfg["rpy"])
     f_frd = raw[:, 0:3] @ c.T * 9.80665  # the set's own g unit
@@ -433,7 +437,21 @@ def report(set_dir: Path, runs: dict, g: np.ndarray, windows: dict, t0: float) -
             print(f"| {label} | {r['wall']:.2f} | {r['cpu']:.2f} |")
 
 
-def run_set(set_dir: Path, kfgins: Path, static_s: float | None, folder: Path) -> None:
+def standstill_noise(imu: np.ndarray, t_still: float) -> tuple[float, float]:
+    """White noise the standstill itself shows (engine vibration included), largest axis: the gyros'
+    angle random walk (°/√h) and the accelerometers' (µg/√Hz), from the sample scatter times √Δt."""
+    k = imu[:, 0] <= t_still
+    dt_s = float(np.median(np.diff(imu[:, 0])))
+    w = imu[k, 1:4] / dt_s
+    f = imu[k, 4:7] / dt_s
+    arw = float(np.degrees(w.std(0).max()) * np.sqrt(dt_s) * 60.0)
+    vrw = float(f.std(0).max() * np.sqrt(dt_s) / 9.80665e-6)
+    return arw, vrw
+
+
+def run_set(
+    set_dir: Path, kfgins: Path, static_s: float | None, folder: Path, noise: str = "datasheet", outages=None
+) -> None:
     """Every variant of one prepared set, then its tables."""
     partial = json.loads((set_dir / "partial.json").read_text())
     if static_s is not None:
@@ -442,9 +460,15 @@ def run_set(set_dir: Path, kfgins: Path, static_s: float | None, folder: Path) -
     imu = np.loadtxt(set_dir / "imu.txt")
     t0, t_end = float(imu[0, 0]), float(imu[-1, 0])
     t_still = standstill_end(g)
+    if noise == "standstill":  # both filters get the noise the standstill shows, where above the datasheet's
+        arw, vrw = standstill_noise(imu, t_still)
+        m = partial["imu"]
+        m["gyro_arw_deg_per_rth"] = max(m["gyro_arw_deg_per_rth"], round(arw, 3))
+        m["accel_noise_ug_per_rthz"] = max(m["accel_noise_ug_per_rthz"], round(vrw, 1))
+        print(f"noise from the standstill: ARW {arw:.3f} °/√h, VRW {vrw:.0f} µg/√Hz (largest axis)", file=sys.stderr)
     start = kfgins_start(imu, g, t_still)
     offset = sow_minus_day_s(partial["date"])
-    windows = {w: outage_windows(t0, t_end, n, length) for w, (n, length) in OUTAGES.items()}
+    windows = {w: outage_windows(t0, t_end, n, length) for w, (n, length) in (outages or OUTAGES).items()}
     print(
         f"{set_dir.name}: {len(imu)} IMU rows over {t_end - t0:.0f} s, {len(g)} fixes; GNSS standstill until "
         f"{t_still - t0:.1f} s ({start['n_still']} IMU rows); KF-GINS start: roll {np.degrees(start['att'][0]):+.2f}°, "
@@ -488,12 +512,22 @@ def main():
     ap.add_argument("--kfgins", default=os.environ.get("KFGINS_BIN"), help="KF-GINS's binary or checkout")
     ap.add_argument("--static-s", type=float, help="give navigate initial.static_s (the baseline of main)")
     ap.add_argument("--keep", type=Path, help="keep every bundle and output here")
+    ap.add_argument(
+        "--noise",
+        choices=("datasheet", "standstill"),
+        default="datasheet",
+        help="IMU white noise for both filters: the set's figures, or raised to what the standstill shows",
+    )
+    ap.add_argument("--outages", help="outage runs as LENGTHxCOUNT,... in s (default 30x5,60x4)")
     args = ap.parse_args()
     kfgins = find_kfgins(args.kfgins)
+    outages = None
+    if args.outages:
+        outages = {f"{a}-s": (int(b), float(a)) for a, b in (x.split("x") for x in args.outages.split(","))}
     for set_dir in args.sets:
         folder = (args.keep / set_dir.name) if args.keep else Path(tempfile.mkdtemp(prefix="bench-kfgins-real-"))
         folder.mkdir(parents=True, exist_ok=True)
-        run_set(set_dir, kfgins, args.static_s, folder)
+        run_set(set_dir, kfgins, args.static_s, folder, args.noise, outages)
         if args.keep is None:
             shutil.rmtree(folder, ignore_errors=True)
 
