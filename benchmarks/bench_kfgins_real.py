@@ -27,9 +27,13 @@ Run (KF-GINS built from its public source, see bench_kfgins.py)::
     PYTHONPATH=backend .venv/bin/python benchmarks/bench_kfgins_real.py prepare rtklibexplorer-drive \\
         SRC_DIR /work/realdata/rtklibexplorer-drive0708
     KFGINS_BIN=/work/kfgins/bin/KF-GINS PYTHONPATH=backend .venv/bin/python benchmarks/bench_kfgins_real.py \\
-        /work/realdata/rtklibexplorer-drive0708 [--static-s 30] [--keep DIR]
+        /work/realdata/rtklibexplorer-drive0708 [--static-s 30] [--noise standstill] [--outages 30x5,60x4] [--keep DIR]
 
-Prints figures; asserts nothing.
+``--static-s`` gives navigate ``initial.static_s`` (main needs it on this drive); ``--noise standstill``
+raises both filters' white noise to what the standstill shows (an idling engine's vibration is far
+above a MEMS datasheet's figure). The ``ldvsurvey`` this process imports (PYTHONPATH) is the one the
+``import`` and ``navigate`` subprocesses run: point PYTHONPATH at another worktree's backend to
+measure it. Prints figures; asserts nothing.
 """
 
 from __future__ import annotations
@@ -453,6 +457,8 @@ def run_set(
     set_dir: Path, kfgins: Path, static_s: float | None, folder: Path, noise: str = "datasheet", outages=None
 ) -> None:
     """Every variant of one prepared set, then its tables."""
+    import ldvsurvey
+
     partial = json.loads((set_dir / "partial.json").read_text())
     if static_s is not None:
         partial.setdefault("initial", {})["static_s"] = static_s
@@ -460,6 +466,7 @@ def run_set(
     imu = np.loadtxt(set_dir / "imu.txt")
     t0, t_end = float(imu[0, 0]), float(imu[-1, 0])
     t_still = standstill_end(g)
+    print(f"ldvsurvey from {Path(ldvsurvey.__file__).parent}", file=sys.stderr)
     if noise == "standstill":  # both filters get the noise the standstill shows, where above the datasheet's
         arw, vrw = standstill_noise(imu, t_still)
         m = partial["imu"]
@@ -477,10 +484,10 @@ def run_set(
         + (f"; manifest initial.static_s={static_s:g}" if static_s is not None else ""),
         file=sys.stderr,
     )
+    # the subprocesses run the very tree this process imports (PYTHONPATH decides: another worktree's
+    # backend measures that worktree)
     env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(
-        [str(Path(__file__).resolve().parents[1] / "backend"), env.get("PYTHONPATH", "")]
-    )
+    env["PYTHONPATH"] = os.pathsep.join([str(Path(ldvsurvey.__file__).resolve().parents[1]), env.get("PYTHONPATH", "")])
     runs = {"all": run_variant("all", set_dir, folder, g, partial, env, kfgins, start, offset)}
     runs["all"] = run_variant("all", set_dir, folder, g, partial, env, kfgins, start, offset)  # numba cache warm
     for w, win in windows.items():
