@@ -116,7 +116,7 @@ def prepare_rtklibexplorer(src: Path, out: Path, which: str) -> None:
     and the RTK solution file (``gnss_*_sf.pos``, GPST) as the fixes."""
     cfg = {
         "drive": dict(stem="1934", rpy=(180.0, -6.79, 185.35), t_off=-0.125, lever_frd=(0.0, -0.05, 0.0)),
-        "walk": dict(stem="1730", rpy=(180.0, 0.0, -90.0), t_off=0.0, lever_frd=(0.0, -0.05, 0.0)),
+        "walk": dict(stem="1730", rpy=(180.0, 0.0, -90.0), t_off=0.0, lever_frd=(0.0, 0.0, 0.0)),
     }[which]
     stem = cfg["stem"]
     raw = np.genfromtxt(src / f"imu_{stem}.csv", delimiter=",", skip_header=1, skip_footer=1)
@@ -383,6 +383,7 @@ def run_variant(name, set_dir, folder, g_rows, partial, env, kfgins, start, offs
                  "--set", f"smooth={str(smooth).lower()}", "--set", f"output_rate_hz={rate:g}")  # fmt: skip
         if r["rc"] == 0:
             r["sol"] = solution_of_ours(out, offset)
+            r["summary"] = json.loads((out / "summary.json").read_text())
         res["smoothed" if smooth else "forward"] = r
     k = kfgins_inputs(vdir, bundle, set_dir, start, offset)
     cfg = write_kfgins_config(vdir, k)
@@ -434,6 +435,16 @@ def report(set_dir: Path, runs: dict, g: np.ndarray, windows: dict, t0: float) -
     sig = np.hypot(g[:, 4], g[:, 5])
     print(f"| the fixes' own σ (floor; the filters take {0.03:g} m per RTK fix) | {rms(sig):.3f} | – "
           + "| – " * len(windows) + "|")  # fmt: skip
+    for key, label in SOLUTIONS:  # what each solution started from, and what its filter threw away
+        r = full.get(key)
+        if r is None or "sol" not in r:
+            continue
+        line = f"{label}: heading at the first epoch {r['sol']['heading'][0]:.1f}°"
+        if "summary" in r:
+            rej = r["summary"].get("rejected_measurements", {})
+            line += f", rejected: {rej.get('gnss', '?')} of {len(g)} fixes, {rej.get('zupt', '?')} ZUPTs"
+        print(f"\n{line}", end="")
+    print()
     n = runs["all"].get("repeats", 1)
     print(f"\n| step (every fix; median of {n}) | wall (s) | CPU (s) |\n|---|---|---|")
     for key, label in (("import", "`ldv-survey import`"),) + SOLUTIONS:
