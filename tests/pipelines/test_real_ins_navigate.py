@@ -21,8 +21,9 @@ The bounds, from the sensor's grade and what the fixes make observable:
 
 KF-GINS, run by benchmarks/bench_kfgins_real.py on the same excerpt with the set's noise figures,
 meets the heading bound with the standstill's noise (1.2°), not quite with the datasheet's (3.4°),
-and its drift at the end of two 20-s outages (90-110 s, 130-150 s) is 16 m RMS with the datasheet's
-noise, 12 m with the standstill's. main today: the heading comes from the gyros at rest (−10°
+and its drift at the end of these three 20-s outages is 12.6 m RMS with the standstill's noise
+(15.2, 6.7, 14.1 m), 43.9 m with the datasheet's (22.4, 12.4, 71.5 m): the bounds ask for a filter
+that knows the vibration it rides on. main today: the heading comes from the gyros at rest (−10°
 off, 9° RMS) and the outage drift is ~50 m; without ``initial.static_s`` it refuses the drive.
 """
 
