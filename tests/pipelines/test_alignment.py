@@ -277,3 +277,84 @@ def test_a_horizontal_bias_the_manifest_does_not_state_stops_gyrocompassing():
     al = nav_inputs(parse_files(files)).alignment
     assert al.gyrocompass_sigma_rad > 30 * DEG and al.method == "gnss_course"
     assert abs(_heading_error(al.c_bn, sim)) <= 3.0 * al.heading_sigma_rad
+
+
+def test_gyros_reading_zero_at_rest_neither_gyrocompass_nor_yield_nans():
+    """A navigation-grade log whose gyros read exactly zero through the standstill (a deadband, or a
+    simulator without the Earth's rotation): the gyros see no Earth rate, so they cannot find north
+    (the vertical gyro misses ω_ie sin L, the horizontal ones ω_ie cos L), and the levelling comes from
+    the specific force alone. Before: the TRIAD divided by |f × ω| = 0, the attitude was NaN, the
+    gyrocompass claimed σ 0.013° and ``navigate`` wrote an all-NaN trajectory with exit 0."""
+    from ldvsurvey.io.writers import imu_csv
+
+    sim = simulate(catalog.drive(minutes=3.0, static_s=60.0, with_ldv=False), seed=4)
+    files = _without_static_s(sim)
+    dth = sim.dtheta_rad.copy()
+    dth[sim.imu.t_s < sim.scenario.t0_s + 60.0] = 0.0
+    files["imu.csv"] = imu_csv(sim.imu.t_s, dth, sim.dvel_mps)
+    inp = nav_inputs(parse_files(files))
+    al = inp.alignment
+    assert al.method == "gnss_course" and al.gyrocompass_sigma_rad > 30 * DEG
+    assert np.all(np.isfinite(al.gyro_bias_rps)) and np.all(np.isfinite(inp.pos0))
+    c0 = initial_attitude(inp, None)
+    pitch, roll, _ = euler_from_c_bn(c0)
+    pt, rt, _ = euler_from_c_bn(sim.imu.c_bn[0])
+    # levelled from the specific force: a navigation-grade accelerometer (25 µg) levels to ~0.002°
+    assert abs(pitch - pt) < 0.01 * DEG and abs(roll - rt) < 0.01 * DEG
+    assert abs(_heading_error(c0, sim)) <= 3.0 * al.heading_sigma_rad
+    # and without GNSS: no north and no course is said, the attitude still finite and level
+    del files["gnss.nmea"]
+    m = json.loads(files["manifest.json"])
+    lat, lon = np.degrees(sim.scenario.road.lat0_rad), np.degrees(sim.scenario.road.lon0_rad)
+    m["initial"].update(lat_deg=float(lat), lon_deg=float(lon), h_m=120.0)
+    files["manifest.json"] = json.dumps(m).encode()
+    inp = nav_inputs(parse_files(files))
+    assert not inp.alignment.observable
+    assert any("heading not observable" in w for w in inp.warnings)
+    c0 = initial_attitude(inp, None)
+    assert np.all(np.isfinite(c0))
+    pitch, roll, _ = euler_from_c_bn(c0)
+    assert abs(pitch - pt) < 0.01 * DEG and abs(roll - rt) < 0.01 * DEG
+
+
+@pytest.mark.parametrize("quality", [1, 2])
+def test_single_point_fixes_still_show_a_moving_vehicle(quality):
+    """A log cut in the middle of a straight stretch driven at a steady 15 m/s, with single-point (or
+    differential) fixes only: their speed cannot tell standing from creeping (3 σ above 0.25 m/s), but
+    15 m/s is far beyond that; the IMU's 1-s means are as steady as at rest. The log starts on the
+    move. Before: the GNSS speed was dropped from the test altogether and 35 s at 15 m/s were taken
+    as a standstill (levelled on, zero-velocity updates applied)."""
+    from ldvsurvey.io.writers import imu_csv, nmea_text
+    from ldvsurvey.sim.scenario import GEOID_SEPARATION_M
+
+    sim = simulate(
+        catalog.drive(minutes=3.0, static_s=20.0, with_ldv=False, fix_schedule=[(0.0, 1e5, quality)]), seed=8
+    )
+    t_cut = sim.scenario.t0_s + 60.0  # 20 s stop, 20-s ramp to 15 m/s, then straight for ~80 s
+    ki, kg = sim.imu.t_s > t_cut, sim.gnss_t_s > t_cut
+    assert np.linalg.norm(sim.imu.v_n[np.flatnonzero(ki)[0]]) == pytest.approx(15.0, abs=0.1)
+    m = json.loads(bundle_files(sim)["manifest.json"])
+    m["initial"] = {}
+    f = {
+        "manifest.json": json.dumps(m).encode(),
+        "imu.csv": imu_csv(sim.imu.t_s[ki], sim.dtheta_rad[ki], sim.dvel_mps[ki]),
+        "gnss.nmea": nmea_text(
+            sim.gnss_t_s[kg],
+            sim.gnss_lat_deg[kg],
+            sim.gnss_lon_deg[kg],
+            sim.gnss_h_m[kg],
+            sim.gnss_fix[kg],
+            sep_m=GEOID_SEPARATION_M,
+            talker="GN",
+        ),
+    }
+    inp = nav_inputs(parse_files(f))
+    assert inp.alignment.method == "moving_start" and inp.alignment.standstill_s is None
+    v = np.array([np.linalg.norm(sim.imu.v_n[np.searchsorted(sim.imu.t_s, 0.5 * (a + b))]) for a, b in inp.still])
+    assert np.all(v < 0.05), f"zero-velocity updates at {v} m/s"
+    # and the same fixes at a real 40-s standstill do not read motion into their noise (5 σ, not 3)
+    sim = simulate(
+        catalog.drive(minutes=2.0, static_s=40.0, with_ldv=False, fix_schedule=[(0.0, 1e5, quality)]), seed=8
+    )
+    al = nav_inputs(parse_files(_without_static_s(sim))).alignment
+    assert 36.0 <= al.standstill_s[1] - sim.scenario.t0_s <= 40.0

@@ -34,10 +34,12 @@ from ldvsurvey.nav.filter import (
 from ldvsurvey.nav.localframe import local_metres  # noqa: F401  (re-exported for the stages and gravity)
 from ldvsurvey.pipelines.base import note_summary, warn
 from ldvsurvey.pipelines.stages.start import (
+    GNSS_JUDGE_MAX_MPS,
     Alignment,
     align_at_standstill,
     body_force_and_rate,
     detect_static_start,
+    gnss_moving_limit,
     gnss_still_speed,
     initial_position,
     moving_start,
@@ -187,7 +189,7 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     eta = np.unwrap(np.radians(imu.turntable_deg)) if imu.turntable_deg is not None else None
     sp = _speeds(log, t)
     ok, nu_f, nu_u, speed_ok, speed, by, unusable = sp[:7]
-    judge_ok, judge_v, limit = sp[7:]
+    judge_ok, judge_v, limit, moving_ok, moving_limit = sp[7:]
     f_b, w_z = body_force_and_rate(t, imu.dtheta_rad, imu.dvel_mps, eta)
     still = still_intervals(t, judge_v / limit, judge_ok, thresh=1.0, f_b=f_b, w_z=w_z)
     static_s = m.initial.static_s
@@ -197,7 +199,7 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     if static_s is None or static_s == 0:  # not given: detect; 0: the log starts on the move
         static_end = float(t[0])
         if static_s is None:
-            static_end = detect_static_start(t, f_b, w_z, judge_v, judge_ok, thresh=limit)
+            static_end = detect_static_start(t, f_b, w_z, judge_v, moving_ok, thresh=moving_limit)
             found_by = _found_by(by, judge_ok, t, static_end)
         if static_end - t[0] < 30.0:  # no static start: align on the move (or say what is missing)
             start = moving_start(log, t, eta, speed, speed_ok)
@@ -260,22 +262,39 @@ STILL_LDV_MPS = 0.03
 def _speeds(log: DriveLog, t: np.ndarray) -> tuple:
     """The speeds a log is judged with at the IMU samples ``t``: the LDV's (usable flags, forward and
     up m/s) as the aid; the speed a moving start takes (usable, m/s) and its source; the LDV's
-    unusability (a ParameterError or None); and the still test's (usable, speed m/s, limit m/s)."""
+    unusability (a ParameterError or None); and the still test's (usable, speed m/s, limit m/s) with
+    where and above what speed (m/s) it shows motion (single-point fixes: motion, never a standstill)."""
     unusable = None
     if log.ldv is not None:
         try:
             ok, nu_f, nu_u = _interp_ldv(log, t)
             lim = np.full(len(t), STILL_LDV_MPS)
-            return ok, nu_f, nu_u, ok, nu_f, "the LDV", None, ok, nu_f, lim
+            return ok, nu_f, nu_u, ok, nu_f, "the LDV", None, ok, nu_f, lim, ok, lim
         except ParameterError as exc:  # an LDV that failed all day: GNSS-only work still goes on
             unusable = exc
     # no LDV: never an aid; stops and a moving start from GNSS
     ok, nu_f = np.zeros(len(t), bool), np.zeros(len(t))
     speed_ok, speed = _gnss_speed_at(log, t)
     # the still test: the speed over 2 s against its own noise (4-Hz RTK fixes differenced epoch to
-    # epoch read a few cm/s at rest)
-    judge_ok, judge_v, limit = gnss_still_speed(log, t)
-    return ok, nu_f, None, speed_ok, speed, "the GNSS track", unusable, judge_ok, judge_v, limit
+    # epoch read a few cm/s at rest); single-point fixes cannot call a standstill but still
+    # show a vehicle driving well beyond their limit
+    moving_ok, judge_v, limit = gnss_still_speed(log, t, judge_max_mps=np.inf)
+    judge_ok = moving_ok & (limit <= GNSS_JUDGE_MAX_MPS)
+    moving_limit = gnss_moving_limit(judge_ok, limit)
+    return (
+        ok,
+        nu_f,
+        None,
+        speed_ok,
+        speed,
+        "the GNSS track",
+        unusable,
+        judge_ok,
+        judge_v,
+        limit,
+        moving_ok,
+        moving_limit,
+    )
 
 
 def _found_by(by: str, judge_ok, t, static_end: float) -> str:

@@ -434,7 +434,7 @@ GNSS_JUDGE_MAX_MPS = 0.25
 GNSS_STILL_SPAN_S = 2.0
 
 
-def gnss_still_speed(log: DriveLog, t_imu: np.ndarray):
+def gnss_still_speed(log: DriveLog, t_imu: np.ndarray, judge_max_mps: float = GNSS_JUDGE_MAX_MPS):
     """The GNSS ground speed at the IMU samples for the still test, with its own still limit.
 
     Speed from fixes :data:`GNSS_STILL_SPAN_S` apart (central differences: at 4 Hz over 8 epochs, at
@@ -449,11 +449,14 @@ def gnss_still_speed(log: DriveLog, t_imu: np.ndarray):
         The parsed bundle.
     t_imu : ndarray
         (N,) IMU times (s).
+    judge_max_mps : float
+        The largest still limit (m/s) that can judge a standstill (np.inf: where the speed can show
+        motion at all, see :func:`gnss_moving_limit`).
 
     Returns
     -------
     ok : ndarray
-        (N,) bool: the GNSS speed can judge a standstill there.
+        (N,) bool: the GNSS speed can judge a standstill there (its limit at most ``judge_max_mps``).
     speed_mps : ndarray
         (N,) horizontal speed (m/s).
     limit_mps : ndarray
@@ -483,7 +486,21 @@ def gnss_still_speed(log: DriveLog, t_imu: np.ndarray):
     lim = np.interp(t_imu, tg, limit)
     j = np.clip(np.searchsorted(tg, t_imu), 1, len(tg) - 1)
     ok = (tg[j] - tg[j - 1] <= 2.5 * step) & (t_imu >= tg[0] - step) & (t_imu <= tg[-1] + step)
-    return ok & (lim <= GNSS_JUDGE_MAX_MPS), speed, lim
+    return ok & (lim <= judge_max_mps), speed, lim
+
+
+#: a GNSS speed too noisy to call a standstill (limit above :data:`GNSS_JUDGE_MAX_MPS`) still shows
+#: motion beyond this many of its σ: a 2-D speed of white noise exceeds 5 σ with probability
+#: exp(−12.5) ≈ 4e-6 per sample (3 σ: 1 %, a false move-off in a 35-s stop of 1-Hz fixes every few logs)
+GNSS_MOVING_SIGMAS = 5.0
+
+
+def gnss_moving_limit(ok, limit):
+    """The speed (m/s, per sample) above which the still test's GNSS speed shows the vehicle moving:
+    its still limit (3 σ) where it can judge a standstill (``ok``), else 5 σ
+    (:data:`GNSS_MOVING_SIGMAS`): single-point fixes at 1 Hz (σ_v 0.35 m/s) show a car at 15 m/s
+    moving although they cannot tell standing from creeping."""
+    return np.where(ok, limit, GNSS_MOVING_SIGMAS / 3.0 * np.asarray(limit, float))
 
 
 #: the gyros gyrocompass when their heading σ (:func:`ldvsurvey.nav.align.gyrocompass_sigma`) is at most this (rad)
@@ -746,9 +763,10 @@ def align_at_standstill(log: DriveLog, t, eta, still_s: tuple, found_by: str, la
     # the vertical gyro's bias is seen without heading: Earth's vertical rate is ω sin L whatever the heading
     up_b = c_gc[2]  # the up axis in the body frame
     b_up = abs(float(up_b @ w_mean) - OMEGA_IE * np.sin(lat_rad))
-    # and a horizontal rate well beyond the Earth's (ω cos L) is bias too, whatever the heading
+    # and a horizontal rate well beyond the Earth's (ω cos L), or well short of it, is bias too,
+    # whatever the heading: |w_h − ω_h| ≥ | |w_h| − ω cos L | (gyros reading zero at rest miss it all)
     w_h = float(np.linalg.norm(w_mean - up_b * (up_b @ w_mean)))
-    b_h = w_h - OMEGA_IE * abs(np.cos(lat_rad))
+    b_h = abs(w_h - OMEGA_IE * abs(np.cos(lat_rad)))
     seen = max(0.0, max(b_up, b_h) - 3.0 * float(np.linalg.norm(w_sig)))
     sig_gc = gyrocompass_sigma(
         lat_rad, max(noise.gyro_bias_rps, seen) if eta is None else 0.0, float(np.hypot(*w_sig[:2]))
