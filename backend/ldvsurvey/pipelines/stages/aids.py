@@ -548,15 +548,16 @@ def run_navigation_filter(
 def _start_bias(inp: NavInputs, cfg: FilterConfig):
     """The IMU noise and initial gyro bias (rad/s) a run starts from.
 
-    A start the gyros could not gyrocompass (a heading from the course, the manifest, or none)
-    starts from the standstill's gyro-bias estimate, and the filter's gyro-bias prior is that
-    estimate's σ (never below the manifest's bias instability, nor below 5 % of its bias: the turn-on
-    bias may move on moving off). A gyrocompassed start keeps the manifest's prior and a zero bias
-    (the estimate there is the gyrocompass's own residual)."""
+    A start the gyros could not gyrocompass (a heading from the course, the manifest, or none: a
+    gyrocompass that is not observable) starts from the standstill's gyro-bias estimate, and the
+    filter's gyro-bias prior is that estimate's σ (never below the manifest's bias instability, nor
+    below 5 % of its bias: the turn-on bias may move on moving off). A gyrocompassed start keeps the
+    manifest's prior and a zero bias (the estimate there is the gyrocompass's own residual)."""
     al = inp.alignment
     if (
         al is None
-        or al.method in ("gyrocompass", "moving_start")
+        or al.method == "moving_start"
+        or (al.method == "gyrocompass" and al.observable)
         or al.gyro_bias_rps is None
         or inp.eta_rad is not None
     ):
