@@ -385,3 +385,22 @@ def test_no_north_still_starts_from_the_standstill_gyro_bias(mems):
     j0, j1 = np.searchsorted(sol.t_s, [t1, t1 + 60.0])
     print(f"heading error change over the first minute of driving {(d[j1] - d[j0]) / DEG:+.3f}°")
     assert abs(d[j1] - d[j0]) < 1.0 * DEG
+
+
+def test_a_manifest_static_period_the_gnss_contradicts_is_said(mems):
+    """``initial.static_s`` stays an override, but 60 s given for a stop that ends at 35 s would apply
+    zero-velocity updates to a vehicle driving off: the RTK speed shows motion from about 36 s, and
+    the run says so, naming the field (before: silent). The true 35 s given raise nothing."""
+    sim, _ = mems
+    files = _without_static_s(sim)
+    m = json.loads(files["manifest.json"])
+    for given, said in ((60.0, True), (STOP_S - 3.0, False)):
+        m["initial"]["static_s"] = given
+        files["manifest.json"] = json.dumps(m).encode()
+        inp = nav_inputs(parse_files(files))
+        hit = [w for w in inp.warnings if "initial.static_s" in w and "motion" in w]
+        assert bool(hit) == said, inp.warnings
+        if said:
+            t_said = float(hit[0].split("from t=")[1].split(" s")[0]) - sim.scenario.t0_s
+            print(hit[0], f"(the stop ends at {STOP_S} s)")
+            assert STOP_S <= t_said <= STOP_S + 4.0

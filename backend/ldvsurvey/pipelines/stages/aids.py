@@ -39,6 +39,7 @@ from ldvsurvey.pipelines.stages.start import (
     align_at_standstill,
     body_force_and_rate,
     detect_static_start,
+    first_motion,
     gnss_moving_limit,
     gnss_still_speed,
     initial_position,
@@ -216,6 +217,13 @@ def nav_inputs(log: DriveLog) -> NavInputs:
                 "the static period is shorter than 30 s: too short to align",
                 file="manifest.json",
                 field="initial.static_s",
+            )
+        moved = first_motion(t, judge_v, moving_ok, moving_limit)
+        if moved is not None and moved < static_end:  # an override, but not a silent one
+            warnings.append(
+                f"manifest initial.static_s={static_s:g} s, but {by}'s speed shows motion from t={moved:.1f} s: "
+                "zero-velocity updates on a moving vehicle corrupt the start (check initial.static_s, or "
+                "leave it out to find the standstill in the data)"
             )
     still = [(a, b) for a, b in still if b > static_end + 1.0 or a > static_end]
     noise = ImuNoise.from_manifest(m.imu)

@@ -191,6 +191,14 @@ def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0, thres
     return float(t[max(0, k - 1)]) - 2.0
 
 
+def first_motion(t, speed, ok, thresh, min_moving_s: float = 1.0) -> float | None:
+    """The first time (s) the usable speed stays at or above ``thresh`` (m/s, scalar or per sample)
+    for ``min_moving_s`` in a row, or None: what a speed says of a static period given by hand."""
+    run = max(1, int(round(min_moving_s / np.median(np.diff(t)))))
+    sustained = all_ahead(np.asarray(ok, bool) & (np.abs(speed) >= thresh), run)
+    return float(t[int(np.argmax(sustained))]) if sustained.any() else None
+
+
 #: fix qualities from best to worst for the start position
 FIX_RANK = (4, 5, 2, 1)
 
