@@ -432,3 +432,28 @@ def test_the_course_at_move_off_is_the_imus_not_the_antennas():
         assert abs(errs[-1]) <= 3.0 * al.heading_sigma_rad
     print("heading errors (antenna 3 m ahead, above, 3 m behind):", np.round(np.degrees(errs), 3), "°")
     assert np.ptp(errs) < 0.02 * DEG
+
+
+def test_an_imu_facing_backwards_is_not_given_the_course():
+    """The course says which way the vehicle goes, not which way the IMU's forward axis points: an
+    IMU turned 180° about up in its mount (or a car backing out of its parking space) moves off along
+    its −y axis. The same simulated drive with the IMU's axes turned exactly (x, y → −x, −y, the
+    lever arm with them): its heading is the original truth + 180°, found within 3 σ, because the
+    specific force integrated along the travel axis since the standstill shows the motion backwards
+    (before: 180° off with σ 1°)."""
+    from ldvsurvey.io.writers import imu_csv
+
+    sim = simulate(catalog.drive(minutes=3.0, static_s=40.0, with_ldv=False, gyro_bias_dph=1.0), seed=5)
+    files = _without_static_s(sim)
+    flip = np.array([-1.0, -1.0, 1.0])
+    files["imu.csv"] = imu_csv(sim.imu.t_s, sim.dtheta_rad * flip, sim.dvel_mps * flip)
+    m = json.loads(files["manifest.json"])
+    m["gnss"]["lever_arm_m"] = list(np.asarray(m["gnss"]["lever_arm_m"], float) * flip)
+    files["manifest.json"] = json.dumps(m).encode()
+    al = nav_inputs(parse_files(files)).alignment
+    assert al.method == "gnss_course"
+    _, _, h = euler_from_c_bn(al.c_bn)
+    _, _, ht = euler_from_c_bn(sim.imu.c_bn[0])
+    err = float((h - (ht + np.pi) + np.pi) % (2 * np.pi) - np.pi)
+    print(f"heading error of the IMU facing backwards {err / DEG:+.3f}° against σ {al.heading_sigma_rad / DEG:.3f}°")
+    assert abs(err) <= 3.0 * al.heading_sigma_rad

@@ -525,6 +525,10 @@ COURSE_MIN_SPEED_MPS = 3.0
 COURSE_MAX_SIGMA_RAD = 0.5 * RAD_PER_DEG
 COURSE_MAX_TURN_RAD = 1.0 * RAD_PER_DEG
 COURSE_SEARCH_S = 120.0
+#: the IMU's own speed along the travel axis tells forward from backward for a course this soon (s)
+#: after the standstill (its drift: a 2 % grade's gravity, 0.2 m/s², gives 6 m/s in 30 s only when
+#: driven all along; the sign is taken only with a magnitude 0.3-3 times the GNSS speed)
+REVERSE_JUDGE_S = 30.0
 
 
 @dataclass
@@ -635,7 +639,8 @@ def course_heading(log: DriveLog, t, eta, t_still_end: float, level, w_still_rps
     else the sharpest straight one within :data:`COURSE_SEARCH_S` at 1 m/s or more), less the
     body's yaw from the start to that epoch, integrated from the gyros with the standstill's mean
     rate removed (the bias and the Earth rate's vertical part: the integral over the standstill is
-    zero by construction).
+    zero by construction). The course is the IMU's (the antenna's less the lever arm's turn), and
+    turned by 180° when the IMU's own speed along the travel axis shows it moving backwards.
 
     σ² = (√2 σ_h / (v Δt))² (the course; σ_h from :data:`GNSS_WHITE_H_M`) + (σ_b̄ Δ)² + σ_w² δt Δ
     (the yaw carried back over the Δ driven: the mean's σ and the per-sample noise) + (1 % of the
@@ -669,10 +674,11 @@ def course_heading(log: DriveLog, t, eta, t_still_end: float, level, w_still_rps
     dt = float(np.median(np.diff(t)))
     p0, r0 = level
     k_all = t <= min(t_still_end + COURSE_SEARCH_S + 10.0, t[-1])
-    dth, _ = _body_increments(log, eta, k_all)
+    dth, dv = _body_increments(log, eta, k_all)
     yaw = np.concatenate([[0.0], np.cumsum(dth[:, 2] - w_still_rps[2] * dt)]) * np.cos(p0) * np.cos(r0)
     t_k = np.concatenate([[t[0] - dt], t[k_all]])
     fwd = c_bn_from_euler(p0, r0, 0.0) @ _travel_axis_b(log)
+    v_along = _speed_along(dv, t[k_all] <= t_still_end, _travel_axis_b(log))
     best = None
     for i, j, q in _course_candidates(g, t_still_end, t_still_end + COURSE_SEARCH_S):
         lat, lon = np.radians(g.lat_deg[[i, j]]), np.radians(g.lon_deg[[i, j]])
@@ -699,6 +705,9 @@ def course_heading(log: DriveLog, t, eta, t_still_end: float, level, w_still_rps
     sig_c, course, t_mid, de, dn, t_i, t_j = best
     turned = float(np.interp(t_mid, t_k, yaw))  # counter-clockwise + (about up): heading falls by it
     az0 = np.arctan2(fwd[0], fwd[1])
+    v_imu, v_gnss = float(np.interp(t_mid, t_k[1:], v_along)), float(np.hypot(de, dn) / (t_j - t_i))
+    if t_mid - t_still_end <= REVERSE_JUDGE_S and -3.0 * v_gnss < v_imu < -0.3 * v_gnss:
+        az0 += np.pi  # moving along −travel axis: reversing, or an IMU facing backwards in its mount
     lever_b = np.asarray(log.manifest.gnss.lever_arm_m, float)
     yaw_ij = np.interp([t_i, t_j], t_k, yaw)
     for _ in range(2):  # the antenna's course to the IMU's (the lever arm turns with the body)
@@ -709,6 +718,15 @@ def course_heading(log: DriveLog, t, eta, t_still_end: float, level, w_still_rps
     s_yaw2 = (w_sigma_rps[2] * drive) ** 2 + w_sample_rps[2] ** 2 * dt * drive + (GYRO_SCALE_ALLOWANCE * turned) ** 2
     sig = float(np.sqrt(sig_c**2 + s_yaw2 + MOUNT_YAW_SIGMA_RAD[log.ldv is not None] ** 2))
     return heading0, sig, float(t_mid)
+
+
+def _speed_along(dv_mps, still, axis_b) -> np.ndarray:
+    """(K,) speed (m/s) along ``axis_b`` since the standstill: the velocity increments less the
+    standstill's mean (gravity and accelerometer bias), summed in the body frame. Its sign tells
+    forward from backward at move-off (a few seconds: the neglected turn of the body and the bias
+    change over them leave far less than the metres per second it is compared with)."""
+    f_still = dv_mps[still].mean(axis=0) if still.any() else np.zeros(3)
+    return np.cumsum(np.where(still, 0.0, (dv_mps - f_still) @ np.asarray(axis_b, float)))
 
 
 def _imu_course(de_m: float, dn_m: float, yaw_rad, heading_mid_rad: float, level, lever_b) -> float:
