@@ -218,6 +218,11 @@ def test_a_log_that_starts_on_the_move_keeps_its_alignment():
     assert al.method == "moving_start" and al.standstill_s is None
     assert abs(_heading_error(inp.c_bn0, sim, int(np.flatnonzero(ki)[0]))) < 0.3 * DEG
     assert al.summary()["alignment_heading_sigma_deg"] == pytest.approx(3.0)
+    # a manifest heading cannot override an alignment on the move: said, not silently dropped
+    m["initial"] = {"heading_deg": 10.0}
+    f["manifest.json"] = json.dumps(m).encode()
+    inp = nav_inputs(parse_files(f))
+    assert any("initial.heading_deg" in w and "not used" in w for w in inp.warnings), inp.warnings
 
 
 def test_a_manifest_heading_overrides_and_a_bad_one_is_refused(mems):

@@ -205,11 +205,7 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         if static_end - t[0] < 30.0:  # no static start: align on the move (or say what is missing)
             start = moving_start(log, t, eta, speed, speed_ok)
             static_end = float(t[0])
-            warnings.append(
-                f"no static period at the start (the IMU or {by} shows motion from "
-                f"t={t[0]:.2f} s): coarse alignment on the move from the GNSS course and {by}'s "
-                "speed, then the filter; expect the first minutes to be less accurate"
-            )
+            warnings += _moving_start_warnings(m, t, by)
     else:
         static_end = float(t[0] + static_s)
         if static_s < 30.0:
@@ -303,6 +299,21 @@ def _speeds(log: DriveLog, t: np.ndarray) -> tuple:
         moving_ok,
         moving_limit,
     )
+
+
+def _moving_start_warnings(m, t, by: str) -> list[str]:
+    """What a log that starts on the move must say (``by``: the speed's source)."""
+    out = [
+        f"no static period at the start (the IMU or {by} shows motion from "
+        f"t={t[0]:.2f} s): coarse alignment on the move from the GNSS course and {by}'s "
+        "speed, then the filter; expect the first minutes to be less accurate"
+    ]
+    if getattr(m.initial, "heading_deg", None) is not None:
+        out.append(
+            "manifest initial.heading_deg is not used: the log starts on the move, its heading comes "
+            "from the GNSS course"
+        )
+    return out
 
 
 def _found_by(by: str, judge_ok, t, static_end: float) -> str:
