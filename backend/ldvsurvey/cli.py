@@ -95,6 +95,9 @@ def _cmd_run(args) -> int:
     from ldvsurvey.pipelines.registry import get, run_pipeline_cli
 
     if getattr(args, "own_process", False):
+        from ldvsurvey.compilecache import preload_blas
+
+        preload_blas()  # numba's BLAS check would import all of scipy.linalg (0.2 s)
         # importing the pipeline makes about a million objects that last as long as the process: no
         # collection walks them while they are made, and none after (gc.freeze)
         gc.disable()
