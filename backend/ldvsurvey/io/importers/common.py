@@ -6,7 +6,6 @@ from __future__ import annotations
 import datetime as dt
 import io
 import math
-import re
 import warnings
 from dataclasses import dataclass, field
 
@@ -212,8 +211,8 @@ def read_number_table(
     return np.array(rows, dtype=np.float64), np.array(lines, dtype=np.int64)
 
 
-#: anything but printable ASCII, tab and line ends: the fast reader leaves such text to the strict one
-_NOT_PLAIN = re.compile(r"[^\x20-\x7e\t\n\r]")
+#: printable ASCII, tab and line ends: the fast reader leaves text with any other character to the strict one
+_PLAIN = bytes(range(0x20, 0x7F)) + b"\t\n\r"
 
 
 def _regular_table(text: str, min_cols: int, comment: str) -> tuple[np.ndarray, np.ndarray] | None:
@@ -226,7 +225,7 @@ def _regular_table(text: str, min_cols: int, comment: str) -> tuple[np.ndarray, 
     field, a short row, a stray character) returns None and the strict reader reads the text, and names
     what is wrong.
     """
-    if _NOT_PLAIN.search(text) is not None:
+    if not text.isascii() or text.encode("ascii").translate(None, _PLAIN):
         return None
     if "\r" in text:
         text = text.replace("\r\n", "\n")
