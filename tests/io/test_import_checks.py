@@ -159,3 +159,18 @@ def test_fitting_codes_are_right_handed_and_put_the_axis_up():
                 e[j] = sign
                 assert (c @ e)[2] == 1.0  # the sensor axis carrying gravity's reaction points up
     assert fitting_codes("FRD", 2, 1.0)[0] in ("FLU", "BRU")  # closest to the declared FRD
+
+
+def test_a_date_1024_weeks_off_is_named_as_a_week_roll_over():
+    """A receiver with the GPS week roll-over bug dates its log 1024 weeks (7168 days) early; the refusal says so."""
+    import datetime as dt
+
+    m = partial()
+    m["date"] = (dt.date(2023, 3, 20) - dt.timedelta(days=7168)).isoformat()  # the RMC's 2023-03-20, 1024 weeks back
+    with pytest.raises(BundleError) as e:
+        build_bundle(sources(), m)
+    assert e.value.field == "date" and "exactly 1024 GPS weeks" in e.value.message
+    m["date"] = "2022-03-20"  # a year off is no roll-over
+    with pytest.raises(BundleError) as e:
+        build_bundle(sources(), m)
+    assert "GPS weeks" not in e.value.message

@@ -194,3 +194,22 @@ def test_exports(network_run):
     assert {"g_mgal", "dg_mgal", "free_air_mgal", "sigma_mgal"} <= set(t)
     res = read_result_table((out / "network_residuals.csv").read_bytes())
     assert set(np.asarray(res["kind"]).astype(str)) == {"repeat", "crossing", "tie"}
+
+
+def test_gps_time_of_every_row_from_its_own_logs_date(network_run):
+    """Three logs of three dates: each row's GPS week and seconds of week from its own log's date (the
+    ``log`` column), against datetime arithmetic from the GPS epoch with GPS − UTC = 18 s (IERS, 2023)."""
+    import datetime as dt
+
+    sims, _, _, out = network_run
+    days = [dt.date.fromisoformat(s.scenario.date) for s in sims]
+    assert len(set(days)) == 3
+    for name in ("gravity", "gravity_adjusted", "network_residuals"):
+        t = read_result_table((out / f"{name}.csv").read_bytes())
+        assert list(t)[list(t).index("t_s") + 1 : list(t).index("t_s") + 3] == ["gps_week", "gps_sow_s"]
+        logs = np.asarray(t["log"], int)
+        assert set(logs) == {1, 2, 3}
+        for k in np.linspace(0, len(logs) - 1, 40).astype(int):
+            utc = dt.datetime.combine(days[logs[k] - 1], dt.time()) + dt.timedelta(seconds=float(t["t_s"][k]))
+            w, s = divmod((utc - dt.datetime(1980, 1, 6)).total_seconds() + 18.0, 604800.0)
+            assert (t["gps_week"][k], t["gps_sow_s"][k]) == (w, pytest.approx(s, abs=1e-6)), (name, k)

@@ -258,16 +258,16 @@ def geo_features(table: str, cols: dict, summary: dict, track: dict | None = Non
         if len(idx) < 2:  # RFC 7946: a line has two positions at least
             return feats
         t = np.asarray(cols.get("t_s", np.full(len(lon), np.nan)), float)
+        props = {"name": table, "kind": "track", "t_start_s": _jsonval(t[idx[0]]), "t_end_s": _jsonval(t[idx[-1]])}
+        if "gps_week" in cols and "gps_sow_s" in cols:  # the same two instants in GPS time
+            for end, i in (("start", idx[0]), ("end", idx[-1])):
+                props[f"gps_week_{end}"] = _jsonval(np.asarray(cols["gps_week"])[i])
+                props[f"gps_sow_{end}_s"] = _jsonval(np.asarray(cols["gps_sow_s"])[i])
         feats.append(
             {
                 "type": "Feature",
                 "geometry": {"type": "LineString", "coordinates": [coord(i) for i in idx]},
-                "properties": {
-                    "name": table,
-                    "kind": "track",
-                    "t_start_s": _jsonval(t[idx[0]]) if len(idx) else None,
-                    "t_end_s": _jsonval(t[idx[-1]]) if len(idx) else None,
-                },
+                "properties": props,
             }
         )
         return feats

@@ -415,6 +415,7 @@ def run_pipeline(pipe: Pipeline, logs: list, params: dict | Params, progress: Pr
         warnings += list(log.warnings)
     warnings += result.warnings
     warnings += [w for w in staged if w not in warnings]
+    warnings += add_gps_time(result.tables, [getattr(getattr(log, "manifest", None), "date", None) for log in logs])
     common = {
         "pipeline": pipe.name,
         "format_version": FORMAT_VERSION,
@@ -507,6 +508,68 @@ def table_csv(columns: dict) -> bytes:
         texts = [_text_column(c[:n]) for c in cols]
         body = "".join(",".join(row) + "\n" for row in zip(*texts))
     return (header + body).encode()
+
+
+def gps_time_columns(t_s, day) -> tuple[np.ndarray | list, np.ndarray]:
+    """``gps_week`` and ``gps_sow_s`` (s) of bundle-clock times ``t_s`` (s) on the UTC day ``day`` (a date, or
+    one date per row); the week is an integer column, an empty cell where ``t_s`` is missing."""
+    from ldvsurvey.io.leapseconds import bundle_to_gps
+
+    t = np.asarray(t_s, dtype=np.float64)
+    if isinstance(day, dt.date):
+        week, sow = bundle_to_gps(t, day)
+    else:
+        days = np.asarray(day, dtype=object)
+        week, sow = np.full(len(t), -1, dtype=np.int64), np.full(len(t), np.nan)
+        for d in dict.fromkeys(days.tolist()):
+            sel = days == d
+            week[sel], sow[sel] = bundle_to_gps(t[sel], d)
+    if np.all(np.isfinite(t)):
+        return week, sow
+    return [str(int(w)) if np.isfinite(x) else "" for w, x in zip(week.tolist(), t.tolist())], sow
+
+
+def add_gps_time(tables: dict[str, dict], dates: list) -> list[str]:
+    """Put ``gps_week`` and ``gps_sow_s`` beside ``t_s`` in every table that has it (in place).
+
+    ``dates`` are the UTC dates of the run's logs (``manifest.date``, None where unknown). One date
+    for all the logs serves every row; logs of different dates need a table's ``log`` column (1-based
+    log number) to tell each row's date. A table whose rows' dates are not known gets no GPS columns:
+    the returned warnings say which.
+    """
+    warnings = []
+    known = set(dates)
+    for name, cols in list(tables.items()):
+        if "t_s" not in cols or "gps_week" in cols or not len(dates):
+            continue
+        if None in known:
+            day = None
+        elif len(known) == 1:
+            day = dates[0]
+        elif "log" in cols:
+            idx = np.asarray(cols["log"], dtype=np.int64) - 1
+            day = [dates[i] for i in idx.tolist()]
+        else:
+            day = None
+        if day is None:
+            warnings.append(f"{name}.csv: no gps_week/gps_sow_s (the date of its rows is not known)")
+            continue
+        week, sow = gps_time_columns(cols["t_s"], day)
+        out = {}
+        for k, v in cols.items():
+            out[k] = v
+            if k == "t_s":
+                out["gps_week"], out["gps_sow_s"] = week, sow
+        tables[name] = out
+    from ldvsurvey.io.leapseconds import LEAP_TABLE_VALID_TO, gps_minus_utc_s
+
+    late = sorted(d for d in known if d is not None and d > LEAP_TABLE_VALID_TO)
+    if late and any("gps_week" in cols for cols in tables.values()):
+        warnings.append(
+            f"gps_sow_s: the built-in leap-second table is known complete to {LEAP_TABLE_VALID_TO}; for {late[-1]} "
+            f"GPS−UTC = {gps_minus_utc_s(late[-1])} s is assumed"
+        )
+    return warnings
 
 
 def result_files(result: PipelineResult) -> dict[str, bytes]:

@@ -51,9 +51,17 @@ def check_dates(parts: dict, names: dict, manifest_date: dt.date | None) -> dict
         day, how = got
         out[role] = {"day": day.isoformat(), "from": how}
         if manifest_date is not None and abs((day - manifest_date).days) > 1:
+            n_days = (day - manifest_date).days
+            weeks = round(n_days / 7168) * 1024
+            rollover = (
+                f" (exactly {abs(weeks)} GPS weeks: a receiver's week-number roll-over bug; its date is wrong, the "
+                "manifest's may be right)"
+                if weeks and abs(n_days - weeks * 7) <= 1
+                else ""
+            )
             raise BundleError(
                 f"the recording is dated {day} ({how}) but the partial manifest says {manifest_date}: its samples "
-                f"would land {(day - manifest_date).days} days away on the bundle clock; correct the manifest's date "
+                f"would land {n_days} days away on the bundle clock{rollover}; correct the manifest's date "
                 "(or leave it out: the recordings state it)",
                 file=names[role],
                 field="date",
@@ -73,28 +81,37 @@ def check_dates(parts: dict, names: dict, manifest_date: dt.date | None) -> dict
 
 
 def check_overlap(t: dict, names: dict) -> dict | None:
-    """IMU and GNSS must overlap in time: refuse when they do not, warn below 90 % of the IMU span."""
+    """IMU and GNSS must overlap in time: refuse when no fix lies within the IMU's span (its ends included: a
+    recording of one fix has a GNSS span of zero length), warn below 90 % of the IMU span."""
     if "gnss" not in t or not len(t["gnss"]) or not len(t["imu"]):
         return None
     i0, i1 = float(t["imu"][0]), float(t["imu"][-1])
-    g0, g1 = float(t["gnss"][0]), float(t["gnss"][-1])
+    tg = np.asarray(t["gnss"], dtype=np.float64)
+    g0, g1 = float(tg[0]), float(tg[-1])
     ov = max(0.0, min(i1, g1) - max(i0, g0))
     share = ov / (i1 - i0) if i1 > i0 else 0.0
+    inside = int(np.count_nonzero((tg >= i0) & (tg <= i1)))
     res = {
         "imu_s": [round(i0, 3), round(i1, 3)],
         "gnss_s": [round(g0, 3), round(g1, 3)],
         "overlap_s": round(ov, 3),
         "share": round(share, 4),
+        "fixes_inside": inside,
     }
-    if ov <= 0.0:
+    if inside:
+        return res
+    if g1 < i0 or g0 > i1:
         gap = max(g0 - i1, i0 - g1)
-        raise BundleError(
-            f"the IMU ({i0:.3f}–{i1:.3f} s) and the GNSS fixes ({g0:.3f}–{g1:.3f} s on the bundle clock) do not "
-            f"overlap in time ({gap:.3f} s apart): wrong day, time scale or time base in one of them",
-            file=names["gnss"],
-            field="time",
-        )
-    return res
+        why = f"do not overlap in time ({gap:.3f} s apart)"
+    else:
+        k = int(np.searchsorted(tg, i0))
+        why = f"overlap, but no fix lies within the IMU's span (the fixes pause from {tg[k - 1]:.3f} to {tg[k]:.3f} s)"
+    raise BundleError(
+        f"the IMU ({i0:.3f}–{i1:.3f} s) and the GNSS fixes ({g0:.3f}–{g1:.3f} s on the bundle clock) {why}: wrong "
+        "day, time scale or time base in one of them",
+        file=names["gnss"],
+        field="time",
+    )
 
 
 def measure_imu_rate(t_imu: np.ndarray, declared_hz: float | None) -> dict:

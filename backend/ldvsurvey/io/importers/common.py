@@ -1,9 +1,10 @@
-"""What every importer returns, a strict reader for whitespace/comma separated numbers, and WGS-84 ECEF to
-geodetic coordinates."""
+"""What every importer returns, the decoding of text files (byte-order marks, UTF-16), a strict reader for
+whitespace/comma separated numbers, and WGS-84 ECEF to geodetic coordinates."""
 
 from __future__ import annotations
 
 import datetime as dt
+import functools
 import io
 import math
 import warnings
@@ -101,6 +102,72 @@ class LdvPart:
     stamps: Stamps
     columns: dict[str, np.ndarray]
     notes: list[str] = field(default_factory=list)
+
+
+#: byte-order marks, longest first (UTF-32LE's begins with UTF-16LE's)
+_BOMS = (
+    (b"\xff\xfe\x00\x00", "utf-32-le", "UTF-32LE"),
+    (b"\x00\x00\xfe\xff", "utf-32-be", "UTF-32BE"),
+    (b"\xef\xbb\xbf", "utf-8", "UTF-8"),
+    (b"\xff\xfe", "utf-16-le", "UTF-16LE"),
+    (b"\xfe\xff", "utf-16-be", "UTF-16BE"),
+)
+
+
+def text_encoding(data: bytes) -> tuple[str, str, int] | None:
+    """How a text file is encoded when it is not plain ASCII/UTF-8: (Python codec, name, bytes of its byte-order
+    mark), or None. A byte-order mark decides; without one, UTF-16 is recognised by its zero bytes (Windows
+    programs write ASCII text as UTF-16LE: every second byte 0, and no zero byte in between)."""
+    for bom, codec, label in _BOMS:
+        if data.startswith(bom):
+            return codec, f"{label} with a byte-order mark", len(bom)
+    head = data[:4096]
+    n = len(head) // 2
+    if n < 16:
+        return None
+    even, odd = head[0 : 2 * n : 2].count(0), head[1 : 2 * n : 2].count(0)
+    if odd > 0.9 * n and even == 0:
+        return "utf-16-le", "UTF-16LE without a byte-order mark", 0
+    if even > 0.9 * n and odd == 0:
+        return "utf-16-be", "UTF-16BE without a byte-order mark", 0
+    return None
+
+
+def decoded_text(data: bytes) -> tuple[bytes, str | None]:
+    """The file as UTF-8 bytes, and how it was encoded (None when it already was ASCII/UTF-8 without a mark).
+
+    Characters that do not decode become U+FFFD (so a damaged sentence keeps its line and fails its own check);
+    the line structure, hence every line number, is kept."""
+    enc = text_encoding(data)
+    if enc is None:
+        return data, None
+    codec, label, skip = enc
+    return data[skip:].decode(codec, "replace").encode("utf-8"), label
+
+
+def text_reader(reader):
+    """Decorate an importer's ``read(data, file, role, opts)`` so that it reads text files in any encoding
+    :func:`decoded_text` knows (a note in the part's notes says which); a text format's importers all take it."""
+
+    @functools.wraps(reader)
+    def read(data: bytes, file: str, role: str, opts: dict):
+        text, how = decoded_text(data)
+        part = reader(text, file, role, opts)
+        if how is not None:
+            part.notes.append(f"{file}: {how}: read as text")
+        return part
+
+    return read
+
+
+def text_sniffer(sniffer):
+    """Decorate an importer's ``sniff(data, name)`` to look at the decoded text (see :func:`decoded_text`)."""
+
+    @functools.wraps(sniffer)
+    def sniff(data: bytes, name: str) -> str | None:
+        return sniffer(decoded_text(data[:262144])[0], name)
+
+    return sniff
 
 
 def ecef_to_lla(x_m: float, y_m: float, z_m: float) -> tuple[float, float, float]:

@@ -24,7 +24,7 @@ import numpy as np
 
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.csvtable import MAX_COLUMNS
-from ldvsurvey.io.importers.common import GnssPart, ImuPart, LdvPart, Stamps, fix_from_sigma
+from ldvsurvey.io.importers.common import GnssPart, ImuPart, LdvPart, Stamps, fix_from_sigma, text_reader, text_sniffer
 from ldvsurvey.io.importers.contract import Importer, Option
 
 NAME = "csv"
@@ -87,6 +87,7 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 CFG = "import.{role}.csv"
 
 
+@text_sniffer
 def sniff(data: bytes, name: str) -> str | None:
     """Never a role: a CSV file is read only with a column map given for it."""
     return None  # a column map is always needed
@@ -100,6 +101,7 @@ def _split(line: str, delim: str | None) -> list[str]:
     return line.split() if delim is None else [c.strip() for c in line.split(delim)]
 
 
+@text_reader
 def read(data: bytes, file: str, role: str, opts: dict):
     """Columns of delimited text, by the column map ``import.<role>.csv``, in the bundle's units.
 

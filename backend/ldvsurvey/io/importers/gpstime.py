@@ -12,42 +12,15 @@ import datetime as dt
 
 import numpy as np
 
-GPS_EPOCH = dt.datetime(1980, 1, 6)
-WEEK_S = 604800.0
-DAY_S = 86400.0
-
-#: (first UTC day with this value, GPS - UTC in s). Source: IERS Bulletin C.
-LEAP_TABLE = [
-    (dt.date(1981, 7, 1), 1),
-    (dt.date(1982, 7, 1), 2),
-    (dt.date(1983, 7, 1), 3),
-    (dt.date(1985, 7, 1), 4),
-    (dt.date(1988, 1, 1), 5),
-    (dt.date(1990, 1, 1), 6),
-    (dt.date(1991, 1, 1), 7),
-    (dt.date(1992, 7, 1), 8),
-    (dt.date(1993, 7, 1), 9),
-    (dt.date(1994, 7, 1), 10),
-    (dt.date(1996, 1, 1), 11),
-    (dt.date(1997, 7, 1), 12),
-    (dt.date(1999, 1, 1), 13),
-    (dt.date(2006, 1, 1), 14),
-    (dt.date(2009, 1, 1), 15),
-    (dt.date(2012, 7, 1), 16),
-    (dt.date(2015, 7, 1), 17),
-    (dt.date(2017, 1, 1), 18),
-]
-#: the table is known complete up to this UTC day (IERS Bulletin C 70: no leap second at the end of 2025)
-LEAP_TABLE_VALID_TO = dt.date(2026, 6, 30)
-
-
-def gps_minus_utc_s(day: dt.date) -> int:
-    """GPS − UTC in whole seconds on the UTC day ``day`` (0 before 1981-07-01)."""
-    value = 0
-    for first, leap in LEAP_TABLE:
-        if day >= first:
-            value = leap
-    return value
+from ldvsurvey.io.leapseconds import (  # noqa: F401 (re-exported: the importers' names)
+    DAY_S,
+    GPS_EPOCH,
+    LEAP_TABLE,
+    LEAP_TABLE_VALID_TO,
+    WEEK_S,
+    bundle_to_gps,
+    gps_minus_utc_s,
+)
 
 
 def gps_week_of(day: dt.date, leap_s: int) -> tuple[int, float]:

@@ -11,7 +11,16 @@ from __future__ import annotations
 import numpy as np
 
 from ldvsurvey.errors import BundleError
-from ldvsurvey.io.importers.common import GnssPart, ImuPart, Stamps, check_increasing, fix_from_sigma, read_number_table
+from ldvsurvey.io.importers.common import (
+    GnssPart,
+    ImuPart,
+    Stamps,
+    check_increasing,
+    fix_from_sigma,
+    read_number_table,
+    text_reader,
+    text_sniffer,
+)
 from ldvsurvey.io.importers.contract import Importer
 
 NAME = "kf-gins"
@@ -20,6 +29,7 @@ IMU_NAMES = ["gps_sow", "dtheta_x", "dtheta_y", "dtheta_z", "dvel_x", "dvel_y", 
 GNSS_NAMES = ["gps_sow", "lat_deg", "lon_deg", "h_m", "sigma_n_m", "sigma_e_m", "sigma_d_m"]
 
 
+@text_sniffer
 def sniff(data: bytes, name: str) -> str | None:
     """``imu`` or ``gnss`` when the first data row looks like a KF-GINS row, else None."""
     for line in data[:4096].decode("ascii", "replace").splitlines():
@@ -41,6 +51,7 @@ def sniff(data: bytes, name: str) -> str | None:
     return None
 
 
+@text_reader
 def read(data: bytes, file: str, role: str, opts: dict) -> ImuPart | GnssPart:
     """A KF-GINS IMU or GNSS text file (GPS seconds of week, no week).
 

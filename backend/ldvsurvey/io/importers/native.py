@@ -7,13 +7,14 @@ import numpy as np
 from ldvsurvey.errors import BundleError
 from ldvsurvey.io.csvtable import read_numeric_csv
 from ldvsurvey.io.drivelog import IMU_COLUMNS
-from ldvsurvey.io.importers.common import GnssPart, ImuPart, LdvPart, Stamps
+from ldvsurvey.io.importers.common import GnssPart, ImuPart, LdvPart, Stamps, text_reader, text_sniffer
 from ldvsurvey.io.importers.contract import Importer
 
 NAME = "native"
 ROLES = ("imu", "ldv", "gnss")
 
 
+@text_sniffer
 def sniff(data: bytes, name: str) -> str | None:
     """``imu`` or ``ldv`` when the header is the bundle's ``imu.csv`` or ``ldv.csv`` header, else None."""
     head = data[:2048].decode("utf-8", "replace")
@@ -26,6 +27,7 @@ def sniff(data: bytes, name: str) -> str | None:
     return None
 
 
+@text_reader
 def read(data: bytes, file: str, role: str, opts: dict):
     """A file already in the bundle's format (``imu.csv``, ``ldv.csv`` or ``gnss.nmea``), on the bundle clock.
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ldvsurvey.errors import BundleError
-from ldvsurvey.io.importers.common import GnssPart, Stamps, ecef_to_lla
+from ldvsurvey.io.importers.common import GnssPart, Stamps, ecef_to_lla, text_reader, text_sniffer
 from ldvsurvey.io.importers.contract import Importer, Option
 from ldvsurvey.io.importers.gpstime import GPS_EPOCH, WEEK_S
 
@@ -29,6 +29,7 @@ _DATE = re.compile(r"(\d{2,4})/(\d{1,2})/(\d{1,2})")
 _TIME = re.compile(r"(\d{1,2}):(\d{1,2}):(\d{1,2}(?:\.\d*)?)")
 
 
+@text_sniffer
 def sniff(data: bytes, name: str) -> str | None:
     """``gnss`` when the first 4 kB hold an RTKLIB header line (``% GPST latitude(deg) ...``), else None."""
     head = data[:4096].decode("ascii", "replace")
@@ -45,6 +46,7 @@ def _num(tok: str, file: str, line: int, name: str) -> float:
     return v
 
 
+@text_reader
 def read(data: bytes, file: str, role: str, opts: dict) -> GnssPart:
     """GNSS fixes of an RTKLIB ``.pos`` solution file (see the module docstring).
 

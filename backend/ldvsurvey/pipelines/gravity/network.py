@@ -425,7 +425,18 @@ def _residuals(lines, clusters, ties, adj, k_sigma, origin, ties_given):
     rm, rn = radii(origin[0])
     cols = {
         k: []
-        for k in ("kind", "point", "line", "t_s", "lat_deg", "lon_deg", "residual_mgal", "standardized", "outlier")
+        for k in (
+            "kind",
+            "point",
+            "log",
+            "line",
+            "t_s",
+            "lat_deg",
+            "lon_deg",
+            "residual_mgal",
+            "standardized",
+            "outlier",
+        )
     }
     flagged = []
     for pi, cl in enumerate(clusters):
@@ -442,6 +453,7 @@ def _residuals(lines, clusters, ties, adj, k_sigma, origin, ties_given):
             out = bool(abs(zi) > k_sigma)
             cols["kind"].append(cl.kind)
             cols["point"].append(pi)
+            cols["log"].append(lines[i].log + 1)
             cols["line"].append(lines[i].name)
             cols["t_s"].append(t)
             cols["lat_deg"].append(np.degrees(origin[0] + cl.n_m / rm))
@@ -465,6 +477,7 @@ def _residuals(lines, clusters, ties, adj, k_sigma, origin, ties_given):
         out = bool(abs(z) > k_sigma)
         cols["kind"].append("tie")
         cols["point"].append(-1)
+        cols["log"].append(t.log + 1)
         cols["line"].append(t.name)
         cols["t_s"].append(t.t_s)
         k = int(t.name[1:]) - 1
@@ -477,6 +490,7 @@ def _residuals(lines, clusters, ties, adj, k_sigma, origin, ties_given):
             flagged.append({"kind": "tie", "line": t.name, "t_s": t.t_s, "residual_mgal": r, "standardized": z})
     table = {k: (np.array(v, float) if k not in ("kind", "line") else v) for k, v in cols.items()}
     table["point"] = np.array(cols["point"], dtype=np.int64)
+    table["log"] = np.array(cols["log"], dtype=np.int64)  # 1-based, as gravity_adjusted.csv (and its date)
     table["outlier"] = np.array(cols["outlier"], dtype=np.int64)
     return table, flagged
 

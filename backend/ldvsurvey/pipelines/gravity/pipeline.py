@@ -674,8 +674,9 @@ def frame_tilt_report(tilt):
 def gravity_table(chains, res: Evaluation, rate_hz: float, extra: dict) -> dict:
     """gravity.csv: the main chain at ``rate_hz`` (Hz; raw block means and filtered values, mGal), plus the
     other chains' filtered δg at the same times in the ``extra`` columns ({column: (chains, Evaluation or
-    None)}; NaN where absent)."""
-    cols = {k: [] for k in ("t_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal")}
+    None)}; NaN where absent). With several logs a ``log`` column (1-based) says whose clock ``t_s`` is."""
+    names = ("t_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal")
+    cols = {k: [] for k in (names[:1] + ("log",) + names[1:] if len(chains) > 1 else names)}
     cols.update({k: [] for k, (ch, r) in extra.items() if r is not None})
     line_of = {}
     for ln in res.lines:
@@ -695,6 +696,8 @@ def gravity_table(chains, res: Evaluation, rate_hz: float, extra: dict) -> dict:
             dist[sel] = np.interp(idx[sel], k, s)
         t = ch["t_s"][idx]
         cols["t_s"] += list(t)
+        if "log" in cols:
+            cols["log"] += [ci + 1] * len(t)
         cols["line"] += list(name_col)
         cols["distance_m"] += list(dist)
         cols["lat_deg"] += list(np.degrees(ch["lat"][idx]))
@@ -710,7 +713,10 @@ def gravity_table(chains, res: Evaluation, rate_hz: float, extra: dict) -> dict:
             v = np.interp(t, tt, f / MGAL)  # NaN (withheld) samples stay NaN
             v[(t < tt[0]) | (t > tt[-1])] = np.nan
             cols[key] += list(v)
-    return {k: (np.array(v, dtype=float) if k != "line" else v) for k, v in cols.items()}
+    out = {k: (np.array(v, dtype=float) if k != "line" else v) for k, v in cols.items()}
+    if "log" in out:
+        out["log"] = np.array(cols["log"], dtype=np.int64)
+    return out
 
 
 PIPELINE = Pipeline(
