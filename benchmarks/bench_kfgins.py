@@ -178,7 +178,8 @@ def write_kfgins_inputs(sim, log, folder: Path, t_offset_s: float = 0.0) -> dict
 
 
 def write_kfgins_config(folder: Path, k: dict) -> Path:
-    """KF-GINS's YAML from the same figures the product reads from the manifest."""
+    """KF-GINS's YAML from the same figures the product reads from the manifest (``k`` may also give
+    ``bg0_dph``/``bg_sigma0_dph``, the initial gyro bias and its σ in °/h, and ``imupath``)."""
     n = k["noise"]
     g_bi = n.gyro_bias_instability_dph or n.gyro_bias_dph
     a_bi = n.accel_bias_instability_ug or n.accel_bias_ug
@@ -188,7 +189,7 @@ def write_kfgins_config(folder: Path, k: dict) -> Path:
     lat, lon, h = k["pos0"]
     v3 = lambda x: "[ " + ", ".join(f"{float(v):.10g}" for v in np.broadcast_to(x, 3)) + " ]"  # noqa: E731
     text = f"""# written by benchmarks/bench_kfgins.py
-imupath: "{folder / "imu.txt"}"
+imupath: "{k.get("imupath", folder / "imu.txt")}"
 gnsspath: "{folder / "gnss.txt"}"
 outputpath: "{folder / "kfgins-out"}"
 imudatalen: 7
@@ -198,14 +199,14 @@ endtime: -1
 initpos: {v3([lat / RAD, lon / RAD, h])}
 initvel: [ 0.0, 0.0, 0.0 ]
 initatt: {v3(np.degrees(k["att0"]))}
-initgyrbias: [ 0, 0, 0 ]
+initgyrbias: {v3(k.get("bg0_dph", 0.0))}
 initaccbias: [ 0, 0, 0 ]
 initgyrscale: [ 0, 0, 0 ]
 initaccscale: [ 0, 0, 0 ]
 initposstd: {v3(k["pos_sigma0"])}
 initvelstd: {v3(k["vel_sigma0"])}
 initattstd: {v3(k["att_sigma0_deg"])}
-initbgstd: {v3(n.gyro_bias_dph)}
+initbgstd: {v3(k.get("bg_sigma0_dph", n.gyro_bias_dph))}
 initbastd: {v3(n.accel_bias_ug * ug_to_mgal)}
 imunoise:
   arw: {v3(n.gyro_arw_dprh)}

@@ -40,7 +40,10 @@ from ldvsurvey.sim.sensors import FIX_SIGMA
 
 ARCSEC = np.pi / 180 / 3600
 TILT_BOUND_RAD = 2e-5  #: acceptance of issue 13
-CONFIGS = ("ideal",) + effect_names() + ("all",)
+#: the engine's vibration belongs to consumer-MEMS car drives (tests/pipelines/test_alignment.py): this
+#: matrix's floors come from the navigation-grade rotating IMU's datasheet noise, which a shake of
+#: tenths of °/s per sample would exceed by design
+CONFIGS = ("ideal",) + tuple(n for n in effect_names() if n != "engine_vibration") + ("all",)
 HEIGHT_PIPELINES = ("tilt", "calibrate", "height", "navigate", "dov")
 
 

@@ -18,10 +18,12 @@ def test_names_and_switches():
         "imu_timing",
         "turntable",
         "gnss",
+        "engine_vibration",
         "moving_start",
     }
     assert Effects.ideal().on() == []
-    assert set(Effects.realistic(3).on()) == set(names) - {"moving_start"}
+    assert set(Effects.realistic(3).on()) == set(names) - {"moving_start", "engine_vibration"}
+    assert Effects.only("engine_vibration", 3).on() == ["engine_vibration"]
     assert Effects.only("gnss", 3).on() == ["gnss"]
     assert Effects.realistic(3, gnss=False, moving_start=True).on().count("gnss") == 0
     assert "moving_start" in Effects.realistic(3, moving_start=True).on()

@@ -121,3 +121,64 @@ def align_in_motion(
     v_n0 = c_bn_from_euler(pitch, roll, 0.0) @ fwd_b
     heading = course_rad - np.arctan2(v_n0[0], v_n0[1])
     return c_bn_from_euler(pitch, roll, heading)
+
+
+def standstill_rates(dtheta_rad, dvel_mps, dt_s: float, block_s: float = 1.0):
+    """Mean turn rate and specific force of a standstill with the σ of those means from the data.
+
+    The σ come from the scatter of ``block_s`` block means (an idling engine's vibration and the
+    sensor noise alike average out over a block; what is left between blocks is what the whole
+    mean keeps, divided by √(number of blocks)).
+
+    Parameters
+    ----------
+    dtheta_rad, dvel_mps : (K, 3) arrays
+        Angle (rad) and velocity (m/s) increments of the standstill, body frame.
+    dt_s : float
+        Sampling interval (s).
+    block_s : float
+        Block length (s).
+
+    Returns
+    -------
+    w_mean_rps, w_sigma_rps : (3,) arrays
+        Mean angular rate (rad/s) and the 1-σ of that mean (rad/s).
+    f_mean_mps2 : (3,) array
+        Mean specific force (m/s²).
+    w_sample_rps : (3,) array
+        Per-sample σ of the rate (rad/s): vibration and noise as the gyro saw them.
+    """
+    dth = np.asarray(dtheta_rad, float)
+    dv = np.asarray(dvel_mps, float)
+    k = len(dth)
+    span = k * dt_s
+    w_mean = dth.sum(axis=0) / span
+    f_mean = dv.sum(axis=0) / span
+    n_b = max(1, int(round(block_s / dt_s)))
+    nb = k // n_b
+    w_sample = np.std(dth / dt_s, axis=0)
+    if nb >= 3:
+        blocks = dth[: nb * n_b].reshape(nb, n_b, 3).sum(axis=1) / (n_b * dt_s)
+        w_sigma = np.std(blocks, axis=0, ddof=1) / np.sqrt(nb)
+    else:
+        w_sigma = w_sample / np.sqrt(max(k, 1))
+    return w_mean, w_sigma, f_mean, w_sample
+
+
+def earth_rate_in_body(c_bn, lat_rad: float) -> np.ndarray:
+    """ω_ie^b = (C_b^n)ᵀ ω_ie^n (rad/s) with ω_ie^n = [0, ω cos L, ω sin L] (ENU)."""
+    w_n = np.array([0.0, OMEGA_IE * np.cos(lat_rad), OMEGA_IE * np.sin(lat_rad)])
+    return np.asarray(c_bn, float).T @ w_n
+
+
+def gyrocompass_sigma(lat_rad: float, bias_sigma_rps: float, mean_sigma_rps: float) -> float:
+    """1-σ (rad) of a gyrocompassed heading: σ_ψ = √(σ_b² + σ_mean²) / (ω_ie cos L).
+
+    The horizontal Earth rate ω_ie cos L (≈ 15 °/h · cos L) is all the gyros have to find north
+    with; a bias of the horizontal gyros (``bias_sigma_rps``) is read as that rate turned, and so
+    is the noise left in the standstill's mean (``mean_sigma_rps``). Returns π when the error is
+    as large as the signal (north not found at all).
+    """
+    h = OMEGA_IE * abs(np.cos(lat_rad))
+    s = float(np.hypot(bias_sigma_rps, mean_sigma_rps))
+    return float(np.pi) if s >= h else float(min(np.pi, np.arcsin(s / h)))

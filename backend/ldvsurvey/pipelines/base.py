@@ -39,6 +39,17 @@ def warn(message: str) -> None:
         bucket.append(message)
 
 
+_RUN_NOTES: contextvars.ContextVar = contextvars.ContextVar("ldvsurvey_run_notes", default=None)
+
+
+def note_summary(keys: dict) -> None:
+    """Record summary keys a shared stage states for every pipeline that uses it (the start's
+    alignment); the pipeline's own keys win. A no-op outside a run."""
+    bucket = _RUN_NOTES.get()
+    if bucket is not None:
+        bucket.update(keys)
+
+
 class Cancelled(Exception):
     """Raised between stages when the job was asked to stop."""
 
@@ -401,11 +412,14 @@ def run_pipeline(pipe: Pipeline, logs: list, params: dict | Params, progress: Pr
     started = dt.datetime.now(dt.UTC)
     t0 = time.perf_counter()
     token = _RUN_WARNINGS.set([])
+    notes = _RUN_NOTES.set({})
     try:
         result = pipe.func(logs, model, progress)
         staged = list(_RUN_WARNINGS.get())
+        noted = dict(_RUN_NOTES.get())
     finally:
         _RUN_WARNINGS.reset(token)
+        _RUN_NOTES.reset(notes)
     inputs = []
     for log in logs:
         for name in sorted(log.files):  # the hashes known since the files were read: never re-read
@@ -426,7 +440,7 @@ def run_pipeline(pipe: Pipeline, logs: list, params: dict | Params, progress: Pr
         "elapsed_s": round(time.perf_counter() - t0, 3),
         "warnings": warnings,
     }
-    result.summary = _jsonable({**common, **result.summary})
+    result.summary = _jsonable({**common, **noted, **result.summary})
     result.summary["elapsed_s"] = round(time.perf_counter() - t0, 3)
     progress("done", 1.0)
     return result

@@ -77,6 +77,7 @@ SUFFIX_UNIT = {
     "mgal": "mGal",
     "ug": "µg",
     "ug_rthz": "µg/√Hz",
+    "deg_rth": "°/√h",
     "dph": "°/h",
     "ppm": "ppm",
     "pct": "%",

@@ -189,6 +189,24 @@ def errors_vs_gnss(log: DriveLog, sol: NavSolution, fixes=(4,)):
     return np.hypot(d[:, 0], d[:, 1]), d[:, 2], int(k.sum())
 
 
+def _bias_convergence(inp: NavInputs, sol: NavSolution) -> dict:
+    """The filter's gyro-bias 1-σ (°/h, per axis) at the end of the alignment (the end of the
+    standstill, or the first epoch of a moving start) and at the end of the log (smoothed σ when
+    the solution is smoothed)."""
+    from ldvsurvey.nav.errmodel import IX_EPS
+
+    sig = sol.epoch_sigma
+    if sig is None or len(sig) == 0:
+        return {}
+    al = inp.alignment
+    t_al = inp.static_end_s if al is None or al.standstill_s is None else al.standstill_s[1]
+    k = int(np.clip(np.searchsorted(sol.epoch_t_s, t_al), 0, len(sig) - 1))
+    return {
+        "gyro_bias_sigma_end_of_alignment_dph": (sig[k, IX_EPS : IX_EPS + 3] * DPH_PER_RPS).tolist(),
+        "gyro_bias_sigma_end_dph": (sig[-1, IX_EPS : IX_EPS + 3] * DPH_PER_RPS).tolist(),
+    }
+
+
 def run(logs: list[DriveLog], params: NavigateParams, progress: Progress) -> PipelineResult:
     """Navigate one log: alignment, the filter with the chosen aiding (and the LDV calibration it
     needs), the RTS smoother.
@@ -209,7 +227,10 @@ def run(logs: list[DriveLog], params: NavigateParams, progress: Progress) -> Pip
         pitch/roll/heading_deg and their 1-σ (deg, m/s, m). Summary: ``aiding``, ``smoothed``,
         ``max_horizontal_error_m``, ``max_height_error_m``, ``rms_horizontal_error_m`` against fix-4
         GNSS (IMU centre) and ``n_reference``, ``rejected_measurements``, ``gyro_bias_dph``,
-        ``accel_bias_ug``, ``dov`` and, with the LDV, ``calibration``.
+        ``accel_bias_ug``, ``dov`` and, with the LDV, ``calibration``; the start's alignment
+        (``alignment_method``, ``alignment_heading_sigma_deg``, ``standstill_s``,
+        ``initial_gyro_bias_dph`` and its σ, see :class:`~ldvsurvey.pipelines.stages.start.Alignment`)
+        and the filter's gyro-bias σ ``gyro_bias_sigma_end_of_alignment_dph`` and ``gyro_bias_sigma_end_dph``.
     """
     log = logs[0]
     progress("preparing", 0.02)
@@ -254,6 +275,7 @@ def run(logs: list[DriveLog], params: NavigateParams, progress: Progress) -> Pip
         "gyro_bias_dph": (sol.gyro_bias_rps * DPH_PER_RPS).tolist(),
         "accel_bias_ug": (sol.accel_bias_mps2 * UG_PER_MPS2).tolist(),
     }
+    s.update(_bias_convergence(inp, sol))
     s["dov"], warnings = inp.cache["dov"]
     warnings = list(warnings)
     if setup is not None:

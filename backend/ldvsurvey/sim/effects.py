@@ -41,6 +41,13 @@ Effects, their models and realistic magnitudes
     Outages (10–120 s, ~3 per hour), quality changes (4 → 5/2/1 for 30–300 s), multipath jumps
     of 0.1–0.5 m for 5–60 s in fixed solutions, and a real antenna lever arm ([0.3, 0.8, 1.6] m
     RFU) applied through the true body attitude.
+``engine_vibration`` (:class:`EngineVibration`, model in ``imuerrors.py``)
+    An engine running through the whole log, idling at the stops: sinusoids at its firing frequency
+    and a second line (20–40 Hz) of 0.5–3 m/s² and 0.5–2 °/s per axis, plus broadband noise of a few
+    tenths of m/s² and °/s per sample. It shakes the sensor without moving the vehicle: each
+    increment is the exact integral of the sinusoids over its interval, so they leave no net
+    velocity or angle. Off in ``realistic()`` unless asked for (it would change every realistic
+    figure measured without it).
 ``moving_start``
     The log starts on the move (no static period; ``initial.static_s`` = 0). Off in
     ``realistic()`` unless asked for: it removes the alignment the other effects are measured with.
@@ -134,6 +141,16 @@ class GnssEffects:
 
 
 @dataclass(frozen=True)
+class EngineVibration:
+    freq_hz: tuple = (24.0, 37.0)  #: the lines' frequencies (Hz): firing frequency at idle and a second one
+    accel_mps2: tuple = (1.5, 0.8)  #: amplitude of each line (m/s²) on the strongest axis
+    rate_dps: tuple = (1.2, 0.6)  #: amplitude of each line (°/s) on the strongest axis
+    axis_share: tuple = (0.6, 0.5, 1.0)  #: the amplitude's share on x, y, z
+    accel_noise_mps2: float = 0.2  #: broadband σ per sample (m/s²)
+    rate_noise_dps: float = 0.2  #: broadband σ per sample (°/s)
+
+
+@dataclass(frozen=True)
 class MovingStart:
     pass
 
@@ -149,6 +166,7 @@ class Effects:
     imu_timing: ImuTiming | None = None
     turntable: TurntableSpec | None = None
     gnss: GnssEffects | None = None
+    engine_vibration: EngineVibration | None = None
     moving_start: MovingStart | None = None
     seed: int = 1  #: seed of the effects' own random draws (independent of the sensor noise)
 
@@ -159,7 +177,7 @@ class Effects:
 
     @classmethod
     def realistic(cls, seed: int = 1, **overrides) -> Effects:
-        """Every effect on (except ``moving_start``) at magnitudes drawn from ``seed``.
+        """Every effect on (except ``engine_vibration`` and ``moving_start``) at magnitudes drawn from ``seed``.
 
         ``overrides``: effect name → False/None (off), True (on, drawn), or a parameter object.
         """
@@ -188,6 +206,7 @@ class Effects:
             imu_timing=ImuTiming(),
             turntable=TurntableSpec(),
             gnss=GnssEffects(),
+            engine_vibration=None,
             moving_start=None,
         )
         for name, val in overrides.items():
@@ -236,6 +255,7 @@ def _default(name: str):
         "imu_timing": ImuTiming,
         "turntable": TurntableSpec,
         "gnss": GnssEffects,
+        "engine_vibration": EngineVibration,
         "moving_start": MovingStart,
     }[name]()
 
@@ -256,5 +276,6 @@ __all__ = [
     "ImuTiming",
     "TurntableSpec",
     "GnssEffects",
+    "EngineVibration",
     "MovingStart",
 ]

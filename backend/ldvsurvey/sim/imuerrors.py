@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-from ldvsurvey.sim.effects import ImuErrorSpec, ImuTiming
+from ldvsurvey.sim.effects import EngineVibration, ImuErrorSpec, ImuTiming
 from ldvsurvey.units import G0_MPS2 as G0  # noqa: E402
 from ldvsurvey.units import RAD_PER_DEG as DEG  # noqa: E402  (rad per degree)
 
@@ -146,3 +146,43 @@ def timing(t_s: np.ndarray, dt_s: float, spec: ImuTiming, rng) -> tuple[np.ndarr
     jit[big] = rng.uniform(-2e-3, 2e-3, big.sum())
     jit = np.clip(jit, -0.4 * dt_s, 0.4 * dt_s)
     return keep, t_s + jit
+
+
+def engine_vibration(t_s: np.ndarray, dt_s: float, spec: EngineVibration, rng) -> tuple[np.ndarray, np.ndarray]:
+    """Angle and velocity increments an idling (or running) engine adds to the sensor's.
+
+    Each line a·sin(2πf t + φ) (φ drawn per axis and line) enters as its exact integral over the
+    increment's interval, a/(2πf)·[cos(2πf t_{k−1} + φ) − cos(2πf t_k + φ)]: a shake that moves the
+    vehicle nowhere. Broadband noise adds σ·Δt per sample.
+
+    Parameters
+    ----------
+    t_s : (N,) array
+        Sample times (s), each the end of its interval.
+    dt_s : float
+        Sampling interval (s).
+    spec : EngineVibration
+        Frequencies (Hz), amplitudes (m/s², °/s), axis shares and broadband σ.
+    rng : numpy.random.Generator
+        The effects' generator.
+
+    Returns
+    -------
+    dtheta_rad, dvel_mps : (N, 3) arrays
+        The increments to add (rad, m/s).
+    """
+    t = np.asarray(t_s, float)
+    n = len(t)
+    share = np.asarray(spec.axis_share, float)
+    dth = np.zeros((n, 3))
+    dv = np.zeros((n, 3))
+    for f, a, w in zip(spec.freq_hz, spec.accel_mps2, spec.rate_dps):
+        om = 2 * np.pi * f
+        for out, amp in ((dv, a), (dth, w * DEG)):
+            ph = rng.uniform(0, 2 * np.pi, 3)
+            arg1 = om * t[:, None] + ph
+            arg0 = arg1 - om * dt_s
+            out += amp * share / om * (np.cos(arg0) - np.cos(arg1))
+    dv += rng.normal(0.0, spec.accel_noise_mps2 * dt_s, (n, 3)) * share
+    dth += rng.normal(0.0, spec.rate_noise_dps * DEG * dt_s, (n, 3)) * share
+    return dth, dv

@@ -62,6 +62,7 @@ class Scenario:
     effects: Effects = field(default_factory=Effects.ideal)  #: real-drive effects (all off: ideal)
     seed: int = 1  #: sensor-noise seed used when ``simulate`` is not given one
     lead_s: float = 0.0  #: the motion starts this long before t0_s (a log that starts on the move)
+    gnss_rate_hz: float = 1.0  #: GNSS fix rate (Hz; fixes at whole multiples of its interval)
 
     def fix_of_t(self, t):
         """GNSS fix quality (GGA code, 4 RTK fixed unless ``fix_schedule`` says otherwise) at times ``t`` (s)."""
@@ -233,6 +234,11 @@ def _imu_errors(d: _Draw, imu, ref):
         ideal_dth, ideal_dv, d.extras["imu_errors"] = apply_imu_errors(
             imu.dtheta_rad, imu.dvel_mps, dt, sc.effects.imu_errors, sc.gyro_bias_dph, sc.accel_bias_ug, d.erng
         )
+    if sc.effects.engine_vibration is not None:
+        from ldvsurvey.sim.imuerrors import engine_vibration
+
+        v_th, v_v = engine_vibration(imu.t_s, dt, sc.effects.engine_vibration, d.erng)
+        ideal_dth, ideal_dv = ideal_dth + v_th, ideal_dv + v_v
     err = ImuErrors.draw(rng, sc.gyro_bias_dph, sc.accel_bias_ug, sc.gyro_arw_dprh, sc.accel_vrw_ug_rthz)
     state = rng.bit_generator.state
     dth, dv = err.apply(ideal_dth, ideal_dv, dt, rng)
@@ -292,10 +298,11 @@ def _ldv(d: _Draw, body):
 
 
 def _gnss(d: _Draw, c_bt):
-    """GNSS fixes at whole seconds: times (s), latitude, longitude (deg), height (m) and fix quality,
-    with the effect's outages and multipath."""
+    """GNSS fixes at whole multiples of the fix interval: times (s), latitude, longitude (deg), height
+    (m) and fix quality, with the effect's outages and multipath."""
     sc, motion = d.sc, d.motion
-    t_g = np.arange(np.ceil(sc.t0_s), np.floor(motion.t_end_s) + 1e-9, 1.0)
+    r = sc.gnss_rate_hz
+    t_g = np.arange(np.ceil(sc.t0_s * r), np.floor(motion.t_end_s * r) + 1e-9, 1.0) / r
     fix_of_t, extra = sc.fix_of_t, None
     if sc.effects.gnss is not None:
         from ldvsurvey.sim.gnsseffects import fix_with_events, gnss_events, multipath_offsets

@@ -32,10 +32,13 @@ from ldvsurvey.nav.filter import (
     run_filter,
 )
 from ldvsurvey.nav.localframe import local_metres  # noqa: F401  (re-exported for the stages and gravity)
-from ldvsurvey.pipelines.base import warn
+from ldvsurvey.pipelines.base import note_summary, warn
 from ldvsurvey.pipelines.stages.start import (
+    Alignment,
+    align_at_standstill,
     body_force_and_rate,
     detect_static_start,
+    gnss_still_speed,
     initial_position,
     moving_start,
     still_intervals,
@@ -70,6 +73,8 @@ class NavInputs:
     gravity: tuple | None = None
     #: why the log's LDV cannot aid (no usable sample), raised by what needs it; None: usable or absent
     ldv_unusable: ParameterError | None = None
+    #: how the start attitude was found and how well (:class:`~ldvsurvey.pipelines.stages.start.Alignment`)
+    alignment: Alignment | None = None
 
     @property
     def has_ldv(self) -> bool:
@@ -180,24 +185,20 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     t = imu.t_s
     m = log.manifest
     eta = np.unwrap(np.radians(imu.turntable_deg)) if imu.turntable_deg is not None else None
-    unusable = None
-    if log.ldv is not None:
-        try:
-            ok, nu_f, nu_u = _interp_ldv(log, t)
-            speed_ok, speed, by = ok, nu_f, "the LDV"
-        except ParameterError as exc:  # an LDV that failed all day: GNSS-only work still goes on
-            unusable = exc
-    if log.ldv is None or unusable is not None:  # no LDV: never an aid; stops and a moving start from GNSS
-        ok, nu_f, nu_u = np.zeros(len(t), bool), np.zeros(len(t)), None
-        speed_ok, speed = _gnss_speed_at(log, t)
-        by = "the GNSS track"
+    sp = _speeds(log, t)
+    ok, nu_f, nu_u, speed_ok, speed, by, unusable = sp[:7]
+    judge_ok, judge_v, limit = sp[7:]
     f_b, w_z = body_force_and_rate(t, imu.dtheta_rad, imu.dvel_mps, eta)
-    still = still_intervals(t, speed, speed_ok, f_b=f_b, w_z=w_z)
+    still = still_intervals(t, judge_v / limit, judge_ok, thresh=1.0, f_b=f_b, w_z=w_z)
     static_s = m.initial.static_s
     start = None
     warnings = []
+    found_by = "manifest initial.static_s"
     if static_s is None or static_s == 0:  # not given: detect; 0: the log starts on the move
-        static_end = detect_static_start(t, f_b, w_z, speed, speed_ok) if static_s is None else float(t[0])
+        static_end = float(t[0])
+        if static_s is None:
+            static_end = detect_static_start(t, f_b, w_z, judge_v, judge_ok, thresh=limit)
+            found_by = _found_by(by, judge_ok, t, static_end)
         if static_end - t[0] < 30.0:  # no static start: align on the move (or say what is missing)
             start = moving_start(log, t, eta, speed, speed_ok)
             static_end = float(t[0])
@@ -215,13 +216,22 @@ def nav_inputs(log: DriveLog) -> NavInputs:
                 field="initial.static_s",
             )
     still = [(a, b) for a, b in still if b > static_end + 1.0 or a > static_end]
+    noise = ImuNoise.from_manifest(m.imu)
     if start is None:
         still = [(float(t[0]), static_end)] + [(max(a, static_end), b) for a, b in still]
         pos0 = initial_position(log, t, static_end, eta, warnings)
+        alignment = align_at_standstill(log, t, eta, (float(t[0]), static_end), found_by, float(pos0[0]), noise)
+        if alignment.c_bn is not None:  # the lever arm turned with the heading found
+            pos0 = initial_position(log, t, static_end, eta, [], c_bn=alignment.c_bn)
+        warnings += _alignment_warnings(alignment)
     else:
         pos0 = initial_position(log, t, static_end, eta, warnings, moving=start)
+        alignment = Alignment(
+            "moving_start", MOVING_ATT_SIGMA0_RAD[2], None, "no standstill at the start", c_bn=start[0]
+        )
     for w in warnings:
         warn(w)
+    note_summary(alignment.summary())
     return NavInputs(
         log=log,
         t_s=t,
@@ -234,12 +244,71 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         still=still,
         static_end_s=static_end,
         pos0=pos0,
-        noise=ImuNoise.from_manifest(m.imu),
+        noise=noise,
         warnings=warnings,
         c_bn0=None if start is None else start[0],
         v0_n=None if start is None else start[1],
         ldv_unusable=unusable,
+        alignment=alignment,
     )
+
+
+#: still: the LDV speed below this (m/s)
+STILL_LDV_MPS = 0.03
+
+
+def _speeds(log: DriveLog, t: np.ndarray) -> tuple:
+    """The speeds a log is judged with at the IMU samples ``t``: the LDV's (usable flags, forward and
+    up m/s) as the aid; the speed a moving start takes (usable, m/s) and its source; the LDV's
+    unusability (a ParameterError or None); and the still test's (usable, speed m/s, limit m/s)."""
+    unusable = None
+    if log.ldv is not None:
+        try:
+            ok, nu_f, nu_u = _interp_ldv(log, t)
+            lim = np.full(len(t), STILL_LDV_MPS)
+            return ok, nu_f, nu_u, ok, nu_f, "the LDV", None, ok, nu_f, lim
+        except ParameterError as exc:  # an LDV that failed all day: GNSS-only work still goes on
+            unusable = exc
+    # no LDV: never an aid; stops and a moving start from GNSS
+    ok, nu_f = np.zeros(len(t), bool), np.zeros(len(t))
+    speed_ok, speed = _gnss_speed_at(log, t)
+    # the still test: the speed over 2 s against its own noise (4-Hz RTK fixes differenced epoch to
+    # epoch read a few cm/s at rest)
+    judge_ok, judge_v, limit = gnss_still_speed(log, t)
+    return ok, nu_f, None, speed_ok, speed, "the GNSS track", unusable, judge_ok, judge_v, limit
+
+
+def _found_by(by: str, judge_ok, t, static_end: float) -> str:
+    """How the standstill at the start was found (for the summary)."""
+    k = t <= static_end
+    share = float(np.mean(judge_ok[k])) if k.any() else 0.0
+    if share >= 0.5:
+        return f"{by}'s speed below its noise limit and the IMU's 1-s mean specific force and turn rate steady"
+    return "the IMU's 1-s mean specific force and turn rate steady (no speed that can tell)"
+
+
+def _alignment_warnings(al: Alignment) -> list[str]:
+    """What the summary must say about a weak alignment."""
+    from ldvsurvey.units import DEG_PER_RAD
+
+    gc = al.gyrocompass_sigma_rad * DEG_PER_RAD
+    if al.method == "gyrocompass" and al.observable and gc <= 1.0:
+        return []
+    if al.method == "gnss_course":
+        return [
+            f"the gyros cannot find north (gyrocompass heading σ {gc:.0f}°): heading from the GNSS course at "
+            f"move-off (t={al.course_t_s:.1f} s) carried back by the gyros, σ "
+            f"{al.heading_sigma_rad * DEG_PER_RAD:.2f}°"
+        ]
+    if al.method == "manifest":
+        return []
+    if not al.observable:
+        return [
+            f"heading not observable: the gyros cannot find north (gyrocompass heading σ {gc:.0f}°) and the "
+            "log has no GNSS course to take it from (give manifest initial.heading_deg); the heading and "
+            "everything that depends on it are unreliable"
+        ]
+    return [f"heading from gyrocompassing with σ {gc:.1f}°: no GNSS course to sharpen it"]
 
 
 def c_bs_of(inp: NavInputs, alpha_rad: float = 0.0, beta_rad: float = 0.0):
@@ -263,8 +332,11 @@ def initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
 
 
 def _initial_attitude(inp: NavInputs, cbs) -> np.ndarray:
-    if inp.c_bn0 is not None:
-        return inp.c_bn0 if cbs is None else inp.c_bn0 @ cbs[0].T
+    c_bn = inp.c_bn0
+    if c_bn is None and inp.alignment is not None:  # a standstill whose heading came from elsewhere
+        c_bn = inp.alignment.c_bn
+    if c_bn is not None:
+        return c_bn if cbs is None else c_bn @ cbs[0].T
     k = inp.t_s <= inp.static_end_s
     if k.sum() < 100:
         raise ParameterError("the static period holds fewer than 100 IMU samples", field="initial.static_s")
@@ -424,6 +496,13 @@ def run_navigation_filter(
         c0 = (np.eye(3) + skew(initial_misalignment(inp.gravity[0][0], inp.gravity[1][0], inp.pos0[0]))) @ c0
     cfg = cfg or pipeline_cfg()
     v0 = np.zeros(3)
+    noise, bias0 = _start_bias(inp, cfg)
+    al = inp.alignment
+    noise = _vibration_noise(noise, al)
+    if al is not None and inp.v0_n is None and al.heading_sigma_rad > cfg.att_sigma0_rad[2]:
+        # a heading from the course (or weaker): the prior carries its σ
+        s_att = cfg.att_sigma0_rad
+        cfg = dataclasses.replace(cfg, att_sigma0_rad=(s_att[0], s_att[1], min(al.heading_sigma_rad, np.pi)))
     if inp.v0_n is not None:  # aligned on the move: a coarser start
         v0 = inp.v0_n
         cfg = dataclasses.replace(
@@ -434,8 +513,8 @@ def run_navigation_filter(
         )
     return run_filter(
         ImuData(inp.t_s, inp.dtheta_rad, inp.dvel_mps, cbs),
-        NavStart(q_from_c(c0), v0, inp.pos0),
-        inp.noise,
+        NavStart(q_from_c(c0), v0, inp.pos0, gyro_bias_rps=bias0),
+        noise,
         cfg,
         zupt_intervals=inp.still if zupt else [],
         ldv=ldv,
@@ -445,6 +524,55 @@ def run_navigation_filter(
         attitude_only=attitude_only,
         specific_force=specific_force,
     )
+
+
+def _start_bias(inp: NavInputs, cfg: FilterConfig):
+    """The IMU noise and initial gyro bias (rad/s) a run starts from.
+
+    A start the gyros could not gyrocompass (a heading from the course, the manifest, or none)
+    starts from the standstill's gyro-bias estimate, and the filter's gyro-bias prior is that
+    estimate's σ (never below the manifest's bias instability, nor below 5 % of its bias: the turn-on
+    bias may move on moving off). A gyrocompassed start keeps the manifest's prior and a zero bias
+    (the estimate there is the gyrocompass's own residual)."""
+    al = inp.alignment
+    if (
+        al is None
+        or al.method in ("gyrocompass", "moving_start")
+        or al.gyro_bias_rps is None
+        or inp.eta_rad is not None
+    ):
+        return inp.noise, None
+    if cfg.bias_instability > 0:  # a relative random walk scales with the prior: keep the manifest's
+        return inp.noise, al.gyro_bias_rps
+    from ldvsurvey.units import DPH_PER_RPS
+
+    n = inp.noise
+    floor = max(n.gyro_bias_instability_dph or 0.0, 0.05 * n.gyro_bias_dph)
+    est = float(np.max(al.gyro_bias_sigma_rps)) * DPH_PER_RPS
+    return dataclasses.replace(n, gyro_bias_dph=min(n.gyro_bias_dph, max(est, floor))), al.gyro_bias_rps
+
+
+#: the standstill's noise replaces the manifest's when it is at least this many times larger (vibration)
+VIBRATION_NOISE_RATIO = 2.0
+#: ... and above these (°/√h, µg/√Hz): a sensor simulated or specified noiseless keeps its figures
+VIBRATION_MIN_ARW_DPRH = 0.01
+VIBRATION_MIN_VRW_UG_RTHZ = 10.0
+
+
+def _vibration_noise(noise: ImuNoise, al: Alignment | None) -> ImuNoise:
+    """The filter's white noise on a vibrating vehicle: where the standstill shows more than
+    :data:`VIBRATION_NOISE_RATIO` times the manifest's angle or velocity random walk (an engine
+    idling, a datasheet figure taken on a quiet bench), the standstill's. A filter that believes the
+    datasheet reads the shake as attitude: at rest the vibrating horizontal specific force couples
+    heading and gyro bias into the velocity, and the zero-velocity updates drag them off."""
+    if al is None or al.gyro_arw_dprh is None:
+        return noise
+    kw = {}
+    if al.gyro_arw_dprh > max(VIBRATION_NOISE_RATIO * noise.gyro_arw_dprh, VIBRATION_MIN_ARW_DPRH):
+        kw["gyro_arw_dprh"] = al.gyro_arw_dprh
+    if al.accel_vrw_ug_rthz > max(VIBRATION_NOISE_RATIO * noise.accel_vrw_ug_rthz, VIBRATION_MIN_VRW_UG_RTHZ):
+        kw["accel_vrw_ug_rthz"] = al.accel_vrw_ug_rthz
+    return dataclasses.replace(noise, **kw) if kw else noise
 
 
 def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:

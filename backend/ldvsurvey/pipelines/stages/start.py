@@ -6,6 +6,8 @@ Shared by the pipelines through :func:`ldvsurvey.pipelines.stages.aids.nav_input
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ldvsurvey.errors import ParameterError
@@ -14,7 +16,7 @@ from ldvsurvey.nav.align import coarse_align
 from ldvsurvey.nav.attitude import c_bs
 from ldvsurvey.nav.earth import radii
 from ldvsurvey.nav.running import all_ahead, running_mean, running_median_within
-from ldvsurvey.units import RAD_PER_DEG
+from ldvsurvey.units import G0_MPS2, RAD_PER_DEG
 
 #: still: LDV speed below this (m/s)
 STILL_SPEED_MPS = 0.03
@@ -57,14 +59,45 @@ def body_force_and_rate(t, dtheta, dvel, eta, window_s: float = 1.0):
     return running_mean(f, w), running_mean(wz, w)
 
 
-def _quiet(f_b, w_z, ref_idx, f_all=None, w_all=None):
+def _quiet(f_b, w_z, ref_idx, f_all=None, w_all=None, tol=(STILL_ACCEL_MPS2, STILL_RATE_RPS)):
     """Samples whose body specific force and turn rate stay at the still values at ``ref_idx``
-    (indices into ``f_all``/``w_all``, by default the same arrays)."""
+    (indices into ``f_all``/``w_all``, by default the same arrays), within ``tol`` (m/s², rad/s)."""
     f_all = f_b if f_all is None else f_all
     w_all = w_z if w_all is None else w_all
     f_ref = np.median(f_all[ref_idx], axis=0)
     w_ref = np.median(w_all[ref_idx])
-    return (np.linalg.norm(f_b - f_ref, axis=1) < STILL_ACCEL_MPS2) & (np.abs(w_z - w_ref) < STILL_RATE_RPS)
+    return (np.linalg.norm(f_b - f_ref, axis=1) < tol[0]) & (np.abs(w_z - w_ref) < tol[1])
+
+
+#: how far (in σ of their own scatter at rest) the 1-s means may wander before it is motion
+VIBRATION_K = 6.0
+
+
+def vibration_tolerance(f_b, w_z, ref_idx) -> tuple[float, float]:
+    """The still test's tolerances (m/s², rad/s) for a log whose IMU vibrates at rest.
+
+    An idling engine shakes the IMU by metres per second squared and degrees per second from
+    sample to sample, but it neither accelerates nor turns the vehicle: the 1-s *means* stay put.
+    Their own scatter over the reference samples (the first seconds, assumed still) times
+    :data:`VIBRATION_K` is the tolerance, never below the fixed :data:`STILL_ACCEL_MPS2` and
+    :data:`STILL_RATE_RPS` a quiet IMU is judged with.
+
+    Parameters
+    ----------
+    f_b, w_z : ndarray
+        (N, 3) 1-s mean specific force (m/s²) and (N,) turn rate (rad/s) from :func:`body_force_and_rate`.
+    ref_idx : ndarray
+        Indices of the reference samples.
+
+    Returns
+    -------
+    (float, float)
+        Tolerance of the specific force (m/s²) and of the turn rate (rad/s).
+    """
+    f = f_b[ref_idx]
+    sf = float(np.linalg.norm(np.std(f, axis=0))) if len(f) > 2 else 0.0
+    sw = float(np.std(w_z[ref_idx])) if len(f) > 2 else 0.0
+    return max(STILL_ACCEL_MPS2, VIBRATION_K * sf), max(STILL_RATE_RPS, VIBRATION_K * sw)
 
 
 def still_intervals(t, speed, ok, min_len_s=3.0, thresh=STILL_SPEED_MPS, f_b=None, w_z=None):
@@ -120,9 +153,11 @@ def still_intervals(t, speed, ok, min_len_s=3.0, thresh=STILL_SPEED_MPS, f_b=Non
     return out
 
 
-def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0) -> float:
+def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0, thresh=STILL_SPEED_MPS) -> float:
     """End (s) of the static period at the start of the log: the IMU stays at its initial specific
-    force and turn rate, and the usable LDV shows no speed for ``min_moving_s`` in a row.
+    force and turn rate (the 1-s means, within their own scatter at rest: an idling engine's
+    vibration is no motion, :func:`vibration_tolerance`), and the usable speed stays below
+    ``thresh`` (the speed's own noise limit) for ``min_moving_s`` in a row.
 
     Parameters
     ----------
@@ -135,6 +170,8 @@ def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0) -> fl
         (N,) speed (m/s, LDV or GNSS) and where it is usable.
     min_moving_s : float
         How long (s) a speed must last to count as moving off.
+    thresh : float or ndarray
+        Moving at or above this speed (m/s; per sample for a GNSS speed, see :func:`gnss_still_speed`).
 
     Returns
     -------
@@ -142,9 +179,10 @@ def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0) -> fl
         The end of the static period (s), 2 s before the first motion.
     """
     n0 = max(10, int(round(2.0 / np.median(np.diff(t)))))
-    quiet = _quiet(f_b, w_z, np.arange(min(n0, len(t))))
+    ref = np.arange(min(n0, len(t)))
+    quiet = _quiet(f_b, w_z, ref, tol=vibration_tolerance(f_b, w_z, ref))
     k_imu = int(np.argmin(quiet)) if not quiet.all() else len(t)
-    mv = ok & (np.abs(speed) >= STILL_SPEED_MPS)
+    mv = ok & (np.abs(speed) >= thresh)
     run = max(1, int(round(min_moving_s / np.median(np.diff(t)))))
     sustained = all_ahead(mv, run)
     k_ldv = int(np.argmax(sustained)) if sustained.any() else len(t)
@@ -157,7 +195,7 @@ def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0) -> fl
 FIX_RANK = (4, 5, 2, 1)
 
 
-def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, moving=None) -> np.ndarray:
+def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, moving=None, c_bn=None) -> np.ndarray:
     """Start position of the IMU centre: lat, lon (rad), h (m).
 
     The manifest's ``initial`` position when given (authoritative). Otherwise the GNSS fixes of
@@ -181,6 +219,9 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
         Receives what had to be assumed.
     moving : tuple or None
         The start state of :func:`moving_start` (a log that begins on the move), whose position is used.
+    c_bn : ndarray or None
+        (3, 3) C_b^n of the static period when its heading is known otherwise than from the gyros
+        (:class:`Alignment`); None: the coarse alignment of the static period turns the lever arm.
 
     Returns
     -------
@@ -216,7 +257,9 @@ def initial_position(log: DriveLog, t, static_end, eta=None, warnings=None, movi
     h = float(np.mean(g.h_m[k]))
     lever = np.asarray(m.gnss.lever_arm_m, float)
     ks = t <= static_end
-    if np.count_nonzero(ks) >= 100:
+    if c_bn is not None:
+        lev_n = c_bn @ lever
+    elif np.count_nonzero(ks) >= 100:
         imu = log.imu
         cbs = None if eta is None else c_bs(eta[ks])
         c_bn = coarse_align(
@@ -378,3 +421,358 @@ def moving_start(log: DriveLog, t, eta, nu_f, ok, window_s: float = 1.0):
     c_bn = c_bn_from_euler(p0, r0, h_mid + turn)
     v_n = c_bn @ (cdb @ np.array([0.0, v0, 0.0]))
     return c_bn, v_n, _back_to_start(log, k, c_bn, v_n, t[0])
+
+
+# --- the standstill found in the data, and the alignment its sensors can observe ------------------
+
+#: epoch-to-epoch horizontal noise (m, 1 σ) assumed per fix quality for speeds and courses from
+#: differenced fixes over a second or two (the slowly wandering part of a fix's error cancels there)
+GNSS_WHITE_H_M = {4: 0.01, 5: 0.05, 2: 0.2, 1: 0.5}
+#: a GNSS speed whose still limit (3 σ) is above this cannot tell a standing vehicle from a creeping one
+GNSS_JUDGE_MAX_MPS = 0.25
+#: span (s) of the differenced fixes a standstill is judged on
+GNSS_STILL_SPAN_S = 2.0
+
+
+def gnss_still_speed(log: DriveLog, t_imu: np.ndarray):
+    """The GNSS ground speed at the IMU samples for the still test, with its own still limit.
+
+    Speed from fixes :data:`GNSS_STILL_SPAN_S` apart (central differences: at 4 Hz over 8 epochs, at
+    1 Hz over 2), its 1-σ √2·σ_h/span from the fix quality (:data:`GNSS_WHITE_H_M`), and the limit
+    below which the vehicle counts as standing: 3 σ, never below :data:`STILL_SPEED_MPS`. Where that
+    limit exceeds :data:`GNSS_JUDGE_MAX_MPS` (single-point fixes) the GNSS cannot tell standing from
+    creeping and is not used for it.
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle.
+    t_imu : ndarray
+        (N,) IMU times (s).
+
+    Returns
+    -------
+    ok : ndarray
+        (N,) bool: the GNSS speed can judge a standstill there.
+    speed_mps : ndarray
+        (N,) horizontal speed (m/s).
+    limit_mps : ndarray
+        (N,) still below this speed (m/s).
+    """
+    from ldvsurvey.io.logfacts import gnss_speed
+
+    g = log.gnss
+    n = len(t_imu)
+    none = np.zeros(n, bool), np.zeros(n), np.full(n, STILL_SPEED_MPS)
+    if g is None:
+        return none
+    k = (g.fix > 0) & np.isfinite(g.lat_deg) & np.isfinite(g.lon_deg)
+    if np.count_nonzero(k) < 3:
+        return none
+    tg, fix = g.t_s[k], g.fix[k]
+    step = float(np.median(np.diff(tg)))
+    b = max(1, int(round(0.5 * GNSS_STILL_SPAN_S / step)))
+    sp = gnss_speed(tg, g.lat_deg[k], g.lon_deg[k], baseline=b)
+    i = np.arange(len(tg))
+    lo, hi = np.clip(i - b, 0, len(tg) - 1), np.clip(i + b, 0, len(tg) - 1)
+    span = np.maximum(tg[hi] - tg[lo], step)
+    white = np.array([GNSS_WHITE_H_M.get(int(q), 1.0) for q in fix])
+    sig_v = np.sqrt(2.0) * np.maximum(white[lo], white[hi]) / span
+    limit = np.maximum(STILL_SPEED_MPS, 3.0 * sig_v)
+    speed = np.interp(t_imu, tg, sp)
+    lim = np.interp(t_imu, tg, limit)
+    j = np.clip(np.searchsorted(tg, t_imu), 1, len(tg) - 1)
+    ok = (tg[j] - tg[j - 1] <= 2.5 * step) & (t_imu >= tg[0] - step) & (t_imu <= tg[-1] + step)
+    return ok & (lim <= GNSS_JUDGE_MAX_MPS), speed, lim
+
+
+#: the gyros gyrocompass when their heading σ (:func:`ldvsurvey.nav.align.gyrocompass_sigma`) is at most this (rad)
+GYROCOMPASS_MAX_SIGMA_RAD = 1.0 * RAD_PER_DEG
+#: heading σ (rad) beyond which the summary says heading was not observable
+UNOBSERVABLE_SIGMA_RAD = 10.0 * RAD_PER_DEG
+#: IMU-to-vehicle yaw allowance (rad, 1 σ) of a heading from the course: the vehicle's travel axis in
+#: the IMU frame (no LDV: the IMU's forward axis as mounted; with an LDV: its nominal mounting)
+MOUNT_YAW_SIGMA_RAD = {False: 1.0 * RAD_PER_DEG, True: 0.3 * RAD_PER_DEG}
+#: gyro scale-factor allowance (relative, consumer MEMS up to ~1 %) on the yaw carried back
+GYRO_SCALE_ALLOWANCE = 0.01
+#: the course at move-off: at least this speed (m/s) and at most this σ (rad); a straight stretch
+COURSE_MIN_SPEED_MPS = 3.0
+COURSE_MAX_SIGMA_RAD = 0.5 * RAD_PER_DEG
+COURSE_MAX_TURN_RAD = 1.0 * RAD_PER_DEG
+COURSE_SEARCH_S = 120.0
+
+
+@dataclass
+class Alignment:
+    """How the start attitude was found and how well (SI units, rad).
+
+    ``c_bn`` is the body attitude at the first IMU sample when the heading came from anything but
+    the gyros (None: the pipelines' static coarse alignment, gyrocompassing, is the start)."""
+
+    method: str  #: gyrocompass, gnss_course, manifest or moving_start
+    heading_sigma_rad: float
+    standstill_s: tuple | None = None  #: (start, end) of the standstill at the start (s)
+    standstill_found_by: str = ""
+    c_bn: np.ndarray | None = None
+    gyro_bias_rps: np.ndarray | None = None  #: initial gyro-bias estimate (sensor = body axes)
+    gyro_bias_sigma_rps: np.ndarray | None = None
+    gyrocompass_sigma_rad: float | None = None  #: what the gyros could have given
+    course_t_s: float | None = None  #: the epoch of the course the heading came from
+    observable: bool = True  #: heading known to better than :data:`UNOBSERVABLE_SIGMA_RAD`
+    #: the standstill's noise as random walks over the filter's epoch (°/√h, µg/√Hz): vibration included
+    gyro_arw_dprh: float | None = None
+    accel_vrw_ug_rthz: float | None = None
+
+    def summary(self) -> dict:
+        """The summary keys (units in their names)."""
+        from ldvsurvey.units import DEG_PER_RAD, DPH_PER_RPS
+
+        def dph(x):
+            return None if x is None else [float(v) for v in np.asarray(x) * DPH_PER_RPS]
+
+        return {
+            "alignment_method": self.method,
+            "alignment_heading_sigma_deg": float(self.heading_sigma_rad * DEG_PER_RAD),
+            "alignment_gyrocompass_sigma_deg": None
+            if self.gyrocompass_sigma_rad is None
+            else float(self.gyrocompass_sigma_rad * DEG_PER_RAD),
+            "alignment_course_t_s": self.course_t_s,
+            "standstill_s": None if self.standstill_s is None else [float(x) for x in self.standstill_s],
+            "standstill_found_by": self.standstill_found_by,
+            "initial_gyro_bias_dph": dph(self.gyro_bias_rps),
+            "initial_gyro_bias_sigma_dph": dph(self.gyro_bias_sigma_rps),
+            "standstill_gyro_arw_deg_rth": self.gyro_arw_dprh,
+            "standstill_accel_noise_ug_rthz": self.accel_vrw_ug_rthz,
+        }
+
+
+def _manifest_heading(m):
+    """(heading rad, σ rad) from the manifest's ``initial.heading_deg`` (and ``heading_sigma_deg``,
+    default 1°), or None; a ParameterError naming the field when either is not a finite number."""
+    val = getattr(m.initial, "heading_deg", None)
+    if val is None:
+        return None
+    sig = getattr(m.initial, "heading_sigma_deg", 1.0)
+    for name, v in (("heading_deg", val), ("heading_sigma_deg", sig)):
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, (int, float))
+            or not np.isfinite(v)
+            or (name[-9:] == "sigma_deg" and v <= 0)
+        ):
+            raise ParameterError(
+                f"expected a finite number (positive for a σ), got {v!r}", file="manifest.json", field=f"initial.{name}"
+            )
+    return float(val) * RAD_PER_DEG, float(sig) * RAD_PER_DEG
+
+
+def _body_increments(log: DriveLog, eta, k):
+    """Angle and velocity increments (rad, m/s) of the samples ``k`` in the body frame (a rotating
+    IMU's turntable taken out with its nominal axis)."""
+    from ldvsurvey.nav.align import _increments_in_body
+
+    imu = log.imu
+    if eta is None:
+        return imu.dtheta_rad[k], imu.dvel_mps[k]
+    return _increments_in_body(imu.dtheta_rad[k], imu.dvel_mps[k], c_bs(eta[k]), eta[k])
+
+
+def _travel_axis_b(log: DriveLog) -> np.ndarray:
+    """The vehicle's travel direction in the body frame: the LDV's nominal axis, else the IMU's forward axis."""
+    if log.ldv is None or log.manifest.ldv is None:
+        return np.array([0.0, 1.0, 0.0])
+    from ldvsurvey.nav.errmodel import c_db
+
+    nom = log.manifest.ldv.nominal
+    return c_db(nom.pitch_deg * RAD_PER_DEG, nom.heading_deg * RAD_PER_DEG) @ np.array([0.0, 1.0, 0.0])
+
+
+def _course_candidates(g, t_from: float, t_to: float):
+    """Pairs of fixes (i, j) of one quality, :data:`COURSE_BASELINE_S` apart, with i in [t_from, t_to]."""
+    good = np.isfinite(g.lat_deg) & (g.fix > 0)
+    idx = np.flatnonzero(good & (g.t_s >= t_from) & (g.t_s <= t_to + 3.0))
+    for i in idx:
+        if g.t_s[i] > t_to:
+            break
+        q = int(g.fix[i])
+        base = COURSE_BASELINE_S.get(q, 5.0)
+        later = idx[(g.fix[idx] == q) & (g.t_s[idx] >= g.t_s[i] + base - 0.01) & (g.t_s[idx] <= g.t_s[i] + base + 1.01)]
+        if len(later):
+            yield int(i), int(later[0]), q
+
+
+def course_heading(log: DriveLog, t, eta, t_still_end: float, level, w_still_rps, w_sigma_rps, w_sample_rps):
+    """The heading at the first IMU sample from the GNSS course at move-off, and its 1-σ.
+
+    The vehicle does not turn while it stands: the heading at the start is the course at the first
+    straight stretch driven fast enough for a sharp course (:data:`COURSE_MIN_SPEED_MPS`,
+    :data:`COURSE_MAX_SIGMA_RAD`, turning less than :data:`COURSE_MAX_TURN_RAD` over the baseline;
+    else the sharpest straight one within :data:`COURSE_SEARCH_S` at 1 m/s or more), less the
+    body's yaw from the start to that epoch, integrated from the gyros with the standstill's mean
+    rate removed (the bias and the Earth rate's vertical part: the integral over the standstill is
+    zero by construction).
+
+    σ² = (√2 σ_h / (v Δt))² (the course; σ_h from :data:`GNSS_WHITE_H_M`) + (σ_b̄ Δ)² + σ_w² δt Δ
+    (the yaw carried back over the Δ driven: the mean's σ and the per-sample noise) + (1 % of the
+    yaw turned)² (gyro scale) + the IMU-to-vehicle yaw allowance (:data:`MOUNT_YAW_SIGMA_RAD`).
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle (GNSS needed).
+    t : ndarray
+        (N,) IMU times (s).
+    eta : ndarray or None
+        (N,) unwrapped turntable angle (rad).
+    t_still_end : float
+        End of the standstill (s).
+    level : (float, float)
+        Pitch and roll of the standstill (rad).
+    w_still_rps, w_sigma_rps, w_sample_rps : ndarray
+        (3,) the standstill's mean body rate, the σ of that mean and the per-sample σ (rad/s).
+
+    Returns
+    -------
+    tuple or None
+        (heading rad at ``t[0]``, σ rad, course epoch s); None without a usable course.
+    """
+    from ldvsurvey.nav.attitude import c_bn_from_euler
+
+    g = log.gnss
+    if g is None:
+        return None
+    dt = float(np.median(np.diff(t)))
+    p0, r0 = level
+    k_all = t <= min(t_still_end + COURSE_SEARCH_S + 10.0, t[-1])
+    dth, _ = _body_increments(log, eta, k_all)
+    yaw = np.concatenate([[0.0], np.cumsum(dth[:, 2] - w_still_rps[2] * dt)]) * np.cos(p0) * np.cos(r0)
+    t_k = np.concatenate([[t[0] - dt], t[k_all]])
+    fwd = c_bn_from_euler(p0, r0, 0.0) @ _travel_axis_b(log)
+    best = None
+    for i, j, q in _course_candidates(g, t_still_end, t_still_end + COURSE_SEARCH_S):
+        lat, lon = np.radians(g.lat_deg[[i, j]]), np.radians(g.lon_deg[[i, j]])
+        rm, rn = radii(lat[0])
+        de = (lon[1] - lon[0]) * (rn + g.h_m[i]) * np.cos(lat[0])
+        dn = (lat[1] - lat[0]) * (rm + g.h_m[i])
+        dt_g = float(g.t_s[j] - g.t_s[i])
+        v = float(np.hypot(de, dn)) / dt_g
+        if v < 1.0 or g.t_s[j] > t_k[-1]:
+            continue
+        turn = abs(np.interp(g.t_s[j], t_k, yaw) - np.interp(g.t_s[i], t_k, yaw))
+        if turn > COURSE_MAX_TURN_RAD:
+            continue
+        sig_c = np.sqrt(2.0) * GNSS_WHITE_H_M.get(q, 1.0) / (v * dt_g)
+        t_mid = 0.5 * (g.t_s[i] + g.t_s[j])
+        cand = (sig_c, float(np.arctan2(de, dn)), t_mid)
+        if v >= COURSE_MIN_SPEED_MPS and sig_c <= COURSE_MAX_SIGMA_RAD:
+            best = cand
+            break
+        if best is None or sig_c < best[0]:
+            best = cand
+    if best is None:
+        return None
+    sig_c, course, t_mid = best
+    turned = float(np.interp(t_mid, t_k, yaw))  # counter-clockwise + (about up): heading falls by it
+    heading_mid = course - np.arctan2(fwd[0], fwd[1])
+    heading0 = float(np.mod(heading_mid + turned, 2 * np.pi))
+    drive = max(0.0, t_mid - t_still_end)
+    s_yaw2 = (w_sigma_rps[2] * drive) ** 2 + w_sample_rps[2] ** 2 * dt * drive + (GYRO_SCALE_ALLOWANCE * turned) ** 2
+    sig = float(np.sqrt(sig_c**2 + s_yaw2 + MOUNT_YAW_SIGMA_RAD[log.ldv is not None] ** 2))
+    return heading0, sig, float(t_mid)
+
+
+def _random_walks(dth, dv, dt: float, span_s: float = 0.1) -> tuple[float, float]:
+    """Angle and velocity random walks (°/√h, µg/√Hz) of a standstill as a filter epoch of
+    ``span_s`` sees them: the σ of the increments summed over ``span_s`` blocks (their mean removed)
+    divided by √span, the largest axis. An engine's vibration counts as far as it survives an epoch."""
+    n = max(1, int(round(span_s / dt)))
+    nb = len(dv) // n
+    if nb < 3:
+        return None, None
+    sig_th = np.std(dth[: nb * n].reshape(nb, n, 3).sum(axis=1), axis=0)
+    sig_v = np.std(dv[: nb * n].reshape(nb, n, 3).sum(axis=1), axis=0)
+    span = n * dt
+    return (
+        float(np.max(sig_th)) / np.sqrt(span) / RAD_PER_DEG * 60.0,
+        float(np.max(sig_v)) / np.sqrt(span) / (G0_MPS2 * 1e-6),
+    )
+
+
+def align_at_standstill(log: DriveLog, t, eta, still_s: tuple, found_by: str, lat_rad: float, noise) -> Alignment:
+    """The alignment the sensors of a standstill start can observe (see ``docs/pipelines.md``).
+
+    Roll and pitch from the standstill's mean specific force. Heading: the manifest's
+    ``initial.heading_deg`` when given; else gyrocompassing when the gyros resolve the horizontal
+    Earth rate to :data:`GYROCOMPASS_MAX_SIGMA_RAD` (:func:`ldvsurvey.nav.align.gyrocompass_sigma`
+    with the larger of the manifest's gyro bias and the bias the standstill shows: on the vertical
+    axis, where the Earth rate is known without heading, and as a horizontal rate beyond the Earth's
+    ω cos L); else the GNSS course at move-off
+    (:func:`course_heading`); else gyrocompassing at whatever σ it has (the summary says when that
+    is no heading at all). Gyro biases: the standstill's mean less the Earth rate through the
+    attitude found, σ from the mean's scatter and the Earth rate's horizontal part times the heading σ.
+
+    Parameters
+    ----------
+    log : DriveLog
+        The parsed bundle.
+    t : ndarray
+        (N,) IMU times (s).
+    eta : ndarray or None
+        (N,) unwrapped turntable angle (rad).
+    still_s : (float, float)
+        The standstill at the start (s).
+    found_by : str
+        How it was found (for the summary).
+    lat_rad : float
+        Latitude (rad).
+    noise : ImuNoise
+        The manifest's IMU figures (``gyro_bias_rps``).
+
+    Returns
+    -------
+    Alignment
+        Method, heading σ, the start attitude when not gyrocompassed, the initial gyro biases.
+    """
+    from ldvsurvey.nav.align import earth_rate_in_body, gyrocompass_sigma, standstill_rates
+    from ldvsurvey.nav.attitude import c_bn_from_euler, euler_from_c_bn
+    from ldvsurvey.nav.earth import OMEGA_IE
+
+    k = t <= still_s[1]
+    dt = float(np.median(np.diff(t)))
+    dth, dv = _body_increments(log, eta, k)
+    w_mean, w_sig, _, w_smp = standstill_rates(dth, dv, dt)
+    c_gc = coarse_align(dth, dv, lat_rad)
+    pitch, roll, _ = euler_from_c_bn(c_gc)
+    # the vertical gyro's bias is seen without heading: Earth's vertical rate is ω sin L whatever the heading
+    up_b = c_gc[2]  # the up axis in the body frame
+    b_up = abs(float(up_b @ w_mean) - OMEGA_IE * np.sin(lat_rad))
+    # and a horizontal rate well beyond the Earth's (ω cos L) is bias too, whatever the heading
+    w_h = float(np.linalg.norm(w_mean - up_b * (up_b @ w_mean)))
+    b_h = w_h - OMEGA_IE * abs(np.cos(lat_rad))
+    seen = max(0.0, max(b_up, b_h) - 3.0 * float(np.linalg.norm(w_sig)))
+    sig_gc = gyrocompass_sigma(
+        lat_rad, max(noise.gyro_bias_rps, seen) if eta is None else 0.0, float(np.hypot(*w_sig[:2]))
+    )
+    al = Alignment("gyrocompass", sig_gc, still_s, found_by, gyrocompass_sigma_rad=sig_gc)
+    if eta is None:  # not on a rotating IMU, whose indexing and encoder steps are no sensor noise
+        al.gyro_arw_dprh, al.accel_vrw_ug_rthz = _random_walks(dth, dv, dt)
+    given = _manifest_heading(log.manifest)
+    course = None
+    if given is None and sig_gc > GYROCOMPASS_MAX_SIGMA_RAD:
+        course = course_heading(log, t, eta, still_s[1], (pitch, roll), w_mean, w_sig, w_smp)
+    if given is not None:
+        al.method, al.heading_sigma_rad = "manifest", given[1]
+        al.c_bn = c_bn_from_euler(pitch, roll, given[0])
+    elif course is not None and course[1] < sig_gc:
+        al.method, al.heading_sigma_rad, al.course_t_s = "gnss_course", course[1], course[2]
+        al.c_bn = c_bn_from_euler(pitch, roll, course[0])
+    al.observable = al.heading_sigma_rad <= UNOBSERVABLE_SIGMA_RAD
+    c_bn = c_gc if al.c_bn is None else al.c_bn
+    h = OMEGA_IE * np.cos(lat_rad)
+    if al.observable:
+        al.gyro_bias_rps = w_mean - earth_rate_in_body(c_bn, lat_rad)
+        al.gyro_bias_sigma_rps = np.hypot(w_sig, h * np.sin(min(al.heading_sigma_rad, np.pi / 2)))
+    else:  # only Earth's vertical rate is known: the horizontal part stays in the estimate's σ
+        al.gyro_bias_rps = w_mean - up_b * OMEGA_IE * np.sin(lat_rad)
+        al.gyro_bias_sigma_rps = np.hypot(w_sig, h)
+    return al
