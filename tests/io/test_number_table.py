@@ -1,7 +1,7 @@
 """The KF-GINS text reader (``read_number_table``): its fast path (numpy's C reader, for plain tables)
 gives exactly what the strict line-by-line reader gives (the same float64 values bit for bit, the same
-line numbers, the same error naming file, line and field), on the real KF-GINS demo data set, on
-simulated drives in two writers' styles and on the text a user may feed it."""
+line numbers, the same error naming file, line and field), on the real KF-GINS demo data set and a
+real consumer-MEMS car drive, on simulated drives in two writers' styles and on the text a user may feed it."""
 
 from __future__ import annotations
 
@@ -65,6 +65,16 @@ def test_real_kfgins_gnss_file_reads_the_same_on_the_fast_path():
     # the values are the file's decimal text, correctly rounded (independent of both readers)
     first = data.split(b"\n", 1)[0].split()
     assert a[0].tolist() == [float(x) for x in first]
+
+
+@pytest.mark.parametrize("name", ["rtklibexplorer-drive0708-imu.txt.gz", "rtklibexplorer-drive0708-gnss.txt.gz"])
+def test_real_mems_drive_in_kfgins_text_reads_the_same_on_the_fast_path(name):
+    """The real consumer-MEMS car drive's IMU (its first 180 s: 17 995 rows at about 100 Hz) and its RTK
+    fixes, as prepared for KF-GINS."""
+    data = gzip.decompress((REAL.parent / "ins" / name).read_bytes())
+    assert assert_same_as_strict(data)
+    a, _ = common.read_number_table(data, name, 7, NAMES)
+    assert a[-1].tolist() == [float(x) for x in data.rstrip(b"\n").rsplit(b"\n", 1)[1].split()]
 
 
 @pytest.fixture(scope="module")
