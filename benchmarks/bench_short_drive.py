@@ -19,8 +19,9 @@ other processes; CPU time much less. Wall time (median and minimum) is printed b
 cache is warmed by one untimed ``run`` first. Prints figures; asserts nothing.
 
 Run: ``KFGINS_BIN=/path/to/KF-GINS/bin/KF-GINS PYTHONPATH=backend .venv/bin/python
-benchmarks/bench_short_drive.py --repeats 5`` (``--keep DIR`` keeps the files; a second run with the
-same ``--keep`` reuses them).
+benchmarks/bench_short_drive.py --repeats 5`` (``--keep DIR`` keeps the files; a folder that already
+holds ``imu.txt``, ``gnss.txt``, ``partial.json`` and ``kf-gins.yaml`` is timed as it is, e.g. a second
+run, or a real drive as ``bench_kfgins_real.py`` prepares it).
 """
 
 from __future__ import annotations
