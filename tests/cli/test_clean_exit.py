@@ -11,6 +11,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
+from ldvsurvey import __version__
 from tests.cli.clean_exit import cases, cli, foreign_lines
 
 pytest.importorskip("novatel_edie")
@@ -20,13 +21,16 @@ EXPECTED = {"novatel-ascii-real": 2, "novatel-binary-real": 2}
 
 
 def _import_then_validate(name: str, args: list[str], work) -> list[tuple[str, int, str]]:
-    """(command, exit code, stderr) of the import of one case and, when it wrote the bundle, its validation."""
+    """(command, exit code, stderr) of the import of one case and, when it wrote the bundle, its validation;
+    what they print on stdout must have reached the pipe (the process ends without the interpreter's flush)."""
     out = work / f"{name}.zip"
     p = cli(["import", *args, "--out", str(out)])
     runs = [(f"{name} import", p.returncode, p.stderr)]
     if p.returncode == 0:
         assert out.is_file(), f"{name}: exit 0 without a bundle"
+        assert p.stdout.startswith(f"{out}: ") and "check: IMU rate" in p.stdout, p.stdout
         v = cli(["validate", str(out)])
+        assert v.stdout.startswith(f"{out}: valid "), v.stdout
         runs.append((f"{name} validate", v.returncode, v.stderr))
     else:
         assert not out.exists(), f"{name}: refused but wrote {out}"
@@ -52,3 +56,13 @@ def test_every_kind_of_recording_imports_and_validates_with_a_clean_exit(tmp_pat
     refused = {cmd: err for cmd, rc, err in runs if rc == 2}
     assert "only corrected ones: 766 IMURATECORRIMUS" in refused["novatel-binary-real import"]
     assert all(err.startswith("error: ") for err in refused.values())
+
+
+def test_the_exit_code_of_argparse_and_of_a_refusal_survive_the_deterministic_exit(tmp_path):
+    """--version prints and exits 0, an unknown command is a usage error (2), a missing file a refusal (2)."""
+    v = cli(["--version"])
+    assert (v.returncode, v.stdout.strip(), v.stderr) == (0, f"ldv-survey {__version__}", "")
+    u = cli(["no-such-command"])
+    assert u.returncode == 2 and "invalid choice" in u.stderr
+    m = cli(["validate", str(tmp_path / "missing.zip")])
+    assert m.returncode == 2 and m.stderr.startswith("error: ") and not foreign_lines(m.stderr)
