@@ -28,6 +28,7 @@ from ldvsurvey.nav.filter import (
     LdvAid,
     NavSolution,
     NavStart,
+    imu_grade,
     ldv_spikes,
     run_filter,
 )
@@ -70,6 +71,10 @@ class NavInputs:
     gravity: tuple | None = None
     #: why the log's LDV cannot aid (no usable sample), raised by what needs it; None: usable or absent
     ldv_unusable: ParameterError | None = None
+    #: the turn-on gyro bias measured at the standstill (3,) rad/s, sensor frame, and its 1-σ (rad/s):
+    #: the filter's initial bias estimate and prior (None: zero, the manifest's σ)
+    gyro_bias0_rps: np.ndarray | None = None
+    gyro_bias0_sigma_rps: float | None = None
 
     @property
     def has_ldv(self) -> bool:
@@ -368,6 +373,69 @@ MOVING_VEL_SIGMA0_MPS = 0.3
 MOVING_POS_SIGMA0_M = 3.0  #: a single-point fix carried back along the road
 
 
+#: scale-factor 1-σ (ppm) of the gyros and accelerometers by grade when the manifest states none:
+#: tactical units' datasheets give 100–500 ppm, consumer MEMS ±1–3 % sensitivity tolerance
+GRADE_SCALE_PPM = {"tactical": 300.0, "mems": 10000.0}
+#: correlation time (s) of the biases and scale factors of a MEMS or tactical unit whose manifest
+#: gives none (as KF-GINS's configurations: one hour)
+GRADE_CORRELATION_S = 3600.0
+
+
+def standstill_velocity_scatter(inp: NavInputs, rate_hz: float) -> float:
+    """How much the IMU's own velocity moves within one filter epoch while the vehicle stands:
+    the RMS over the still intervals and axes of the running sum of the velocity increments (their
+    mean over the interval removed) from each epoch's start, m/s. An idling engine's vibration shows
+    here; white sensor noise gives σ_VRW·√(T/2). 0 without a still interval."""
+    dv, t = inp.dvel_mps, inp.t_s
+    decim = max(1, int(round(1.0 / (rate_hz * np.median(np.diff(t))))))
+    sq, cnt = 0.0, 0
+    for a, b in inp.still:
+        seg = dv[(t >= a) & (t <= b)]
+        m = len(seg) // decim
+        if m < 2:
+            continue
+        d = (seg[: m * decim] - seg.mean(axis=0)).reshape(m, decim, 3)
+        v = np.cumsum(d, axis=1)
+        sq += float(np.sum(v**2))
+        cnt += v.size
+    return float(np.sqrt(sq / cnt)) if cnt else 0.0
+
+
+def grade_error_model(inp: NavInputs, cfg: FilterConfig) -> tuple[ImuNoise, FilterConfig]:
+    """The IMU noise and filter configuration a log's IMU grade (:func:`~ldvsurvey.nav.filter.imu_grade`)
+    needs. Navigation grade: as given. Tactical and MEMS: the three gyro and three accelerometer scale
+    factors as Gauss–Markov states (σ from the manifest's ``gyro_scale_ppm``/``accel_scale_ppm`` or
+    :data:`GRADE_SCALE_PPM`, correlation time the manifest's ``bias_correlation_s`` or
+    :data:`GRADE_CORRELATION_S`) in place of the z-gyro one; biases Gauss–Markov with the manifest's
+    instability, or with the turn-on σ itself over :data:`GRADE_CORRELATION_S` when it states none; the
+    ZUPT's σ no tighter than the standstill's own velocity scatter
+    (:func:`standstill_velocity_scatter`). A turn-on gyro bias measured at the standstill
+    (``inp.gyro_bias0_sigma_rps``) narrows the gyro bias prior, every grade."""
+    noise = inp.noise
+    grade = imu_grade(noise)
+    if grade != "navigation":
+        tau = noise.bias_correlation_s or GRADE_CORRELATION_S
+        if noise.bias_correlation_s is None:
+            noise = dataclasses.replace(
+                noise,
+                gyro_bias_instability_dph=noise.gyro_bias_dph,
+                accel_bias_instability_ug=noise.accel_bias_ug,
+                bias_correlation_s=tau,
+            )
+        cfg = dataclasses.replace(
+            cfg,
+            gyro_scale_z_sigma0=0.0,
+            gyro_scale_sigma0=(noise.gyro_scale_ppm or GRADE_SCALE_PPM[grade]) * 1e-6,
+            accel_scale_sigma0=(noise.accel_scale_ppm or GRADE_SCALE_PPM[grade]) * 1e-6,
+            scale_correlation_s=tau,
+            zupt_sigma_mps=max(cfg.zupt_sigma_mps, standstill_velocity_scatter(inp, cfg.rate_hz)),
+        )
+    if inp.gyro_bias0_sigma_rps is not None:
+        sig_dph = inp.gyro_bias0_sigma_rps * 3600.0 / RAD_PER_DEG
+        noise = dataclasses.replace(noise, gyro_bias_dph=min(noise.gyro_bias_dph, sig_dph))
+    return noise, cfg
+
+
 def pipeline_cfg(**kw) -> FilterConfig:
     """The filter configuration the pipelines use (coarse-alignment σ, unmodelled gravity)."""
     base = dict(
@@ -422,7 +490,7 @@ def run_navigation_filter(
         from ldvsurvey.nav.dov import initial_misalignment
 
         c0 = (np.eye(3) + skew(initial_misalignment(inp.gravity[0][0], inp.gravity[1][0], inp.pos0[0]))) @ c0
-    cfg = cfg or pipeline_cfg()
+    noise, cfg = grade_error_model(inp, cfg or pipeline_cfg())
     v0 = np.zeros(3)
     if inp.v0_n is not None:  # aligned on the move: a coarser start
         v0 = inp.v0_n
@@ -434,8 +502,8 @@ def run_navigation_filter(
         )
     return run_filter(
         ImuData(inp.t_s, inp.dtheta_rad, inp.dvel_mps, cbs),
-        NavStart(q_from_c(c0), v0, inp.pos0),
-        inp.noise,
+        NavStart(q_from_c(c0), v0, inp.pos0, gyro_bias_rps=inp.gyro_bias0_rps),
+        noise,
         cfg,
         zupt_intervals=inp.still if zupt else [],
         ldv=ldv,
