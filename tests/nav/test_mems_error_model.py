@@ -15,7 +15,12 @@ import pytest
 from ldvsurvey.nav.attitude import q_from_c, skew
 from ldvsurvey.nav.filter import FilterConfig, GnssAid, ImuData, ImuNoise, NavStart, imu_grade, run_filter
 from ldvsurvey.nav.localframe import local_metres
-from ldvsurvey.pipelines.stages.aids import NavInputs, grade_error_model, standstill_velocity_scatter
+from ldvsurvey.pipelines.stages.aids import (
+    NavInputs,
+    grade_error_model,
+    standstill_velocity_scatter,
+    standstill_white_noise,
+)
 from ldvsurvey.sim.effects import Effects, ImuErrorSpec
 from ldvsurvey.sim.motion import Drive, Static
 from ldvsurvey.sim.road import Ramps, Road
@@ -28,7 +33,7 @@ STATIC_S = 30.0
 SEEDS = (1, 2, 3)
 
 
-def mems_drive(seed: int, minutes: float = 6.0, speed: float = 12.0) -> Scenario:
+def mems_drive(seed: int, minutes: float = 6.0, speed: float = 12.0, arw=0.3, vrw=300.0) -> Scenario:
     """The MEMS drive of the module docstring; scale factors drawn per seed (ppm, ± 3000–15000)."""
     length = speed * (minutes * 60 - STATIC_S) + 2000
     turns = [(s, 60.0, d * RAD) for s, d in zip(np.arange(300.0, length - 300, 450.0), [90, -90, 60, -45, 120] * 20)]
@@ -53,17 +58,19 @@ def mems_drive(seed: int, minutes: float = 6.0, speed: float = 12.0) -> Scenario
         with_ldv=False,
         gyro_bias_dph=300.0,
         accel_bias_ug=20000.0,
-        gyro_arw_dprh=0.3,
-        accel_vrw_ug_rthz=300.0,
+        gyro_arw_dprh=arw,
+        accel_vrw_ug_rthz=vrw,
         effects=Effects(imu_errors=spec),
         fix_schedule=OUTAGES,
     )
 
 
-def _inputs(sim) -> NavInputs:
-    """What the pipelines would load: the manifest's figures only (turn-on bias, ARW, VRW)."""
+def _inputs(sim, datasheet=None) -> NavInputs:
+    """What the pipelines would load: the manifest's figures only (turn-on bias, ARW, VRW; the
+    ``datasheet`` (ARW, VRW) instead of the simulated ones when given)."""
     sc = sim.scenario
-    noise = ImuNoise(sc.gyro_bias_dph, sc.accel_bias_ug, sc.gyro_arw_dprh, sc.accel_vrw_ug_rthz)
+    arw, vrw = datasheet or (sc.gyro_arw_dprh, sc.accel_vrw_ug_rthz)
+    noise = ImuNoise(sc.gyro_bias_dph, sc.accel_bias_ug, arw, vrw)
     tr = sim.imu
     return NavInputs(
         log=None,
@@ -81,16 +88,20 @@ def _inputs(sim) -> NavInputs:
     )
 
 
-def _forward(sim, scale_states: bool):
+def _forward(sim, scale_states: bool, datasheet=None, noise_floor=True):
     """The forward filter with the MEMS grade's error model (without its scale-factor states when
-    ``scale_states`` is False); returns per outage (drift at its end, m; the filter's 1-σ there, m)
-    and the solution."""
+    ``scale_states`` is False; with the manifest's ``datasheet`` ARW and VRW, and without the
+    standstill's noise floor when ``noise_floor`` is False); returns per outage (drift at its end,
+    m; the filter's 1-σ there, m) and the solution."""
     sc, tr = sim.scenario, sim.imu
-    inp = _inputs(sim)
+    inp = _inputs(sim, datasheet)
     cfg0 = FilterConfig(att_sigma0_rad=(0.2 * RAD, 0.2 * RAD, 1.0 * RAD))
     noise, cfg = grade_error_model(inp, cfg0)
     if not scale_states:
         cfg = FilterConfig(**{**cfg.__dict__, "gyro_scale_sigma0": 0.0, "accel_scale_sigma0": 0.0})
+    if not noise_floor:
+        noise = ImuNoise(**{**noise.__dict__, "gyro_arw_dprh": inp.noise.gyro_arw_dprh})
+        noise = ImuNoise(**{**noise.__dict__, "accel_vrw_ug_rthz": inp.noise.accel_vrw_ug_rthz})
     ok = sim.gnss_fix == 4
     gnss = GnssAid(
         sim.gnss_t_s[ok],
@@ -204,6 +215,36 @@ def test_vibration_widens_the_zupt_and_navigation_grade_keeps_its_model():
     )
     assert cfg.gyro_scale_z_sigma0 == 0 and cfg.gyro_scale_sigma0 == cfg.accel_scale_sigma0 == 1e-2
     assert noise.gyro_bias_instability_dph == 650.0 and noise.bias_correlation_s == 3600.0
+    # the VRW no smaller than the standstill's: 1 cm/s per 10-ms sample is 0.1 m/s/√s, 10 200 µg/√Hz
+    assert noise.accel_vrw_ug_rthz == pytest.approx(0.01 / np.sqrt(0.01) / 9.80665e-6, rel=0.03)
+    assert noise.gyro_arw_dprh == 0.3  # the gyros are quiet here: the manifest's figure stays
     nav = NavInputs(None, t, np.zeros((n, 3)), dv, None, None, None, None, [(0.0, t[-1])], 0.0, None, ImuNoise(0.003))
     noise, cfg = grade_error_model(nav, base)
     assert cfg == base and noise == nav.noise
+
+
+def test_standstill_white_noise_recovers_the_random_walks():
+    rng = np.random.default_rng(7)
+    n, dt = 5000, 0.01
+    arw, vrw = 2.0, 800.0  # °/√h, µg/√Hz
+    t = np.arange(1, n + 1) * dt
+    dth = rng.normal(0, arw * RAD / 60 * np.sqrt(dt), (n, 3))
+    dv = rng.normal(0, vrw * 9.80665e-6 * np.sqrt(dt), (n, 3)) + np.array([0.0, 0.0, 9.8 * dt])
+    inp = NavInputs(None, t, dth, dv, None, None, None, None, [(0.0, t[-1])], 0.0, None, None)
+    got = standstill_white_noise(inp)
+    # the largest of three axes' sample σ from 5000 samples: within a few % of the truth
+    assert got[0] == pytest.approx(arw, rel=0.05) and got[1] == pytest.approx(vrw, rel=0.05)
+
+
+def test_a_vibrating_unit_quieter_on_its_datasheet_keeps_its_fixes():
+    # the sensors 10-30x noisier than the manifest says (an engine's vibration on a rate-sampling MEMS
+    # unit): with the datasheet's figures the filter believes its INS over the fixes and gates them
+    # out; with the standstill's noise as floor it takes them and its outage drift stays within 3σ
+    sim = simulate(mems_drive(4, arw=10.0, vrw=3000.0), seed=4)
+    (drift, sol) = _forward(sim, True, datasheet=(0.3, 300.0))
+    (drift0, sol0) = _forward(sim, True, datasheet=(0.3, 300.0), noise_floor=False)
+    assert sol.rejected["gnss"] <= 3 and sol0.rejected["gnss"] > 10, (sol.rejected, sol0.rejected)
+    for d, s in drift:
+        assert d <= 3 * s, (d, s)
+    assert any(d > 3 * s for d, s in drift0), drift0  # without the floor the filter claims too much
+    assert np.sqrt(np.mean(np.square([d for d, _ in drift]))) < np.sqrt(np.mean(np.square([d for d, _ in drift0])))

@@ -401,6 +401,27 @@ def standstill_velocity_scatter(inp: NavInputs, rate_hz: float) -> float:
     return float(np.sqrt(sq / cnt)) if cnt else 0.0
 
 
+def standstill_white_noise(inp: NavInputs) -> tuple[float, float]:
+    """The white noise the IMU shows while the vehicle stands, vibration included: the largest axis's
+    sample scatter of the angle and velocity increments (each still interval's mean removed) as an
+    angle random walk (°/√h) and a velocity random walk (µg/√Hz), σ_increment/√Δt. (0, 0) without a
+    still interval of 10 samples."""
+    t = inp.t_s
+    dt = float(np.median(np.diff(t)))
+    sq_g, sq_a, cnt = np.zeros(3), np.zeros(3), 0
+    for a, b in inp.still:
+        k = (t >= a) & (t <= b)
+        if k.sum() < 10:
+            continue
+        sq_g += np.sum((inp.dtheta_rad[k] - inp.dtheta_rad[k].mean(axis=0)) ** 2, axis=0)
+        sq_a += np.sum((inp.dvel_mps[k] - inp.dvel_mps[k].mean(axis=0)) ** 2, axis=0)
+        cnt += int(k.sum())
+    if not cnt:
+        return 0.0, 0.0
+    s_g, s_a = np.sqrt(sq_g.max() / cnt), np.sqrt(sq_a.max() / cnt)
+    return float(s_g / np.sqrt(dt) / RAD_PER_DEG * 60.0), float(s_a / np.sqrt(dt) / 9.80665e-6)
+
+
 def grade_error_model(inp: NavInputs, cfg: FilterConfig) -> tuple[ImuNoise, FilterConfig]:
     """The IMU noise and filter configuration a log's IMU grade (:func:`~ldvsurvey.nav.filter.imu_grade`)
     needs. Navigation grade: as given. Tactical and MEMS: the three gyro and three accelerometer scale
@@ -409,12 +430,19 @@ def grade_error_model(inp: NavInputs, cfg: FilterConfig) -> tuple[ImuNoise, Filt
     :data:`GRADE_CORRELATION_S`) in place of the z-gyro one; biases Gauss–Markov with the manifest's
     instability, or with the turn-on σ itself over :data:`GRADE_CORRELATION_S` when it states none; the
     ZUPT's σ no tighter than the standstill's own velocity scatter
-    (:func:`standstill_velocity_scatter`). A turn-on gyro bias measured at the standstill
+    (:func:`standstill_velocity_scatter`) and the ARW and VRW no smaller than the white noise the
+    standstill shows (:func:`standstill_white_noise`: an engine's vibration, which a rate-sampling
+    MEMS unit aliases into noise, is what the filter meets on the road, not the datasheet's figure).
+    A turn-on gyro bias measured at the standstill
     (``inp.gyro_bias0_sigma_rps``) narrows the gyro bias prior, every grade."""
     noise = inp.noise
     grade = imu_grade(noise)
     if grade != "navigation":
         tau = noise.bias_correlation_s or GRADE_CORRELATION_S
+        arw, vrw = standstill_white_noise(inp)
+        noise = dataclasses.replace(
+            noise, gyro_arw_dprh=max(noise.gyro_arw_dprh, arw), accel_vrw_ug_rthz=max(noise.accel_vrw_ug_rthz, vrw)
+        )
         if noise.bias_correlation_s is None:
             noise = dataclasses.replace(
                 noise,
