@@ -488,7 +488,9 @@ def run_navigation_filter(
     attitude_only: bool = False,
     specific_force: bool = True,
 ) -> NavSolution:
-    """Coarse alignment (or the alignment on the move) then the filter and smoother on a loaded log.
+    """Coarse alignment (or the alignment on the move) then the filter and smoother on a loaded log,
+    with the error model of the IMU's grade (:func:`grade_error_model`) and the standstill's turn-on
+    gyro bias (``inp.gyro_bias0_rps``) as the initial estimate where the start stage found one.
 
     Parameters
     ----------
