@@ -71,10 +71,6 @@ class NavInputs:
     gravity: tuple | None = None
     #: why the log's LDV cannot aid (no usable sample), raised by what needs it; None: usable or absent
     ldv_unusable: ParameterError | None = None
-    #: the turn-on gyro bias measured at the standstill (3,) rad/s, sensor frame, and its 1-σ (rad/s):
-    #: the filter's initial bias estimate and prior (None: zero, the manifest's σ)
-    gyro_bias0_rps: np.ndarray | None = None
-    gyro_bias0_sigma_rps: float | None = None
 
     @property
     def has_ldv(self) -> bool:
@@ -422,7 +418,9 @@ def standstill_white_noise(inp: NavInputs) -> tuple[float, float]:
     return float(s_g / np.sqrt(dt) / RAD_PER_DEG * 60.0), float(s_a / np.sqrt(dt) / 9.80665e-6)
 
 
-def grade_error_model(inp: NavInputs, cfg: FilterConfig) -> tuple[ImuNoise, FilterConfig]:
+def grade_error_model(
+    inp: NavInputs, cfg: FilterConfig, noise: ImuNoise | None = None
+) -> tuple[ImuNoise, FilterConfig]:
     """The IMU noise and filter configuration a log's IMU grade (:func:`~ldvsurvey.nav.filter.imu_grade`)
     needs. Navigation grade: as given. Tactical and MEMS: the three gyro and three accelerometer scale
     factors as Gauss–Markov states (σ from the manifest's ``gyro_scale_ppm``/``accel_scale_ppm`` or
@@ -433,34 +431,34 @@ def grade_error_model(inp: NavInputs, cfg: FilterConfig) -> tuple[ImuNoise, Filt
     (:func:`standstill_velocity_scatter`) and the ARW and VRW no smaller than the white noise the
     standstill shows (:func:`standstill_white_noise`: an engine's vibration, which a rate-sampling
     MEMS unit aliases into noise, is what the filter meets on the road, not the datasheet's figure).
-    A turn-on gyro bias measured at the standstill
-    (``inp.gyro_bias0_sigma_rps``) narrows the gyro bias prior, every grade."""
-    noise = inp.noise
-    grade = imu_grade(noise)
+
+    ``noise`` is the noise the run would otherwise take (None: the manifest's, ``inp.noise``; a start
+    stage may have narrowed its gyro-bias prior to a standstill estimate); the grade and the
+    defaults come from the manifest's figures."""
+    man = inp.noise
+    noise = man if noise is None else noise
+    grade = imu_grade(man)
     if grade != "navigation":
-        tau = noise.bias_correlation_s or GRADE_CORRELATION_S
+        tau = man.bias_correlation_s or GRADE_CORRELATION_S
         arw, vrw = standstill_white_noise(inp)
         noise = dataclasses.replace(
             noise, gyro_arw_dprh=max(noise.gyro_arw_dprh, arw), accel_vrw_ug_rthz=max(noise.accel_vrw_ug_rthz, vrw)
         )
-        if noise.bias_correlation_s is None:
+        if man.bias_correlation_s is None:
             noise = dataclasses.replace(
                 noise,
-                gyro_bias_instability_dph=noise.gyro_bias_dph,
-                accel_bias_instability_ug=noise.accel_bias_ug,
+                gyro_bias_instability_dph=man.gyro_bias_dph,
+                accel_bias_instability_ug=man.accel_bias_ug,
                 bias_correlation_s=tau,
             )
         cfg = dataclasses.replace(
             cfg,
             gyro_scale_z_sigma0=0.0,
-            gyro_scale_sigma0=(noise.gyro_scale_ppm or GRADE_SCALE_PPM[grade]) * 1e-6,
-            accel_scale_sigma0=(noise.accel_scale_ppm or GRADE_SCALE_PPM[grade]) * 1e-6,
+            gyro_scale_sigma0=(man.gyro_scale_ppm or GRADE_SCALE_PPM[grade]) * 1e-6,
+            accel_scale_sigma0=(man.accel_scale_ppm or GRADE_SCALE_PPM[grade]) * 1e-6,
             scale_correlation_s=tau,
             zupt_sigma_mps=max(cfg.zupt_sigma_mps, standstill_velocity_scatter(inp, cfg.rate_hz)),
         )
-    if inp.gyro_bias0_sigma_rps is not None:
-        sig_dph = inp.gyro_bias0_sigma_rps * 3600.0 / RAD_PER_DEG
-        noise = dataclasses.replace(noise, gyro_bias_dph=min(noise.gyro_bias_dph, sig_dph))
     return noise, cfg
 
 
@@ -489,8 +487,7 @@ def run_navigation_filter(
     specific_force: bool = True,
 ) -> NavSolution:
     """Coarse alignment (or the alignment on the move) then the filter and smoother on a loaded log,
-    with the error model of the IMU's grade (:func:`grade_error_model`) and the standstill's turn-on
-    gyro bias (``inp.gyro_bias0_rps``) as the initial estimate where the start stage found one.
+    with the error model of the IMU's grade (:func:`grade_error_model`).
 
     Parameters
     ----------
@@ -520,8 +517,9 @@ def run_navigation_filter(
         from ldvsurvey.nav.dov import initial_misalignment
 
         c0 = (np.eye(3) + skew(initial_misalignment(inp.gravity[0][0], inp.gravity[1][0], inp.pos0[0]))) @ c0
-    noise, cfg = grade_error_model(inp, cfg or pipeline_cfg())
+    cfg = cfg or pipeline_cfg()
     v0 = np.zeros(3)
+    noise, cfg = grade_error_model(inp, cfg)
     if inp.v0_n is not None:  # aligned on the move: a coarser start
         v0 = inp.v0_n
         cfg = dataclasses.replace(
@@ -532,7 +530,7 @@ def run_navigation_filter(
         )
     return run_filter(
         ImuData(inp.t_s, inp.dtheta_rad, inp.dvel_mps, cbs),
-        NavStart(q_from_c(c0), v0, inp.pos0, gyro_bias_rps=inp.gyro_bias0_rps),
+        NavStart(q_from_c(c0), v0, inp.pos0),
         noise,
         cfg,
         zupt_intervals=inp.still if zupt else [],
