@@ -248,3 +248,18 @@ def test_a_vibrating_unit_quieter_on_its_datasheet_keeps_its_fixes():
         assert d <= 3 * s, (d, s)
     assert any(d > 3 * s for d, s in drift0), drift0  # without the floor the filter claims too much
     assert np.sqrt(np.mean(np.square([d for d, _ in drift]))) < np.sqrt(np.mean(np.square([d for d, _ in drift0])))
+
+
+def test_the_manifest_states_the_scale_factor_sigma():
+    from ldvsurvey.errors import ParameterError
+    from ldvsurvey.io.manifest import ImuSpec
+
+    n = 2000
+    t = np.arange(1, n + 1) * 0.01
+    spec = ImuSpec(rate_hz=100, gyro_bias_dph=650.0, gyro_scale_ppm=5000, accel_scale_ppm=3000)
+    inp = NavInputs(None, t, np.zeros((n, 3)), np.zeros((n, 3)), None, None, None, None, [], 0.0, None, None)
+    inp.noise = ImuNoise.from_manifest(spec)
+    _, cfg = grade_error_model(inp, FilterConfig())
+    assert (cfg.gyro_scale_sigma0, cfg.accel_scale_sigma0) == (5e-3, 3e-3)
+    with pytest.raises(ParameterError, match="imu.gyro_scale_ppm"):
+        ImuNoise.from_manifest(ImuSpec(rate_hz=100, gyro_scale_ppm=-1))
