@@ -138,26 +138,32 @@ def scenario(minutes: float, grade: str, drive: str = "effects"):
     return catalog.drive(minutes=minutes, with_ldv=False, fix_schedule=sched, effects=eff, **GRADES[grade]), sched
 
 
-def write_kfgins_inputs(sim, log, folder: Path) -> dict:
-    """KF-GINS's IMU and GNSS text files from the bundle's data; returns what its config needs."""
+def write_kfgins_inputs(sim, log, folder: Path, t_offset_s: float = 0.0) -> dict:
+    """KF-GINS's IMU and GNSS text files from the bundle's data; returns what its config needs.
+
+    The time column is the bundle clock (s) plus ``t_offset_s``: 0 for KF-GINS alone (it needs only
+    one clock for both files), the GPS seconds of week of the bundle's midnight for files that
+    ``ldv-survey import --imu kf-gins:… --gnss kf-gins:…`` reads as GPS seconds of week."""
     from ldvsurvey.pipelines.stages.aids import gnss_aid, initial_attitude, nav_inputs, pipeline_cfg
 
     t_imu, dth, dv = sim.imu.t_s, sim.dtheta_rad, sim.dvel_mps
     if "imu_keep" in sim.extras:  # the rows imu.csv holds (dropped rows, jittered time tags)
         keep = sim.extras["imu_keep"]
         t_imu, dth, dv = sim.extras["imu_t_written"][keep], dth[keep], dv[keep]
-    rows = np.column_stack([t_imu, dth @ SWAP.T, dv @ SWAP.T])
+    rows = np.column_stack([t_imu + t_offset_s, dth @ SWAP.T, dv @ SWAP.T])
     np.savetxt(folder / "imu.txt", rows, fmt=["%.6f"] + ["%.12e"] * 6)
     g = gnss_aid(log)  # the fixes the product's filter takes, with its σ per fix quality
     t_g, lat, lon, h = g.t_s, np.degrees(g.lat_rad), np.degrees(g.lon_rad), g.h_m
     sh, sv = g.sigma_h_m, g.sigma_v_m
     gnss = np.column_stack([t_g, lat, lon, h, sh, sh, sv])
-    np.savetxt(folder / "gnss.txt", gnss, fmt=["%.3f", "%.10f", "%.10f", "%.4f", "%.3f", "%.3f", "%.3f"])
+    gnss_text = gnss.copy()
+    gnss_text[:, 0] += t_offset_s
+    np.savetxt(folder / "gnss.txt", gnss_text, fmt=["%.3f", "%.10f", "%.10f", "%.4f", "%.3f", "%.3f", "%.3f"])
     inp = nav_inputs(log)
     c0 = initial_attitude(inp, None)  # C_s^n, RFU to ENU: the product's coarse alignment
     cfg = pipeline_cfg()
     return dict(
-        t0=float(t_imu[0]),
+        t0=float(t_imu[0] + t_offset_s),
         pos0=inp.pos0,
         att0=euler_zyx_of(SWAP @ c0 @ SWAP),
         att_sigma0_deg=[a / RAD for a in cfg.att_sigma0_rad],

@@ -48,3 +48,33 @@ def test_a_change_of_an_inlined_function_s_file_changes_the_folder(tmp_path):
     (pkg / "nav" / "attitude.py").write_text((pkg / "nav" / "attitude.py").read_text() + "\n")
     after = _cache_dir_in_child(env, pkg.parent)
     assert after != before and Path(after).parent == Path(before).parent
+
+
+def test_blas_preloaded_alone_serves_numba_and_a_later_scipy_linalg(tmp_path):
+    """compilecache.preload_blas: numba's BLAS (a matrix product) and LAPACK (a solve) calls run on
+    the modules loaded alone, with the numbers of numpy's own; scipy.linalg imported afterwards works
+    and finds the same modules (no second copy)."""
+    code = (
+        "import sys, numpy as np\n"
+        "from ldvsurvey import compilecache\n"
+        "assert compilecache.preload_blas()\n"
+        "assert 'scipy.linalg' not in sys.modules\n"
+        "blas = sys.modules['scipy.linalg.cython_blas']\n"
+        "import numba\n"
+        "@numba.njit\n"
+        "def f(a, b):\n"
+        "    return a @ b, np.linalg.solve(a, b)\n"
+        "rng = np.random.default_rng(1)\n"
+        "a, b = rng.normal(size=(20, 20)) + 20 * np.eye(20), rng.normal(size=(20, 3))\n"
+        "p, x = f(a, b)\n"
+        "assert 'scipy.linalg' not in sys.modules\n"
+        "assert np.allclose(p, a @ b, rtol=1e-14, atol=1e-14) and np.allclose(a @ x, b, atol=1e-12)\n"
+        "import scipy.linalg\n"
+        "from scipy.linalg import cython_blas\n"
+        "assert cython_blas is blas and np.allclose(scipy.linalg.solve(a, b), x, atol=1e-12)\n"
+        "print('ok')\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(BACKEND), compilecache.ENV: str(tmp_path)}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "ok"

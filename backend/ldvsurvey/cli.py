@@ -7,8 +7,10 @@ Exit codes: 0 success, 2 invalid input or parameters (message names file, line, 
 from __future__ import annotations
 
 import argparse
+import atexit
 import gc
 import json
+import os
 import sys
 import traceback
 
@@ -91,18 +93,32 @@ def _cmd_demo(args) -> int:
     return 0
 
 
+def _own_process_start(load) -> None:
+    """What a batch command's own process (``run``, ``import``) does before its work: the modules it
+    needs, given by ``load()``, are imported with the garbage collector off (they make hundreds of
+    thousands of objects that live as long as the process; no collection walks them while they are
+    made, and none after: ``gc.freeze``), and pydantic does not scan every installed package's
+    entry points for plugins when the manifest's models are built (0.02 s; ldv-survey uses none; a
+    ``PYDANTIC_DISABLE_PLUGINS`` already set, even empty, is kept)."""
+    import os
+
+    os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
+    gc.disable()
+    try:
+        load()
+    finally:
+        gc.freeze()
+        gc.enable()
+
+
 def _cmd_run(args) -> int:
     from ldvsurvey.pipelines.registry import get, run_pipeline_cli
 
     if getattr(args, "own_process", False):
-        # importing the pipeline makes about a million objects that last as long as the process: no
-        # collection walks them while they are made, and none after (gc.freeze)
-        gc.disable()
-        try:
-            get(args.pipeline)  # an unknown name fails here as it would below
-        finally:
-            gc.freeze()
-            gc.enable()
+        from ldvsurvey.compilecache import preload_blas
+
+        preload_blas()  # numba's BLAS check would import all of scipy.linalg (0.2 s)
+        _own_process_start(lambda: get(args.pipeline))  # an unknown name fails here as it would below
     rc = run_pipeline_cli(args.pipeline, args.bundles, args.out, args.set or [], open_grid_cache=_db_grid_cache)
     if rc == 0 and args.format != "csv":
         for p in export_geo_files(args.out, args.format, args.bundles[0]):
@@ -168,6 +184,11 @@ def _cmd_import(args) -> int:
     import tempfile
     from pathlib import Path
 
+    if getattr(args, "own_process", False):
+        import importlib
+
+        modules = ("ldvsurvey.io.importers.build", "ldvsurvey.io.drivelog", "ldvsurvey.io.writers")
+        _own_process_start(lambda: [importlib.import_module(m) for m in modules])
     from ldvsurvey.errors import BundleError
     from ldvsurvey.io.importers import build_bundle, parse_partial_manifest
     from ldvsurvey.io.writers import write_bundle
@@ -659,6 +680,44 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+#: the exit code main() returned (or argparse exited with) in a process of its own, for :func:`_end_process`
+_exit_code: int | None = None
+
+
+def _end_process() -> None:
+    """End a process that is this command's own: flush stdout and stderr, then ``os._exit`` with main's code,
+    skipping the interpreter's teardown. Registered before the command runs, so it is the last exit handler:
+    the handlers registered after it (logging, weakref finalizers, worker pools) have run.
+
+    Why: a command's work is done and written when main returns; the teardown after it only frees memory, and
+    in two libraries it goes wrong. (1) EDIE's nanobind extension checks at its teardown that every instance,
+    type and function it made was freed, and prints a page of ``nanobind: leaked ...`` lines when not: main
+    freezes its objects at the end (``gc.freeze``, to spare the last collection), the interpreter's final
+    collections skip the frozen generation, so EDIE's module globals (in reference cycles, as every type is)
+    stay alive and nanobind reports them. (2) pyarrow's threaded CSV reader finishes on an Arrow pool thread
+    after ``read_csv`` has returned: that thread drops the reader's last reference to the Python file object
+    it read, which takes the GIL. If the interpreter is finalising by then (a short command, a loaded
+    machine), CPython ends the thread with ``pthread_exit`` inside ``take_gil``; the unwinding meets Arrow's
+    noexcept destructors and ``std::terminate`` aborts the process (SIGABRT, "terminate called without an
+    active exception") after its output was printed. Exit handlers run before the interpreter is marked as
+    finalising, so ``os._exit`` here leaves such a thread waiting for the GIL, harmlessly, and runs neither.
+
+    The code is main's (1 when an exception escaped the code that called main, as Python's own exit would
+    say; a later ``sys.exit(n)`` of that code is not seen). A stdout that cannot be flushed (a closed pipe)
+    turns a 0 into 1: the output was lost.
+    """
+    code = 1 if _exit_code is None else int(_exit_code)
+    if getattr(sys, "last_value", None) is not None:  # an uncaught exception after main (printed by Python)
+        code = 1
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream is not None:
+                stream.flush()
+        except (OSError, ValueError):  # a closed pipe or stream: nothing more can be written
+            code = code or 1
+    os._exit(code)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the ``ldv-survey`` command line.
 
@@ -671,23 +730,41 @@ def main(argv: list[str] | None = None) -> int:
     -------
     int
         The exit code: 0 success, 2 invalid input or parameters (the message names file, line,
-        field), 130 interrupted, 1 internal error (the trace is printed).
+        field), 130 interrupted, 1 internal error (the trace is printed). In a process of its own
+        (no ``argv``) the process ends with it at exit, without the interpreter's teardown
+        (:func:`_end_process`).
     """
-    args = build_parser().parse_args(argv)
+    global _exit_code
+    if argv is None:  # the process is this command's: its end is deterministic (see _end_process)
+        atexit.register(_end_process)
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as exc:  # --help, --version (0) or a usage error (2)
+        _exit_code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+        raise
     # without argv the process is this command's (the console script, python -m), not a caller's
     args.own_process = argv is None
+    rc = 1
     try:
-        return args.func(args)
+        rc = args.func(args)
+        return rc
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return 2
+        rc = 2
+        return rc
     except KeyboardInterrupt:
-        return 130
+        rc = 130
+        return rc
+    except SystemExit as exc:  # a command that exits (with its code)
+        rc = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+        raise
     except Exception:  # an internal error: say so, with the trace for a bug report
         traceback.print_exc()
         print("internal error (exit 1): please report it with the trace above", file=sys.stderr)
-        return 1
+        return rc
     finally:
+        if argv is None:
+            _exit_code = rc
         if getattr(args, "own_process", False):
             # the process ends now: its last collection would walk every object once more to free
             # nothing the exit does not free (0.15–0.25 s of CPU)

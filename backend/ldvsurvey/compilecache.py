@@ -22,6 +22,9 @@ upgrade that changed only the inlined function would keep running the old machin
 key starts from an empty folder, so every change of ``nav/`` or ``units.py`` is compiled afresh.
 
 This module imports nothing heavy (no numba, no pydantic): it runs on every start.
+
+:func:`preload_blas` spares a fresh process the import of the whole ``scipy.linalg`` package that
+numba makes only to find the two modules its compiled BLAS and LAPACK calls bind to.
 """
 
 from __future__ import annotations
@@ -93,3 +96,55 @@ def configure() -> Path:
     if nb_config is not None:
         nb_config.CACHE_DIR = str(place)
     return place
+
+
+def preload_blas() -> bool:
+    """Load scipy's ``linalg.cython_blas`` and ``linalg.cython_lapack`` without the ``scipy.linalg`` package.
+
+    numba's CPU target checks for a BLAS when it starts (the first compiled function of a process,
+    cached or not) with ``import scipy.linalg.cython_blas``, and its compiled BLAS/LAPACK calls
+    import those two modules to find their function pointers. Importing them the usual way runs
+    ``scipy/linalg/__init__.py`` first, which imports all of ``scipy.linalg`` (with ``numpy.f2py``,
+    ``numpy.testing`` and ``unittest``): about 0.2 s of CPU in a process that calls no scipy.linalg
+    function. Loaded from their files under their own names, they are the same extension modules
+    (the same function pointers, so the same numbers); ``scipy.linalg`` itself is still imported
+    the usual way by whatever asks for it later, and finds them loaded.
+
+    Returns
+    -------
+    bool
+        True when both are loaded (now or before); False when scipy or the files are not there or
+        numba has already looked (nothing is changed then, and numba imports them its own way).
+    """
+    import importlib.machinery
+    import importlib.util
+
+    names = ("scipy.linalg.cython_blas", "scipy.linalg.cython_lapack")
+    if all(n in sys.modules for n in names):
+        return True
+    if "scipy.linalg" in sys.modules or "numba.np.linalg" in sys.modules:
+        return False
+    try:
+        import scipy
+    except ImportError:
+        return False
+    folder = Path(scipy.__file__).resolve().parent / "linalg"
+    for name in names:
+        if name in sys.modules:
+            continue
+        stem = name.rsplit(".", 1)[1]
+        files = [folder / (stem + s) for s in importlib.machinery.EXTENSION_SUFFIXES]
+        found = [f for f in files if f.is_file()]
+        if not found:
+            return False
+        spec = importlib.util.spec_from_file_location(name, found[0])
+        if spec is None or spec.loader is None:
+            return False
+        try:
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module
+            spec.loader.exec_module(module)
+        except Exception:  # noqa: BLE001 - anything unexpected: leave it to numba's own import
+            sys.modules.pop(name, None)
+            return False
+    return True

@@ -2,14 +2,17 @@
 
 Real logs (``tests/fixtures/real/novatel``, see its README): NovAtel's own test logs from novatel_edie
 (BESTPOS in two definition versions, RAWIMUSXA of an Epson G320, INSPVAA/INSPVASA) and two SPAN
-captures of SwRI's novatel_gps_driver (BESTPOS, INSPVAX, CORRIMUDATA of an OEM6 SPAN receiver). Each
-value is compared with EDIE's own decode of the same message, field by field, or with physics.
+captures of SwRI's novatel_gps_driver (BESTPOS, INSPVAX, CORRIMUDATA of an OEM6 SPAN receiver); two
+OEM7 SPAN captures of NovAtel's ROS driver tests (IMURATECORRIMUS, CORRIMUS, INSCONFIG, INSPVAS/INSPVAX
+of an Epson G320 on a desk). Each value is compared with EDIE's own decode of the same message, field by
+field, or with physics.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +30,9 @@ REAL = Path(__file__).resolve().parents[1] / "fixtures" / "real" / "novatel"
 EDIE_LOGS = REAL / "edie-test-logs.asc"
 SPAN = REAL / "swri-span-corrimudata.gps"
 SPAN_BESTPOS = REAL / "swri-bestpos-bestvel-psrdop2.gps"
+OEM7_IMURATE = REAL / "oem7-driver-ins2-imuratecorrimus.gps"
+OEM7_CORRIMUS = REAL / "oem7-driver-ins1-corrimus.gps"
+G_MIN = 9.78  # normal gravity is at least this anywhere on the ellipsoid (9.7803 at the equator), m/s²
 
 
 def _database() -> dict:
@@ -213,6 +219,53 @@ def test_span_capture_corrimudata_is_refused_as_imu_input_because_gravity_is_rem
     with pytest.raises(BundleError) as e:
         novatel.read(data, SPAN.name, "imu", {})
     assert "gravity" in e.value.message and e.value.file == SPAN.name
+    assert "only corrected ones: 29 CORRIMUDATA." in e.value.message
+
+
+# --- NovAtel's OEM7 ROS driver test captures (SPAN with an Epson G320) -----------------------------
+
+
+def _figure(message: str) -> float:
+    """The mean specific force a refusal of corrected IMU messages prints, m/s²."""
+    return float(re.search(r"mean specific force here is ([0-9.]+) m/s²", message).group(1))
+
+
+def test_an_imuratecorrimus_log_is_refused_naming_imuratecorrimus_and_its_gravity_free_specific_force():
+    """766 IMURATECORRIMUS of a receiver standing on a desk (its own INSPVAS: below 1 cm/s): the refusal names
+    them (not "CORRIMUDATA/CORRIMUS"), the IMU its INSCONFIG states and the raw logs to ask for, and prints their
+    mean specific force, which EDIE's decode of the same messages gives too: about 0, where raw increments of a
+    unit standing on Earth give normal gravity (at least 9.78 m/s²)."""
+    data = OEM7_IMURATE.read_bytes()
+    corr = _edie(data, "IMURATECORRIMUS")
+    assert len(corr) == 766
+    assert max(math.hypot(d["north_vel"], d["east_vel"], d["up_vel"]) for d in _edie(data, "INSPVAS")) < 0.01
+    config = _edie(data, "INSCONFIG")
+    assert {d["imu_type"].name for d in config} == {"EPSON_G320"}
+    with pytest.raises(BundleError) as e:
+        novatel.read(data, OEM7_IMURATE.name, "imu", {})
+    msg = e.value.message
+    assert "only corrected ones: 766 IMURATECORRIMUS." in msg and "CORRIMUDATA/CORRIMUS" not in msg
+    assert "gravity" in msg and "Earth's rotation" in msg and "RAWIMUSXB ONNEW" in msg and "EPSON_G320" in msg
+    assert e.value.field == "message IMURATECORRIMUS" and e.value.file == OEM7_IMURATE.name
+    # EDIE's decode: velocity increments per IMU sample (OEM7 manual: m/s/sample), one sample per message
+    dt = np.median(np.diff([d["seconds"] for d in corr]))
+    assert dt == pytest.approx(1 / 125, abs=1e-5)  # the G320's 125 Hz
+    dv = np.array([[d["lateral"], d["longitudinal"], d["vertical"]] for d in corr])
+    f_mps2 = np.linalg.norm(dv.mean(axis=0)) / dt
+    assert _figure(msg) == pytest.approx(f_mps2, abs=0.0005)  # printed to 1 mm/s²
+    assert _figure(msg) < 0.01 * G_MIN  # gravity removed: a raw unit at rest reads >= 9.78 m/s²
+
+
+def test_a_corrimus_log_is_refused_naming_corrimus():
+    """10 CORRIMUS (1 Hz) and INSPVAS of the same desk receiver: refused, naming CORRIMUS and the IMU; no figure
+    (CORRIMUS counts its accumulated samples, its scaling is not the per-interval one of CORRIMUDATA)."""
+    data = OEM7_CORRIMUS.read_bytes()
+    assert len(_edie(data, "CORRIMUS")) == 10
+    with pytest.raises(BundleError) as e:
+        novatel.read(data, OEM7_CORRIMUS.name, "imu", {})
+    msg = e.value.message
+    assert "only corrected ones: 10 CORRIMUS." in msg and "EPSON_G320" in msg and "RAWIMUSXB" in msg
+    assert "mean specific force" not in msg
 
 
 def test_oem6_bestpos_definition_7145_from_a_real_capture():
@@ -287,7 +340,7 @@ def test_the_reference_trajectory_is_written_beside_the_bundle(tmp_path):
 def test_real_novatel_logs_are_recognised_from_their_content():
     from ldvsurvey.io.importers import detect
 
-    for path in (SPAN, SPAN_BESTPOS, EDIE_LOGS):
+    for path in (SPAN, SPAN_BESTPOS, EDIE_LOGS, OEM7_IMURATE, OEM7_CORRIMUS):
         assert detect(path.read_bytes(), path.name)[0] == "novatel", path.name
 
 

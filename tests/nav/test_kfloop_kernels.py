@@ -105,12 +105,12 @@ def test_phi_ignores_what_its_work_space_held():
     inv_tau = np.zeros(n)
     inv_tau[9:15] = 1.0 / 3600.0
     phi_clean, phi_dirty = np.empty((n, n)), np.empty((n, n))
-    kfloop._phi_into(fin, 0.1, inv_tau, 20, phi_clean, np.zeros((n, n)), np.zeros(n))
-    kfloop._phi_into(fin, 0.1, inv_tau, 20, phi_dirty, np.full((n, n), np.nan), np.full(n, 1e300))
+    kfloop._phi_into(fin, 0.1, inv_tau, 20, -1, phi_clean, np.zeros((n, n)), np.zeros(n))
+    kfloop._phi_into(fin, 0.1, inv_tau, 20, -1, phi_dirty, np.full((n, n), np.nan), np.full(n, 1e300))
     np.testing.assert_array_equal(phi_dirty, phi_clean)
     # and Φ is I + F T + (F T)²/2 of the F it was built from (dense reference, to rounding)
     A = np.zeros((n, n))
-    kfloop._phi_into(fin, 1.0, np.zeros(n), 20, np.empty((n, n)), A, np.zeros(n))  # leaves F·1 (− 0) in A
+    kfloop._phi_into(fin, 1.0, np.zeros(n), 20, -1, np.empty((n, n)), A, np.zeros(n))  # leaves F·1 (− 0) in A
     F = A.copy()
     F[np.arange(n), np.arange(n)] -= inv_tau
     FT = F * 0.1

@@ -122,3 +122,22 @@ def test_smoothed_bridges_a_20_s_gap(tmp_path):
     assert horizontal_errors(sol, truth, t0 + a, t0 + b).max() <= SMOOTHED_GAP_M
     # where every fix aids it, the smoothed solution lies on them to a few times their σ (1 cm)
     assert np.sqrt(np.mean(horizontal_errors(sol, truth, t0 + 60.0, t0 + a) ** 2)) <= 0.3
+
+
+def test_the_run_states_its_alignment_in_summary_and_headlines(tmp_path):
+    """``ldv-survey run navigate`` on the real drive: summary.json and the job page's headline figures
+    say how the heading was found and how well, and the warnings say the gyros could not find north."""
+    import json
+
+    from ldvsurvey.api.headlines import headlines
+    from ldvsurvey.cli import main
+
+    import_excerpt(tmp_path)
+    assert main(["run", "navigate", str(tmp_path / "bundle.zip"), "--out", str(tmp_path / "out")]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["alignment_method"] == "gnss_course"
+    assert 0.2 <= summary["alignment_heading_sigma_deg"] <= 4.0
+    assert any("north" in w for w in summary["warnings"]), summary["warnings"]
+    h = {x["key"]: x for x in headlines("navigate", summary)}
+    assert h["alignment_method"]["text"] == "gnss_course"
+    assert h["alignment_heading_sigma_deg"]["unit"] == "°"

@@ -60,6 +60,8 @@ HEADLINES = {
         ("max_horizontal_error_m", "Horizontal error against GNSS, largest"),
         ("max_height_error_m", "Height error against GNSS, largest"),
         ("n_reference", "Reference epochs"),
+        ("alignment_method", "How the start heading was found (alignment)"),
+        ("alignment_heading_sigma_deg", "Start heading 1σ from the alignment"),
     ],
 }
 

@@ -275,12 +275,13 @@ def run_damping(imu, st, ldv, dmp):
     bias = Bias(st.bias[:3].copy(), st.bias[3:].copy())
     wk = SampleWork(np.empty(3), np.empty(3), np.empty(3), np.zeros(3))
     # no Gauss–Markov states; no LDV state of the navigation filter's, no ZUPT of its kind
-    proc = ProcessModel(dmp.qd, np.zeros(N), -1, np.full(N_LDV_PAR, -1, dtype=np.int64), 0.0)
+    proc = ProcessModel(dmp.qd, np.zeros(N), -1, -1, np.full(N_LDV_PAR, -1, dtype=np.int64), 0.0)
     cov = CovWork(np.diag(dmp.p0), np.empty((N, N)), np.empty((N, N)), np.empty((N, N)))
     ds = DelayedState(np.zeros(3), np.zeros((2, N)), np.zeros((N, N)), np.zeros((N, N)), np.zeros(3, dtype=np.int64))
     sums = WaterSums(np.zeros(3), np.zeros(3), np.zeros((3, 3)), np.zeros(2))
     s_ldv = ldv.s0
     fin = np.zeros(N_FIN)  # what Φ is built from, as the navigation filter stores it per epoch
+    no_sf = np.zeros(6)  # no scale-factor state: none removed, no increment sums read
     c_sn = np.empty((3, 3))
     c_bn = np.empty((3, 3))
     rotating = c_bs.shape[0] > 1
@@ -292,7 +293,7 @@ def run_damping(imu, st, ldv, dmp):
     for k in range(n_s):
         dt = t[k] - t_prev
         t_prev = t[k]
-        mech_sample(imu, k, dt, nav, bias, 0.0, -1, wk)
+        mech_sample(imu, k, dt, nav, bias, no_sf, 0, wk)
         q_to_c_into(q, c_sn)
         c_bn_into(c_sn, c_bs, k, rotating, c_bn)
         if ldv_ok[k] and t[k] > zupt_end_s:
@@ -304,7 +305,7 @@ def run_damping(imu, st, ldv, dmp):
         T = t[k] - t_epoch
         t_epoch = t[k]
         ds.cnt[1] += 1
-        propagate_epoch(fin, c_sn, wk.fsum_n_mps, 0.0, nav, T, proc, cov)
+        propagate_epoch(fin, c_sn, wk.fsum_n_mps, no_sf, nav, T, proc, cov)
         x = _damping_epoch(cov, ds, sums, nav, t[k] <= dmp.zupt_end_s, dmp, ldv, cdb)
         feedback_into(x, nav, bias)
         s_ldv = s_ldv - x[IX_DS]

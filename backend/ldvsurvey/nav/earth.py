@@ -9,14 +9,20 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ldvsurvey.nav.localframe import A_M, E2, F, radii  # noqa: F401  (the ellipsoid, defined once)
-
-B_M = A_M * (1.0 - F)  #: semi-minor axis, m
-OMEGA_IE = 7.292115e-5  #: Earth rotation rate, rad/s
-GM = 3.986004418e14  #: m³/s²
-GAMMA_E = 9.7803253359  #: normal gravity at the equator, m/s²
-K_SOMIGLIANA = 0.00193185265241
-M_RATIO = OMEGA_IE**2 * A_M**2 * B_M / GM  #: m = ω² a² b / GM
+# the ellipsoid, its constants and the vectorized normal gravity are defined once, without numba, there
+from ldvsurvey.nav.localframe import (  # noqa: F401
+    A_M,
+    B_M,
+    E2,
+    GAMMA_E,
+    GM,
+    K_SOMIGLIANA,
+    M_RATIO,
+    OMEGA_IE,
+    F,
+    normal_gravity,
+    radii,
+)
 from ldvsurvey.units import MPS2_PER_MGAL as MGAL  # noqa: E402, F401  (re-exported; 1 mGal in m/s²)
 from ldvsurvey.units import RAD_PER_ARCSEC as ARCSEC  # noqa: E402, F401  (re-exported; 1 arcsecond in rad)
 
@@ -35,15 +41,6 @@ def normal_gravity_nb(lat_rad: float, h_m: float) -> float:
     s2 = np.sin(lat_rad) ** 2
     g0 = GAMMA_E * (1.0 + K_SOMIGLIANA * s2) / np.sqrt(1.0 - E2 * s2)
     return g0 * (1.0 - 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2) * h_m + 3.0 * h_m * h_m / (A_M * A_M))
-
-
-def normal_gravity(lat_rad, h_m):
-    """Vectorized Somigliana normal gravity γ(L, h) with the second-order height term, m/s²."""
-    lat_rad = np.asarray(lat_rad, dtype=float)
-    h_m = np.asarray(h_m, dtype=float)
-    s2 = np.sin(lat_rad) ** 2
-    g0 = GAMMA_E * (1.0 + K_SOMIGLIANA * s2) / np.sqrt(1.0 - E2 * s2)
-    return g0 * (1.0 - 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2) * h_m + 3.0 * h_m**2 / A_M**2)
 
 
 def w_ie_n(lat_rad):

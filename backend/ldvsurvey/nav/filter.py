@@ -1,4 +1,5 @@
-"""Error-state Kalman filter (15 states, optionally + LDV calibration states) with an RTS smoother.
+"""Error-state Kalman filter (15 states, optionally + LDV calibration and scale-factor states) with an
+RTS smoother.
 
 Smoothing a closed-loop filter: let e_j be the error of the post-feedback nominal at epoch j
 and dx_j the correction fed back at j. The pre-update error at j is e_j + dx_j, and the
@@ -20,6 +21,14 @@ from ldvsurvey.nav.errmodel import IX_AUG, IX_EPS, IX_NABLA, N_BASE
 from ldvsurvey.units import RAD_PER_DEG
 
 AUG_NAMES = ("scale", "pitch", "heading", "scale_up", "pitch_k")
+#: the manifest's optional ``imu`` keys beyond the schema's (see :meth:`ImuNoise.from_manifest`)
+EXTRA_KEYS = (
+    "gyro_bias_instability_dph",
+    "accel_bias_instability_ug",
+    "bias_correlation_s",
+    "gyro_scale_ppm",
+    "accel_scale_ppm",
+)
 
 
 @dataclass
@@ -38,16 +47,21 @@ class ImuNoise:
     gyro_bias_instability_dph: float | None = None
     accel_bias_instability_ug: float | None = None
     bias_correlation_s: float | None = None
+    #: 1-σ of the gyro and accelerometer scale factors (ppm) when the manifest states them (None: the
+    #: grade's default, see :func:`imu_grade`)
+    gyro_scale_ppm: float | None = None
+    accel_scale_ppm: float | None = None
 
     @classmethod
     def from_manifest(cls, imu) -> ImuNoise:
         """From the manifest's ``imu`` block, including the optional (spec-allowed extra) keys
-        ``gyro_bias_instability_dph``, ``accel_bias_instability_ug`` and ``bias_correlation_s``."""
+        ``gyro_bias_instability_dph``, ``accel_bias_instability_ug``, ``bias_correlation_s``,
+        ``gyro_scale_ppm`` and ``accel_scale_ppm`` (scale-factor 1-σ)."""
         from ldvsurvey.errors import ParameterError
 
         d = cls()
         extra = {}
-        for key in ("gyro_bias_instability_dph", "accel_bias_instability_ug", "bias_correlation_s"):
+        for key in EXTRA_KEYS:
             val = getattr(imu, key, None)
             if val is None:
                 continue
@@ -64,7 +78,10 @@ class ImuNoise:
                     field=f"imu.{key}",
                 )
             extra[key] = float(val)
-        if extra and "bias_correlation_s" not in extra:
+        if (
+            set(extra) & {"gyro_bias_instability_dph", "accel_bias_instability_ug"}
+            and "bias_correlation_s" not in extra
+        ):
             raise ParameterError(
                 "a bias instability needs its correlation time imu.bias_correlation_s",
                 file="manifest.json",
@@ -113,6 +130,20 @@ class ImuNoise:
         return (self.accel_vrw_ug_rthz * 9.80665e-6) ** 2
 
 
+#: turn-on gyro bias 1-σ (°/h) below which an IMU is of navigation grade, and below which of tactical
+#: grade (above: MEMS); ring-laser and good fibre-optic gyros sit near 0.01 °/h, tactical units at
+#: 0.5–10 °/h, consumer MEMS at 100–1000 °/h
+GRADE_LIMITS_DPH = (0.1, 20.0)
+
+
+def imu_grade(noise: ImuNoise) -> str:
+    """The IMU's grade from its stated turn-on gyro bias: ``"navigation"``, ``"tactical"`` or ``"mems"``
+    (limits :data:`GRADE_LIMITS_DPH`)."""
+    if noise.gyro_bias_dph < GRADE_LIMITS_DPH[0]:
+        return "navigation"
+    return "tactical" if noise.gyro_bias_dph < GRADE_LIMITS_DPH[1] else "mems"
+
+
 @dataclass
 class FilterConfig:
     """Tuning. Angles in rad, velocities in m/s, positions in m."""
@@ -131,6 +162,12 @@ class FilterConfig:
     #: prior σ of the z-gyro scale factor state (0: no state). With a rotating IMU the turntable's
     #: turns (and the vehicle's) make it observable; unmodelled, 200 ppm × 180° is 2′ of heading
     gyro_scale_z_sigma0: float = 0.0
+    #: prior σ (dimensionless) of the three gyro and three accelerometer scale factors (both 0: no such
+    #: states; not with gyro_scale_z_sigma0): a MEMS or tactical unit's, see :func:`imu_grade`
+    gyro_scale_sigma0: float = 0.0
+    accel_scale_sigma0: float = 0.0
+    #: their first-order Gauss–Markov correlation time (s), driving PSD 2σ²/τ (None: random constants)
+    scale_correlation_s: float | None = None
     ldv_aug: tuple[str, ...] = ()  #: subset of AUG_NAMES to estimate
     #: initial σ of the LDV states: inverse scale s = 1/K (≈ relative scale), angles in rad,
     #: pitch compliance k_η in rad per m/s² (0.01 ≈ 5.6° per g, twice the softest car suspension)
@@ -228,6 +265,9 @@ class NavSolution:
     f_u_bias_mps2: np.ndarray | None = None
     #: (estimate, 1-σ) of the z-gyro scale factor (dimensionless) when it is a state
     gyro_scale_z: tuple | None = None
+    #: {"gyro": (estimate (3,), 1-σ (3,)), "accel": (…)} of the sensor-axis scale factors (dimensionless,
+    #: measured = (1 + s) true) when they are states, at the last (forward) or first (smoothed) epoch
+    scale_factors: dict | None = None
 
     @property
     def f_t_s(self) -> np.ndarray:
@@ -309,10 +349,20 @@ def _model(t, noise: ImuNoise, cfg: FilterConfig, zupt_intervals, attitude_only,
     aug_idx = np.full(len(AUG_NAMES), -1, dtype=np.int64)
     for i, a in enumerate(aug):
         aug_idx[AUG_NAMES.index(a)] = IX_AUG + i
-    i_sz = -1
-    if cfg.gyro_scale_z_sigma0 > 0:  # the z-gyro scale factor, last state
+    i_sz = i_sf = -1
+    n_sf = 6 if cfg.gyro_scale_sigma0 > 0 or cfg.accel_scale_sigma0 > 0 else 0
+    if n_sf:  # gyro x y z and accelerometer x y z scale factors, the last states
+        if cfg.gyro_scale_z_sigma0 > 0:
+            raise ValueError("the z-gyro scale-factor state and the six scale-factor states exclude each other")
+        i_sf = n
+        n += n_sf
+    elif cfg.gyro_scale_z_sigma0 > 0:  # the z-gyro scale factor, last state
         i_sz = n
         n += 1
+    # scale-factor priors never zero (a P⁻ singular for the smoother): 1 ppm at least
+    s_sf = np.repeat([max(cfg.gyro_scale_sigma0, 1e-6), max(cfg.accel_scale_sigma0, 1e-6)], 3)[:n_sf]
+    tau_sf = cfg.scale_correlation_s
+    q_sf = 2.0 * s_sf**2 / tau_sf if tau_sf else np.full(n_sf, 1e-16)
     s_att = np.asarray(cfg.att_sigma0_rad, float)
     # bias priors never zero (a manifest may say 0): that would make P⁻ singular for the smoother
     sg = max(noise.gyro_bias_rps, 1e-4 * RAD_PER_DEG / 3600.0)
@@ -326,6 +376,7 @@ def _model(t, noise: ImuNoise, cfg: FilterConfig, zupt_intervals, attitude_only,
             np.full(3, sa**2),
             [cfg.ldv_aug_sigma0[a] ** 2 for a in aug],
             [cfg.gyro_scale_z_sigma0**2] * (i_sz >= 0),
+            s_sf**2,
         ]
     )
     q_v = 2.0 * (cfg.gravity_noise_mgal * MGAL) ** 2 * cfg.gravity_corr_s
@@ -341,10 +392,13 @@ def _model(t, noise: ImuNoise, cfg: FilterConfig, zupt_intervals, attitude_only,
             np.full(3, rw * sa**2) + q_gm[3:],
             np.full(len(aug), 1e-14),
             [1e-16] * (i_sz >= 0),
+            q_sf,
         ]
     )
     inv_tau = np.zeros(n)
     inv_tau[IX_EPS : IX_NABLA + 3] = inv_gm
+    if n_sf and tau_sf:
+        inv_tau[i_sf : i_sf + n_sf] = 1.0 / tau_sf
     ep_t = np.concatenate([[t[0] - (t[1] - t[0])], t[decim - 1 : m * decim : decim]])
     zupt = np.zeros(m + 1, dtype=np.bool_)
     for a, b in zupt_intervals:
@@ -359,6 +413,7 @@ def _model(t, noise: ImuNoise, cfg: FilterConfig, zupt_intervals, attitude_only,
         float(cfg.zupt_sigma_mps),
         float(cfg.gate_sigma),
         i_sz,
+        i_sf,
         not attitude_only,
         bool(specific_force),
     )
@@ -489,10 +544,11 @@ def run_filter(
     del lin
     traj = kfloop.Trajectory(fw.q_sn, fw.v_n_mps, fw.pos_rad_m, fw.f_u_mps2, fw.f_en_mps2, fw.f_b_mps2)
     rec = kfloop.Record(fw.ck_packed, fw.upd, fw.fin, fw.dt_s, fw.dx)
-    proc = kfloop.ProcessModel(mdl.qd, mdl.inv_tau, mdl.i_sz, aug_idx, float(cfg.zupt_sigma_mps))
+    proc = kfloop.ProcessModel(mdl.qd, mdl.inv_tau, mdl.i_sz, mdl.i_sf, aug_idx, float(cfg.zupt_sigma_mps))
     # the LDV parameters are read at the first or last epoch only; the smoother's 1-σ replace the
     # forward ones, which are not held through the smoother
     par, bias, sz, sig_f = fw.ldv_par[[0, -1]], fw.bias, fw.gyro_scale_z, None if smooth else fw.sigma
+    sf_ep = fw.scale
     nis, rej = fw.nis, fw.rejected
     del fw
     if smooth:
@@ -504,7 +560,12 @@ def run_filter(
         ps = kfloop.forward_covs(rec, proc) if keep_cov else None
     del rec
     jb = 0 if smooth else -1  # the biases and LDV parameters are read at the first or last epoch
-    i_sz = mdl.i_sz
+    i_sz, i_sf = mdl.i_sz, mdl.i_sf
+    sfs = None
+    if i_sf >= 0:  # the estimates fed back up to the epoch, + the smoother's correction there
+        est = sf_ep[jb] + xs[jb, i_sf : i_sf + 6]
+        sig6 = sig_ep[jb, i_sf : i_sf + 6]
+        sfs = {"gyro": (est[:3], sig6[:3]), "accel": (est[3:], sig6[3:])}
     return NavSolution(
         t_s=t,
         q_sn=traj.q_sn,
@@ -525,6 +586,7 @@ def run_filter(
         f_u_mps2=traj.f_u_mps2,
         f_u_bias_mps2=traj.f_b_mps2,
         gyro_scale_z=None if i_sz < 0 else (float(sz[jb] + xs[jb, i_sz]), float(sig_ep[jb, i_sz])),
+        scale_factors=sfs,
     )
 
 

@@ -64,10 +64,11 @@ MAX_REJECT_RUN = 5  #: epochs of consecutive rejections after which a measuremen
 ImuIn = namedtuple("ImuIn", "t dth dvel c_bs xi eta dg")
 #: the error model: decim (IMU samples per epoch), p0 (n,) prior variances, qd (n,) PSDs, inv_tau (n,)
 #: 1/τ of Gauss–Markov states (1/s), zupt (M+1,) bool epochs standing still, zupt_sigma (m/s),
-#: gate (σ, 0 = off), i_sz (index of the z-gyro scale-factor state, −1: none), full (False: keep only the
-#: attitude per sample; velocity, position and specific force come back empty), forces (with full: keep
-#: the up specific force per sample too; False: it comes back empty, 16 bytes per sample less)
-Model = namedtuple("Model", "decim p0 qd inv_tau zupt zupt_sigma gate i_sz full forces")
+#: gate (σ, 0 = off), i_sz (index of the z-gyro scale-factor state, −1: none), i_sf (index of the first of
+#: six scale-factor states, gyro x y z then accelerometer x y z, −1: none; never with i_sz), full (False:
+#: keep only the attitude per sample; velocity, position and specific force come back empty), forces (with
+#: full: keep the up specific force per sample too; False: it comes back empty, 16 bytes per sample less)
+Model = namedtuple("Model", "decim p0 qd inv_tau zupt zupt_sigma gate i_sz i_sf full forces")
 #: LDV: ok (N,) bool, nu_f, nu_u (N,) m/s, par0 (5,) [s_f, η_L, φ_L, s_u, k_η], lever (3,) m,
 #: sigma (3,) m/s per sample, up (2-D LDV), aug_idx (5,) state index of each LDV state (−1: none),
 #: a_fwd (N,) or empty: forward acceleration for the pitch compliance (m/s²)
@@ -77,11 +78,14 @@ GnssIn = namedtuple("GnssIn", "t pos sig lever")
 #: initial state: q (4,) C_s^n, v (3,) ENU m/s, pos (3,) lat, lon rad, h m, bias (6,) gyro rad/s, accel m/s²
 Start = namedtuple("Start", "q v pos bias")
 
-#: what Φ of an epoch is built from (stored per epoch): C_s^n (9), mean f^n (3), v (3), lat, h, mean ω_z
-N_FIN = 18
+#: what Φ of an epoch is built from (stored per epoch): C_s^n (9), mean f^n (3), v (3), lat, h, mean ω_z,
+#: mean ω^s (3) and f^s (3) in the sensor frame (written with the six scale-factor states only)
+N_FIN = 24
 #: offsets in a ``fin`` row: C_s^n (row-major), mean specific force in n (m/s²), v ENU (m/s),
-#: latitude (rad), height (m), mean z rate (rad/s)
-FIN_C, FIN_F, FIN_V, FIN_LAT, FIN_H, FIN_WZ = 0, 9, 12, 15, 16, 17
+#: latitude (rad), height (m), mean z rate (rad/s), mean rate ω^s (rad/s), mean specific force f^s (m/s²)
+FIN_C, FIN_F, FIN_V, FIN_LAT, FIN_H, FIN_WZ, FIN_WS, FIN_FS = 0, 9, 12, 15, 16, 17, 18, 21
+#: the scale-factor estimates a sample's mechanization removes: none, the z gyro's, all six
+SF_NONE, SF_Z, SF_ALL = 0, 1, 6
 
 #: per-epoch record of the measurement updates, enough to redo them on the covariance alone:
 #: [0] ZUPT done, [1:4] its rows taken; [4] LDV done, [5:8] rows taken, [8:11] r, [11:14] v̄_l
@@ -121,6 +125,7 @@ class ProcessModel(NamedTuple):
     qd: np.ndarray  #: (n,) driving-noise PSDs, state unit² per s
     inv_tau_ps: np.ndarray  #: (n,) 1/τ of the Gauss–Markov states, 1/s (0: none)
     i_sz: int  #: index of the z-gyro scale-factor state, −1: none
+    i_sf: int  #: index of the first of the six scale-factor states (gyro x y z, accel x y z), −1: none
     aug_idx: np.ndarray  #: (5,) state index of each LDV state, −1: none
     zupt_sigma_mps: float  #: 1-σ of a zero-velocity measurement, m/s
 
@@ -194,6 +199,7 @@ class ForwardOut(NamedTuple):
     nis: np.ndarray  #: (M+1, 9) normalized innovations: ZUPT (3), LDV (3), GNSS (3); NaN: none
     rejected: np.ndarray  #: (3,) int: rejections per measurement kind (ZUPT, LDV, GNSS)
     gyro_scale_z: np.ndarray  #: (M+1,) the z-gyro scale-factor estimate (0 when not a state)
+    scale: np.ndarray  #: (M+1, 6) gyro x y z and accelerometer x y z scale-factor estimates, or (0, 6)
 
 
 class Record(NamedTuple):
@@ -260,7 +266,7 @@ def feedback_into(x, nav, bias):
 
 
 @nb.njit(cache=True, inline="always")
-def mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk):
+def mech_sample(imu, k, dt, nav, bias, sf, n_sf, wk):
     """Mechanize IMU sample k with the bias (and z scale-factor) estimates removed.
 
     The work of every sample of the filters (this module's and :mod:`ldvsurvey.nav.damping`).
@@ -273,8 +279,8 @@ def mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk):
     nav : :class:`~ldvsurvey.nav.mech.NavState`, advanced in place (see
         :func:`~ldvsurvey.nav.mech.mech_step_into`); its previous increments ← the corrected ones.
     bias : :class:`Bias` estimates, rad/s and m/s².
-    s_z : the z-gyro scale-factor estimate (dimensionless), removed when ``i_sz`` ≥ 0.
-    i_sz : index of the z-gyro scale-factor state, −1: none.
+    sf : (6,) scale-factor estimates (dimensionless) of the gyros x y z and accelerometers x y z.
+    n_sf : which are removed: :data:`SF_NONE`, :data:`SF_Z` (the z gyro's, ``sf[2]``), :data:`SF_ALL`.
     wk : :class:`SampleWork`: the corrected increments and f_n written, fsum += f_n dt.
 
     Returns
@@ -289,10 +295,14 @@ def mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk):
     gd = imu.dg[k] if len(imu.xi) > 0 else 0.0
     for i in range(3):
         a_th[i] = dth[k, i] - b_g[i] * dt
-    if i_sz >= 0:  # z-gyro scale factor: ω̃_z = (1 + s_z) ω_z
-        a_th[2] -= s_z * a_th[2]
+    if n_sf == SF_Z:  # z-gyro scale factor: ω̃_z = (1 + s_z) ω_z
+        a_th[2] -= sf[2] * a_th[2]
     for i in range(3):
         a_dv[i] = dvel[k, i] - b_a[i] * dt
+    if n_sf == SF_ALL:  # ω̃ = (1 + s_g) ω, f̃ = (1 + s_a) f per axis (to first order in s)
+        for i in range(3):
+            a_th[i] -= sf[i] * a_th[i]
+            a_dv[i] -= sf[3 + i] * a_dv[i]
     mech_step_into(nav, a_th, a_dv, dt, gx, ge, gd, f_n)
     dth_prev, dv_prev = nav.dth_prev_rad, nav.dv_prev_mps
     for i in range(3):
@@ -303,7 +313,7 @@ def mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk):
 
 
 @nb.njit(cache=True, inline="always")
-def propagate_epoch(fin_j, c_sn, fsum_n_mps, wz_sum_rad, nav, dt_s, proc, cov):
+def propagate_epoch(fin_j, c_sn, fsum_n_mps, ssum, nav, dt_s, proc, cov):
     """Covariance propagation over an epoch: P ← Φ P Φᵀ + diag(qd) T.
 
     The same for this module's filter and the damping one.
@@ -311,10 +321,11 @@ def propagate_epoch(fin_j, c_sn, fsum_n_mps, wz_sum_rad, nav, dt_s, proc, cov):
     Parameters
     ----------
     fin_j : (:data:`N_FIN`,) written: what Φ is built from (C_s^n, mean specific force
-        fsum_n_mps / T, v, lat, h, mean ω_z = wz_sum_rad / T).
+        fsum_n_mps / T, v, lat, h, mean ω_z = ssum[2] / T, mean ω^s and f^s = ssum / T).
     c_sn : (3, 3) C_s^n at the epoch.
     fsum_n_mps : (3,) Σ f_n dt over the epoch, m/s.
-    wz_sum_rad : Σ of the z-gyro increments over the epoch, rad (read with a scale-factor state).
+    ssum : (6,) Σ of the corrected sensor increments over the epoch, rad and m/s (read with scale-factor
+        states: the z gyro's alone, or all six).
     nav : :class:`~ldvsurvey.nav.mech.NavState` at the epoch (v, lat, h read).
     dt_s : the epoch's length T, s.
     proc : :class:`ProcessModel`.
@@ -327,15 +338,19 @@ def propagate_epoch(fin_j, c_sn, fsum_n_mps, wz_sum_rad, nav, dt_s, proc, cov):
             fin_j[FIN_C + 3 * i + jj] = c_sn[i, jj]
         fin_j[FIN_F + i] = fsum_n_mps[i] / T
         fin_j[FIN_V + i] = v[i]
-    fin_j[FIN_LAT], fin_j[FIN_H], fin_j[FIN_WZ] = pos[0], pos[2], wz_sum_rad / T
+    fin_j[FIN_LAT], fin_j[FIN_H], fin_j[FIN_WZ] = pos[0], pos[2], ssum[2] / T
+    if proc.i_sf >= 0:
+        for i in range(3):
+            fin_j[FIN_WS + i] = ssum[i] / T
+            fin_j[FIN_FS + i] = ssum[3 + i] / T
     # M and P_next: written only after Φ is complete
-    _phi_into(fin_j, T, proc.inv_tau_ps, proc.i_sz, cov.Phi, cov.M, cov.P_next[0])
+    _phi_into(fin_j, T, proc.inv_tau_ps, proc.i_sz, proc.i_sf, cov.Phi, cov.M, cov.P_next[0])
     _propagate(cov.P, cov.Phi, proc.qd, T, cov.M, cov.P_next)
     cov.P[:, :] = cov.P_next
 
 
 @nb.njit(cache=True)
-def _phi_into(fin, T, inv_tau, i_sz, Phi, A, sq):
+def _phi_into(fin, T, inv_tau, i_sz, i_sf, Phi, A, sq):
     """Φ = I + F T + (F T)²/2 of one epoch into ``Phi`` (n×n), F from the stored ``fin`` row;
     ``A`` (n×n) and ``sq`` (n,) are work space (overwritten: no allocation per epoch).
 
@@ -348,6 +363,11 @@ def _phi_into(fin, T, inv_tau, i_sz, Phi, A, sq):
     if i_sz >= 0:  # φ̇ = −C_s^n δω^s, δω^s = [0, 0, δs_z ω_z]
         for i in range(3):
             A[IX_PHI + i, i_sz] = -c_sn[i, 2] * fin[FIN_WZ]
+    if i_sf >= 0:  # δω^s = diag(ω^s) δs_g, δf^s = diag(f^s) δs_a: φ̇ = −C_s^n δω^s, δv̇ = C_s^n δf^s
+        for i in range(3):
+            for jj in range(3):
+                A[IX_PHI + i, i_sf + jj] = -c_sn[i, jj] * fin[FIN_WS + jj]
+                A[IX_V + i, i_sf + 3 + jj] = c_sn[i, jj] * fin[FIN_FS + jj]
     for i in range(n):  # first-order Gauss–Markov states (bias instability): ẋ = −x/τ + w
         A[i, i] -= inv_tau[i]
     for i in range(n):
@@ -781,6 +801,7 @@ def _alloc_out(n_s, m, n, mdl):
         np.full((m + 1, 9), np.nan),
         np.zeros(3, dtype=np.int64),
         np.zeros(m + 1),
+        np.zeros((m + 1 if mdl.i_sf >= 0 else 0, 6)),
     )
 
 
@@ -813,7 +834,7 @@ def forward(imu, mdl, ldv, gnss, st):
         Per IMU sample the attitude, velocity, position and specific force; per epoch what the
         smoother replays, the 1-σ, LDV calibration, biases and normalized innovations.
     """
-    t, c_bs, decim, i_sz, gate = imu.t, imu.c_bs, mdl.decim, mdl.i_sz, mdl.gate
+    t, c_bs, decim, i_sz, i_sf, gate = imu.t, imu.c_bs, mdl.decim, mdl.i_sz, mdl.i_sf, mdl.gate
     n_s, n = len(t), len(mdl.p0)
     out = _alloc_out(n_s, n_s // decim, n, mdl)
     full, forces = mdl.full, mdl.full and mdl.forces
@@ -822,7 +843,7 @@ def forward(imu, mdl, ldv, gnss, st):
     )
     bias = Bias(st.bias[:3].copy(), st.bias[3:].copy())
     wk = SampleWork(np.empty(3), np.empty(3), np.empty(3), np.zeros(3))
-    proc = ProcessModel(mdl.qd, mdl.inv_tau, i_sz, ldv.aug_idx, mdl.zupt_sigma)
+    proc = ProcessModel(mdl.qd, mdl.inv_tau, i_sz, i_sf, ldv.aug_idx, mdl.zupt_sigma)
     cov = CovWork(np.diag(mdl.p0), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)))
     kf = KfWork(
         np.zeros(n),
@@ -854,11 +875,14 @@ def forward(imu, mdl, ldv, gnss, st):
     q_to_c_into(nav.q_sn, c_sn)
     c_bn_into(c_sn, c_bs, 0, rotating, c_bn_prev)
     j = 0
-    s_z = 0.0  # z-gyro scale-factor estimate (state i_sz when ≥ 0)
-    wz_sum = 0.0
+    # scale-factor estimates (gyro x y z, accel x y z): the z gyro's (state i_sz) or all six (from i_sf)
+    sf = np.zeros(6)
+    n_sf = SF_ALL if i_sf >= 0 else (SF_Z if i_sz >= 0 else SF_NONE)
+    ssum = np.zeros(6)  # Σ of the corrected sensor increments over the epoch, read with scale-factor states
     # what the per-sample path touches, under names: read through its struct in this loop, a field
     # costs as much as the mechanization itself (measured); stages are handed the structs
     q, v, pos, f_n, b_a = nav.q_sn, nav.v_n_mps, nav.pos_rad_m, wk.f_n_mps2, bias.accel_mps2
+    a_th, a_dv = wk.dth_rad, wk.dv_mps
     ldv_ok, nu_f, nu_u, a_fwd, up, g_t, fix_idx = ldv.ok, ldv.nu_f, ldv.nu_u, ldv.a_fwd, ldv.up, gnss.t, fix.idx
     cdb, lever = cal.c_db, ldv.lever
     q_out, v_out, p_out = out.q_sn, out.v_n_mps, out.pos_rad_m
@@ -867,9 +891,13 @@ def forward(imu, mdl, ldv, gnss, st):
         # ---- IMU sample: mechanization, the LDV residual's sums, GNSS fixes brought to the epoch ----
         dt = t[k] - t_prev
         t_prev = t[k]
-        dwz = mech_sample(imu, k, dt, nav, bias, s_z, i_sz, wk)
-        if i_sz >= 0:
-            wz_sum += dwz
+        dwz = mech_sample(imu, k, dt, nav, bias, sf, n_sf, wk)
+        if n_sf == SF_Z:
+            ssum[2] += dwz
+        elif n_sf == SF_ALL:
+            for i in range(3):
+                ssum[i] += a_th[i]
+                ssum[3 + i] += a_dv[i]
         q_to_c_into(q, c_sn)
         if forces:
             _store_forces(fu_out, fen_out, fb_out, k, f_n, c_sn, b_a)
@@ -887,7 +915,7 @@ def forward(imu, mdl, ldv, gnss, st):
         j += 1
         T = t[k] - t_epoch
         t_epoch = t[k]
-        propagate_epoch(out.fin[j], c_sn, wk.fsum_n_mps, wz_sum, nav, T, proc, cov)
+        propagate_epoch(out.fin[j], c_sn, wk.fsum_n_mps, ssum, nav, T, proc, cov)
         out.dt_s[j] = T
         kf.x[:] = 0.0
         if mdl.zupt[j]:
@@ -902,9 +930,13 @@ def forward(imu, mdl, ldv, gnss, st):
         c_bn_into(c_sn, c_bs, k, rotating, c_bn_prev)
         _checkpoint(out, j, kf.x, cov.P, cal.par, bias)
         if i_sz >= 0:
-            s_z += kf.x[i_sz]
-            out.gyro_scale_z[j] = s_z
-        wz_sum = 0.0
+            sf[2] += kf.x[i_sz]
+            out.gyro_scale_z[j] = sf[2]
+        if i_sf >= 0:
+            for i in range(6):
+                sf[i] += kf.x[i_sf + i]
+                out.scale[j, i] = sf[i]
+        ssum[:] = 0.0
         _reset_sums(wk, lsum)
         _store_sample(q_out, v_out, p_out, k, q, v, pos, full)
     return out
@@ -932,7 +964,7 @@ def _block_covs(rec, proc, b, blk, ws, blk_m, blk_pm):
     ``blk_m`` and P⁻_e into ``blk_pm`` (index e − b·CK_EVERY; both (K, n, n), or (0, n, n): not
     kept). Returns the number of epochs filled. ``ws``: (3, n, n) work space."""
     ck, upd, fin, dts = rec.ck_packed, rec.upd, rec.fin, rec.dt_s
-    qd, inv_tau, i_sz, aug_idx = proc.qd, proc.inv_tau_ps, proc.i_sz, proc.aug_idx
+    qd, inv_tau, i_sz, i_sf, aug_idx = proc.qd, proc.inv_tau_ps, proc.i_sz, proc.i_sf, proc.aug_idx
     zupt_r = proc.zupt_sigma_mps**2
     keep = blk_m.shape[0] > 0
     m1 = dts.shape[0]
@@ -945,7 +977,7 @@ def _block_covs(rec, proc, b, blk, ws, blk_m, blk_pm):
     ph = np.empty(n)
     nz = np.empty(n, dtype=np.int64)
     for e in range(j0 + 1, j1):
-        _phi_into(fin[e], dts[e], inv_tau, i_sz, Phi, A, ph)
+        _phi_into(fin[e], dts[e], inv_tau, i_sz, i_sf, Phi, A, ph)
         P = blk[e - j0]
         # what the smoother's step j = e − 1 needs, when kept: Φ P⁺_j (written in place) and P⁻_{j+1}
         _propagate(blk[e - j0 - 1], Phi, qd, dts[e], blk_m[e - j0] if keep else M, P)
@@ -1002,7 +1034,7 @@ def rts(rec, proc, keep_cov):
     ps : (M+1, n, n) P_s when ``keep_cov``, else an empty (0, n, n).
     """
     fin, dts, dxs = rec.fin, rec.dt_s, rec.dx
-    inv_tau, i_sz, qd = proc.inv_tau_ps, proc.i_sz, proc.qd
+    inv_tau, i_sz, i_sf, qd = proc.inv_tau_ps, proc.i_sz, proc.i_sf, proc.qd
     m1 = dts.shape[0]
     n = dxs.shape[1]
     xs = np.zeros((m1, n))
@@ -1039,7 +1071,7 @@ def rts(rec, proc, keep_cov):
                 Mj = blk_m[j + 1 - j0]
                 pmj = blk_pm[j + 1 - j0]
             else:  # epoch j + 1 opens the next block
-                _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, Phi, M, tmp)
+                _phi_into(fin[j + 1], dts[j + 1], inv_tau, i_sz, i_sf, Phi, M, tmp)
                 _propagate(Pp, Phi, qd, dts[j + 1], M, pm)
                 Mj = M
                 pmj = pm

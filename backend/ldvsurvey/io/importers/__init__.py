@@ -9,10 +9,25 @@ the command line and the API take their lists from it.
 from __future__ import annotations
 
 import importlib
+from typing import TYPE_CHECKING
 
 from ldvsurvey.errors import BundleError
-from ldvsurvey.io.importers.build import ImportResult, Source, build_bundle, parse_partial_manifest
-from ldvsurvey.io.importers.contract import Importer, Option, from_module
+
+if TYPE_CHECKING:
+    from ldvsurvey.io.importers.build import ImportResult, Source, build_bundle, parse_partial_manifest
+    from ldvsurvey.io.importers.contract import Importer, Option
+
+#: names this package gives from its modules, imported on first use: the command line reads
+#: :data:`REGISTRY` at every start (``run`` and ``validate`` too), which must not pay for the import
+#: machinery (numpy, the checks) it does not use
+_LAZY = {
+    "ImportResult": "build",
+    "Source": "build",
+    "build_bundle": "build",
+    "parse_partial_manifest": "build",
+    "Importer": "contract",
+    "Option": "contract",
+}
 
 #: format name -> module (imported on first use: some need optional libraries)
 REGISTRY = {
@@ -33,6 +48,8 @@ def get_importer(fmt: str, file: str | None = None) -> Importer:
     key = str(fmt).strip().lower()
     if key not in REGISTRY:
         raise BundleError(f"unknown import format '{fmt}' (known: {', '.join(REGISTRY)})", file=file, field="format")
+    from ldvsurvey.io.importers.contract import from_module
+
     imp = from_module(importlib.import_module(f"ldvsurvey.io.importers.{REGISTRY[key]}"))
     if imp.name != key:
         raise TypeError(f"the module of format '{key}' declares the name '{imp.name}'")
@@ -56,6 +73,15 @@ def detect(data: bytes, name: str) -> tuple[str, str] | None:
         if role:
             return fmt, role
     return None
+
+
+def __getattr__(name: str):
+    """The names of :data:`_LAZY`, from their module on first use (PEP 562)."""
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f"ldvsurvey.io.importers.{_LAZY[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 __all__ = [

@@ -7,6 +7,7 @@ import datetime as dt
 import functools
 import io
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -227,6 +228,9 @@ def read_number_table(
         A row with too few fields, a field that is not a finite number, an empty file.
     """
     text = data.decode("utf-8", "replace")
+    fast = _regular_table(text, min_cols, comment)
+    if fast is not None:
+        return fast
     rows, lines = [], []
     width = None
     for lineno, raw in enumerate(io.StringIO(text), start=1):
@@ -272,6 +276,50 @@ def read_number_table(
     if not rows:
         raise BundleError("file holds no data rows", file=file, line=1)
     return np.array(rows, dtype=np.float64), np.array(lines, dtype=np.int64)
+
+
+#: printable ASCII, tab and line ends: the fast reader leaves text with any other character to the strict one
+_PLAIN = bytes(range(0x20, 0x7F)) + b"\t\n\r"
+
+
+def _regular_table(text: str, min_cols: int, comment: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """:func:`read_number_table`'s result for a plain table, read by numpy's C reader, or None.
+
+    Plain: printable ASCII, every data row with the same number of fields (at least ``min_cols``), every
+    field a finite number, line ends ``\\n`` or ``\\r\\n``. The lines are those the strict reader sees
+    (split at ``\\n``, blank and comment lines skipped) and each field is converted as ``float`` converts it
+    (both are correctly rounded), so the numbers and line numbers are the same; anything else (a bad
+    field, a short row, a stray character) returns None and the strict reader reads the text, and names
+    what is wrong.
+    """
+    if not text.isascii() or text.encode("ascii").translate(None, _PLAIN):
+        return None
+    if "\r" in text:
+        text = text.replace("\r\n", "\n")
+        if "\r" in text:
+            return None
+    lines = text.split("\n")
+    if comment in text or "%" in text or any(not s.strip() for s in lines[:-1]):
+        kept = [(k, s) for k, s in enumerate(lines, start=1) if (t := s.strip()) and not t.startswith((comment, "%"))]
+        numbers = np.array([k for k, _ in kept], dtype=np.int64)
+        lines = [s for _, s in kept]
+    else:
+        if not lines[-1].strip():
+            lines.pop()
+        numbers = np.arange(1, len(lines) + 1, dtype=np.int64)
+    if not lines:
+        return None
+    if "," in text:
+        lines = [s.replace(",", " ") for s in lines]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            a = np.loadtxt(lines, dtype=np.float64, comments=None, ndmin=2)
+    except (ValueError, TypeError):
+        return None
+    if a.shape != (len(numbers), a.shape[1]) or a.shape[1] < min_cols or not np.isfinite(a).all():
+        return None
+    return a, numbers
 
 
 def check_increasing(t: np.ndarray, where: np.ndarray, file: str, field: str = "time", unit: str = "line") -> None:

@@ -12,9 +12,15 @@ of every quantity; a definition without one is an error naming the message and t
   (rad) and velocity (m/s) increments over the sample interval. The message carries z, −y, x: the
   y fields are negated back. Axes are the IMU enclosure's (x right, y forward, z up when the IMU is
   mounted the SPAN way: ``RFU``); state another mounting with ``import.imu.axes``.
-- ``CORRIMUDATA`` / ``CORRIMUDATAS`` / ``CORRIMUS`` / ``IMURATECORRIMUS``: decoded, but refused as the
-  IMU input: NovAtel removes gravity, the Earth's rotation and its own estimated sensor errors from
-  them (a static unit reads about 0 m/s², not 9.8), so a strapdown mechanisation cannot use them.
+- ``CORRIMUDATA`` / ``CORRIMUDATAS`` / ``CORRIMUS`` / ``IMURATECORRIMUS`` (the corrected IMU messages of
+  EDIE's database; IMURATECORRIMUS is CORRIMUS at the IMU's full rate): decoded, but refused as the IMU
+  input, the refusal naming the messages the log holds. NovAtel's OEM7 manual defines them as the raw
+  IMU data after the receiver's INS removed gravity, the Earth's rotation and its own estimated sensor
+  errors, rotated into the receiver's output frame (vehicle by default): a strapdown mechanisation
+  needs the specific force and the rotation against inertial space the IMU measured, gravity and Earth
+  rate included. The refusal prints the mean specific force of IMURATECORRIMUS/CORRIMUDATA (documented
+  as increments per sample, or accumulated over the logging interval): about 0 m/s² where the raw
+  increments give about 9.8. An ``INSCONFIG`` message's IMU type is named with the logs to ask for.
 - ``BESTGNSSPOS`` (GNSS only) is preferred over ``BESTPOS``; on a SPAN receiver BESTPOS blends the
   receiver's INS, and aiding an INS with it is circular (a warning says so). Height above mean
   sea level plus the undulation is the ellipsoidal height. Every solution type of EDIE's
@@ -319,7 +325,10 @@ class _Decoded:
 
     #: RAWIMU family: (week, s of week, gyro x, y, z, accel x, y, z in counts, message number)
     imu_rows: list = _field(default_factory=list)
-    corr: int = 0  #: CORRIMUDATA family messages (not usable)
+    corr: dict = _field(default_factory=dict)  #: corrected IMU messages (not usable): name -> count
+    #: IMURATECORRIMUS/CORRIMUDATA(S) rows for the refusal's figure: (week, s of week, dv x, y, z in m/s)
+    corr_dv: list = _field(default_factory=list)
+    imu_config: set = _field(default_factory=set)  #: IMU types named by INSCONFIG messages
     ref_rows: list = _field(default_factory=list)  #: INSPVA family rows, see :func:`_ins_row`
     #: BESTGNSSPOS and BESTPOS rows: (week, s of week, lat deg, lon deg, h_ell m, undulation m, fix, n_sat, message)
     pos_rows: dict = _field(default_factory=lambda: {m: [] for m in POSITIONS})
@@ -340,7 +349,7 @@ def _decode(data: bytes, file: str, role: str, opts: dict) -> _Decoded:
     seen: dict[tuple, int] = {}  # (name, time) -> hash of the body
     names_of: dict[type, list] = {}
     for n, name, msg in _messages(data, file, dec.bad, dec.nmea):
-        want = (role == "imu" and name in RAW_IMU + CORR_IMU) or (role == "gnss" and name in POSITIONS)
+        want = (role == "imu" and name in (*RAW_IMU, *CORR_IMU, "INSCONFIG")) or (role == "gnss" and name in POSITIONS)
         if not want and name not in INS_PVA:
             continue
         kind = type(msg)
@@ -351,6 +360,11 @@ def _decode(data: bytes, file: str, role: str, opts: dict) -> _Decoded:
         m = _Message(
             n, name, dict(zip(names_of[kind], values)), hdr.message_definition_crc, hdr.week, hdr.milliseconds, file
         )
+        if name == "INSCONFIG":  # the receiver's INS configuration (logged on change): only its IMU type is read
+            t = m.values.get("imu_type")
+            if t is not None:
+                dec.imu_config.add(f"{getattr(t, 'name', t)} (type {int(t)})")
+            continue
         key = (name, m.week, m.ms, m.values.get("gps_seconds", m.values.get("seconds")))
         try:
             body = hash(tuple(values))
@@ -369,12 +383,54 @@ def _decode(data: bytes, file: str, role: str, opts: dict) -> _Decoded:
         if name in RAW_IMU:
             _raw_imu(dec, m, opts)
         elif name in CORR_IMU:
-            dec.corr += 1
+            _corrected(dec, m)
         elif name in POSITIONS:
             _position(dec, m)
         elif name in INS_PVA:
             dec.ref_rows.append(_ins_row(m))
     return dec
+
+
+def _corrected(dec: _Decoded, m: _Message) -> None:
+    """A corrected IMU message counted by name; of IMURATECORRIMUS and CORRIMUDATA(S) (velocity increments per
+    sample, or accumulated over the logging interval: OEM7 manual) the velocity increment kept for the figure of
+    the refusal. CORRIMUS (its increments with a count of accumulated samples) is counted only."""
+    dec.corr[m.name] = dec.corr.get(m.name, 0) + 1
+    if m.name == "CORRIMUS" or "week" not in m.values or "seconds" not in m.values:
+        return
+    v = m.values
+    dv = v.get("corr_fb")
+    if dv is None and all(k in v for k in ("lateral", "longitudinal", "vertical")):
+        dv = (v["lateral"], v["longitudinal"], v["vertical"])
+    if dv is not None and len(dv) == 3:
+        dec.corr_dv.append((v["week"], v["seconds"], *(float(x) for x in dv)))
+
+
+def _refuse_corrected(dec: _Decoded, file: str) -> BundleError:
+    """The refusal of a log whose only IMU messages are corrected ones: which they are, why they cannot be the IMU
+    input (with their mean specific force when the log tells it) and what to log instead."""
+    held = ", ".join(f"{n} {k}" for k, n in sorted(dec.corr.items(), key=lambda kv: -kv[1]))
+    figure = ""
+    if len(dec.corr_dv) > 1:
+        a = np.array(sorted(dec.corr_dv), dtype=np.float64)
+        t = a[:, 0] * 604800.0 + a[:, 1]
+        dt = float(np.median(np.diff(t)))
+        if dt > 0:
+            f = float(np.linalg.norm(a[:, 2:].mean(axis=0))) / dt
+            figure = (
+                f"; their mean specific force here is {f:.3f} m/s² over {t[-1] - t[0]:.1f} s, where raw increments "
+                f"of a unit on Earth give about {G0:.1f} m/s² (gravity's reaction)"
+            )
+    imu = f"; its INSCONFIG names the IMU: {', '.join(sorted(dec.imu_config))}" if dec.imu_config else ""
+    return BundleError(
+        f"no raw IMU message, only corrected ones: {held}. NovAtel's corrected IMU messages (CORRIMUDATA, "
+        "CORRIMUDATAS, CORRIMUS, IMURATECORRIMUS) are the IMU increments after the receiver's INS removed "
+        "gravity, the Earth's rotation and its own sensor error estimates, rotated into its output (vehicle) "
+        f"frame{figure}. A strapdown mechanisation needs the increments as the IMU measured them: log RAWIMUSXB "
+        f"ONNEW (or RAWIMUXB, RAWIMUSB, RAWIMUB) on the receiver{imu}",
+        file=file,
+        field=f"message {max(dec.corr, key=dec.corr.get)}",
+    )
 
 
 def _known_types() -> str:
@@ -469,18 +525,16 @@ def _imu_part(dec: _Decoded, file: str, opts: dict, notes: list, reference) -> I
     """The raw IMU samples as increments (rad, m/s) by the IMU type's scale factors; CORRIMUDATA alone refused."""
     if not dec.imu_rows:
         if dec.corr:
-            raise BundleError(
-                f"only CORRIMUDATA/CORRIMUS ({dec.corr} messages): NovAtel removes gravity, the Earth's rotation and "
-                "its own sensor error estimates from them, so a strapdown mechanisation cannot use them; log "
-                "RAWIMUSX (or RAWIMUS/RAWIMU) on the receiver",
-                file=file,
-                field="message CORRIMUDATA",
-            )
+            raise _refuse_corrected(dec, file)
         raise BundleError("no RAWIMUSX, RAWIMUX, RAWIMUS or RAWIMU message", file=file)
     if len(dec.types) > 1:
         raise BundleError(f"messages of several IMU types {sorted(dec.types)}", file=file, field="imu_type")
     if dec.corr:
-        notes.append(f"{file}: {dec.corr} CORRIMUDATA/CORRIMUS message(s) ignored (gravity-compensated)")
+        held = ", ".join(f"{n} {k}" for k, n in sorted(dec.corr.items()))
+        notes.append(
+            f"{file}: {held} message(s) ignored (corrected by the receiver's INS: gravity and the Earth's rotation "
+            "removed); the raw IMU messages are read"
+        )
     if dec.body_named:
         notes.append(
             f"{file}: definition {dec.body_named[0]} names the increments del_vel_body_*/del_ang_body_*; they are "

@@ -28,6 +28,7 @@ from ldvsurvey.nav.filter import (
     LdvAid,
     NavSolution,
     NavStart,
+    imu_grade,
     ldv_spikes,
     run_filter,
 )
@@ -478,6 +479,99 @@ MOVING_VEL_SIGMA0_MPS = 0.3
 MOVING_POS_SIGMA0_M = 3.0  #: a single-point fix carried back along the road
 
 
+#: scale-factor 1-σ (ppm) of the gyros and accelerometers by grade when the manifest states none:
+#: tactical units' datasheets give 100–500 ppm, consumer MEMS ±1–3 % sensitivity tolerance
+GRADE_SCALE_PPM = {"tactical": 300.0, "mems": 10000.0}
+#: correlation time (s) of the biases and scale factors of a MEMS or tactical unit whose manifest
+#: gives none (as KF-GINS's configurations: one hour)
+GRADE_CORRELATION_S = 3600.0
+
+
+def standstill_velocity_scatter(inp: NavInputs, rate_hz: float) -> float:
+    """How much the IMU's own velocity moves within one filter epoch while the vehicle stands:
+    the RMS over the still intervals and axes of the running sum of the velocity increments (their
+    mean over the interval removed) from each epoch's start, m/s. An idling engine's vibration shows
+    here; white sensor noise gives σ_VRW·√(T/2). 0 without a still interval."""
+    dv, t = inp.dvel_mps, inp.t_s
+    decim = max(1, int(round(1.0 / (rate_hz * np.median(np.diff(t))))))
+    sq, cnt = 0.0, 0
+    for a, b in inp.still:
+        seg = dv[(t >= a) & (t <= b)]
+        m = len(seg) // decim
+        if m < 2:
+            continue
+        d = (seg[: m * decim] - seg.mean(axis=0)).reshape(m, decim, 3)
+        v = np.cumsum(d, axis=1)
+        sq += float(np.sum(v**2))
+        cnt += v.size
+    return float(np.sqrt(sq / cnt)) if cnt else 0.0
+
+
+def standstill_white_noise(inp: NavInputs) -> tuple[float, float]:
+    """The white noise the IMU shows while the vehicle stands, vibration included: the largest axis's
+    sample scatter of the angle and velocity increments (each still interval's mean removed) as an
+    angle random walk (°/√h) and a velocity random walk (µg/√Hz), σ_increment/√Δt. (0, 0) without a
+    still interval of 10 samples."""
+    t = inp.t_s
+    dt = float(np.median(np.diff(t)))
+    sq_g, sq_a, cnt = np.zeros(3), np.zeros(3), 0
+    for a, b in inp.still:
+        k = (t >= a) & (t <= b)
+        if k.sum() < 10:
+            continue
+        sq_g += np.sum((inp.dtheta_rad[k] - inp.dtheta_rad[k].mean(axis=0)) ** 2, axis=0)
+        sq_a += np.sum((inp.dvel_mps[k] - inp.dvel_mps[k].mean(axis=0)) ** 2, axis=0)
+        cnt += int(k.sum())
+    if not cnt:
+        return 0.0, 0.0
+    s_g, s_a = np.sqrt(sq_g.max() / cnt), np.sqrt(sq_a.max() / cnt)
+    return float(s_g / np.sqrt(dt) / RAD_PER_DEG * 60.0), float(s_a / np.sqrt(dt) / 9.80665e-6)
+
+
+def grade_error_model(
+    inp: NavInputs, cfg: FilterConfig, noise: ImuNoise | None = None
+) -> tuple[ImuNoise, FilterConfig]:
+    """The IMU noise and filter configuration a log's IMU grade (:func:`~ldvsurvey.nav.filter.imu_grade`)
+    needs. Navigation grade: as given. Tactical and MEMS: the three gyro and three accelerometer scale
+    factors as Gauss–Markov states (σ from the manifest's ``gyro_scale_ppm``/``accel_scale_ppm`` or
+    :data:`GRADE_SCALE_PPM`, correlation time the manifest's ``bias_correlation_s`` or
+    :data:`GRADE_CORRELATION_S`) in place of the z-gyro one; biases Gauss–Markov with the manifest's
+    instability, or with the turn-on σ itself over :data:`GRADE_CORRELATION_S` when it states none; the
+    ZUPT's σ no tighter than the standstill's own velocity scatter
+    (:func:`standstill_velocity_scatter`) and the ARW and VRW no smaller than the white noise the
+    standstill shows (:func:`standstill_white_noise`: an engine's vibration, which a rate-sampling
+    MEMS unit aliases into noise, is what the filter meets on the road, not the datasheet's figure).
+
+    ``noise`` is the noise the run would otherwise take (None: the manifest's, ``inp.noise``; a start
+    stage may have narrowed its gyro-bias prior to a standstill estimate); the grade and the
+    defaults come from the manifest's figures."""
+    man = inp.noise
+    noise = man if noise is None else noise
+    grade = imu_grade(man)
+    if grade != "navigation":
+        tau = man.bias_correlation_s or GRADE_CORRELATION_S
+        arw, vrw = standstill_white_noise(inp)
+        noise = dataclasses.replace(
+            noise, gyro_arw_dprh=max(noise.gyro_arw_dprh, arw), accel_vrw_ug_rthz=max(noise.accel_vrw_ug_rthz, vrw)
+        )
+        if man.bias_correlation_s is None:
+            noise = dataclasses.replace(
+                noise,
+                gyro_bias_instability_dph=man.gyro_bias_dph,
+                accel_bias_instability_ug=man.accel_bias_ug,
+                bias_correlation_s=tau,
+            )
+        cfg = dataclasses.replace(
+            cfg,
+            gyro_scale_z_sigma0=0.0,
+            gyro_scale_sigma0=(man.gyro_scale_ppm or GRADE_SCALE_PPM[grade]) * 1e-6,
+            accel_scale_sigma0=(man.accel_scale_ppm or GRADE_SCALE_PPM[grade]) * 1e-6,
+            scale_correlation_s=tau,
+            zupt_sigma_mps=max(cfg.zupt_sigma_mps, standstill_velocity_scatter(inp, cfg.rate_hz)),
+        )
+    return noise, cfg
+
+
 def pipeline_cfg(**kw) -> FilterConfig:
     """The filter configuration the pipelines use (coarse-alignment σ, unmodelled gravity)."""
     base = dict(
@@ -502,7 +596,8 @@ def run_navigation_filter(
     attitude_only: bool = False,
     specific_force: bool = True,
 ) -> NavSolution:
-    """Coarse alignment (or the alignment on the move) then the filter and smoother on a loaded log.
+    """Coarse alignment (or the alignment on the move) then the filter and smoother on a loaded log,
+    with the error model of the IMU's grade (:func:`grade_error_model`).
 
     Parameters
     ----------
@@ -541,6 +636,7 @@ def run_navigation_filter(
         # a heading from the course (or weaker): the prior carries its σ
         s_att = cfg.att_sigma0_rad
         cfg = dataclasses.replace(cfg, att_sigma0_rad=(s_att[0], s_att[1], min(al.heading_sigma_rad, np.pi)))
+    noise, cfg = grade_error_model(inp, cfg, noise)
     if inp.v0_n is not None:  # aligned on the move: a coarser start
         v0 = inp.v0_n
         cfg = dataclasses.replace(
