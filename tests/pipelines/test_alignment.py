@@ -218,6 +218,11 @@ def test_a_log_that_starts_on_the_move_keeps_its_alignment():
     assert al.method == "moving_start" and al.standstill_s is None
     assert abs(_heading_error(inp.c_bn0, sim, int(np.flatnonzero(ki)[0]))) < 0.3 * DEG
     assert al.summary()["alignment_heading_sigma_deg"] == pytest.approx(3.0)
+    # a manifest heading cannot override an alignment on the move: said, not silently dropped
+    m["initial"] = {"heading_deg": 10.0}
+    f["manifest.json"] = json.dumps(m).encode()
+    inp = nav_inputs(parse_files(f))
+    assert any("initial.heading_deg" in w and "not used" in w for w in inp.warnings), inp.warnings
 
 
 def test_a_manifest_heading_overrides_and_a_bad_one_is_refused(mems):
@@ -277,3 +282,183 @@ def test_a_horizontal_bias_the_manifest_does_not_state_stops_gyrocompassing():
     al = nav_inputs(parse_files(files)).alignment
     assert al.gyrocompass_sigma_rad > 30 * DEG and al.method == "gnss_course"
     assert abs(_heading_error(al.c_bn, sim)) <= 3.0 * al.heading_sigma_rad
+
+
+def test_gyros_reading_zero_at_rest_neither_gyrocompass_nor_yield_nans():
+    """A navigation-grade log whose gyros read exactly zero through the standstill (a deadband, or a
+    simulator without the Earth's rotation): the gyros see no Earth rate, so they cannot find north
+    (the vertical gyro misses ω_ie sin L, the horizontal ones ω_ie cos L), and the levelling comes from
+    the specific force alone. Before: the TRIAD divided by |f × ω| = 0, the attitude was NaN, the
+    gyrocompass claimed σ 0.013° and ``navigate`` wrote an all-NaN trajectory with exit 0."""
+    from ldvsurvey.io.writers import imu_csv
+
+    sim = simulate(catalog.drive(minutes=3.0, static_s=60.0, with_ldv=False), seed=4)
+    files = _without_static_s(sim)
+    dth = sim.dtheta_rad.copy()
+    dth[sim.imu.t_s < sim.scenario.t0_s + 60.0] = 0.0
+    files["imu.csv"] = imu_csv(sim.imu.t_s, dth, sim.dvel_mps)
+    inp = nav_inputs(parse_files(files))
+    al = inp.alignment
+    assert al.method == "gnss_course" and al.gyrocompass_sigma_rad > 30 * DEG
+    assert np.all(np.isfinite(al.gyro_bias_rps)) and np.all(np.isfinite(inp.pos0))
+    c0 = initial_attitude(inp, None)
+    pitch, roll, _ = euler_from_c_bn(c0)
+    pt, rt, _ = euler_from_c_bn(sim.imu.c_bn[0])
+    # levelled from the specific force: a navigation-grade accelerometer (25 µg) levels to ~0.002°
+    assert abs(pitch - pt) < 0.01 * DEG and abs(roll - rt) < 0.01 * DEG
+    assert abs(_heading_error(c0, sim)) <= 3.0 * al.heading_sigma_rad
+    # and without GNSS: no north and no course is said, the attitude still finite and level
+    del files["gnss.nmea"]
+    m = json.loads(files["manifest.json"])
+    lat, lon = np.degrees(sim.scenario.road.lat0_rad), np.degrees(sim.scenario.road.lon0_rad)
+    m["initial"].update(lat_deg=float(lat), lon_deg=float(lon), h_m=120.0)
+    files["manifest.json"] = json.dumps(m).encode()
+    inp = nav_inputs(parse_files(files))
+    assert not inp.alignment.observable
+    assert any("heading not observable" in w for w in inp.warnings)
+    c0 = initial_attitude(inp, None)
+    assert np.all(np.isfinite(c0))
+    pitch, roll, _ = euler_from_c_bn(c0)
+    assert abs(pitch - pt) < 0.01 * DEG and abs(roll - rt) < 0.01 * DEG
+
+
+@pytest.mark.parametrize("quality", [1, 2])
+def test_single_point_fixes_still_show_a_moving_vehicle(quality):
+    """A log cut in the middle of a straight stretch driven at a steady 15 m/s, with single-point (or
+    differential) fixes only: their speed cannot tell standing from creeping (3 σ above 0.25 m/s), but
+    15 m/s is far beyond that; the IMU's 1-s means are as steady as at rest. The log starts on the
+    move. Before: the GNSS speed was dropped from the test altogether and 35 s at 15 m/s were taken
+    as a standstill (levelled on, zero-velocity updates applied)."""
+    from ldvsurvey.io.writers import imu_csv, nmea_text
+    from ldvsurvey.sim.scenario import GEOID_SEPARATION_M
+
+    sim = simulate(
+        catalog.drive(minutes=3.0, static_s=20.0, with_ldv=False, fix_schedule=[(0.0, 1e5, quality)]), seed=8
+    )
+    t_cut = sim.scenario.t0_s + 60.0  # 20 s stop, 20-s ramp to 15 m/s, then straight for ~80 s
+    ki, kg = sim.imu.t_s > t_cut, sim.gnss_t_s > t_cut
+    assert np.linalg.norm(sim.imu.v_n[np.flatnonzero(ki)[0]]) == pytest.approx(15.0, abs=0.1)
+    m = json.loads(bundle_files(sim)["manifest.json"])
+    m["initial"] = {}
+    f = {
+        "manifest.json": json.dumps(m).encode(),
+        "imu.csv": imu_csv(sim.imu.t_s[ki], sim.dtheta_rad[ki], sim.dvel_mps[ki]),
+        "gnss.nmea": nmea_text(
+            sim.gnss_t_s[kg],
+            sim.gnss_lat_deg[kg],
+            sim.gnss_lon_deg[kg],
+            sim.gnss_h_m[kg],
+            sim.gnss_fix[kg],
+            sep_m=GEOID_SEPARATION_M,
+            talker="GN",
+        ),
+    }
+    inp = nav_inputs(parse_files(f))
+    assert inp.alignment.method == "moving_start" and inp.alignment.standstill_s is None
+    v = np.array([np.linalg.norm(sim.imu.v_n[np.searchsorted(sim.imu.t_s, 0.5 * (a + b))]) for a, b in inp.still])
+    assert np.all(v < 0.05), f"zero-velocity updates at {v} m/s"
+    # and the same fixes at a real 40-s standstill do not read motion into their noise (5 σ, not 3)
+    sim = simulate(
+        catalog.drive(minutes=2.0, static_s=40.0, with_ldv=False, fix_schedule=[(0.0, 1e5, quality)]), seed=8
+    )
+    al = nav_inputs(parse_files(_without_static_s(sim))).alignment
+    assert 36.0 <= al.standstill_s[1] - sim.scenario.t0_s <= 40.0
+
+
+def test_no_north_still_starts_from_the_standstill_gyro_bias(mems):
+    """The MEMS log without GNSS: heading is unknown, but the standstill measured the gyro biases
+    (500 °/h, less only the Earth's known vertical rate): the filter starts from them, so the heading
+    it carries holds over the first minute of driving. The z-gyro bias is not observable by
+    zero-velocity updates; started from zero, 500 °/h turns the heading by 8° a minute. Bound: the
+    bias estimate's σ (the horizontal Earth rate, ≤ 13 °/h) over 60 s is 0.2°, the ARW 0.5 °/√h 0.06°;
+    1° leaves room for the vibration (before: 7.5° off in that minute)."""
+    from ldvsurvey.pipelines.stages.aids import run_navigation_filter
+
+    sim, _ = mems
+    files = _without_static_s(sim)
+    del files["gnss.nmea"]
+    inp = nav_inputs(parse_files(files))
+    assert not inp.alignment.observable
+    sol = run_navigation_filter(inp, smooth=False)
+    from ldvsurvey.nav.attitude import c_from_q
+
+    _, _, h = euler_from_c_bn(c_from_q(sol.q_sn))
+    k = np.clip(np.searchsorted(sim.imu.t_s, sol.t_s), 0, len(sim.imu.t_s) - 1)
+    _, _, ht = euler_from_c_bn(sim.imu.c_bn[k])
+    d = np.unwrap(h - ht)
+    t1 = inp.alignment.standstill_s[1]
+    j0, j1 = np.searchsorted(sol.t_s, [t1, t1 + 60.0])
+    print(f"heading error change over the first minute of driving {(d[j1] - d[j0]) / DEG:+.3f}°")
+    assert abs(d[j1] - d[j0]) < 1.0 * DEG
+
+
+def test_a_manifest_static_period_the_gnss_contradicts_is_said(mems):
+    """``initial.static_s`` stays an override, but 60 s given for a stop that ends at 35 s would apply
+    zero-velocity updates to a vehicle driving off: the RTK speed shows motion from about 36 s, and
+    the run says so, naming the field (before: silent). The true 35 s given raise nothing."""
+    sim, _ = mems
+    files = _without_static_s(sim)
+    m = json.loads(files["manifest.json"])
+    for given, said in ((60.0, True), (STOP_S - 3.0, False)):
+        m["initial"]["static_s"] = given
+        files["manifest.json"] = json.dumps(m).encode()
+        inp = nav_inputs(parse_files(files))
+        hit = [w for w in inp.warnings if "initial.static_s" in w and "motion" in w]
+        assert bool(hit) == said, inp.warnings
+        if said:
+            t_said = float(hit[0].split("from t=")[1].split(" s")[0]) - sim.scenario.t0_s
+            print(hit[0], f"(the stop ends at {STOP_S} s)")
+            assert STOP_S <= t_said <= STOP_S + 4.0
+
+
+def test_the_course_at_move_off_is_the_imus_not_the_antennas():
+    """A tactical IMU standing in the middle of a bend (radius ~200 m) and driving off along it, RTK at
+    4 Hz: an antenna 3 m ahead of (or behind) the IMU moves sideways by l/R ≈ 0.9° of its course, so
+    the course it gives is not the IMU's. With the manifest's lever arm taken out, the start heading
+    no longer depends on where the antenna sits (same seed, same noise: the headings for antennas
+    3 m ahead, above and 3 m behind the IMU agree to 0.02°; before, by 0.5-0.9°) and stays within 3 σ."""
+    from ldvsurvey.sim.road import Ramps, Road
+
+    errs = []
+    for lever in ((0.0, 3.0, 1.5), (0.0, 0.0, 1.5), (0.0, -3.0, 1.5)):
+        sc = catalog.drive(
+            minutes=2.0, static_s=40.0, with_ldv=False, gnss_rate_hz=4.0, gyro_bias_dph=1.0, gyro_arw_dprh=0.05
+        )
+        road = Road(
+            28.4861 * DEG, 113.0623 * DEG, 120.0, 3000.0, Ramps(30 * DEG, [(0.0, 800.0, 120 * DEG)]), Ramps(0.0)
+        )
+        sc = dataclasses.replace(
+            sc, road=road, s0_m=400.0, gnss_lever_m=lever, segments=[Static(40.0), Drive(600.0, 8.0, 8.0)]
+        )
+        sim = simulate(sc, seed=2)
+        al = nav_inputs(parse_files(_without_static_s(sim))).alignment
+        assert al.method == "gnss_course"
+        errs.append(_heading_error(al.c_bn, sim))
+        assert abs(errs[-1]) <= 3.0 * al.heading_sigma_rad
+    print("heading errors (antenna 3 m ahead, above, 3 m behind):", np.round(np.degrees(errs), 3), "°")
+    assert np.ptp(errs) < 0.02 * DEG
+
+
+def test_an_imu_facing_backwards_is_not_given_the_course():
+    """The course says which way the vehicle goes, not which way the IMU's forward axis points: an
+    IMU turned 180° about up in its mount (or a car backing out of its parking space) moves off along
+    its −y axis. The same simulated drive with the IMU's axes turned exactly (x, y → −x, −y, the
+    lever arm with them): its heading is the original truth + 180°, found within 3 σ, because the
+    specific force integrated along the travel axis since the standstill shows the motion backwards
+    (before: 180° off with σ 1°)."""
+    from ldvsurvey.io.writers import imu_csv
+
+    sim = simulate(catalog.drive(minutes=3.0, static_s=40.0, with_ldv=False, gyro_bias_dph=1.0), seed=5)
+    files = _without_static_s(sim)
+    flip = np.array([-1.0, -1.0, 1.0])
+    files["imu.csv"] = imu_csv(sim.imu.t_s, sim.dtheta_rad * flip, sim.dvel_mps * flip)
+    m = json.loads(files["manifest.json"])
+    m["gnss"]["lever_arm_m"] = list(np.asarray(m["gnss"]["lever_arm_m"], float) * flip)
+    files["manifest.json"] = json.dumps(m).encode()
+    al = nav_inputs(parse_files(files)).alignment
+    assert al.method == "gnss_course"
+    _, _, h = euler_from_c_bn(al.c_bn)
+    _, _, ht = euler_from_c_bn(sim.imu.c_bn[0])
+    err = float((h - (ht + np.pi) + np.pi) % (2 * np.pi) - np.pi)
+    print(f"heading error of the IMU facing backwards {err / DEG:+.3f}° against σ {al.heading_sigma_rad / DEG:.3f}°")
+    assert abs(err) <= 3.0 * al.heading_sigma_rad

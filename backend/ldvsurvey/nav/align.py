@@ -12,10 +12,18 @@ from ldvsurvey.nav.earth import OMEGA_IE
 
 
 def _triad(a, b):
-    """Orthonormal frame (3, 3) whose first axis is ``a`` and second is normal to ``a`` and ``b``."""
+    """Orthonormal frame (3, 3) whose first axis is ``a`` and second is normal to ``a`` and ``b``.
+
+    When ``b`` is zero or along ``a`` (gyros that read nothing at rest; the Earth rate at a pole) it
+    gives no second direction: the second axis is then normal to ``a`` and to the coordinate axis
+    least aligned with it, so the first axis (the level) stays right and the rest is arbitrary."""
     e1 = a / np.linalg.norm(a)
     e2 = np.cross(a, b)
-    e2 /= np.linalg.norm(e2)
+    n2 = float(np.linalg.norm(e2))
+    if not n2 > 1e-12 * float(np.linalg.norm(a) * np.linalg.norm(b)):
+        e2 = np.cross(e1, np.eye(3)[int(np.argmin(np.abs(e1)))])
+        n2 = float(np.linalg.norm(e2))
+    e2 = e2 / n2
     return np.column_stack([e1, e2, np.cross(e1, e2)])
 
 
@@ -50,7 +58,9 @@ def coarse_align(dtheta_rad, dvel_mps, lat_rad: float, c_bs=None, turntable_rad=
     Returns
     -------
     c_bn : (3, 3) array
-        Body attitude C_b^n. With s = b this is C_s^n.
+        Body attitude C_b^n. With s = b this is C_s^n. Levelled by the specific force alone; a rate
+        with no part normal to it (gyros reading zero at rest, a pole) leaves the heading arbitrary
+        (0 for a body close to level): whether the gyros found north is for the caller to judge.
     """
     dth, dv = _increments_in_body(dtheta_rad, dvel_mps, c_bs, turntable_rad)
     f_b = dv.sum(axis=0)

@@ -35,10 +35,13 @@ from ldvsurvey.nav.filter import (
 from ldvsurvey.nav.localframe import local_metres  # noqa: F401  (re-exported for the stages and gravity)
 from ldvsurvey.pipelines.base import note_summary, warn
 from ldvsurvey.pipelines.stages.start import (
+    GNSS_JUDGE_MAX_MPS,
     Alignment,
     align_at_standstill,
     body_force_and_rate,
     detect_static_start,
+    first_motion,
+    gnss_moving_limit,
     gnss_still_speed,
     initial_position,
     moving_start,
@@ -188,7 +191,7 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     eta = np.unwrap(np.radians(imu.turntable_deg)) if imu.turntable_deg is not None else None
     sp = _speeds(log, t)
     ok, nu_f, nu_u, speed_ok, speed, by, unusable = sp[:7]
-    judge_ok, judge_v, limit = sp[7:]
+    judge_ok, judge_v, limit, moving_ok, moving_limit = sp[7:]
     f_b, w_z = body_force_and_rate(t, imu.dtheta_rad, imu.dvel_mps, eta)
     still = still_intervals(t, judge_v / limit, judge_ok, thresh=1.0, f_b=f_b, w_z=w_z)
     static_s = m.initial.static_s
@@ -198,16 +201,12 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     if static_s is None or static_s == 0:  # not given: detect; 0: the log starts on the move
         static_end = float(t[0])
         if static_s is None:
-            static_end = detect_static_start(t, f_b, w_z, judge_v, judge_ok, thresh=limit)
+            static_end = detect_static_start(t, f_b, w_z, judge_v, moving_ok, thresh=moving_limit)
             found_by = _found_by(by, judge_ok, t, static_end)
         if static_end - t[0] < 30.0:  # no static start: align on the move (or say what is missing)
             start = moving_start(log, t, eta, speed, speed_ok)
             static_end = float(t[0])
-            warnings.append(
-                f"no static period at the start (the IMU or {by} shows motion from "
-                f"t={t[0]:.2f} s): coarse alignment on the move from the GNSS course and {by}'s "
-                "speed, then the filter; expect the first minutes to be less accurate"
-            )
+            warnings += _moving_start_warnings(m, t, by)
     else:
         static_end = float(t[0] + static_s)
         if static_s < 30.0:
@@ -215,6 +214,13 @@ def nav_inputs(log: DriveLog) -> NavInputs:
                 "the static period is shorter than 30 s: too short to align",
                 file="manifest.json",
                 field="initial.static_s",
+            )
+        moved = first_motion(t, judge_v, moving_ok, moving_limit)
+        if moved is not None and moved < static_end:  # an override, but not a silent one
+            warnings.append(
+                f"manifest initial.static_s={static_s:g} s, but {by}'s speed shows motion from t={moved:.1f} s: "
+                "zero-velocity updates on a moving vehicle corrupt the start (check initial.static_s, or "
+                "leave it out to find the standstill in the data)"
             )
     still = [(a, b) for a, b in still if b > static_end + 1.0 or a > static_end]
     noise = ImuNoise.from_manifest(m.imu)
@@ -261,22 +267,54 @@ STILL_LDV_MPS = 0.03
 def _speeds(log: DriveLog, t: np.ndarray) -> tuple:
     """The speeds a log is judged with at the IMU samples ``t``: the LDV's (usable flags, forward and
     up m/s) as the aid; the speed a moving start takes (usable, m/s) and its source; the LDV's
-    unusability (a ParameterError or None); and the still test's (usable, speed m/s, limit m/s)."""
+    unusability (a ParameterError or None); and the still test's (usable, speed m/s, limit m/s) with
+    where and above what speed (m/s) it shows motion (single-point fixes: motion, never a standstill)."""
     unusable = None
     if log.ldv is not None:
         try:
             ok, nu_f, nu_u = _interp_ldv(log, t)
             lim = np.full(len(t), STILL_LDV_MPS)
-            return ok, nu_f, nu_u, ok, nu_f, "the LDV", None, ok, nu_f, lim
+            return ok, nu_f, nu_u, ok, nu_f, "the LDV", None, ok, nu_f, lim, ok, lim
         except ParameterError as exc:  # an LDV that failed all day: GNSS-only work still goes on
             unusable = exc
     # no LDV: never an aid; stops and a moving start from GNSS
     ok, nu_f = np.zeros(len(t), bool), np.zeros(len(t))
     speed_ok, speed = _gnss_speed_at(log, t)
     # the still test: the speed over 2 s against its own noise (4-Hz RTK fixes differenced epoch to
-    # epoch read a few cm/s at rest)
-    judge_ok, judge_v, limit = gnss_still_speed(log, t)
-    return ok, nu_f, None, speed_ok, speed, "the GNSS track", unusable, judge_ok, judge_v, limit
+    # epoch read a few cm/s at rest); single-point fixes cannot call a standstill but still
+    # show a vehicle driving well beyond their limit
+    moving_ok, judge_v, limit = gnss_still_speed(log, t, judge_max_mps=np.inf)
+    judge_ok = moving_ok & (limit <= GNSS_JUDGE_MAX_MPS)
+    moving_limit = gnss_moving_limit(judge_ok, limit)
+    return (
+        ok,
+        nu_f,
+        None,
+        speed_ok,
+        speed,
+        "the GNSS track",
+        unusable,
+        judge_ok,
+        judge_v,
+        limit,
+        moving_ok,
+        moving_limit,
+    )
+
+
+def _moving_start_warnings(m, t, by: str) -> list[str]:
+    """What a log that starts on the move must say (``by``: the speed's source)."""
+    out = [
+        f"no static period at the start (the IMU or {by} shows motion from "
+        f"t={t[0]:.2f} s): coarse alignment on the move from the GNSS course and {by}'s "
+        "speed, then the filter; expect the first minutes to be less accurate"
+    ]
+    if getattr(m.initial, "heading_deg", None) is not None:
+        out.append(
+            "manifest initial.heading_deg is not used: the log starts on the move, its heading comes "
+            "from the GNSS course"
+        )
+    return out
 
 
 def _found_by(by: str, judge_ok, t, static_end: float) -> str:
@@ -625,15 +663,16 @@ def run_navigation_filter(
 def _start_bias(inp: NavInputs, cfg: FilterConfig):
     """The IMU noise and initial gyro bias (rad/s) a run starts from.
 
-    A start the gyros could not gyrocompass (a heading from the course, the manifest, or none)
-    starts from the standstill's gyro-bias estimate, and the filter's gyro-bias prior is that
-    estimate's σ (never below the manifest's bias instability, nor below 5 % of its bias: the turn-on
-    bias may move on moving off). A gyrocompassed start keeps the manifest's prior and a zero bias
-    (the estimate there is the gyrocompass's own residual)."""
+    A start the gyros could not gyrocompass (a heading from the course, the manifest, or none: a
+    gyrocompass that is not observable) starts from the standstill's gyro-bias estimate, and the
+    filter's gyro-bias prior is that estimate's σ (never below the manifest's bias instability, nor
+    below 5 % of its bias: the turn-on bias may move on moving off). A gyrocompassed start keeps the
+    manifest's prior and a zero bias (the estimate there is the gyrocompass's own residual)."""
     al = inp.alignment
     if (
         al is None
-        or al.method in ("gyrocompass", "moving_start")
+        or al.method == "moving_start"
+        or (al.method == "gyrocompass" and al.observable)
         or al.gyro_bias_rps is None
         or inp.eta_rad is not None
     ):

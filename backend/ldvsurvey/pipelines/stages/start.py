@@ -191,6 +191,14 @@ def detect_static_start(t, f_b, w_z, speed, ok, min_moving_s: float = 1.0, thres
     return float(t[max(0, k - 1)]) - 2.0
 
 
+def first_motion(t, speed, ok, thresh, min_moving_s: float = 1.0) -> float | None:
+    """The first time (s) the usable speed stays at or above ``thresh`` (m/s, scalar or per sample)
+    for ``min_moving_s`` in a row, or None: what a speed says of a static period given by hand."""
+    run = max(1, int(round(min_moving_s / np.median(np.diff(t)))))
+    sustained = all_ahead(np.asarray(ok, bool) & (np.abs(speed) >= thresh), run)
+    return float(t[int(np.argmax(sustained))]) if sustained.any() else None
+
+
 #: fix qualities from best to worst for the start position
 FIX_RANK = (4, 5, 2, 1)
 
@@ -434,7 +442,7 @@ GNSS_JUDGE_MAX_MPS = 0.25
 GNSS_STILL_SPAN_S = 2.0
 
 
-def gnss_still_speed(log: DriveLog, t_imu: np.ndarray):
+def gnss_still_speed(log: DriveLog, t_imu: np.ndarray, judge_max_mps: float = GNSS_JUDGE_MAX_MPS):
     """The GNSS ground speed at the IMU samples for the still test, with its own still limit.
 
     Speed from fixes :data:`GNSS_STILL_SPAN_S` apart (central differences: at 4 Hz over 8 epochs, at
@@ -449,11 +457,14 @@ def gnss_still_speed(log: DriveLog, t_imu: np.ndarray):
         The parsed bundle.
     t_imu : ndarray
         (N,) IMU times (s).
+    judge_max_mps : float
+        The largest still limit (m/s) that can judge a standstill (np.inf: where the speed can show
+        motion at all, see :func:`gnss_moving_limit`).
 
     Returns
     -------
     ok : ndarray
-        (N,) bool: the GNSS speed can judge a standstill there.
+        (N,) bool: the GNSS speed can judge a standstill there (its limit at most ``judge_max_mps``).
     speed_mps : ndarray
         (N,) horizontal speed (m/s).
     limit_mps : ndarray
@@ -483,7 +494,21 @@ def gnss_still_speed(log: DriveLog, t_imu: np.ndarray):
     lim = np.interp(t_imu, tg, limit)
     j = np.clip(np.searchsorted(tg, t_imu), 1, len(tg) - 1)
     ok = (tg[j] - tg[j - 1] <= 2.5 * step) & (t_imu >= tg[0] - step) & (t_imu <= tg[-1] + step)
-    return ok & (lim <= GNSS_JUDGE_MAX_MPS), speed, lim
+    return ok & (lim <= judge_max_mps), speed, lim
+
+
+#: a GNSS speed too noisy to call a standstill (limit above :data:`GNSS_JUDGE_MAX_MPS`) still shows
+#: motion beyond this many of its σ: a 2-D speed of white noise exceeds 5 σ with probability
+#: exp(−12.5) ≈ 4e-6 per sample (3 σ: 1 %, a false move-off in a 35-s stop of 1-Hz fixes every few logs)
+GNSS_MOVING_SIGMAS = 5.0
+
+
+def gnss_moving_limit(ok, limit):
+    """The speed (m/s, per sample) above which the still test's GNSS speed shows the vehicle moving:
+    its still limit (3 σ) where it can judge a standstill (``ok``), else 5 σ
+    (:data:`GNSS_MOVING_SIGMAS`): single-point fixes at 1 Hz (σ_v 0.35 m/s) show a car at 15 m/s
+    moving although they cannot tell standing from creeping."""
+    return np.where(ok, limit, GNSS_MOVING_SIGMAS / 3.0 * np.asarray(limit, float))
 
 
 #: the gyros gyrocompass when their heading σ (:func:`ldvsurvey.nav.align.gyrocompass_sigma`) is at most this (rad)
@@ -500,6 +525,10 @@ COURSE_MIN_SPEED_MPS = 3.0
 COURSE_MAX_SIGMA_RAD = 0.5 * RAD_PER_DEG
 COURSE_MAX_TURN_RAD = 1.0 * RAD_PER_DEG
 COURSE_SEARCH_S = 120.0
+#: the IMU's own speed along the travel axis tells forward from backward for a course this soon (s)
+#: after the standstill (its drift: a 2 % grade's gravity, 0.2 m/s², gives 6 m/s in 30 s only when
+#: driven all along; the sign is taken only with a magnitude 0.3-3 times the GNSS speed)
+REVERSE_JUDGE_S = 30.0
 
 
 @dataclass
@@ -610,7 +639,8 @@ def course_heading(log: DriveLog, t, eta, t_still_end: float, level, w_still_rps
     else the sharpest straight one within :data:`COURSE_SEARCH_S` at 1 m/s or more), less the
     body's yaw from the start to that epoch, integrated from the gyros with the standstill's mean
     rate removed (the bias and the Earth rate's vertical part: the integral over the standstill is
-    zero by construction).
+    zero by construction). The course is the IMU's (the antenna's less the lever arm's turn), and
+    turned by 180° when the IMU's own speed along the travel axis shows it moving backwards.
 
     σ² = (√2 σ_h / (v Δt))² (the course; σ_h from :data:`GNSS_WHITE_H_M`) + (σ_b̄ Δ)² + σ_w² δt Δ
     (the yaw carried back over the Δ driven: the mean's σ and the per-sample noise) + (1 % of the
@@ -644,10 +674,11 @@ def course_heading(log: DriveLog, t, eta, t_still_end: float, level, w_still_rps
     dt = float(np.median(np.diff(t)))
     p0, r0 = level
     k_all = t <= min(t_still_end + COURSE_SEARCH_S + 10.0, t[-1])
-    dth, _ = _body_increments(log, eta, k_all)
+    dth, dv = _body_increments(log, eta, k_all)
     yaw = np.concatenate([[0.0], np.cumsum(dth[:, 2] - w_still_rps[2] * dt)]) * np.cos(p0) * np.cos(r0)
     t_k = np.concatenate([[t[0] - dt], t[k_all]])
     fwd = c_bn_from_euler(p0, r0, 0.0) @ _travel_axis_b(log)
+    v_along = _speed_along(dv, t[k_all] <= t_still_end, _travel_axis_b(log))
     best = None
     for i, j, q in _course_candidates(g, t_still_end, t_still_end + COURSE_SEARCH_S):
         lat, lon = np.radians(g.lat_deg[[i, j]]), np.radians(g.lon_deg[[i, j]])
@@ -663,7 +694,7 @@ def course_heading(log: DriveLog, t, eta, t_still_end: float, level, w_still_rps
             continue
         sig_c = np.sqrt(2.0) * GNSS_WHITE_H_M.get(q, 1.0) / (v * dt_g)
         t_mid = 0.5 * (g.t_s[i] + g.t_s[j])
-        cand = (sig_c, float(np.arctan2(de, dn)), t_mid)
+        cand = (sig_c, float(np.arctan2(de, dn)), t_mid, de, dn, float(g.t_s[i]), float(g.t_s[j]))
         if v >= COURSE_MIN_SPEED_MPS and sig_c <= COURSE_MAX_SIGMA_RAD:
             best = cand
             break
@@ -671,14 +702,45 @@ def course_heading(log: DriveLog, t, eta, t_still_end: float, level, w_still_rps
             best = cand
     if best is None:
         return None
-    sig_c, course, t_mid = best
+    sig_c, course, t_mid, de, dn, t_i, t_j = best
     turned = float(np.interp(t_mid, t_k, yaw))  # counter-clockwise + (about up): heading falls by it
-    heading_mid = course - np.arctan2(fwd[0], fwd[1])
+    az0 = np.arctan2(fwd[0], fwd[1])
+    v_imu, v_gnss = float(np.interp(t_mid, t_k[1:], v_along)), float(np.hypot(de, dn) / (t_j - t_i))
+    if t_mid - t_still_end <= REVERSE_JUDGE_S and -3.0 * v_gnss < v_imu < -0.3 * v_gnss:
+        az0 += np.pi  # moving along −travel axis: reversing, or an IMU facing backwards in its mount
+    lever_b = np.asarray(log.manifest.gnss.lever_arm_m, float)
+    yaw_ij = np.interp([t_i, t_j], t_k, yaw)
+    for _ in range(2):  # the antenna's course to the IMU's (the lever arm turns with the body)
+        course = _imu_course(de, dn, yaw_ij - turned, course - az0, (p0, r0), lever_b)
+    heading_mid = course - az0
     heading0 = float(np.mod(heading_mid + turned, 2 * np.pi))
     drive = max(0.0, t_mid - t_still_end)
     s_yaw2 = (w_sigma_rps[2] * drive) ** 2 + w_sample_rps[2] ** 2 * dt * drive + (GYRO_SCALE_ALLOWANCE * turned) ** 2
     sig = float(np.sqrt(sig_c**2 + s_yaw2 + MOUNT_YAW_SIGMA_RAD[log.ldv is not None] ** 2))
     return heading0, sig, float(t_mid)
+
+
+def _speed_along(dv_mps, still, axis_b) -> np.ndarray:
+    """(K,) speed (m/s) along ``axis_b`` since the standstill: the velocity increments less the
+    standstill's mean (gravity and accelerometer bias), summed in the body frame. Its sign tells
+    forward from backward at move-off (a few seconds: the neglected turn of the body and the bias
+    change over them leave far less than the metres per second it is compared with)."""
+    f_still = dv_mps[still].mean(axis=0) if still.any() else np.zeros(3)
+    return np.cumsum(np.where(still, 0.0, (dv_mps - f_still) @ np.asarray(axis_b, float)))
+
+
+def _imu_course(de_m: float, dn_m: float, yaw_rad, heading_mid_rad: float, level, lever_b) -> float:
+    """The IMU centre's course (rad from north) between two fixes whose antenna moved (de, dn) m.
+
+    The antenna's displacement less the lever arm's own turn with the body, (C_b^n(t_j) − C_b^n(t_i))
+    l^b, the headings at the two fixes from ``heading_mid_rad`` less their yaw since the middle
+    (``yaw_rad``: (2,) counter-clockwise + about up). On a bend of radius R an antenna l ahead of the
+    IMU moves sideways by l/R of its course (3 m on 200 m: 0.9°)."""
+    from ldvsurvey.nav.attitude import c_bn_from_euler
+
+    c_ij = c_bn_from_euler(level[0], level[1], heading_mid_rad - np.asarray(yaw_rad, float))
+    d = (c_ij[1] - c_ij[0]) @ np.asarray(lever_b, float)
+    return float(np.arctan2(de_m - d[0], dn_m - d[1]))
 
 
 def _random_walks(dth, dv, dt: float, span_s: float = 0.1) -> tuple[float, float]:
@@ -746,9 +808,10 @@ def align_at_standstill(log: DriveLog, t, eta, still_s: tuple, found_by: str, la
     # the vertical gyro's bias is seen without heading: Earth's vertical rate is ω sin L whatever the heading
     up_b = c_gc[2]  # the up axis in the body frame
     b_up = abs(float(up_b @ w_mean) - OMEGA_IE * np.sin(lat_rad))
-    # and a horizontal rate well beyond the Earth's (ω cos L) is bias too, whatever the heading
+    # and a horizontal rate well beyond the Earth's (ω cos L), or well short of it, is bias too,
+    # whatever the heading: |w_h − ω_h| ≥ | |w_h| − ω cos L | (gyros reading zero at rest miss it all)
     w_h = float(np.linalg.norm(w_mean - up_b * (up_b @ w_mean)))
-    b_h = w_h - OMEGA_IE * abs(np.cos(lat_rad))
+    b_h = abs(w_h - OMEGA_IE * abs(np.cos(lat_rad)))
     seen = max(0.0, max(b_up, b_h) - 3.0 * float(np.linalg.norm(w_sig)))
     sig_gc = gyrocompass_sigma(
         lat_rad, max(noise.gyro_bias_rps, seen) if eta is None else 0.0, float(np.hypot(*w_sig[:2]))
