@@ -67,7 +67,10 @@ def test_sins_gnss_comparison_present_and_close(gravity_sim, gravity_result):
 
 def test_tables_follow_the_spec(gravity_result):
     g = gravity_result.tables["gravity"]
-    assert list(g)[:8] == ["t_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal"]
+    # the spec's columns, with the GPS week and seconds of week beside t_s (the log's date is known)
+    assert list(g)[:10] == [
+        "t_s", "gps_week", "gps_sow_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal"
+    ]  # fmt: skip
     c = gravity_result.tables["coincidence"]
     assert list(c) == ["line", "distance_m", "dg_mgal", "mean_mgal", "residual_mgal"]
     np.testing.assert_allclose(np.asarray(c["dg_mgal"]) - np.asarray(c["mean_mgal"]), c["residual_mgal"])
