@@ -151,7 +151,9 @@ def test_sins_gnss_and_gnss_aided_beside(with_dropouts):
     err_a = _truth_error(sim, res, "dg_gnss_aided_mgal")
     assert max(err_a.values()) <= 1.0, err_a
     g = res.tables["gravity"]
-    assert list(g)[:8] == ["t_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal"]
+    assert list(g)[:10] == [
+        "t_s", "gps_week", "gps_sow_s", "line", "distance_m", "lat_deg", "lon_deg", "h_m", "dg_raw_mgal", "dg_mgal"
+    ]  # fmt: skip
     assert {"dg_sins_gnss_mgal", "dg_gnss_aided_mgal"} <= set(g)
 
 
