@@ -631,7 +631,6 @@ def run_navigation_filter(
     v0 = np.zeros(3)
     noise, bias0 = _start_bias(inp, cfg)
     al = inp.alignment
-    noise = _vibration_noise(noise, al)
     if al is not None and inp.v0_n is None and al.heading_sigma_rad > cfg.att_sigma0_rad[2]:
         # a heading from the course (or weaker): the prior carries its σ
         s_att = cfg.att_sigma0_rad
@@ -685,29 +684,6 @@ def _start_bias(inp: NavInputs, cfg: FilterConfig):
     floor = max(n.gyro_bias_instability_dph or 0.0, 0.05 * n.gyro_bias_dph)
     est = float(np.max(al.gyro_bias_sigma_rps)) * DPH_PER_RPS
     return dataclasses.replace(n, gyro_bias_dph=min(n.gyro_bias_dph, max(est, floor))), al.gyro_bias_rps
-
-
-#: the standstill's noise replaces the manifest's when it is at least this many times larger (vibration)
-VIBRATION_NOISE_RATIO = 2.0
-#: ... and above these (°/√h, µg/√Hz): a sensor simulated or specified noiseless keeps its figures
-VIBRATION_MIN_ARW_DPRH = 0.01
-VIBRATION_MIN_VRW_UG_RTHZ = 10.0
-
-
-def _vibration_noise(noise: ImuNoise, al: Alignment | None) -> ImuNoise:
-    """The filter's white noise on a vibrating vehicle: where the standstill shows more than
-    :data:`VIBRATION_NOISE_RATIO` times the manifest's angle or velocity random walk (an engine
-    idling, a datasheet figure taken on a quiet bench), the standstill's. A filter that believes the
-    datasheet reads the shake as attitude: at rest the vibrating horizontal specific force couples
-    heading and gyro bias into the velocity, and the zero-velocity updates drag them off."""
-    if al is None or al.gyro_arw_dprh is None:
-        return noise
-    kw = {}
-    if al.gyro_arw_dprh > max(VIBRATION_NOISE_RATIO * noise.gyro_arw_dprh, VIBRATION_MIN_ARW_DPRH):
-        kw["gyro_arw_dprh"] = al.gyro_arw_dprh
-    if al.accel_vrw_ug_rthz > max(VIBRATION_NOISE_RATIO * noise.accel_vrw_ug_rthz, VIBRATION_MIN_VRW_UG_RTHZ):
-        kw["accel_vrw_ug_rthz"] = al.accel_vrw_ug_rthz
-    return dataclasses.replace(noise, **kw) if kw else noise
 
 
 def gnss_ins(inp: NavInputs, cbs=None) -> NavSolution:
