@@ -99,7 +99,7 @@ def test_upload_run_height_plot_and_download(server, page, height_zip):
         page.click("#downloads a:has-text('height.csv')")
     got = open(dl.value.path(), "rb").read()
     assert got == httpx.get(f"{server}/api/jobs/{job}/files/height.csv").content
-    assert got.startswith(b"t_s,h_m,h_uncompensated_m,h_gnss_m,fix_quality")
+    assert got.startswith(b"t_s,gps_week,gps_sow_s,h_m,h_uncompensated_m,h_gnss_m,fix_quality")
     # the log page's GNSS fix plot: axis titles and one legend entry per fix quality
     page.goto(f"{server}/#/logs/{j['log_ids'][0]}")
     page.wait_for_selector("#fixplot .main-svg", timeout=30_000)

@@ -111,4 +111,5 @@ def test_cli_run_writes_spec_files(short_height_sim, tmp_path, capsys):
         assert k in s
     assert s["parameters"]["output_rate_hz"] == 10.0
     hdr = (tmp_path / "o" / "attitude.csv").read_text().splitlines()[0]
-    assert hdr == "t_s,turntable_deg,pitch_raw_deg,roll_raw_deg,pitch_deg,roll_deg,heading_deg"
+    # the spec's columns, GPS week and seconds of week beside t_s (the log's date is known)
+    assert hdr == "t_s,gps_week,gps_sow_s,turntable_deg,pitch_raw_deg,roll_raw_deg,pitch_deg,roll_deg,heading_deg"

@@ -643,6 +643,7 @@ def _check_epochs(n_rows: int, file: str, lenient: bool, tally: _Tally, skipped:
             f"the file cannot be read as NMEA text: {tally.control_bytes} of its first {tally.head_bytes} bytes are "
             "zero or control bytes (binary data, or text in another encoding such as UTF-16; NMEA is ASCII text)",
             file=file,
+            field="encoding",
         )
     what = "with a fix" if lenient else "with a time"
     counts = (

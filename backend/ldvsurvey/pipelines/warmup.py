@@ -211,6 +211,7 @@ RUN_TIME_IMPORTS = (
     "scipy.spatial",
     "pyarrow.compute",
     "ldvsurvey.nav.egm",
+    "ldvsurvey.io.leapseconds",  # the GPS week and seconds of week beside t_s in every table
 )
 
 
