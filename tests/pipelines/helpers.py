@@ -25,3 +25,35 @@ def truth_dg_error_mgal(sim, table, column="dg_mgal", fir_s=150.0):
     tf = Lowpass(fir_s, rate_hz).apply(true * MGAL) / MGAL
     e = table[column][on] - np.interp(table["t_s"][on], tm, tf)
     return e[np.isfinite(e)]
+
+
+def files_from(sim, t_cut_s: float) -> tuple[dict, int]:
+    """The bundle files of a simulated drive cut at ``t_cut_s`` (s): IMU, LDV (where simulated) and the
+    GNSS fixes (GGA with the scenario's geoid separation) after it, the manifest's ``initial`` emptied
+    (the log must find its own start). Returns the files and the index of the first IMU sample kept."""
+    import json
+
+    from ldvsurvey.io.writers import imu_csv, ldv_csv, nmea_text
+    from ldvsurvey.sim.scenario import GEOID_SEPARATION_M, bundle_files
+
+    f = bundle_files(sim)
+    ki, kg = sim.imu.t_s > t_cut_s, sim.gnss_t_s > t_cut_s
+    f["imu.csv"] = imu_csv(sim.imu.t_s[ki], sim.dtheta_rad[ki], sim.dvel_mps[ki])
+    if "ldv.csv" in f:
+        kl = sim.ldv_t_s > t_cut_s
+        f["ldv.csv"] = ldv_csv(
+            sim.ldv_t_s[kl], v_fwd_mps=sim.ldv_v_fwd[kl], v_up_mps=sim.ldv_v_up[kl], quality=sim.ldv_quality[kl]
+        )
+    f["gnss.nmea"] = nmea_text(
+        sim.gnss_t_s[kg],
+        sim.gnss_lat_deg[kg],
+        sim.gnss_lon_deg[kg],
+        sim.gnss_h_m[kg],
+        sim.gnss_fix[kg],
+        sep_m=GEOID_SEPARATION_M,
+        talker="GN",
+    )
+    m = json.loads(f["manifest.json"])
+    m["initial"] = {}
+    f["manifest.json"] = json.dumps(m).encode()
+    return f, int(np.flatnonzero(ki)[0])

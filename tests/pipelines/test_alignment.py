@@ -25,6 +25,7 @@ from ldvsurvey.sim import catalog
 from ldvsurvey.sim.effects import Effects, EngineVibration, ImuErrorSpec
 from ldvsurvey.sim.motion import Drive, Static
 from ldvsurvey.sim.scenario import bundle_files, simulate
+from tests.pipelines.helpers import files_from
 
 DEG = np.pi / 180
 STOP_S = 35.0
@@ -192,33 +193,16 @@ def test_navigation_grade_gyrocompasses():
 
 def test_a_log_that_starts_on_the_move_keeps_its_alignment():
     """Cut 50 s after moving off (no standstill): the alignment on the move as before, said so."""
-    from ldvsurvey.io.writers import imu_csv, nmea_text
-    from ldvsurvey.sim.scenario import GEOID_SEPARATION_M
 
     sim = simulate(catalog.drive(minutes=4.0, static_s=60.0, with_ldv=False), seed=8)
-    t_cut = sim.scenario.t0_s + 110.0
-    ki, kg = sim.imu.t_s > t_cut, sim.gnss_t_s > t_cut
-    m = json.loads(bundle_files(sim)["manifest.json"])
-    m["initial"] = {}
-    f = {
-        "manifest.json": json.dumps(m).encode(),
-        "imu.csv": imu_csv(sim.imu.t_s[ki], sim.dtheta_rad[ki], sim.dvel_mps[ki]),
-        "gnss.nmea": nmea_text(
-            sim.gnss_t_s[kg],
-            sim.gnss_lat_deg[kg],
-            sim.gnss_lon_deg[kg],
-            sim.gnss_h_m[kg],
-            sim.gnss_fix[kg],
-            sep_m=GEOID_SEPARATION_M,
-            talker="GN",
-        ),
-    }
+    f, j = files_from(sim, sim.scenario.t0_s + 110.0)
     inp = nav_inputs(parse_files(f))
     al = inp.alignment
     assert al.method == "moving_start" and al.standstill_s is None
-    assert abs(_heading_error(inp.c_bn0, sim, int(np.flatnonzero(ki)[0]))) < 0.3 * DEG
+    assert abs(_heading_error(inp.c_bn0, sim, j)) < 0.3 * DEG
     assert al.summary()["alignment_heading_sigma_deg"] == pytest.approx(3.0)
     # a manifest heading cannot override an alignment on the move: said, not silently dropped
+    m = json.loads(f["manifest.json"])
     m["initial"] = {"heading_deg": 10.0}
     f["manifest.json"] = json.dumps(m).encode()
     inp = nav_inputs(parse_files(f))
@@ -329,30 +313,13 @@ def test_single_point_fixes_still_show_a_moving_vehicle(quality):
     15 m/s is far beyond that; the IMU's 1-s means are as steady as at rest. The log starts on the
     move. Before: the GNSS speed was dropped from the test altogether and 35 s at 15 m/s were taken
     as a standstill (levelled on, zero-velocity updates applied)."""
-    from ldvsurvey.io.writers import imu_csv, nmea_text
-    from ldvsurvey.sim.scenario import GEOID_SEPARATION_M
 
     sim = simulate(
         catalog.drive(minutes=3.0, static_s=20.0, with_ldv=False, fix_schedule=[(0.0, 1e5, quality)]), seed=8
     )
     t_cut = sim.scenario.t0_s + 60.0  # 20 s stop, 20-s ramp to 15 m/s, then straight for ~80 s
-    ki, kg = sim.imu.t_s > t_cut, sim.gnss_t_s > t_cut
-    assert np.linalg.norm(sim.imu.v_n[np.flatnonzero(ki)[0]]) == pytest.approx(15.0, abs=0.1)
-    m = json.loads(bundle_files(sim)["manifest.json"])
-    m["initial"] = {}
-    f = {
-        "manifest.json": json.dumps(m).encode(),
-        "imu.csv": imu_csv(sim.imu.t_s[ki], sim.dtheta_rad[ki], sim.dvel_mps[ki]),
-        "gnss.nmea": nmea_text(
-            sim.gnss_t_s[kg],
-            sim.gnss_lat_deg[kg],
-            sim.gnss_lon_deg[kg],
-            sim.gnss_h_m[kg],
-            sim.gnss_fix[kg],
-            sep_m=GEOID_SEPARATION_M,
-            talker="GN",
-        ),
-    }
+    f, j = files_from(sim, t_cut)
+    assert np.linalg.norm(sim.imu.v_n[j]) == pytest.approx(15.0, abs=0.1)
     inp = nav_inputs(parse_files(f))
     assert inp.alignment.method == "moving_start" and inp.alignment.standstill_s is None
     v = np.array([np.linalg.norm(sim.imu.v_n[np.searchsorted(sim.imu.t_s, 0.5 * (a + b))]) for a, b in inp.still])

@@ -5,21 +5,19 @@ The log is a simulated drive cut 50 s after the vehicle moved off (15 m/s, past 
 the manifest gives neither ``initial.static_s`` nor a start position.
 """
 
-import json
-
 import numpy as np
 import pytest
 
 from ldvsurvey.errors import ParameterError
 from ldvsurvey.io.drivelog import parse_files
-from ldvsurvey.io.writers import imu_csv, ldv_csv, nmea_text
 from ldvsurvey.nav.attitude import euler_from_c_bn
 from ldvsurvey.nav.earth import enu_offset_m
 from ldvsurvey.pipelines.base import run_pipeline
 from ldvsurvey.pipelines.registry import get
 from ldvsurvey.pipelines.stages.aids import nav_inputs
 from ldvsurvey.sim import catalog
-from ldvsurvey.sim.scenario import GEOID_SEPARATION_M, bundle_files, simulate
+from ldvsurvey.sim.scenario import bundle_files, simulate
+from tests.pipelines.helpers import files_from
 
 DEG = np.pi / 180
 
@@ -27,26 +25,8 @@ DEG = np.pi / 180
 @pytest.fixture(scope="module")
 def moving():
     sim = simulate(catalog.drive(minutes=6.0, static_s=60.0), seed=8)
-    t_cut = sim.scenario.t0_s + 110.0
-    f = bundle_files(sim)
-    ki, kl, kg = sim.imu.t_s > t_cut, sim.ldv_t_s > t_cut, sim.gnss_t_s > t_cut
-    f["imu.csv"] = imu_csv(sim.imu.t_s[ki], sim.dtheta_rad[ki], sim.dvel_mps[ki])
-    f["ldv.csv"] = ldv_csv(
-        sim.ldv_t_s[kl], v_fwd_mps=sim.ldv_v_fwd[kl], v_up_mps=sim.ldv_v_up[kl], quality=sim.ldv_quality[kl]
-    )
-    f["gnss.nmea"] = nmea_text(
-        sim.gnss_t_s[kg],
-        sim.gnss_lat_deg[kg],
-        sim.gnss_lon_deg[kg],
-        sim.gnss_h_m[kg],
-        sim.gnss_fix[kg],
-        sep_m=GEOID_SEPARATION_M,
-        talker="GN",
-    )
-    m = json.loads(f["manifest.json"])
-    m["initial"] = {}
-    f["manifest.json"] = json.dumps(m).encode()
-    return sim, f, int(np.flatnonzero(ki)[0])
+    f, j = files_from(sim, sim.scenario.t0_s + 110.0)
+    return sim, f, j
 
 
 def _wrap(a):

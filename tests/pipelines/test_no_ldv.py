@@ -20,7 +20,7 @@ from ldvsurvey.pipelines.registry import get
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
 from tests.io.import_helpers import kfgins_gnss, kfgins_imu
-from tests.pipelines.helpers import truth_dg_error_mgal
+from tests.pipelines.helpers import files_from, truth_dg_error_mgal
 
 
 @pytest.fixture(scope="module")
@@ -235,30 +235,11 @@ def test_dov_without_ldv(tmp_path):
 def test_moving_start_without_ldv():
     """A log without an LDV that begins on the move (cut 50 s after moving off, no static period,
     no manifest start): aligned from the GNSS course and speed, then the GNSS-aided filter."""
-    from ldvsurvey.io.writers import imu_csv, nmea_text
     from ldvsurvey.nav.attitude import euler_from_c_bn
     from ldvsurvey.pipelines.stages.aids import nav_inputs
-    from ldvsurvey.sim.scenario import GEOID_SEPARATION_M
 
     sim = simulate(catalog.drive(minutes=6.0, static_s=60.0, with_ldv=False), seed=8)
-    t_cut = sim.scenario.t0_s + 110.0
-    ki, kg = sim.imu.t_s > t_cut, sim.gnss_t_s > t_cut
-    m = json.loads(bundle_files(sim)["manifest.json"])
-    m["initial"] = {}
-    f = {
-        "manifest.json": json.dumps(m).encode(),
-        "imu.csv": imu_csv(sim.imu.t_s[ki], sim.dtheta_rad[ki], sim.dvel_mps[ki]),
-        "gnss.nmea": nmea_text(
-            sim.gnss_t_s[kg],
-            sim.gnss_lat_deg[kg],
-            sim.gnss_lon_deg[kg],
-            sim.gnss_h_m[kg],
-            sim.gnss_fix[kg],
-            sep_m=GEOID_SEPARATION_M,
-            talker="GN",
-        ),
-    }
-    j = int(np.flatnonzero(ki)[0])
+    f, j = files_from(sim, sim.scenario.t0_s + 110.0)
     inp = nav_inputs(parse_files(f))
     p, r, h = euler_from_c_bn(inp.c_bn0)
     pt, rt, ht = euler_from_c_bn(sim.imu.c_bn[j])
