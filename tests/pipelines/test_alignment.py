@@ -429,3 +429,26 @@ def test_an_imu_facing_backwards_is_not_given_the_course():
     err = float((h - (ht + np.pi) + np.pi) % (2 * np.pi) - np.pi)
     print(f"heading error of the IMU facing backwards {err / DEG:+.3f}° against σ {al.heading_sigma_rad / DEG:.3f}°")
     assert abs(err) <= 3.0 * al.heading_sigma_rad
+
+
+def test_a_moored_vessel_in_a_current_is_no_contradicted_static_period():
+    """A water-track LDV reads the current flowing past a moored vessel (the independent vessel sample
+    does: 'motion from t=36000.1 s' was said of its 300-s mooring): no contradiction of
+    ``initial.static_s`` from it. The simulator lets a vessel drift with the current, so the mooring
+    here is the simulated one with the water running past at 1 m/s from ahead (the LDV's forward
+    speed through the water); read as a ground-track LDV, the same speeds do show motion."""
+    from ldvsurvey.io.writers import ldv_csv
+
+    sim = simulate(catalog.vessel(hours=0.02, mooring_s=300.0, current_mps=0.0), seed=3)
+    files = bundle_files(sim)
+    moored = sim.ldv_t_s < sim.scenario.t0_s + 300.0
+    v_fwd = np.where(moored, sim.ldv_v_fwd + 1.0, sim.ldv_v_fwd)
+    files["ldv.csv"] = ldv_csv(sim.ldv_t_s, v_fwd_mps=v_fwd, v_up_mps=sim.ldv_v_up, quality=sim.ldv_quality)
+    m = json.loads(files["manifest.json"])
+    assert m["ldv"]["kind"] == "water" and m["initial"]["static_s"] == 300.0
+    inp = nav_inputs(parse_files(files))
+    assert not [w for w in inp.warnings if "initial.static_s" in w and "motion" in w], inp.warnings
+    m["ldv"]["kind"] = "1d"
+    files["manifest.json"] = json.dumps(m).encode()
+    inp = nav_inputs(parse_files(files))
+    assert [w for w in inp.warnings if "initial.static_s" in w and "motion" in w], inp.warnings

@@ -215,7 +215,9 @@ def nav_inputs(log: DriveLog) -> NavInputs:
                 file="manifest.json",
                 field="initial.static_s",
             )
-        moved = first_motion(t, judge_v, moving_ok, moving_limit)
+        # a water-track LDV measures the water flowing past a moored vessel, not its motion
+        water = by == "the LDV" and m.ldv is not None and m.ldv.kind == "water"
+        moved = None if water else first_motion(t, judge_v, moving_ok, moving_limit)
         if moved is not None and moved < static_end:  # an override, but not a silent one
             warnings.append(
                 f"manifest initial.static_s={static_s:g} s, but {by}'s speed shows motion from t={moved:.1f} s: "
