@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -47,7 +48,7 @@ from ldvsurvey.pipelines.stages.start import (
     moving_start,
     still_intervals,
 )
-from ldvsurvey.units import RAD_PER_DEG
+from ldvsurvey.units import G0_MPS2, RAD_PER_DEG
 
 #: fix quality -> 1-σ (horizontal, vertical) in m assumed for a survey receiver
 GNSS_SIGMA = {4: (0.03, 0.05), 5: (0.3, 0.5), 2: (1.0, 2.0), 1: (3.0, 5.0)}
@@ -190,10 +191,8 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     m = log.manifest
     eta = np.unwrap(np.radians(imu.turntable_deg)) if imu.turntable_deg is not None else None
     sp = _speeds(log, t)
-    ok, nu_f, nu_u, speed_ok, speed, by, unusable = sp[:7]
-    judge_ok, judge_v, limit, moving_ok, moving_limit = sp[7:]
     f_b, w_z = body_force_and_rate(t, imu.dtheta_rad, imu.dvel_mps, eta)
-    still = still_intervals(t, judge_v / limit, judge_ok, thresh=1.0, f_b=f_b, w_z=w_z)
+    still = still_intervals(t, sp.judge_v / sp.limit, sp.judge_ok, thresh=1.0, f_b=f_b, w_z=w_z)
     static_s = m.initial.static_s
     start = None
     warnings = []
@@ -201,12 +200,12 @@ def nav_inputs(log: DriveLog) -> NavInputs:
     if static_s is None or static_s == 0:  # not given: detect; 0: the log starts on the move
         static_end = float(t[0])
         if static_s is None:
-            static_end = detect_static_start(t, f_b, w_z, judge_v, moving_ok, thresh=moving_limit)
-            found_by = _found_by(by, judge_ok, t, static_end)
+            static_end = detect_static_start(t, f_b, w_z, sp.judge_v, sp.moving_ok, thresh=sp.moving_limit)
+            found_by = _found_by(sp.by, sp.judge_ok, t, static_end)
         if static_end - t[0] < 30.0:  # no static start: align on the move (or say what is missing)
-            start = moving_start(log, t, eta, speed, speed_ok)
+            start = moving_start(log, t, eta, sp.speed, sp.speed_ok)
             static_end = float(t[0])
-            warnings += _moving_start_warnings(m, t, by)
+            warnings += _moving_start_warnings(m, t, sp.by)
     else:
         static_end = float(t[0] + static_s)
         if static_s < 30.0:
@@ -216,11 +215,11 @@ def nav_inputs(log: DriveLog) -> NavInputs:
                 field="initial.static_s",
             )
         # a water-track LDV measures the water flowing past a moored vessel, not its motion
-        water = by == "the LDV" and m.ldv is not None and m.ldv.kind == "water"
-        moved = None if water else first_motion(t, judge_v, moving_ok, moving_limit)
+        water = sp.from_ldv and m.ldv.kind == "water"
+        moved = None if water else first_motion(t, sp.judge_v, sp.moving_ok, sp.moving_limit)
         if moved is not None and moved < static_end:  # an override, but not a silent one
             warnings.append(
-                f"manifest initial.static_s={static_s:g} s, but {by}'s speed shows motion from t={moved:.1f} s: "
+                f"manifest initial.static_s={static_s:g} s, but {sp.by}'s speed shows motion from t={moved:.1f} s: "
                 "zero-velocity updates on a moving vehicle corrupt the start (check initial.static_s, or "
                 "leave it out to find the standstill in the data)"
             )
@@ -247,9 +246,9 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         dtheta_rad=imu.dtheta_rad,
         dvel_mps=imu.dvel_mps,
         eta_rad=eta,
-        ldv_ok=ok,
-        nu_f_mps=nu_f,
-        nu_u_mps=nu_u,
+        ldv_ok=sp.ok,
+        nu_f_mps=sp.nu_f,
+        nu_u_mps=sp.nu_u,
         still=still,
         static_end_s=static_end,
         pos0=pos0,
@@ -257,7 +256,7 @@ def nav_inputs(log: DriveLog) -> NavInputs:
         warnings=warnings,
         c_bn0=None if start is None else start[0],
         v0_n=None if start is None else start[1],
-        ldv_unusable=unusable,
+        ldv_unusable=sp.unusable,
         alignment=alignment,
     )
 
@@ -266,7 +265,25 @@ def nav_inputs(log: DriveLog) -> NavInputs:
 STILL_LDV_MPS = 0.03
 
 
-def _speeds(log: DriveLog, t: np.ndarray) -> tuple:
+class _Speeds(NamedTuple):
+    """The speeds a log is judged with at the IMU samples (see :func:`_speeds`)."""
+
+    ok: np.ndarray  #: where the LDV aids (none without a usable LDV)
+    nu_f: np.ndarray  #: the LDV's forward speed (m/s)
+    nu_u: np.ndarray | None  #: the LDV's up speed (m/s)
+    speed_ok: np.ndarray  #: where the speed a moving start takes is usable
+    speed: np.ndarray  #: that speed (m/s)
+    by: str  #: its source, as the messages name it
+    unusable: ParameterError | None  #: why the log's LDV cannot aid
+    judge_ok: np.ndarray  #: where the still test's speed can call a standstill
+    judge_v: np.ndarray  #: the still test's speed (m/s)
+    limit: np.ndarray  #: below it the vehicle stands (m/s)
+    moving_ok: np.ndarray  #: where that speed can show motion
+    moving_limit: np.ndarray  #: above it the vehicle moves (m/s)
+    from_ldv: bool  #: the speeds are the LDV's
+
+
+def _speeds(log: DriveLog, t: np.ndarray) -> _Speeds:
     """The speeds a log is judged with at the IMU samples ``t``: the LDV's (usable flags, forward and
     up m/s) as the aid; the speed a moving start takes (usable, m/s) and its source; the LDV's
     unusability (a ParameterError or None); and the still test's (usable, speed m/s, limit m/s) with
@@ -276,7 +293,7 @@ def _speeds(log: DriveLog, t: np.ndarray) -> tuple:
         try:
             ok, nu_f, nu_u = _interp_ldv(log, t)
             lim = np.full(len(t), STILL_LDV_MPS)
-            return ok, nu_f, nu_u, ok, nu_f, "the LDV", None, ok, nu_f, lim, ok, lim
+            return _Speeds(ok, nu_f, nu_u, ok, nu_f, "the LDV", None, ok, nu_f, lim, ok, lim, True)
         except ParameterError as exc:  # an LDV that failed all day: GNSS-only work still goes on
             unusable = exc
     # no LDV: never an aid; stops and a moving start from GNSS
@@ -288,20 +305,10 @@ def _speeds(log: DriveLog, t: np.ndarray) -> tuple:
     moving_ok, judge_v, limit = gnss_still_speed(log, t, judge_max_mps=np.inf)
     judge_ok = moving_ok & (limit <= GNSS_JUDGE_MAX_MPS)
     moving_limit = gnss_moving_limit(judge_ok, limit)
-    return (
-        ok,
-        nu_f,
-        None,
-        speed_ok,
-        speed,
-        "the GNSS track",
-        unusable,
-        judge_ok,
-        judge_v,
-        limit,
-        moving_ok,
-        moving_limit,
-    )
+    return _Speeds(
+        ok, nu_f, None, speed_ok, speed, "the GNSS track", unusable, judge_ok, judge_v, limit, moving_ok,
+        moving_limit, False,
+    )  # fmt: skip
 
 
 def _moving_start_warnings(m, t, by: str) -> list[str]:
@@ -527,7 +534,7 @@ def standstill_white_noise(inp: NavInputs) -> tuple[float, float]:
     if not cnt:
         return 0.0, 0.0
     s_g, s_a = np.sqrt(sq_g.max() / cnt), np.sqrt(sq_a.max() / cnt)
-    return float(s_g / np.sqrt(dt) / RAD_PER_DEG * 60.0), float(s_a / np.sqrt(dt) / 9.80665e-6)
+    return float(s_g / np.sqrt(dt) / RAD_PER_DEG * 60.0), float(s_a / np.sqrt(dt) / (G0_MPS2 * 1e-6))
 
 
 def grade_error_model(
