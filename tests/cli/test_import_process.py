@@ -7,18 +7,13 @@ from __future__ import annotations
 
 import datetime as dt
 import json
-import os
-import subprocess
-import sys
 import zipfile
-from pathlib import Path
 
 from ldvsurvey.cli import main
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
+from tests.cli.own_process import run_own_process
 from tests.io.import_helpers import kfgins_gnss, kfgins_imu
-
-BACKEND = Path(__file__).resolve().parents[2] / "backend"
 
 
 def test_import_process_loads_nothing_heavy_and_writes_what_main_writes(tmp_path):
@@ -41,21 +36,12 @@ def test_import_process_loads_nothing_heavy_and_writes_what_main_writes(tmp_path
             str(out),
         ]
 
-    code = (
-        "import sys, json\n"
-        "from ldvsurvey.cli import main\n"
-        f"sys.argv = ['ldv-survey'] + {argv(tmp_path / 'own.zip')!r}\n"
-        "rc = main()\n"
-        "print(json.dumps({'rc': rc, 'modules': sorted(sys.modules)}))\n"
-    )
-    env = {**os.environ, "PYTHONPATH": str(BACKEND)}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    got = json.loads(out.stdout.strip().splitlines()[-1])
-    assert got["rc"] == 0
-    heavy = {m for m in got["modules"] if m.split(".")[0] in ("numba", "scipy", "pandas", "llvmlite", "sqlalchemy")}
-    heavy |= {m for m in got["modules"] if m.startswith(("ldvsurvey.pipelines", "ldvsurvey.api", "ldvsurvey.store"))}
+    rc, mods = run_own_process(argv(tmp_path / "own.zip"))
+    assert rc == 0
+    heavy = {m for m in mods if m.split(".")[0] in ("numba", "scipy", "pandas", "llvmlite", "sqlalchemy")}
+    heavy |= {m for m in mods if m.startswith(("ldvsurvey.pipelines", "ldvsurvey.api", "ldvsurvey.store"))}
     assert heavy == set()
-    assert "ldvsurvey.io.importers.checks" in got["modules"]  # the import's cross-checks ran
+    assert "ldvsurvey.io.importers.checks" in mods  # the import's cross-checks ran
 
     assert main(argv(tmp_path / "called.zip")) == 0
     with zipfile.ZipFile(tmp_path / "own.zip") as a, zipfile.ZipFile(tmp_path / "called.zip") as b:

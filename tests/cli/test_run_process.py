@@ -7,10 +7,6 @@ from __future__ import annotations
 
 import gc
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -18,8 +14,7 @@ from ldvsurvey.cli import main
 from ldvsurvey.io.writers import write_bundle
 from ldvsurvey.sim import catalog
 from ldvsurvey.sim.scenario import bundle_files, simulate
-
-BACKEND = Path(__file__).resolve().parents[2] / "backend"
+from tests.cli.own_process import run_own_process
 
 
 @pytest.fixture(scope="module")
@@ -32,18 +27,8 @@ def gnss_bundle(tmp_path_factory):
 
 def test_a_run_process_imports_only_what_navigate_needs_and_writes_what_main_writes(gnss_bundle, tmp_path):
     own, called = tmp_path / "own", tmp_path / "called"
-    code = (
-        "import sys, json\n"
-        "from ldvsurvey.cli import main\n"
-        f"sys.argv = ['ldv-survey', 'run', 'navigate', {str(gnss_bundle)!r}, '--out', {str(own)!r}]\n"
-        "rc = main()\n"
-        "print(json.dumps({'rc': rc, 'modules': sorted(sys.modules)}))\n"
-    )
-    env = {**os.environ, "PYTHONPATH": str(BACKEND)}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    got = json.loads(out.stdout.strip().splitlines()[-1])
-    assert got["rc"] == 0
-    mods = set(got["modules"])
+    rc, mods = run_own_process(["run", "navigate", str(gnss_bundle), "--out", str(own)])
+    assert rc == 0
     heavy = {
         m
         for m in mods
