@@ -100,8 +100,6 @@ def _own_process_start(load) -> None:
     made, and none after: ``gc.freeze``), and pydantic does not scan every installed package's
     entry points for plugins when the manifest's models are built (0.02 s; ldv-survey uses none; a
     ``PYDANTIC_DISABLE_PLUGINS`` already set, even empty, is kept)."""
-    import os
-
     os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
     gc.disable()
     try:
